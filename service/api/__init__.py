@@ -1,0 +1,1 @@
+"""The HTTP layer: routers, schemas, dependencies and the code → status table."""

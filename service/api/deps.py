@@ -1,0 +1,34 @@
+"""Request dependencies shared by the routers: the registry, settings and API-key checks."""
+
+from __future__ import annotations
+
+import hmac
+
+from fastapi import Request
+
+from service.errors import Unauthorized
+from service.registry import Registry
+from service.settings import Settings
+
+
+def get_registry(request: Request) -> Registry:
+    return request.app.state.registry  # type: ignore[no-any-return]
+
+
+def get_settings(request: Request) -> Settings:
+    return request.app.state.settings  # type: ignore[no-any-return]
+
+
+def require_api_key(request: Request) -> None:
+    """Where `ROBODYN_API_KEYS` is set, demand `Authorization: Bearer <key>` (constant time)."""
+    keys: list[bytes] = request.app.state.api_keys
+    if not keys:
+        return
+    header = request.headers.get("authorization", "")
+    scheme, _, token = header.partition(" ")
+    given = token.strip().encode()
+    ok = False
+    for key in keys:  # compare with every key so timing does not reveal which one matched
+        ok |= hmac.compare_digest(given, key)
+    if scheme.lower() != "bearer" or not ok:
+        raise Unauthorized("this operation needs an API key: send 'Authorization: Bearer <key>'")

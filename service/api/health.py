@@ -1,0 +1,32 @@
+"""Health and metrics routes, outside /v1."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Request, Response
+from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+
+from service.api.answers import JSONAnswer
+from service.api.problems import problem
+
+router = APIRouter(tags=["operations"])
+
+
+@router.get("/health/live", summary="200 whenever the process answers")
+async def live() -> Response:
+    return JSONAnswer({"status": "ok"})
+
+
+@router.get("/health/ready", summary="200 once the catalog is loaded; 503 before")
+async def ready(request: Request) -> Response:
+    registry = request.app.state.registry
+    if not registry.ready:
+        return problem("not_ready", "Not ready", "the robot catalog is still loading",
+                       {"Retry-After": "1"})
+    return JSONAnswer({"status": "ready", "robots": len(registry.catalog),
+                       "unavailable": sorted(registry.catalog_failures)})
+
+
+@router.get("/metrics", summary="Prometheus metrics: requests and latency by route and robot")
+async def metrics(request: Request) -> Response:
+    return Response(generate_latest(request.app.state.metrics.registry),
+                    media_type=CONTENT_TYPE_LATEST)

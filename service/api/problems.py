@@ -1,0 +1,117 @@
+"""RFC 9457 problem+json answers, and the one table from error `code` to HTTP status."""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import orjson
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.responses import Response
+
+from service.errors import ALL_ERRORS, RobodynError
+
+log = logging.getLogger("robodyn.api")
+
+STATUS_BY_CODE: dict[str, int] = {
+    "robot_not_found": 404,
+    "catalog_robot": 409,
+    "validation_error": 422,
+    "dimension_mismatch": 422,
+    "invalid_configuration": 422,
+    "invalid_model": 422,
+    "unknown_frame": 422,
+    "singular_configuration": 422,
+    "non_finite_result": 422,
+    "payload_too_large": 413,
+    "unauthorized": 401,
+    "not_ready": 503,
+    "overloaded": 503,
+    "internal_error": 500,
+    # Protocol-level problems raised by the framework itself:
+    "bad_request": 400,
+    "not_found": 404,
+    "method_not_allowed": 405,
+    "unsupported_media_type": 415,
+}
+assert all(e.code in STATUS_BY_CODE for e in ALL_ERRORS)
+
+_HTTP_CODES = {400: ("bad_request", "Bad request"), 404: ("not_found", "Not found"), 405: ("method_not_allowed", "Method not allowed"),
+               415: ("unsupported_media_type", "Unsupported media type"),
+               413: ("payload_too_large", "Payload too large")}
+
+
+def problem(code: str, title: str, detail: str, headers: dict[str, str] | None = None,
+            **extra: Any) -> Response:
+    """A problem+json response with the status of `code`."""
+    status = STATUS_BY_CODE[code]
+    body = {"type": "about:blank", "title": title, "status": status, "detail": detail,
+            "code": code, **extra}
+    return Response(orjson.dumps(body), status_code=status, headers=headers,
+                    media_type="application/problem+json")
+
+
+def error_response(exc: RobodynError) -> Response:
+    headers = {}
+    if exc.code in ("not_ready", "overloaded"):
+        headers["Retry-After"] = "1"
+    if exc.code == "unauthorized":
+        headers["WWW-Authenticate"] = 'Bearer realm="robodyn"'
+    return problem(exc.code, exc.title, exc.detail, headers or None, **exc.extra)
+
+
+def _location(loc: tuple[Any, ...]) -> str:
+    # Drop the transport prefix and pydantic's union-branch tags ("list[float]").
+    parts = [str(p) for p in loc if p != "body" and not str(p).startswith(("list[", "function-"))]
+    out = ""
+    for p in parts:
+        out += f"[{p}]" if p.isdigit() else (f".{p}" if out else p)
+    return out or "body"
+
+
+async def _on_domain_error(request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, RobodynError)
+    return error_response(exc)
+
+
+async def _on_validation_error(request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, RequestValidationError)
+    errors = [{"loc": _location(tuple(e.get("loc", ()))), "msg": e.get("msg", "invalid")}
+              for e in exc.errors()[:20]]
+    first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
+    detail = f"{first['loc']}: {first['msg']}"
+    if len(errors) > 1:
+        detail += f" (and {len(exc.errors()) - 1} more)"
+    return problem("validation_error", "Invalid request", detail, errors=errors)
+
+
+async def _on_http_error(request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, StarletteHTTPException)
+    code, title = _HTTP_CODES.get(exc.status_code, ("internal_error", "Internal error"))
+    if code == "not_found":
+        detail = "no such route; see /openapi.json or /docs for the API"
+    elif code == "method_not_allowed":
+        detail = f"method {request.method} is not allowed on this route"
+    elif code == "payload_too_large":
+        limit = request.app.state.settings.max_body_bytes
+        detail = (f"the request body is larger than the limit of {limit} bytes "
+                  "(ROBODYN_MAX_BODY_BYTES)")
+    else:
+        detail = str(exc.detail) if isinstance(exc.detail, str) else title
+    headers = dict(exc.headers) if exc.headers else None
+    return problem(code, title, detail, headers)
+
+
+async def _on_unexpected(request: Request, exc: Exception) -> Response:
+    log.exception("unexpected error on %s %s", request.method, request.url.path)
+    return problem("internal_error", "Internal error",
+                   "the service failed to answer this request; the failure was logged")
+
+
+def install_problem_handlers(app: FastAPI) -> None:
+    app.add_exception_handler(RobodynError, _on_domain_error)
+    app.add_exception_handler(RequestValidationError, _on_validation_error)
+    app.add_exception_handler(StarletteHTTPException, _on_http_error)
+    app.add_exception_handler(Exception, _on_unexpected)

@@ -1,0 +1,54 @@
+"""Routes of the robot catalog and uploads: list, describe, upload, delete."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Depends, Response
+from starlette.concurrency import run_in_threadpool
+
+from service.api.answers import JSONAnswer
+from service.api.deps import get_registry, require_api_key
+from service.api.schemas import Problem, RobotInfo, RobotList, UploadRequest
+from service.registry import Registry
+
+router = APIRouter(prefix="/v1/robots", tags=["robots"])
+
+_PROBLEMS: dict[int | str, dict[str, Any]] = {
+    404: {"model": Problem, "description": "robot_not_found"},
+    422: {"model": Problem, "description": "validation_error, invalid_model"},
+}
+
+
+@router.get("", response_model=RobotList, summary="List catalog robots and uploaded models")
+async def list_robots(registry: Registry = Depends(get_registry)) -> Response:
+    return JSONAnswer({"robots": registry.summaries(),
+                       "unavailable": registry.catalog_failures})
+
+
+@router.get("/{robot_id}", response_model=RobotInfo, responses=_PROBLEMS,
+            summary="A robot's joint layout, limits, configurations and findings")
+async def robot_info(robot_id: str, registry: Registry = Depends(get_registry)) -> Response:
+    return JSONAnswer(registry.get(robot_id).info())
+
+
+@router.post("", response_model=RobotInfo, status_code=201,
+             responses={200: {"model": RobotInfo, "description": "the model was already stored"},
+                        401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
+             dependencies=[Depends(require_api_key)],
+             summary="Upload a URDF: 201 for a new model, 200 for one already stored")
+async def upload_robot(body: UploadRequest, registry: Registry = Depends(get_registry)) -> Response:
+    robot, created = await run_in_threadpool(
+        registry.upload, urdf=body.urdf, root_joint=body.root_joint, gravity=body.gravity,
+        name=body.name, inertia_check=body.inertia_check)
+    return JSONAnswer(robot.info(), status_code=201 if created else 200,
+                      headers={"Location": f"/v1/robots/{robot.id}"})
+
+
+@router.delete("/{robot_id}", status_code=204, dependencies=[Depends(require_api_key)],
+               responses={401: {"model": Problem}, 404: {"model": Problem},
+                          409: {"model": Problem, "description": "catalog_robot"}},
+               summary="Delete an uploaded model")
+async def delete_robot(robot_id: str, registry: Registry = Depends(get_registry)) -> Response:
+    registry.delete(robot_id)
+    return Response(status_code=204)

@@ -1,0 +1,119 @@
+"""Domain errors of robodyn, each with a stable machine-readable `code`.
+
+No HTTP in here: the one code → status table lives in `service.api.problems`. Every message is
+written for the user of the service: it says what was expected, never echoes raw input values
+that could be huge or non-finite, and never carries a backend path or C++ source location.
+
+    RobodynError                      code
+    ├── RobotNotFound                 robot_not_found
+    ├── CatalogRobot                  catalog_robot
+    ├── InvalidInput                  validation_error
+    ├── DimensionMismatch             dimension_mismatch
+    ├── InvalidConfiguration          invalid_configuration
+    ├── InvalidModel                  invalid_model
+    ├── UnknownFrame                  unknown_frame
+    ├── SingularConfiguration         singular_configuration
+    ├── NonFiniteResult               non_finite_result
+    ├── PayloadTooLarge               payload_too_large
+    ├── Unauthorized                  unauthorized
+    ├── NotReady                      not_ready
+    └── Overloaded                    overloaded
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+
+class RobodynError(Exception):
+    """Base of all domain errors: a stable `code`, a short `title` and a human `detail`."""
+
+    code: ClassVar[str] = "internal_error"
+    title: ClassVar[str] = "Internal error"
+
+    def __init__(self, detail: str, **extra: Any) -> None:
+        super().__init__(detail)
+        self.detail = detail
+        self.extra = extra
+
+
+class RobotNotFound(RobodynError):
+    code = "robot_not_found"
+    title = "Robot not found"
+
+
+class CatalogRobot(RobodynError):
+    code = "catalog_robot"
+    title = "Catalog robots cannot be deleted"
+
+
+class InvalidInput(RobodynError):
+    code = "validation_error"
+    title = "Invalid request"
+
+
+class DimensionMismatch(RobodynError):
+    code = "dimension_mismatch"
+    title = "Dimension mismatch"
+
+
+class InvalidConfiguration(RobodynError):
+    code = "invalid_configuration"
+    title = "Invalid configuration"
+
+
+class InvalidModel(RobodynError):
+    code = "invalid_model"
+    title = "Invalid robot model"
+
+
+class UnknownFrame(RobodynError):
+    code = "unknown_frame"
+    title = "Unknown frame"
+
+
+class SingularConfiguration(RobodynError):
+    code = "singular_configuration"
+    title = "Singular configuration"
+
+
+class NonFiniteResult(RobodynError):
+    code = "non_finite_result"
+    title = "Non-finite result"
+
+
+class PayloadTooLarge(RobodynError):
+    code = "payload_too_large"
+    title = "Payload too large"
+
+
+class Unauthorized(RobodynError):
+    code = "unauthorized"
+    title = "Unauthorized"
+
+
+class NotReady(RobodynError):
+    code = "not_ready"
+    title = "Not ready"
+
+
+class Overloaded(RobodynError):
+    code = "overloaded"
+    title = "Overloaded"
+
+
+ALL_ERRORS: tuple[type[RobodynError], ...] = (
+    RobotNotFound,
+    CatalogRobot,
+    InvalidInput,
+    DimensionMismatch,
+    InvalidConfiguration,
+    InvalidModel,
+    UnknownFrame,
+    SingularConfiguration,
+    NonFiniteResult,
+    PayloadTooLarge,
+    Unauthorized,
+    NotReady,
+    Overloaded,
+)

@@ -1,0 +1,143 @@
+"""A loaded robot: an immutable Pinocchio model, its description for clients, and a Data pool.
+
+The model is never mutated after loading and is shared by every computation; each concurrent
+computation borrows its own `pin.Data` from the pool (one Data shared by two threads gives
+silently wrong answers).
+"""
+
+from __future__ import annotations
+
+import math
+import queue
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+# Pinocchio joint model short names → the joint type robodyn reports.
+_JOINT_TYPES = {
+    "JointModelRX": "revolute", "JointModelRY": "revolute", "JointModelRZ": "revolute",
+    "JointModelRevoluteUnaligned": "revolute",
+    "JointModelRUBX": "continuous", "JointModelRUBY": "continuous", "JointModelRUBZ": "continuous",
+    "JointModelRevoluteUnboundedUnaligned": "continuous",
+    "JointModelPX": "prismatic", "JointModelPY": "prismatic", "JointModelPZ": "prismatic",
+    "JointModelPrismaticUnaligned": "prismatic",
+    "JointModelFreeFlyer": "free_flyer",
+    "JointModelPlanar": "planar",
+    "JointModelSpherical": "spherical",
+    "JointModelSphericalZYX": "spherical_zyx",
+    "JointModelTranslation": "translation",
+}
+
+# Joint types whose q holds a unit quaternion (x, y, z, w) or unit complex (cos, sin), and where.
+UNIT_PARTS: dict[str, tuple[int, int]] = {
+    "free_flyer": (3, 7),
+    "spherical": (0, 4),
+    "planar": (2, 4),
+    "continuous": (0, 2),
+}
+
+
+def joint_type(joint: Any) -> str:
+    """The robodyn name of a Pinocchio joint's type (its short name when unknown)."""
+    short = joint.shortname()
+    return _JOINT_TYPES.get(short, short)
+
+
+def _finite_or_none(values: np.ndarray) -> list[float | None]:
+    # JSON has no infinity: an unbounded limit is null.
+    return [float(x) if math.isfinite(x) else None for x in values]
+
+
+@dataclass
+class Robot:
+    """One servable robot. `model` is immutable after construction."""
+
+    id: str
+    name: str
+    source: str  # "catalog" or "upload"
+    root_joint: str
+    model: Any  # pin.Model
+    reference_configurations: dict[str, np.ndarray] = field(default_factory=dict)
+    default_configuration: np.ndarray | None = None
+    warnings: list[dict[str, str]] = field(default_factory=list)
+    _pool: queue.SimpleQueue = field(default_factory=queue.SimpleQueue, repr=False)
+
+    def __post_init__(self) -> None:
+        self.unit_joints: list[tuple[str, int, int]] = []  # (joint name, q start, q end)
+        self.joint_types: dict[str, str] = {}
+        for jid in range(1, self.model.njoints):
+            jm = self.model.joints[jid]
+            self.joint_types[self.model.names[jid]] = joint_type(jm)
+            part = UNIT_PARTS.get(joint_type(jm))
+            if part is not None:
+                self.unit_joints.append(
+                    (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
+        self.total_mass = float(pin.computeTotalMass(self.model))
+        self._info: dict[str, Any] | None = None
+
+    @property
+    def nq(self) -> int:
+        return int(self.model.nq)
+
+    @property
+    def nv(self) -> int:
+        return int(self.model.nv)
+
+    @contextmanager
+    def data(self) -> Iterator[Any]:
+        """Borrow a `pin.Data` for the duration of one computation (thread-safe)."""
+        try:
+            data = self._pool.get_nowait()
+        except queue.Empty:
+            data = self.model.createData()
+        try:
+            yield data
+        finally:
+            self._pool.put(data)
+
+    def summary(self) -> dict[str, Any]:
+        return {"id": self.id, "name": self.name, "source": self.source, "nq": self.nq,
+                "nv": self.nv, "root_joint": self.root_joint}
+
+    def info(self) -> dict[str, Any]:
+        """The RobotInfo document of API.md (computed once; the model never changes)."""
+        if self._info is None:
+            m = self.model
+            joints = []
+            for jid in range(1, m.njoints):
+                jm = m.joints[jid]
+                qs, vs = slice(jm.idx_q, jm.idx_q + jm.nq), slice(jm.idx_v, jm.idx_v + jm.nv)
+                joints.append({
+                    "name": m.names[jid], "type": joint_type(jm),
+                    "parent": m.names[m.parents[jid]],
+                    "idx_q": int(jm.idx_q), "nq": int(jm.nq),
+                    "idx_v": int(jm.idx_v), "nv": int(jm.nv),
+                    "lower": _finite_or_none(m.lowerPositionLimit[qs]),
+                    "upper": _finite_or_none(m.upperPositionLimit[qs]),
+                    "velocity_limit": _finite_or_none(m.velocityLimit[vs]),
+                    "effort_limit": _finite_or_none(m.effortLimit[vs]),
+                    "armature": [float(x) for x in m.armature[vs]],
+                })
+            default = self.default_configuration
+            self._info = {
+                **self.summary(),
+                "gravity": [float(x) for x in m.gravity.linear],
+                "total_mass": self.total_mass,
+                "neutral_configuration": [float(x) for x in pin.neutral(m)],
+                "default_configuration": (
+                    [float(x) for x in default] if default is not None
+                    else [float(x) for x in pin.neutral(m)]),
+                "reference_configurations": {
+                    k: [float(x) for x in v] for k, v in self.reference_configurations.items()},
+                "warnings": list(self.warnings),
+                "joints": joints,
+                "frames": [
+                    {"name": f.name, "type": str(f.type).rsplit(".", 1)[-1].lower(),
+                     "parent_joint": m.names[f.parentJoint]}
+                    for f in m.frames],
+            }
+        return self._info

@@ -1,0 +1,101 @@
+"""The durable, content-addressed store of uploaded models.
+
+One JSON record per model at `<data_dir>/models/<id>.json` holding what is needed to rebuild it
+(the description text and the upload options) plus its summary. Writes are atomic: write a
+temporary file, fsync, rename over the final name, fsync the directory. A record is therefore
+either absent or complete; an unreadable one is skipped with a log line.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import re
+import tempfile
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger("robodyn.store")
+
+_ID = re.compile(r"^[a-z0-9][a-z0-9_-]{0,63}$")
+
+
+def content_id(record: dict[str, Any]) -> str:
+    """The id of an upload: a hash of its description and the options that change the model.
+
+    The same upload gives the same id on any machine, so uploads are idempotent and replicas
+    agree on ids. The label (`name`) and `inertia_check` do not change the dynamics and are
+    not part of it.
+    """
+    canonical = json.dumps(
+        {"format": record["format"], "description": record["description"],
+         "root_joint": record["root_joint"], "gravity": [float(g) for g in record["gravity"]]},
+        sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    return "u-" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:24]
+
+
+class ModelStore:
+    """Records of uploaded models in one directory, shared safely by processes and replicas."""
+
+    def __init__(self, data_dir: Path) -> None:
+        self.dir = Path(data_dir) / "models"
+        self.dir.mkdir(parents=True, exist_ok=True)
+
+    def _path(self, model_id: str) -> Path | None:
+        return self.dir / f"{model_id}.json" if _ID.match(model_id) else None
+
+    def exists(self, model_id: str) -> bool:
+        path = self._path(model_id)
+        return path is not None and path.exists()
+
+    def read(self, model_id: str) -> dict[str, Any] | None:
+        path = self._path(model_id)
+        if path is None:
+            return None
+        try:
+            with path.open("rb") as fh:
+                record = json.loads(fh.read())
+            if not isinstance(record, dict) or record.get("id") != model_id:
+                raise ValueError("record does not match its file name")
+            return record
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError) as exc:
+            log.error("skipping unreadable model record %s: %s", path.name, exc)
+            return None
+
+    def write(self, record: dict[str, Any]) -> None:
+        path = self._path(record["id"])
+        if path is None:
+            raise ValueError("invalid model id")
+        payload = json.dumps(record, ensure_ascii=False).encode("utf-8")
+        fd, tmp = tempfile.mkstemp(dir=self.dir, prefix=".tmp-", suffix=".json")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(payload)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        dir_fd = os.open(self.dir, os.O_RDONLY)
+        try:
+            os.fsync(dir_fd)
+        finally:
+            os.close(dir_fd)
+
+    def delete(self, model_id: str) -> bool:
+        path = self._path(model_id)
+        if path is None:
+            return False
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            return False
+        return True
+
+    def ids(self) -> list[str]:
+        return sorted(p.stem for p in self.dir.glob("*.json") if _ID.match(p.stem))

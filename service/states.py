@@ -1,0 +1,106 @@
+"""Joint states from requests: shapes, batches, finiteness and configuration checks.
+
+A 1-D array is one state and a 2-D array `[N][n]` is a batch of N states; every input of one
+request has the same N. Everything is checked here, before Pinocchio is called, and errors say
+what was expected ("q has 5 entries; robot 'ur5' has nq = 6").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from service.errors import DimensionMismatch, InvalidConfiguration, InvalidInput
+from service.registry.robot import Robot
+
+UNIT_NORM_TOL = 1e-6  # |‖quaternion‖ − 1| and |‖(cos, sin)‖ − 1| allowed in q
+
+# Which dimension each joint-space input has.
+SPACES = {"q": "nq", "v": "nv", "a": "nv", "tau": "nv"}
+
+_UNIT_KIND = {"free_flyer": "quaternion (x, y, z, w)", "spherical": "quaternion (x, y, z, w)",
+              "planar": "(cos θ, sin θ)", "continuous": "(cos θ, sin θ)"}
+
+
+@dataclass(frozen=True)
+class States:
+    """Validated joint-space inputs, each of shape (N, n), and whether the request was a batch."""
+
+    arrays: dict[str, np.ndarray]
+    batched: bool
+
+    @property
+    def count(self) -> int:
+        return next(iter(self.arrays.values())).shape[0]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.arrays[name]
+
+    def unbatch(self, value: np.ndarray) -> np.ndarray:
+        """Drop the leading batch axis of an answer when the request was a single state."""
+        return value if self.batched else value[0]
+
+
+def _as_array(name: str, value: Any) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (ValueError, TypeError):
+        raise InvalidInput(f"{name} must be an array of numbers or an array of equal-length "
+                           "arrays of numbers (a batch)") from None
+    if arr.ndim not in (1, 2):
+        raise InvalidInput(f"{name} must be 1-D (one state) or 2-D (a batch), "
+                           f"not {arr.ndim}-D")
+    if not np.all(np.isfinite(arr)):
+        raise InvalidInput(f"{name} contains a non-finite number (NaN or infinity)")
+    return arr
+
+
+def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
+    """Check and convert the joint-space inputs named in `inputs` (keys of SPACES)."""
+    arrays = {name: _as_array(name, value) for name, value in inputs.items()}
+    ndims = {arr.ndim for arr in arrays.values()}
+    if len(ndims) > 1:
+        shapes = ", ".join(f"{n} is {a.ndim}-D" for n, a in arrays.items())
+        raise DimensionMismatch(f"inputs mix single states and batches ({shapes}); "
+                                "give all as 1-D or all as 2-D arrays")
+    batched = ndims == {2}
+    if batched:
+        sizes = {n: a.shape[0] for n, a in arrays.items()}
+        if len(set(sizes.values())) > 1:
+            shown = ", ".join(f"{n} has {s}" for n, s in sizes.items())
+            raise DimensionMismatch(f"batch sizes differ ({shown} states); "
+                                    "every input needs the same number of states")
+        count = next(iter(sizes.values()))
+        if count == 0:
+            raise DimensionMismatch("the batch is empty; send at least one state")
+        if count > max_batch:
+            raise DimensionMismatch(f"the batch has {count} states; the limit is {max_batch}")
+    else:
+        arrays = {n: a[np.newaxis, :] for n, a in arrays.items()}
+    for name, arr in arrays.items():
+        dim_name = SPACES[name]
+        expected = getattr(robot, dim_name)
+        if arr.shape[1] != expected:
+            what = "each state of " + name if batched else name
+            raise DimensionMismatch(f"{what} has {arr.shape[1]} entries; robot '{robot.id}' "
+                                    f"has {dim_name} = {expected}")
+    if "q" in arrays:
+        check_configuration(robot, arrays["q"])
+    return States(arrays=arrays, batched=batched)
+
+
+def check_configuration(robot: Robot, q: np.ndarray) -> None:
+    """Quaternions and (cos, sin) pairs in q must have unit norm (within UNIT_NORM_TOL)."""
+    for joint, start, end in robot.unit_joints:
+        norms = np.linalg.norm(q[:, start:end], axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > UNIT_NORM_TOL)
+        if bad.size:
+            i = int(bad[0])
+            where = f"state {i}: " if q.shape[0] > 1 else ""
+            kind = _UNIT_KIND.get(robot.joint_types[joint], "unit vector")
+            raise InvalidConfiguration(
+                f"{where}q[{start}:{end}] is the {kind} of joint '{joint}' and must have unit "
+                f"norm; its norm is {norms[i]:.9g}")

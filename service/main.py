@@ -48,6 +48,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
+    app.state.batches_in_flight = 0
     install_problem_handlers(app)
     app.include_router(health.router)
     app.include_router(robots.router)

@@ -1,4 +1,4 @@
-"""Service settings: command-line flags and `ROBODYN_*` environment variables (pydantic-settings)."""
+"""Service settings: command-line flags and `ROBODYN_*` environment variables."""
 
 from __future__ import annotations
 
@@ -38,6 +38,9 @@ class Settings(BaseSettings):
         64 * 1024 * 1024, ge=1024, description="Largest request body accepted, in bytes."
     )
     max_batch: int = Field(100_000, ge=1, description="Largest batch (states per request).")
+    max_pending_batches: int = Field(
+        16, ge=1, description="Large batches computed or queued at once per process; more are "
+        "answered 503 overloaded with Retry-After.")
     build_timeout_s: float = Field(
         30.0, gt=0, description="Wall-clock limit for building an uploaded model, in seconds."
     )

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import hmac
+from typing import Annotated
 
-from fastapi import Request
+from fastapi import Depends, Request
 
 from service.errors import Unauthorized
 from service.registry import Registry
@@ -32,3 +33,6 @@ def require_api_key(request: Request) -> None:
         ok |= hmac.compare_digest(given, key)
     if scheme.lower() != "bearer" or not ok:
         raise Unauthorized("this operation needs an API key: send 'Authorization: Bearer <key>'")
+
+
+RegistryDep = Annotated[Registry, Depends(get_registry)]

@@ -3,14 +3,14 @@
 # No `from __future__ import annotations`: FastAPI must see the closure's request model.
 from typing import Any
 
-from fastapi import APIRouter, Depends, Request, Response
+from fastapi import APIRouter, Request, Response
 from starlette.concurrency import run_in_threadpool
 
 from service import dynamics
 from service.api.answers import JSONAnswer
-from service.api.deps import get_registry
+from service.api.deps import RegistryDep
 from service.api.schemas import ANSWER_BY_QUANTITY, REQUEST_BY_INPUTS, Problem
-from service.registry import Registry
+from service.errors import Overloaded
 from service.states import prepare
 
 router = APIRouter(prefix="/v1/robots", tags=["dynamics"])
@@ -26,11 +26,24 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 }
 
 
+async def _off_loop(request: Request, robot: Any, quantity: str, states: Any) -> Any:
+    """Run a large batch in a worker thread; shed load (503 overloaded) past the queue limit."""
+    state = request.app.state
+    if state.batches_in_flight >= state.settings.max_pending_batches:
+        raise Overloaded(f"{state.batches_in_flight} large batches are already being computed; "
+                         "retry shortly")
+    state.batches_in_flight += 1  # only touched on the event loop: no lock needed
+    try:
+        return await run_in_threadpool(dynamics.compute, robot, quantity, states)
+    finally:
+        state.batches_in_flight -= 1
+
+
 def _make_endpoint(quantity: dynamics.Quantity) -> Any:
     request_model = REQUEST_BY_INPUTS[quantity.inputs]
 
     async def endpoint(robot_id: str, body: request_model, request: Request,  # type: ignore[valid-type]
-                       registry: Registry = Depends(get_registry)) -> Response:
+                       registry: RegistryDep) -> Response:
         robot = registry.get(robot_id)
         inputs = {name: getattr(body, name) for name in quantity.inputs}
         max_batch = request.app.state.settings.max_batch
@@ -38,7 +51,7 @@ def _make_endpoint(quantity: dynamics.Quantity) -> Any:
         if states.count * robot.nv <= INLINE_WORK:
             result = dynamics.compute(robot, quantity.path, states)
         else:
-            result = await run_in_threadpool(dynamics.compute, robot, quantity.path, states)
+            result = await _off_loop(request, robot, quantity.path, states)
         return JSONAnswer(result)
 
     endpoint.__name__ = quantity.path.replace("-", "_")

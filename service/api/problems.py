@@ -38,7 +38,8 @@ STATUS_BY_CODE: dict[str, int] = {
 }
 assert all(e.code in STATUS_BY_CODE for e in ALL_ERRORS)
 
-_HTTP_CODES = {400: ("bad_request", "Bad request"), 404: ("not_found", "Not found"), 405: ("method_not_allowed", "Method not allowed"),
+_HTTP_CODES = {400: ("bad_request", "Bad request"), 404: ("not_found", "Not found"),
+               405: ("method_not_allowed", "Method not allowed"),
                415: ("unsupported_media_type", "Unsupported media type"),
                413: ("payload_too_large", "Payload too large")}
 

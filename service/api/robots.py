@@ -8,9 +8,8 @@ from fastapi import APIRouter, Depends, Response
 from starlette.concurrency import run_in_threadpool
 
 from service.api.answers import JSONAnswer
-from service.api.deps import get_registry, require_api_key
+from service.api.deps import RegistryDep, require_api_key
 from service.api.schemas import Problem, RobotInfo, RobotList, UploadRequest
-from service.registry import Registry
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 
@@ -21,14 +20,14 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 
 
 @router.get("", response_model=RobotList, summary="List catalog robots and uploaded models")
-async def list_robots(registry: Registry = Depends(get_registry)) -> Response:
+async def list_robots(registry: RegistryDep) -> Response:
     return JSONAnswer({"robots": registry.summaries(),
                        "unavailable": registry.catalog_failures})
 
 
 @router.get("/{robot_id}", response_model=RobotInfo, responses=_PROBLEMS,
             summary="A robot's joint layout, limits, configurations and findings")
-async def robot_info(robot_id: str, registry: Registry = Depends(get_registry)) -> Response:
+async def robot_info(robot_id: str, registry: RegistryDep) -> Response:
     return JSONAnswer(registry.get(robot_id).info())
 
 
@@ -37,7 +36,7 @@ async def robot_info(robot_id: str, registry: Registry = Depends(get_registry)) 
                         401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
              dependencies=[Depends(require_api_key)],
              summary="Upload a URDF: 201 for a new model, 200 for one already stored")
-async def upload_robot(body: UploadRequest, registry: Registry = Depends(get_registry)) -> Response:
+async def upload_robot(body: UploadRequest, registry: RegistryDep) -> Response:
     robot, created = await run_in_threadpool(
         registry.upload, urdf=body.urdf, root_joint=body.root_joint, gravity=body.gravity,
         name=body.name, inertia_check=body.inertia_check)
@@ -49,6 +48,6 @@ async def upload_robot(body: UploadRequest, registry: Registry = Depends(get_reg
                responses={401: {"model": Problem}, 404: {"model": Problem},
                           409: {"model": Problem, "description": "catalog_robot"}},
                summary="Delete an uploaded model")
-async def delete_robot(robot_id: str, registry: Registry = Depends(get_registry)) -> Response:
+async def delete_robot(robot_id: str, registry: RegistryDep) -> Response:
     registry.delete(robot_id)
     return Response(status_code=204)

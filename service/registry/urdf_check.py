@@ -128,19 +128,22 @@ def _link_mass(link: Element, name: str, findings: list[Finding]) -> float:
         return 0.0
     _check_origin(inertial.find("origin"), f"link '{name}' inertial")
     mass_el = inertial.find("mass")
-    mass = 0.0 if mass_el is None else _number(mass_el, "value", f"link '{name}' mass value")
+    if mass_el is None:
+        raise InvalidModel(f"link '{name}': <inertial> needs a <mass value=...>")
+    mass = _number(mass_el, "value", f"link '{name}' mass value")
     if mass < 0:
         raise InvalidModel(f"link '{name}': mass {mass:.6g} kg is negative")
     inertia_el = inertial.find("inertia")
-    if inertia_el is not None:
-        comps = {k: _number(inertia_el, k, f"link '{name}' inertia {k}", "0")
-                 for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
-        tensor = np.array([
-            [comps["ixx"], comps["ixy"], comps["ixz"]],
-            [comps["ixy"], comps["iyy"], comps["iyz"]],
-            [comps["ixz"], comps["iyz"], comps["izz"]],
-        ])
-        findings.extend(_inertia_findings(name, tensor))
+    if inertia_el is None:
+        raise InvalidModel(f"link '{name}': <inertial> needs an <inertia> element")
+    comps = {k: _number(inertia_el, k, f"link '{name}' inertia {k}")
+             for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    tensor = np.array([
+        [comps["ixx"], comps["ixy"], comps["ixz"]],
+        [comps["ixy"], comps["iyy"], comps["iyz"]],
+        [comps["ixz"], comps["iyz"], comps["izz"]],
+    ])
+    findings.extend(_inertia_findings(name, tensor))
     return mass
 
 

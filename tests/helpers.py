@@ -1,0 +1,84 @@
+"""Shared test helpers: random joint states, in-process reference values, URDF builders."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from service.registry.robot import joint_type
+
+
+def random_configuration(model, rng: np.random.Generator) -> np.ndarray:
+    """A valid random q: bounded joints within their limits (clipped to ±π or ±1 m), unit
+    quaternions and (cos, sin) pairs, free-flyer positions in [-1, 1] m."""
+    q = pin.neutral(model)
+    for jid in range(1, model.njoints):
+        jm = model.joints[jid]
+        i, kind = jm.idx_q, joint_type(jm)
+        if kind in ("revolute", "prismatic"):
+            bound = np.pi if kind == "revolute" else 1.0
+            lo = max(float(model.lowerPositionLimit[i]), -bound)
+            hi = min(float(model.upperPositionLimit[i]), bound)
+            if hi <= lo:
+                lo, hi = -bound, bound
+            q[i] = rng.uniform(lo, hi)
+        elif kind == "continuous":
+            t = rng.uniform(-np.pi, np.pi)
+            q[i:i + 2] = np.cos(t), np.sin(t)
+        elif kind == "free_flyer":
+            q[i:i + 3] = rng.uniform(-1, 1, 3)
+            quat = rng.normal(size=4)
+            q[i + 3:i + 7] = quat / np.linalg.norm(quat)
+        elif kind == "planar":
+            t = rng.uniform(-np.pi, np.pi)
+            q[i:i + 4] = *rng.uniform(-1, 1, 2), np.cos(t), np.sin(t)
+        elif kind == "spherical":
+            quat = rng.normal(size=4)
+            q[i:i + 4] = quat / np.linalg.norm(quat)
+    return q
+
+
+def random_state(model, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, v, a) with v and a of standard deviation 1."""
+    return random_configuration(model, rng), rng.normal(size=model.nv), rng.normal(size=model.nv)
+
+
+def mass_matrix(model, q: np.ndarray) -> np.ndarray:
+    M = pin.crba(model, model.createData(), q)
+    return np.triu(M) + np.triu(M, 1).T
+
+
+def planar_arm_urdf(l1: float, l2: float, m1: float, m2: float) -> str:
+    """A two-link arm in the x-z plane (axes -y), point masses m1, m2 at the link tips."""
+    return f"""<?xml version="1.0"?>
+<robot name="arm_{l1}_{l2}_{m1}_{m2}">
+  <link name="base"/>
+  <link name="link1"><inertial><origin xyz="{l1} 0 0"/><mass value="{m1}"/>
+    <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+  <link name="link2"><inertial><origin xyz="{l2} 0 0"/><mass value="{m2}"/>
+    <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="link1"/>
+    <axis xyz="0 -1 0"/><limit lower="-3.2" upper="3.2" effort="100" velocity="5"/></joint>
+  <joint name="elbow" type="revolute"><parent link="link1"/><child link="link2"/>
+    <origin xyz="{l1} 0 0"/><axis xyz="0 -1 0"/>
+    <limit lower="-3.2" upper="3.2" effort="100" velocity="5"/></joint>
+</robot>
+"""
+
+
+def planar_arm_closed_form(l1, l2, m1, m2, q, v, g0=9.81):
+    """Hand-derived M, C (Christoffel form), g of the point-mass two-link arm.
+
+    Positions of the masses: p1 = l1 (c1, s1), p2 = p1 + l2 (c12, s12) in the (x, z) plane, with
+    height z; T = ½ Σ m |ṗ|², U = g0 Σ m z.
+    """
+    c1, c2, c12 = np.cos(q[0]), np.cos(q[1]), np.cos(q[0] + q[1])
+    s2 = np.sin(q[1])
+    M = np.array([
+        [m1 * l1**2 + m2 * (l1**2 + 2 * l1 * l2 * c2 + l2**2), m2 * (l1 * l2 * c2 + l2**2)],
+        [m2 * (l1 * l2 * c2 + l2**2), m2 * l2**2],
+    ])
+    h = -m2 * l1 * l2 * s2
+    C = np.array([[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0]])
+    g = np.array([(m1 + m2) * g0 * l1 * c1 + m2 * g0 * l2 * c12, m2 * g0 * l2 * c12])
+    return M, C, g

@@ -1,0 +1,62 @@
+"""A batch answers exactly what the states answer one by one, with a leading batch axis."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.helpers import random_state
+
+INPUTS = {"mass-matrix": "q", "gravity": "q", "coriolis": "qv", "nonlinear-effects": "qv",
+          "inverse-dynamics": "qva", "forward-dynamics": "qvt"}
+
+
+def _body(inputs, q, v, a):
+    names = {"q": ("q", q), "v": ("v", v), "a": ("a", a), "t": ("tau", a)}
+    return {names[c][0]: np.asarray(names[c][1]).tolist() for c in inputs}
+
+
+@pytest.mark.parametrize("robot", ["ur5", "talos", "double_pendulum_continuous", "solo12"])
+@pytest.mark.parametrize("quantity", list(INPUTS))
+def test_batch_equals_single_states(api, catalog_registry, robot, quantity):
+    model = catalog_registry.catalog[robot].model
+    rng = np.random.default_rng(7)
+    states = [random_state(model, rng) for _ in range(4)]
+    qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
+    r = api.post(f"/v1/robots/{robot}/{quantity}", json=_body(INPUTS[quantity], qs, vs, as_))
+    assert r.status_code == 200, r.text
+    batch = r.json()
+    for i in range(4):
+        single = api.post(f"/v1/robots/{robot}/{quantity}",
+                          json=_body(INPUTS[quantity], qs[i], vs[i], as_[i])).json()
+        assert set(single) == set(batch)
+        for key in single:
+            # bit-identical: the same computation, one state at a time
+            np.testing.assert_array_equal(np.asarray(batch[key])[i], np.asarray(single[key]))
+
+
+def test_batch_shapes(api):
+    q = np.zeros((3, 6)).tolist()
+    r = api.post("/v1/robots/ur5/coriolis", json={"q": q, "v": q}).json()
+    assert np.asarray(r["coriolis_matrix"]).shape == (3, 6, 6)
+    assert np.asarray(r["coriolis_forces"]).shape == (3, 6)
+    single = api.post("/v1/robots/ur5/mass-matrix", json={"q": [0.0] * 6}).json()
+    assert np.asarray(single["mass_matrix"]).shape == (6, 6)
+    one = api.post("/v1/robots/ur5/mass-matrix", json={"q": [[0.0] * 6]}).json()
+    assert np.asarray(one["mass_matrix"]).shape == (1, 6, 6)
+
+
+def test_large_batch_runs_off_the_event_loop_and_matches(api, catalog_registry):
+    """A batch big enough to be computed in a worker thread gives the same numbers."""
+    model = catalog_registry.catalog["talos"].model
+    rng = np.random.default_rng(3)
+    states = [random_state(model, rng) for _ in range(200)]
+    qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
+    r = api.post("/v1/robots/talos/inverse-dynamics",
+                 json={"q": qs.tolist(), "v": vs.tolist(), "a": as_.tolist()})
+    tau = np.asarray(r.json()["tau"])
+    import pinocchio as pin
+
+    data = model.createData()
+    expected = np.stack([pin.rnea(model, data, *s) for s in states])
+    np.testing.assert_array_equal(tau, expected)

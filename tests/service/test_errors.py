@@ -1,0 +1,271 @@
+"""Every error code of API.md, as RFC 9457 problem+json, with no traceback, path or echo."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from service.main import create_app
+from service.registry import Registry
+from service.settings import Settings
+from tests.helpers import planar_arm_urdf
+
+LEAK = re.compile(r"Traceback|\.hxx|\.hpp|\.cpp|\.py\b|/usr/|/work/|site-packages|File \"")
+
+
+def inertia(ixx: float, iyy: float, izz: float) -> str:
+    return f"<inertia ixx='{ixx}' ixy='0' ixz='0' iyy='{iyy}' iyz='0' izz='{izz}'/>"
+
+
+def assert_problem(r, status: int, code: str) -> dict:
+    assert r.status_code == status, r.text
+    assert r.headers["content-type"].startswith("application/problem+json")
+    body = r.json()
+    assert body["code"] == code and body["status"] == status
+    assert body["type"] == "about:blank" and body["title"] and body["detail"]
+    assert not LEAK.search(r.text), r.text
+    return body
+
+
+def test_robot_not_found_points_to_the_list(api):
+    for r in (api.get("/v1/robots/nope"), api.post("/v1/robots/nope/gravity", json={"q": [0]})):
+        body = assert_problem(r, 404, "robot_not_found")
+        assert "GET /v1/robots" in body["detail"]
+
+
+def test_catalog_robot_cannot_be_deleted(api):
+    assert_problem(api.delete("/v1/robots/ur5"), 409, "catalog_robot")
+    assert api.get("/v1/robots/ur5").status_code == 200
+
+
+def test_delete_unknown_upload(api):
+    assert_problem(api.delete("/v1/robots/u-0000"), 404, "robot_not_found")
+
+
+@pytest.mark.parametrize("raw", [
+    '{"q": [0, 0, 0, 0, 0, NaN]}',
+    '{"q": [0, 0, 0, 0, 0, Infinity]}',
+    '{"q": [0, 0, 0, 0, 0, -Infinity]}',
+    '{"q": [0, 0, 0, 0, 0, 1e400]}',
+    '{"q": [0, 0, 0, 0, 0, "1"]}',
+    '{"q": [0, 0, 0, 0, 0, true]}',
+    '{"q": [0, 0, 0, 0, 0, null]}',
+    '{"q": [[[0, 0, 0, 0, 0, 0]]]}',
+    '{"q": [[0, 0, 0, 0, 0, 0], [0, 0]]}',
+    '{"q": [0, 0, 0, [0], 0, 0]}',
+    '{"q": 3}',
+    '{}',
+    '{"q": [0, 0, 0, 0, 0, 0], "extra": 1}',
+    '[0, 0, 0, 0, 0, 0]',
+    '{"q": [0, 0, 0',
+    "",
+])
+def test_malformed_bodies_are_validation_errors(api, raw):
+    r = api.post("/v1/robots/ur5/gravity", content=raw,
+                 headers={"content-type": "application/json"})
+    assert_problem(r, 422, "validation_error")
+
+
+def test_validation_error_names_the_field(api):
+    body = assert_problem(api.post("/v1/robots/ur5/coriolis", json={"q": [0] * 6}), 422,
+                          "validation_error")
+    assert body["detail"] == "v: Field required"
+
+
+def test_dimension_mismatch_says_what_was_expected(api):
+    body = assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": [0] * 5}), 422,
+                          "dimension_mismatch")
+    assert body["detail"] == "q has 5 entries; robot 'ur5' has nq = 6"
+    body = assert_problem(api.post("/v1/robots/talos/coriolis",
+                                   json={"q": [0] * 6 + [1] + [0] * 32, "v": [0] * 39}),
+                          422, "dimension_mismatch")
+    assert "nv = 38" in body["detail"]
+
+
+def test_batch_problems_are_dimension_mismatches(api):
+    one, two = [0.0] * 6, [[0.0] * 6] * 2
+    assert_problem(api.post("/v1/robots/ur5/coriolis", json={"q": one, "v": two}), 422,
+                   "dimension_mismatch")
+    body = assert_problem(api.post("/v1/robots/ur5/coriolis",
+                                   json={"q": two, "v": [[0.0] * 6] * 3}), 422,
+                          "dimension_mismatch")
+    assert "q has 2" in body["detail"] and "v has 3" in body["detail"]
+    assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 5] * 2}), 422,
+                   "dimension_mismatch")
+
+
+def test_batch_limit(small_app_factory):
+    client = small_app_factory(max_batch=3)
+    assert client.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 6] * 3}).status_code == 200
+    body = assert_problem(client.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 6] * 4}),
+                          422, "dimension_mismatch")
+    assert "limit is 3" in body["detail"]
+
+
+def test_non_unit_quaternion_is_an_invalid_configuration(api):
+    q = [0.0] * 39
+    q[6] = 0.9  # qw of the free-flyer base
+    body = assert_problem(api.post("/v1/robots/talos/gravity", json={"q": q}), 422,
+                          "invalid_configuration")
+    assert "root_joint" in body["detail"] and "q[3:7]" in body["detail"]
+    batch = [[0, 0, 0, 0, 0, 0, 1.0] + [0.0] * 32, q]
+    body = assert_problem(api.post("/v1/robots/talos/gravity", json={"q": batch}), 422,
+                          "invalid_configuration")
+    assert body["detail"].startswith("state 1:")
+
+
+def test_continuous_joint_needs_unit_cos_sin(api):
+    body = assert_problem(api.post("/v1/robots/double_pendulum_continuous/gravity",
+                                   json={"q": [0.0, 1.0, 2.0, 0.0]}), 422,
+                          "invalid_configuration")
+    assert "cos" in body["detail"]
+
+
+def test_non_finite_result_is_a_clear_error(api, catalog_registry):
+    # romeo's description has a massless moving subtree: M is singular, ABA divides by zero.
+    robot = catalog_registry.catalog["romeo"]
+    assert any(w["code"] == "massless_subtree" for w in robot.warnings)
+    q = robot.info()["neutral_configuration"]
+    body = assert_problem(api.post("/v1/robots/romeo/forward-dynamics",
+                                   json={"q": q, "v": [0.0] * robot.nv,
+                                         "tau": [0.0] * robot.nv}), 422, "non_finite_result")
+    assert "forward-dynamics" in body["detail"]
+
+
+@pytest.mark.parametrize("urdf, fragment", [
+    ("this is not xml", "not well-formed"),
+    ("<robot name='x'><link name='a'/>", "not well-formed"),
+    ("<model name='x'/>", "<model>"),
+    ("<robot><link name='a'/></robot>", "no name"),
+    ("<robot name='x'/>", "no <link>"),
+    ("<robot name='x'><link name='a'/><link name='a'/></robot>", "twice"),
+    ("<robot name='x'><link name='a'/><link name='b'/></robot>", "2 root links"),
+    ("<robot name='x'><link name='a'/><joint name='j' type='revolute'><parent link='a'/>"
+     "<child link='zz'/></joint></robot>", "'zz' does not exist"),
+    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='1'/></inertial>"
+     "</link><joint name='j' type='hinge'><parent link='a'/><child link='b'/></joint></robot>",
+     "type 'hinge'"),
+    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='nan'/></inertial>"
+     "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/></joint>"
+     "</robot>", "link 'b' mass value must be finite"),
+    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='heavy'/>"
+     "</inertial></link><joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
+     "</joint></robot>", "link 'b' mass value is not a number"),
+    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='-1'/></inertial>"
+     "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/></joint>"
+     "</robot>", "negative"),
+    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='1'/></inertial>"
+     "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
+     "<axis xyz='0 0 0'/></joint></robot>", "axis is zero"),
+    ("<robot name='x'><link name='a'/><link name='b'/><joint name='j' type='revolute'>"
+     "<parent link='a'/><child link='b'/></joint></robot>", "no mass"),
+    ("<!DOCTYPE r [<!ENTITY e 'x'>]><robot name='&e;'><link name='a'/></robot>", "DTD"),
+    (f"<robot name='x'><link name='a'><inertial><mass value='1'/>{inertia(-1, 1, 1)}"
+     "</inertial></link></robot>", "negative principal moment"),
+    (f"<robot name='x'><link name='a'><inertial><mass value='1'/>{inertia(1, 1, 5)}"
+     "</inertial></link></robot>", "triangle inequality"),
+    ("<robot name='x'><link name='a'><inertial><mass value='1'/><inertia ixx='1'/>"
+     "</inertial></link></robot>", "inertia ixy is missing"),
+])
+def test_invalid_uploads_name_what_is_wrong(api, urdf, fragment):
+    body = assert_problem(api.post("/v1/robots", json={"urdf": urdf}), 422, "invalid_model")
+    assert fragment in body["detail"], body["detail"]
+
+
+def test_inertia_findings_can_be_accepted_with_warn(api):
+    urdf = (f"<robot name='odd'><link name='a'><inertial><mass value='1'/>{inertia(1, 1, 5)}"
+            "</inertial></link></robot>")
+    body = assert_problem(api.post("/v1/robots", json={"urdf": urdf}), 422, "invalid_model")
+    assert '"inertia_check": "warn"' in body["detail"]
+    r = api.post("/v1/robots", json={"urdf": urdf, "inertia_check": "warn",
+                                     "root_joint": "free-flyer"})
+    assert r.status_code in (200, 201), r.text
+    warnings = r.json()["warnings"]
+    assert warnings[0]["code"] == "triangle_inequality" and warnings[0]["name"] == "a"
+
+
+def test_payload_too_large(small_app_factory):
+    client = small_app_factory(max_body_bytes=4096)
+    body = assert_problem(client.post("/v1/robots", json={"urdf": "x" * 5000}), 413,
+                          "payload_too_large")
+    assert "4096" in body["detail"]
+
+    def chunks():  # no Content-Length: the limit applies while streaming
+        for _ in range(10):
+            yield b" " * 1000
+
+    r = client.post("/v1/robots/ur5/gravity", content=chunks(),
+                    headers={"content-type": "application/json"})
+    assert_problem(r, 413, "payload_too_large")
+    assert client.get("/health/live").status_code == 200
+
+
+def test_api_keys_guard_uploads_and_deletions(small_app_factory):
+    client = small_app_factory(api_keys="k1, k2")
+    urdf = planar_arm_urdf(1.0, 1.0, 1.0, 1.0)
+    r = client.post("/v1/robots", json={"urdf": urdf})
+    assert_problem(r, 401, "unauthorized")
+    assert r.headers["www-authenticate"].startswith("Bearer")
+    assert_problem(client.post("/v1/robots", json={"urdf": urdf},
+                               headers={"Authorization": "Bearer nope"}), 401, "unauthorized")
+    assert_problem(client.post("/v1/robots", json={"urdf": urdf},
+                               headers={"Authorization": "Basic k1"}), 401, "unauthorized")
+    r = client.post("/v1/robots", json={"urdf": urdf}, headers={"Authorization": "Bearer k2"})
+    assert r.status_code == 201
+    robot_id = r.json()["id"]
+    # compute, reads, health and metrics stay open
+    assert client.post(f"/v1/robots/{robot_id}/gravity", json={"q": [0, 0]}).status_code == 200
+    assert client.get("/v1/robots").status_code == 200
+    assert client.get("/metrics").status_code == 200
+    assert_problem(client.delete(f"/v1/robots/{robot_id}"), 401, "unauthorized")
+    assert client.delete(f"/v1/robots/{robot_id}",
+                         headers={"Authorization": "Bearer k1"}).status_code == 204
+
+
+def test_not_ready_before_the_catalog_is_loaded(tmp_path):
+    registry = Registry(tmp_path, ["ur5"])  # not loaded
+    with TestClient(create_app(Settings(data_dir=tmp_path), registry=registry)) as client:
+        r = client.get("/health/ready")
+        assert_problem(r, 503, "not_ready")
+        assert r.headers["retry-after"] == "1"
+        assert_problem(client.post("/v1/robots/ur5/gravity", json={"q": [0] * 6}), 503,
+                       "not_ready")
+        assert client.get("/health/live").json() == {"status": "ok"}
+        registry.load()
+        assert client.get("/health/ready").status_code == 200
+
+
+def test_overloaded_sheds_large_batches(small_app_factory):
+    client = small_app_factory(max_pending_batches=1)
+    client.app.state.batches_in_flight = 1  # as if one large batch were being computed
+    q = np.zeros((400, 6)).tolist()
+    r = client.post("/v1/robots/ur5/gravity", json={"q": q})
+    assert_problem(r, 503, "overloaded")
+    assert r.headers["retry-after"] == "1"
+    assert client.post("/v1/robots/ur5/gravity", json={"q": [0] * 6}).status_code == 200
+    client.app.state.batches_in_flight = 0
+    assert client.post("/v1/robots/ur5/gravity", json={"q": q}).status_code == 200
+
+
+def test_internal_errors_leak_nothing(tmp_path):
+    class Broken(Registry):
+        def get(self, robot_id):
+            raise RuntimeError("From file: /usr/include/pinocchio/algorithm/rnea.hxx:42 boom")
+
+    registry = Broken(tmp_path, ["ur5"])
+    registry.load()
+    app = create_app(Settings(data_dir=tmp_path), registry=registry)
+    with TestClient(app, raise_server_exceptions=False) as client:
+        r = client.post("/v1/robots/ur5/gravity", json={"q": [0] * 6})
+        body = assert_problem(r, 500, "internal_error")
+        assert "rnea" not in json.dumps(body)
+
+
+def test_unknown_routes_and_methods_are_problems(api):
+    assert_problem(api.get("/v2/nothing"), 404, "not_found")
+    assert_problem(api.put("/v1/robots/ur5"), 405, "method_not_allowed")
+    assert_problem(api.get("/v1/robots/ur5/gravity"), 405, "method_not_allowed")

@@ -1,0 +1,237 @@
+"""Exceptions of the robodyn client: one tree, one class per server error `code`.
+
+Every error the server answers is RFC 9457 problem+json with a stable `code`; the client raises
+the class named after that code. Classes also subclass the builtin that fits, so code that knows
+nothing of robodyn can still catch them (`except LookupError`, `except ValueError`, ...)::
+
+    RobodynError                                  anything raised by this package
+    ├── InputError (ValueError)                   arguments rejected locally, nothing was sent
+    ├── TransportError                            no HTTP answer: refused, reset, bad protocol
+    │   └── TimeoutError (builtins.TimeoutError)  connect, read, write or pool timeout
+    ├── ResponseFormatError                       a success answer the client cannot read
+    └── APIError                                  the server answered with an error status
+        ├── BadRequestError                       400 bad_request
+        ├── UnauthorizedError (PermissionError)   401 unauthorized
+        ├── NotFoundError (LookupError)           404 not_found (no such route)
+        │   └── RobotNotFoundError                404 robot_not_found
+        ├── MethodNotAllowedError                 405 method_not_allowed
+        ├── ConflictError                         409
+        │   └── CatalogRobotError                 409 catalog_robot
+        ├── PayloadTooLargeError (ValueError)     413 payload_too_large
+        ├── UnsupportedMediaTypeError             415 unsupported_media_type
+        ├── UnprocessableError (ValueError)       422
+        │   ├── ValidationError                   422 validation_error
+        │   ├── DimensionMismatchError            422 dimension_mismatch
+        │   ├── InvalidConfigurationError         422 invalid_configuration
+        │   ├── InvalidModelError                 422 invalid_model
+        │   ├── UnknownFrameError (LookupError)   422 unknown_frame
+        │   ├── SingularConfigurationError        422 singular_configuration
+        │   └── NonFiniteResultError (ArithmeticError)  422 non_finite_result
+        └── ServerError                           5xx
+            ├── InternalServerError               500 internal_error
+            └── ServiceUnavailableError           503
+                ├── NotReadyError                 503 not_ready
+                └── OverloadedError               503 overloaded
+
+A code this client does not know yet falls back by HTTP status to the class of that status in
+the tree (a new 422 code raises `UnprocessableError`, a new 503 code `ServiceUnavailableError`,
+any other 5xx `ServerError`, anything else `APIError`).
+"""
+
+from __future__ import annotations
+
+import builtins
+from typing import Any, ClassVar
+
+
+class RobodynError(Exception):
+    """Base of every exception raised by the robodyn client."""
+
+
+class InputError(RobodynError, ValueError):
+    """An argument was rejected before anything was sent (not numeric, not finite, bad shape)."""
+
+
+class TransportError(RobodynError):
+    """The request got no HTTP answer (connection refused or reset, protocol error, ...).
+
+    `method` and `url` name the request; the httpx exception is the `__cause__`.
+    """
+
+    def __init__(self, message: str, *, method: str = "", url: str = "") -> None:
+        super().__init__(message)
+        self.method = method
+        self.url = url
+
+
+class TimeoutError(TransportError, builtins.TimeoutError):  # noqa: A001 - named for the builtin
+    """The request timed out (connecting, sending, waiting for the answer, or for a connection)."""
+
+
+class ResponseFormatError(RobodynError):
+    """A success answer that is not what the API promises (not JSON, a field missing, ...)."""
+
+    def __init__(self, message: str, *, status: int, body: Any = None) -> None:
+        super().__init__(message)
+        self.status = status
+        self.body = body
+
+
+class APIError(RobodynError):
+    """The server answered with an error status.
+
+    Attributes: `status` (HTTP status), `code` (the problem's stable machine-readable code, or
+    None when the answer had none), `title`, `detail` (the human explanation), `body` (the decoded
+    problem+json object, or the answer's text when it was not JSON) and `retry_after` (seconds,
+    from the `Retry-After` header, or None).
+    """
+
+    status_code: ClassVar[int | None] = None  # the status this class stands for, if one
+    error_code: ClassVar[str | None] = None  # the server code this class stands for, if one
+
+    def __init__(self, status: int, code: str | None, title: str, detail: str, body: Any = None,
+                 retry_after: float | None = None) -> None:
+        super().__init__(status, code, detail)
+        self.status = status
+        self.code = code
+        self.title = title
+        self.detail = detail
+        self.body = body
+        self.retry_after = retry_after
+
+    def __str__(self) -> str:
+        return f"{self.status} {self.code or self.title}: {self.detail}"
+
+
+class BadRequestError(APIError):
+    status_code, error_code = 400, "bad_request"
+
+
+class UnauthorizedError(APIError, PermissionError):
+    """A missing or wrong API key: pass `api_key=` to the client."""
+
+    status_code, error_code = 401, "unauthorized"
+
+
+class NotFoundError(APIError, LookupError):
+    status_code, error_code = 404, "not_found"
+
+
+class RobotNotFoundError(NotFoundError):
+    """No robot has this id; `robots()` lists the valid ones."""
+
+    error_code = "robot_not_found"
+
+
+class MethodNotAllowedError(APIError):
+    status_code, error_code = 405, "method_not_allowed"
+
+
+class ConflictError(APIError):
+    status_code = 409
+
+
+class CatalogRobotError(ConflictError):
+    """Catalog robots cannot be deleted; only uploads can."""
+
+    error_code = "catalog_robot"
+
+
+class PayloadTooLargeError(APIError, ValueError):
+    """The request body is over the server's limit: send smaller batches."""
+
+    status_code, error_code = 413, "payload_too_large"
+
+
+class UnsupportedMediaTypeError(APIError):
+    status_code, error_code = 415, "unsupported_media_type"
+
+
+class UnprocessableError(APIError, ValueError):
+    """The server understood the request but its content cannot be used (422)."""
+
+    status_code = 422
+
+
+class ValidationError(UnprocessableError):
+    """A malformed body, a missing field, a wrong type or a non-finite number."""
+
+    error_code = "validation_error"
+
+
+class DimensionMismatchError(UnprocessableError):
+    """An array's length or batch size does not fit the robot (see `RobotInfo.nq`, `.nv`)."""
+
+    error_code = "dimension_mismatch"
+
+
+class InvalidConfigurationError(UnprocessableError):
+    """A configuration q that is not valid, e.g. a quaternion that is not unit length."""
+
+    error_code = "invalid_configuration"
+
+
+class InvalidModelError(UnprocessableError):
+    """An upload that is not a usable robot model; the detail names the element at fault."""
+
+    error_code = "invalid_model"
+
+
+class UnknownFrameError(UnprocessableError, LookupError):
+    error_code = "unknown_frame"
+
+
+class SingularConfigurationError(UnprocessableError):
+    error_code = "singular_configuration"
+
+
+class NonFiniteResultError(UnprocessableError, ArithmeticError):
+    """The computed result is not finite (e.g. a moving body without mass)."""
+
+    error_code = "non_finite_result"
+
+
+class ServerError(APIError):
+    """A 5xx answer."""
+
+
+class InternalServerError(ServerError):
+    status_code, error_code = 500, "internal_error"
+
+
+class ServiceUnavailableError(ServerError):
+    """The service cannot answer now (503); retry after `retry_after` seconds."""
+
+    status_code = 503
+
+
+class NotReadyError(ServiceUnavailableError):
+    error_code = "not_ready"
+
+
+class OverloadedError(ServiceUnavailableError):
+    error_code = "overloaded"
+
+
+def _tree(cls: type[APIError]) -> list[type[APIError]]:
+    return [cls, *(c for sub in cls.__subclasses__() for c in _tree(sub))]
+
+
+ERROR_BY_CODE: dict[str, type[APIError]] = {
+    c.__dict__["error_code"]: c for c in _tree(APIError) if c.__dict__.get("error_code")
+}
+"""The class raised for each server `code`."""
+
+ERROR_BY_STATUS: dict[int, type[APIError]] = {
+    c.__dict__["status_code"]: c for c in _tree(APIError) if c.__dict__.get("status_code")
+}
+"""The class raised, by HTTP status, for an answer whose `code` this client does not know."""
+
+
+def error_class(status: int, code: str | None) -> type[APIError]:
+    """The exception class for an error answer: by `code`, else by `status`."""
+    if code is not None and code in ERROR_BY_CODE:
+        return ERROR_BY_CODE[code]
+    if status in ERROR_BY_STATUS:
+        return ERROR_BY_STATUS[status]
+    return ServerError if 500 <= status <= 599 else APIError

@@ -1,0 +1,113 @@
+"""A real server (`python -m service`) in a subprocess on a free loopback port: start-up,
+readiness, and many threads of mixed robots and quantities compared with in-process Pinocchio."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import httpx
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from tests.helpers import mass_matrix, random_state
+
+ROBOTS = ["ur5", "panda", "talos", "solo12", "double_pendulum_continuous"]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    port = _free_port()
+    env = {**os.environ, "ROBODYN_DATA_DIR": str(tmp_path_factory.mktemp("e2e")),
+           "ROBODYN_CATALOG": ",".join(ROBOTS), "ROBODYN_LOG_LEVEL": "warning"}
+    proc = subprocess.Popen([sys.executable, "-m", "service", "--port", str(port)], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    base = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    try:
+        while True:
+            assert proc.poll() is None, proc.stderr.read().decode()
+            try:
+                if httpx.get(f"{base}/health/ready", timeout=1).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert time.monotonic() < deadline, "server did not become ready in 60 s"
+            time.sleep(0.2)
+        yield base
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def _expected(model, quantity, q, v, a):
+    data = model.createData()
+    if quantity == "mass-matrix":
+        return {"mass_matrix": mass_matrix(model, q)}
+    if quantity == "gravity":
+        return {"gravity": pin.computeGeneralizedGravity(model, data, q)}
+    if quantity == "coriolis":
+        C = pin.computeCoriolisMatrix(model, data, q, v)
+        return {"coriolis_matrix": C, "coriolis_forces": C @ v}
+    if quantity == "nonlinear-effects":
+        return {"nonlinear_effects": pin.nonLinearEffects(model, data, q, v)}
+    if quantity == "inverse-dynamics":
+        return {"tau": pin.rnea(model, data, q, v, a)}
+    return {"a": pin.aba(model, data, q, v, a)}
+
+
+INPUTS = {"mass-matrix": "q", "gravity": "q", "coriolis": "qv", "nonlinear-effects": "qv",
+          "inverse-dynamics": "qva", "forward-dynamics": "qvt"}
+
+
+def test_concurrent_mixed_requests_match_pinocchio(server, catalog_registry):
+    rng = np.random.default_rng(11)
+    jobs = []
+    for i in range(240):
+        robot = ROBOTS[i % len(ROBOTS)]
+        quantity = list(INPUTS)[(i // len(ROBOTS)) % len(INPUTS)]
+        model = catalog_registry.catalog[robot].model
+        batch = 64 if i % 7 == 0 else 1  # some large enough to be computed in worker threads
+        states = [random_state(model, rng) for _ in range(batch)]
+        jobs.append((robot, quantity, states))
+
+    def run(job):
+        robot, quantity, states = job
+        qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
+        names = {"q": ("q", qs), "v": ("v", vs), "a": ("a", as_), "t": ("tau", as_)}
+        body = {names[c][0]: (names[c][1] if len(states) > 1 else names[c][1][0]).tolist()
+                for c in INPUTS[quantity]}
+        with httpx.Client(timeout=30) as http:
+            r = http.post(f"{server}/v1/robots/{robot}/{quantity}", json=body)
+        return job, r
+
+    with ThreadPoolExecutor(max_workers=16) as pool:
+        results = list(pool.map(run, jobs, timeout=120))
+    for (robot, quantity, states), r in results:
+        assert r.status_code == 200, r.text
+        model = catalog_registry.catalog[robot].model
+        got = r.json()
+        for i, (q, v, a) in enumerate(states):
+            for key, value in _expected(model, quantity, q, v, a).items():
+                answer = np.asarray(got[key])
+                answer = answer[i] if len(states) > 1 else answer
+                np.testing.assert_allclose(answer, value, rtol=1e-12,
+                                           atol=1e-12 * max(1, np.abs(value).max()))
+
+
+def test_real_server_errors_are_problems(server):
+    r = httpx.post(f"{server}/v1/robots/ur5/gravity", content=b'{"q": [0,0,0,0,0,NaN]}',
+                   headers={"content-type": "application/json"})
+    assert r.status_code == 422 and r.json()["code"] == "validation_error"
+    assert r.headers["content-type"] == "application/problem+json"

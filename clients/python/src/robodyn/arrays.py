@@ -1,0 +1,93 @@
+"""Joint-space arrays in and out: local checks before sending, shape checks on answers.
+
+A 1-D array is one state; a 2-D array of shape (N, n) is a batch of N states, and then every
+answer gains a leading axis of length N. All inputs of one request are 1-D, or all are 2-D with
+the same N. Inputs must be real numbers (bool, complex, text and objects are refused) and
+finite. Lengths against the robot's nq and nv are checked by the server, which knows them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, TypeAlias
+
+import numpy as np
+import numpy.typing as npt
+
+from robodyn.errors import InputError
+
+ArrayLike: TypeAlias = npt.ArrayLike
+"""Anything numpy reads as a 1-D or 2-D array of real numbers (list, tuple, ndarray)."""
+
+
+def joint_array(name: str, value: ArrayLike) -> np.ndarray:
+    """`value` as a finite float64 array of 1 or 2 dimensions; `InputError` naming `name`."""
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError):  # ragged nested lists
+        raise InputError(f"{name} must be a 1-D array (one state) or a 2-D array of equal-length "
+                         "rows (a batch); it is ragged or not an array") from None
+    if arr.dtype.kind not in "iuf":
+        kind = {"b": "booleans", "c": "complex numbers", "U": "text", "S": "bytes",
+                "O": "objects"}.get(arr.dtype.kind, f"dtype {arr.dtype}")
+        raise InputError(f"{name} must hold real numbers, not {kind}")
+    if arr.ndim not in (1, 2):
+        shape = "a scalar" if arr.ndim == 0 else f"{arr.ndim}-D, shape {arr.shape}"
+        raise InputError(f"{name} must be 1-D (one state) or 2-D (a batch of states), not {shape}")
+    arr = arr.astype(np.float64, copy=False)
+    if arr.shape[-1] == 0:
+        raise InputError(f"{name} is empty; it needs the robot's nq (for q) or nv entries")
+    if arr.ndim == 2 and arr.shape[0] == 0:
+        raise InputError(f"{name} is an empty batch; send at least one state")
+    bad = np.argwhere(~np.isfinite(arr))
+    if bad.size:
+        where = f"[{', '.join(str(int(i)) for i in bad[0])}]"
+        raise InputError(f"{name}{where} is {arr[tuple(bad[0])]}; every entry must be finite")
+    return arr
+
+
+def joint_states(**inputs: ArrayLike) -> tuple[dict[str, np.ndarray], bool]:
+    """Check the named inputs together: (arrays, batched). Refuses a mix of single states and
+    batches, and batches of different sizes."""
+    arrays = {name: joint_array(name, value) for name, value in inputs.items()}
+    ndims = {arr.ndim for arr in arrays.values()}
+    if len(ndims) > 1:
+        shown = ", ".join(f"{n} is {a.ndim}-D" for n, a in arrays.items())
+        raise InputError(f"inputs mix single states and batches ({shown}); give all as 1-D or "
+                         "all as 2-D arrays (np.tile repeats a state N times)")
+    batched = ndims == {2}
+    if batched:
+        sizes = {n: a.shape[0] for n, a in arrays.items()}
+        if len(set(sizes.values())) > 1:
+            shown = ", ".join(f"{n} has {s}" for n, s in sizes.items())
+            raise InputError(f"batch sizes differ ({shown} states); every input needs the "
+                             "same number of states")
+    return arrays, batched
+
+
+def to_json(arrays: Mapping[str, np.ndarray]) -> dict[str, Any]:
+    """Arrays as nested lists of Python floats (JSON numbers round-trip float64 exactly)."""
+    return {name: arr.tolist() for name, arr in arrays.items()}
+
+
+def answer_array(body: Mapping[str, Any], key: str, ndim: int, batched: bool,
+                 rows: int | None = None) -> np.ndarray:
+    """Field `key` of an answer as a float64 array with `ndim` dimensions per state (one more
+    when `batched`, with `rows` states). Raises KeyError/ValueError when it does not fit."""
+    arr = np.asarray(body[key], dtype=np.float64)
+    expected = ndim + 1 if batched else ndim
+    if arr.ndim != expected:
+        raise ValueError(f"'{key}' has {arr.ndim} dimensions; expected {expected}")
+    if batched and rows is not None and arr.shape[0] != rows:
+        raise ValueError(f"'{key}' has {arr.shape[0]} states; {rows} were sent")
+    if ndim == 2 and arr.shape[-1] != arr.shape[-2]:
+        raise ValueError(f"'{key}' is not square: shape {arr.shape}")
+    return arr
+
+
+def gravity_vector(value: Sequence[float] | np.ndarray) -> list[float]:
+    """A gravity vector (m/s², world frame) checked to be 3 finite numbers."""
+    arr = joint_array("gravity", value)
+    if arr.shape != (3,):
+        raise InputError(f"gravity must have 3 entries (x, y, z in m/s²), not shape {arr.shape}")
+    return [float(x) for x in arr]

@@ -34,7 +34,7 @@ STATUS_BY_CODE: dict[str, int] = {
     "bad_request": 400,
     "not_found": 404,
     "method_not_allowed": 405,
-    "unsupported_media_type": 415,
+    "unsupported_media_type": 415,  # a body that is not labelled as JSON
 }
 assert all(e.code in STATUS_BY_CODE for e in ALL_ERRORS)
 
@@ -79,6 +79,11 @@ async def _on_domain_error(request: Request, exc: Exception) -> Response:
 
 async def _on_validation_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, RequestValidationError)
+    content_type = request.headers.get("content-type", "")
+    if content_type and "json" not in content_type.split(";")[0]:
+        return problem("unsupported_media_type", "Unsupported media type",
+                       "send the body as JSON with 'Content-Type: application/json' "
+                       "(with curl: --json '{...}')")
     errors = [{"loc": _location(tuple(e.get("loc", ()))), "msg": e.get("msg", "invalid")}
               for e in exc.errors()[:20]]
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}

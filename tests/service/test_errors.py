@@ -269,3 +269,12 @@ def test_unknown_routes_and_methods_are_problems(api):
     assert_problem(api.get("/v2/nothing"), 404, "not_found")
     assert_problem(api.put("/v1/robots/ur5"), 405, "method_not_allowed")
     assert_problem(api.get("/v1/robots/ur5/gravity"), 405, "method_not_allowed")
+
+
+def test_a_body_not_labelled_json_is_415(api):
+    r = api.post("/v1/robots/ur5/gravity", content=b'{"q": [0, 0, 0, 0, 0, 0]}',
+                 headers={"content-type": "application/x-www-form-urlencoded"})
+    body = assert_problem(r, 415, "unsupported_media_type")
+    assert "application/json" in body["detail"]
+    r = api.post("/v1/robots/ur5/gravity", content=b'{"q": [0, 0, 0, 0, 0, 0]}')
+    assert r.status_code == 200  # no Content-Type at all: read as JSON

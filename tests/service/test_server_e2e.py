@@ -111,3 +111,17 @@ def test_real_server_errors_are_problems(server):
                    headers={"content-type": "application/json"})
     assert r.status_code == 422 and r.json()["code"] == "validation_error"
     assert r.headers["content-type"] == "application/problem+json"
+
+
+def test_real_server_upload_builds_out_of_process(server):
+    from tests.helpers import planar_arm_closed_form, planar_arm_urdf
+
+    r = httpx.post(f"{server}/v1/robots", json={"urdf": planar_arm_urdf(1.1, 0.4, 2.0, 1.0)},
+                   timeout=60)
+    assert r.status_code == 201, r.text
+    robot_id = r.json()["id"]
+    q = [0.4, -0.9]
+    M = httpx.post(f"{server}/v1/robots/{robot_id}/mass-matrix", json={"q": q}).json()
+    expected, _, _ = planar_arm_closed_form(1.1, 0.4, 2.0, 1.0, np.array(q), np.zeros(2))
+    np.testing.assert_allclose(M["mass_matrix"], expected, rtol=1e-10)
+    assert httpx.delete(f"{server}/v1/robots/{robot_id}").status_code == 204

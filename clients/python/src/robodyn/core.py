@@ -23,7 +23,7 @@ import httpx
 import numpy as np
 
 from robodyn.arrays import ArrayLike, answer_array, gravity_vector, joint_states, to_json
-from robodyn.errors import APIError, ResponseFormatError, error_class
+from robodyn.errors import APIError, InputError, ResponseFormatError, error_class
 from robodyn.models import RobotInfo, RobotList
 
 T = TypeVar("T")
@@ -66,7 +66,6 @@ def _call(name: str, read: Callable[[int, Any], T], robot_id: str | None = None,
         if not isinstance(robot_id, str):
             raise TypeError(f"robot_id must be a str, not {type(robot_id).__name__}")
         if not robot_id:
-            from robodyn.errors import InputError
             raise InputError("robot_id is empty; robots() lists the valid ids")
         path = template.format(robot_id=quote(robot_id, safe=""))
     return Call(method, path, read, body, accept)

@@ -64,7 +64,7 @@ class TransportError(RobodynError):
         self.url = url
 
 
-class TimeoutError(TransportError, builtins.TimeoutError):  # noqa: A001 - named for the builtin
+class TimeoutError(TransportError, builtins.TimeoutError):
     """The request timed out (connecting, sending, waiting for the answer, or for a connection)."""
 
 

@@ -1,0 +1,109 @@
+"""`Client`: the blocking robodyn client (one pooled `httpx.Client`, reused for every call)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from types import TracebackType
+from typing import Any, TypeVar
+
+import httpx
+import numpy as np
+
+from robodyn import core, transport
+from robodyn.arrays import ArrayLike
+from robodyn.models import RobotInfo, RobotList
+
+T = TypeVar("T")
+
+
+@core.share_docs
+class Client:
+    """A blocking client of a robodyn server; use it as a context manager, or call `close()`.
+
+    `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else
+    http://127.0.0.1:8000). `api_key`: sent as `Authorization: Bearer <key>` (needed for uploads
+    and deletions where the server has keys). `timeout`: seconds or an `httpx.Timeout`
+    (default: 5 s to connect, 60 s for the rest). `http_client`: an `httpx.Client` to use
+    instead of creating one (e.g. with a custom transport); its own timeouts apply, and
+    `close()` leaves it open.
+    `headers`: extra headers for every request.
+    """
+
+    def __init__(self, base_url: str | None = None, *, api_key: str | None = None,
+                 timeout: transport.TimeoutLike = transport.DEFAULT_TIMEOUT,
+                 http_client: httpx.Client | None = None,
+                 headers: Mapping[str, str] | None = None) -> None:
+        self._settings = transport.settings(base_url, api_key, http_client, headers)
+        self._owns_http = http_client is None
+        self._http = http_client or httpx.Client(timeout=transport.timeout_of(timeout),
+                                                 limits=transport.DEFAULT_LIMITS)
+
+    @property
+    def base_url(self) -> str:
+        return self._settings.base_url
+
+    def _send(self, call: core.Call[T]) -> T:
+        url, headers, content = self._settings.prepare(call)
+        with transport.wrapped(call.method, url):
+            response = self._http.request(call.method, url, content=content, headers=headers)
+        return core.read_response(call, response)
+
+    def close(self) -> None:
+        """Close the connection pool (not an injected `http_client`)."""
+        if self._owns_http:
+            self._http.close()
+
+    def __enter__(self) -> Client:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Client({self.base_url!r})"
+
+    # The docstrings of the methods below are those of `robodyn.core` (see `share_docs`).
+
+    def health(self) -> dict[str, Any]:
+        return self._send(core.health())
+
+    def ready(self) -> bool:
+        return self._send(core.ready())
+
+    def robots(self) -> RobotList:
+        return self._send(core.robots())
+
+    def robot(self, robot_id: str) -> RobotInfo:
+        return self._send(core.robot(robot_id))
+
+    def upload(self, urdf: str | bytes | os.PathLike[str], *, root_joint: str = "fixed",
+               name: str | None = None, gravity: ArrayLike | None = None,
+               inertia_check: str | None = None) -> RobotInfo:
+        return self._send(core.upload(urdf, root_joint=root_joint, name=name, gravity=gravity,
+                                      inertia_check=inertia_check))
+
+    def delete(self, robot_id: str) -> None:
+        return self._send(core.delete(robot_id))
+
+    def mass_matrix(self, robot_id: str, q: ArrayLike) -> np.ndarray:
+        return self._send(core.mass_matrix(robot_id, q))
+
+    def gravity(self, robot_id: str, q: ArrayLike) -> np.ndarray:
+        return self._send(core.gravity(robot_id, q))
+
+    def coriolis(self, robot_id: str, q: ArrayLike, v: ArrayLike
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        return self._send(core.coriolis(robot_id, q, v))
+
+    def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike) -> np.ndarray:
+        return self._send(core.nonlinear_effects(robot_id, q, v))
+
+    def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike
+                         ) -> np.ndarray:
+        return self._send(core.inverse_dynamics(robot_id, q, v, a))
+
+    def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike
+                         ) -> np.ndarray:
+        return self._send(core.forward_dynamics(robot_id, q, v, tau))

@@ -1,0 +1,81 @@
+"""Connection settings shared by both clients: base URL, headers, timeouts, error wrapping."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+import httpx
+
+from robodyn import __version__
+from robodyn.core import Call, encode
+from robodyn.errors import TimeoutError, TransportError
+
+DEFAULT_URL = "http://127.0.0.1:8000"
+URL_ENV = "ROBODYN_URL"
+
+DEFAULT_TIMEOUT = httpx.Timeout(60.0, connect=5.0)
+"""Seconds: 5 to connect, 60 to send, to wait for the answer and to get a pooled connection.
+Large batches take longer: pass `timeout=` to the client (a number or an `httpx.Timeout`)."""
+
+DEFAULT_LIMITS = httpx.Limits(max_connections=20, max_keepalive_connections=10)
+
+TimeoutLike = float | httpx.Timeout | None
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What every request of one client carries: its absolute base URL and headers."""
+
+    base_url: str
+    headers: Mapping[str, str]
+
+    def prepare(self, call: Call[Any]) -> tuple[str, dict[str, str], bytes | None]:
+        """The absolute URL, headers and body bytes of `call`."""
+        headers = dict(self.headers)
+        content = None
+        if call.json is not None:
+            content = encode(call.json)
+            headers["Content-Type"] = "application/json"
+        return self.base_url + call.path, headers, content
+
+
+def settings(base_url: str | None, api_key: str | None, http_client: httpx.Client |
+             httpx.AsyncClient | None, headers: Mapping[str, str] | None) -> Settings:
+    """Resolve the base URL (argument, else the injected client's, else $ROBODYN_URL, else
+    http://127.0.0.1:8000) and the headers sent with each request."""
+    if base_url is None and http_client is not None and str(http_client.base_url):
+        base_url = str(http_client.base_url)
+    if base_url is None:
+        base_url = os.environ.get(URL_ENV) or DEFAULT_URL
+    url = httpx.URL(base_url)
+    if url.scheme not in ("http", "https") or not url.host:
+        raise ValueError(f"base_url must be an http:// or https:// URL with a host, "
+                         f"not {base_url!r}")
+    sent = {"Accept": "application/json", "User-Agent": f"robodyn-python/{__version__}"}
+    sent.update(headers or {})
+    if api_key is not None:
+        if not api_key or any(c in api_key for c in "\r\n"):
+            raise ValueError("api_key must be a non-empty single-line string")
+        sent["Authorization"] = f"Bearer {api_key}"
+    return Settings(base_url=str(url).rstrip("/"), headers=sent)
+
+
+def timeout_of(timeout: TimeoutLike) -> httpx.Timeout:
+    return timeout if isinstance(timeout, httpx.Timeout) else httpx.Timeout(timeout)
+
+
+@contextmanager
+def wrapped(method: str, url: str) -> Iterator[None]:
+    """Turn httpx's transport failures into `robodyn.TransportError` / `robodyn.TimeoutError`."""
+    try:
+        yield
+    except httpx.TimeoutException as exc:
+        raise TimeoutError(f"{method} {url} timed out ({type(exc).__name__}): {exc}",
+                           method=method, url=url) from exc
+    except httpx.RequestError as exc:
+        raise TransportError(f"{method} {url} failed ({type(exc).__name__}): {exc}",
+                             method=method, url=url) from exc

@@ -7,6 +7,7 @@ import logging
 import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from typing import Any
 
 from fastapi import FastAPI
 
@@ -39,7 +40,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
             threading.Thread(target=registry.load, name="catalog-loader", daemon=True).start()
         yield
 
-    options = {}
+    options: dict[str, Any] = {}
     if "strict_content_type" in inspect.signature(FastAPI.__init__).parameters:
         options["strict_content_type"] = False  # a JSON body is read as JSON whatever its label
     app = FastAPI(title="robodyn", version=__version__, description=DESCRIPTION,

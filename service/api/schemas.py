@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -10,7 +10,7 @@ Number = Annotated[float, Field(allow_inf_nan=False)]
 JointArray = list[Number] | list[list[Number]]
 
 
-def _joint_field(desc: str) -> object:
+def _joint_field(desc: str) -> Any:
     return Field(description=desc + " A 1-D array is one state; a 2-D array [N][n] is a batch "
                  "of N states, and every answer then gains a leading axis of length N.")
 

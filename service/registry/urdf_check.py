@@ -229,6 +229,7 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
 
     children: dict[str, list[tuple[str, str]]] = {name: [] for name in links}
     parent_of: dict[str, str] = {}
+    child_of_joint: dict[str, str] = {}
     moving = 0
     for jname, joint in joints.items():
         jtype = joint.get("type")
@@ -247,6 +248,7 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
             raise InvalidModel(f"link '{child}' is the child of two joints "
                                f"('{parent_of[child]}' and '{jname}')")
         parent_of[child] = jname
+        child_of_joint[jname] = child
         children[parent].append((jname, child))
         _check_joint(joint, jname, jtype)
         mimic = joint.find("mimic")
@@ -296,7 +298,7 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
             subtree_mass[link] += subtree_mass[child]
     for jname, joint in joints.items():
         if joint.get("type") != "fixed":
-            child = joint.find("child").get("link")  # type: ignore[union-attr]
+            child = child_of_joint[jname]
             if subtree_mass[child] <= 0.0:
                 tolerable(Finding(
                     "massless_subtree", "joint", jname,

@@ -8,7 +8,7 @@ finite. Lengths against the robot's nq and nv are checked by the server, which k
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any, TypeAlias
 
 import numpy as np
@@ -85,7 +85,7 @@ def answer_array(body: Mapping[str, Any], key: str, ndim: int, batched: bool,
     return arr
 
 
-def gravity_vector(value: Sequence[float] | np.ndarray) -> list[float]:
+def gravity_vector(value: ArrayLike) -> list[float]:
     """A gravity vector (m/s², world frame) checked to be 3 finite numbers."""
     arr = joint_array("gravity", value)
     if arr.shape != (3,):

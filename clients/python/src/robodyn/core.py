@@ -55,7 +55,7 @@ class Call(Generic[T]):
     path: str
     read: Callable[[int, Any], T]
     json: Any = None
-    accept: frozenset[int] = frozenset()  # non-2xx statuses handed to `read`, not raised
+    accept: frozenset[int] = frozenset()  # statuses handed to `read` (body None), not raised
 
 
 def _call(name: str, read: Callable[[int, Any], T], robot_id: str | None = None,
@@ -74,7 +74,9 @@ def _call(name: str, read: Callable[[int, Any], T], robot_id: str | None = None,
 def read_response(call: Call[T], response: httpx.Response) -> T:
     """The result of `call` from its answer; an `APIError` subclass for an error status."""
     status = response.status_code
-    if not (200 <= status <= 299 or status in call.accept):
+    if status in call.accept:
+        return call.read(status, None)
+    if not 200 <= status <= 299:
         raise api_error(response)
     body: Any = None
     if response.content:
@@ -126,7 +128,7 @@ def health() -> Call[dict[str, Any]]:
 
 def ready() -> Call[bool]:
     """Readiness: True once the server has loaded its catalog and can compute, False before."""
-    return _call("ready", lambda status, body: status == 200, accept=frozenset({503}))
+    return _call("ready", lambda status, body: status != 503, accept=frozenset({503}))
 
 
 # -- robots -------------------------------------------------------------------------------
@@ -165,7 +167,7 @@ def upload(urdf: str | bytes | os.PathLike[str], *, root_joint: str = "fixed",
     if name is not None:
         body["name"] = name
     if gravity is not None:
-        body["gravity"] = gravity_vector(gravity)  # type: ignore[arg-type]
+        body["gravity"] = gravity_vector(gravity)
     if inertia_check is not None:
         body["inertia_check"] = inertia_check
     return _call("upload", lambda status, data: RobotInfo.from_json(data, created=status == 201),
@@ -181,7 +183,8 @@ def delete(robot_id: str) -> Call[None]:
 # -- dynamics -----------------------------------------------------------------------------
 
 
-def _dynamics(name: str, robot_id: str, outputs: Mapping[str, int], **inputs: ArrayLike) -> Call:
+def _dynamics(name: str, robot_id: str, outputs: Mapping[str, int], **inputs: ArrayLike
+              ) -> Call[Any]:
     arrays, batched = joint_states(**inputs)
     rows = next(iter(arrays.values())).shape[0] if batched else None
 

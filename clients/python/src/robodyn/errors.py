@@ -63,6 +63,9 @@ class TransportError(RobodynError):
         self.method = method
         self.url = url
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (_rebuild, (type(self), str(self), {"method": self.method, "url": self.url}))
+
 
 class TimeoutError(TransportError, builtins.TimeoutError):
     """The request timed out (connecting, sending, waiting for the answer, or for a connection)."""
@@ -75,6 +78,13 @@ class ResponseFormatError(RobodynError):
         super().__init__(message)
         self.status = status
         self.body = body
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (_rebuild, (type(self), str(self), {"status": self.status, "body": self.body}))
+
+
+def _rebuild(cls: type[Exception], message: str, keywords: dict[str, Any]) -> Exception:
+    return cls(message, **keywords)
 
 
 class APIError(RobodynError):
@@ -91,16 +101,20 @@ class APIError(RobodynError):
 
     def __init__(self, status: int, code: str | None, title: str, detail: str, body: Any = None,
                  retry_after: float | None = None) -> None:
-        super().__init__(status, code, detail)
         self.status = status
         self.code = code
         self.title = title
         self.detail = detail
         self.body = body
         self.retry_after = retry_after
+        super().__init__(str(self))  # one message argument, also for the OSError subclasses
 
     def __str__(self) -> str:
         return f"{self.status} {self.code or self.title}: {self.detail}"
+
+    def __reduce__(self) -> tuple[Any, ...]:  # picklable, e.g. across multiprocessing
+        return (type(self), (self.status, self.code, self.title, self.detail, self.body,
+                             self.retry_after))
 
 
 class BadRequestError(APIError):

@@ -17,7 +17,7 @@ from robodyn.errors import TimeoutError, TransportError
 DEFAULT_URL = "http://127.0.0.1:8000"
 URL_ENV = "ROBODYN_URL"
 
-DEFAULT_TIMEOUT = httpx.Timeout(60.0, connect=5.0)
+DEFAULT_TIMEOUT: httpx.Timeout = httpx.Timeout(60.0, connect=5.0)
 """Seconds: 5 to connect, 60 to send, to wait for the answer and to get a pooled connection.
 Large batches take longer: pass `timeout=` to the client (a number or an `httpx.Timeout`)."""
 

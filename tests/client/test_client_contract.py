@@ -1,0 +1,168 @@
+"""The client against the server's contract: routes, request schemas, codes, dependencies."""
+
+from __future__ import annotations
+
+import inspect
+import json
+import os
+import re
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+import robodyn
+from robodyn import core, errors
+
+from service.api.problems import STATUS_BY_CODE
+from service.api.schemas import REQUEST_BY_INPUTS, UploadRequest
+from service.main import create_app
+from service.settings import Settings
+
+CLIENT_DIR = Path(__file__).parents[2] / "clients" / "python"
+BLOCKED = ("fastapi", "pydantic", "pydantic_settings", "pinocchio", "uvicorn", "starlette",
+           "service")
+INFO = {"id": "r", "name": "r", "source": "upload", "nq": 1, "nv": 1, "root_joint": "fixed",
+        "gravity": [0, 0, -9.81], "total_mass": 1.0, "neutral_configuration": [0.0],
+        "reference_configurations": {}, "warnings": [], "joints": [], "frames": []}
+ANSWERS = {"mass_matrix": [[1.0]], "gravity": [0.0], "coriolis_matrix": [[0.0]],
+           "coriolis_forces": [0.0], "nonlinear_effects": [0.0], "tau": [0.0], "a": [0.0],
+           "robots": [], "unavailable": {}, "status": "ok", **INFO}
+ARGS: dict[str, tuple[Any, ...]] = {
+    "health": (), "ready": (), "robots": (), "robot": ("r",), "upload": ("<robot/>",),
+    "delete": ("r",), "mass_matrix": ("r", [0.0]), "gravity": ("r", [0.0]),
+    "coriolis": ("r", [0.0], [0.0]), "nonlinear_effects": ("r", [0.0], [0.0]),
+    "inverse_dynamics": ("r", [0.0], [0.0], [0.0]),
+    "forward_dynamics": ("r", [0.0], [0.0], [0.0]),
+}
+
+
+def sent_requests() -> dict[str, httpx.Request]:
+    """Call every client method against a mock; the request each one sent."""
+    seen: list[httpx.Request] = []
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        seen.append(request)
+        return httpx.Response(200, json=ANSWERS)
+
+    out = {}
+    http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://mock")
+    with robodyn.Client(http_client=http) as client:
+        for name in core.METHODS:
+            getattr(client, name)(*ARGS[name])
+            out[name] = seen[-1]
+    return out
+
+
+@pytest.fixture(scope="module")
+def openapi(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    return create_app(Settings(data_dir=tmp_path_factory.mktemp("openapi"))).openapi()
+
+
+def test_every_request_the_client_sends_is_a_route_of_the_server(openapi: dict) -> None:
+    routes = [(re.compile("^" + re.sub(r"\{[^/]+\}", "[^/]+", path) + "$"), method.upper())
+              for path, methods in openapi["paths"].items() for method in methods]
+    requests = sent_requests()
+    assert set(requests) == set(ARGS) == set(core.METHODS)
+    for name, request in requests.items():
+        path = request.url.raw_path.decode()
+        assert any(rx.match(path) and m == request.method for rx, m in routes), (name, path)
+        method, template = core.ROUTES[name]
+        assert method.lower() in openapi["paths"][template], name
+
+
+def test_request_bodies_validate_against_the_server_schemas() -> None:
+    requests = sent_requests()
+    UploadRequest.model_validate_json(requests["upload"].content)
+    inputs = {"mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
+              "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
+              "forward_dynamics": ("q", "v", "tau")}
+    for name, fields in inputs.items():
+        body = json.loads(requests[name].content)
+        assert tuple(body) == fields
+        REQUEST_BY_INPUTS[fields].model_validate(body)  # strict: no extra or mistyped field
+
+
+def test_every_server_code_has_a_client_class_with_its_status() -> None:
+    for code, status in STATUS_BY_CODE.items():
+        cls = errors.ERROR_BY_CODE.get(code)
+        assert cls is not None, f"no client class for server code {code!r}"
+        assert cls.status_code == status, code
+        assert errors.error_class(status, code) is cls
+
+
+def test_client_and_async_client_mirror_each_other() -> None:
+    def public(cls: type) -> dict[str, Any]:
+        return {n: f for n, f in vars(cls).items() if not n.startswith("_") and callable(f)}
+
+    sync, asynchronous = public(robodyn.Client), public(robodyn.AsyncClient)
+    assert set(sync) - {"close"} == set(asynchronous) - {"aclose"} == set(core.METHODS)
+    for name in core.METHODS:
+        assert inspect.signature(sync[name]) == inspect.signature(asynchronous[name]), name
+        assert inspect.iscoroutinefunction(asynchronous[name]), name
+        assert not inspect.iscoroutinefunction(sync[name]), name
+        assert sync[name].__doc__ == asynchronous[name].__doc__ == getattr(core, name).__doc__
+        assert "shape" in sync[name].__doc__ or name in ("health", "ready", "robots", "robot",
+                                                         "upload", "delete")
+
+
+def test_package_imports_without_server_dependencies() -> None:
+    script = f"""
+import sys
+BLOCKED = {BLOCKED!r}
+class Blocker:
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in BLOCKED:
+            raise ImportError(f"{{name}} is blocked")
+        return None
+sys.meta_path.insert(0, Blocker())
+import httpx, numpy as np, robodyn
+def handler(request):
+    return httpx.Response(200, json={{"gravity": [1.0, 2.0]}})
+http = httpx.Client(transport=httpx.MockTransport(handler))
+with robodyn.Client("http://x", http_client=http) as client:
+    assert client.gravity("r", np.zeros(2)).tolist() == [1.0, 2.0]
+robodyn.AsyncClient("http://x")
+loaded = sorted(m for m in sys.modules if m.split(".")[0] in BLOCKED)
+assert not loaded, loaded
+print(robodyn.__file__)
+"""
+    env = {**os.environ, "PYTHONPATH": str(CLIENT_DIR / "src")}
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                          text=True, timeout=60, cwd=CLIENT_DIR)
+    assert done.returncode == 0, done.stderr
+    assert Path(done.stdout.strip()).is_relative_to(CLIENT_DIR / "src" / "robodyn")
+
+
+def test_distribution_depends_on_httpx_and_numpy_only() -> None:
+    project = tomllib.loads((CLIENT_DIR / "pyproject.toml").read_text())["project"]
+    names = {re.split(r"[<>=!~\[; ]", dep, maxsplit=1)[0].lower()
+             for dep in project["dependencies"]}
+    assert project["name"] == "robodyn" and names == {"httpx", "numpy"}
+    assert project["version"] == robodyn.__version__
+    assert (CLIENT_DIR / "src" / "robodyn" / "py.typed").exists()
+
+
+def test_answers_are_numpy_and_match_the_server_answer_fields() -> None:
+    from service.api.schemas import ANSWER_BY_QUANTITY
+
+    requests = sent_requests()
+    paths = {core.ROUTES[name][1].rsplit("/", 1)[-1]: name for name in requests
+             if name in ("mass_matrix", "gravity", "coriolis", "nonlinear_effects",
+                         "inverse_dynamics", "forward_dynamics")}
+    assert set(paths) == set(ANSWER_BY_QUANTITY)
+    http = httpx.Client(transport=httpx.MockTransport(
+        lambda request: httpx.Response(200, json=ANSWERS)))
+    with robodyn.Client("http://mock", http_client=http) as client:
+        for path, name in paths.items():
+            fields = list(ANSWER_BY_QUANTITY[path].model_fields)
+            got = getattr(client, name)(*ARGS[name])
+            got = got if isinstance(got, tuple) else (got,)
+            assert len(got) == len(fields)
+            for value, field in zip(got, fields, strict=True):
+                assert isinstance(value, np.ndarray)
+                np.testing.assert_array_equal(value, ANSWERS[field])

@@ -45,9 +45,9 @@ _HTTP_CODES = {400: ("bad_request", "Bad request"), 404: ("not_found", "Not foun
 
 
 def problem(code: str, title: str, detail: str, headers: dict[str, str] | None = None,
-            **extra: Any) -> Response:
-    """A problem+json response with the status of `code`."""
-    status = STATUS_BY_CODE[code]
+            status: int | None = None, **extra: Any) -> Response:
+    """A problem+json response with the status of `code` (or an explicit `status`)."""
+    status = status or STATUS_BY_CODE[code]
     body = {"type": "about:blank", "title": title, "status": status, "detail": detail,
             "code": code, **extra}
     return Response(orjson.dumps(body), status_code=status, headers=headers,
@@ -95,7 +95,9 @@ async def _on_validation_error(request: Request, exc: Exception) -> Response:
 
 async def _on_http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, StarletteHTTPException)
-    code, title = _HTTP_CODES.get(exc.status_code, ("internal_error", "Internal error"))
+    fallback = ("bad_request", "Bad request") if exc.status_code < 500 else (
+        "internal_error", "Internal error")
+    code, title = _HTTP_CODES.get(exc.status_code, fallback)
     if code == "not_found":
         detail = "no such route; see /openapi.json or /docs for the API"
     elif code == "method_not_allowed":

@@ -111,13 +111,16 @@ class Robot:
             for jid in range(1, m.njoints):
                 jm = m.joints[jid]
                 qs, vs = slice(jm.idx_q, jm.idx_q + jm.nq), slice(jm.idx_v, jm.idx_v + jm.nv)
+                unbounded = joint_type(jm) == "continuous"  # (cos, sin): no position limit
                 joints.append({
                     "name": m.names[jid], "type": joint_type(jm),
                     "parent": m.names[m.parents[jid]],
                     "idx_q": int(jm.idx_q), "nq": int(jm.nq),
                     "idx_v": int(jm.idx_v), "nv": int(jm.nv),
-                    "lower": _finite_or_none(m.lowerPositionLimit[qs]),
-                    "upper": _finite_or_none(m.upperPositionLimit[qs]),
+                    "lower": [None] * jm.nq if unbounded
+                    else _finite_or_none(m.lowerPositionLimit[qs]),
+                    "upper": [None] * jm.nq if unbounded
+                    else _finite_or_none(m.upperPositionLimit[qs]),
                     "velocity_limit": _finite_or_none(m.velocityLimit[vs]),
                     "effort_limit": _finite_or_none(m.effortLimit[vs]),
                     "armature": [float(x) for x in m.armature[vs]],

@@ -128,6 +128,9 @@ async def test_server_errors_raise_their_classes(client: AsyncClient) -> None:
     with pytest.raises(robodyn.CatalogRobotError) as catalog:
         await client.delete("ur5")
     assert catalog.value.status == 409 and catalog.value.body["code"] == "catalog_robot"
+    with pytest.raises(robodyn.NonFiniteResultError, match="not finite") as overflow:
+        await client.coriolis("ur5", np.zeros(6), np.full(6, 1e200))  # C v overflows
+    assert isinstance(overflow.value, ArithmeticError) and overflow.value.status == 422
     with pytest.raises(robodyn.ValidationError, match="root_joint"):
         await client.upload(two_link_urdf(), root_joint="sideways")
     with pytest.raises(robodyn.InvalidModelError, match="elbow"):

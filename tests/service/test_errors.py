@@ -278,3 +278,18 @@ def test_a_body_not_labelled_json_is_415(api):
     assert "application/json" in body["detail"]
     r = api.post("/v1/robots/ur5/gravity", content=b'{"q": [0, 0, 0, 0, 0, 0]}')
     assert r.status_code == 200  # no Content-Type at all: read as JSON
+
+
+def test_other_framework_4xx_are_bad_requests(api):
+    from starlette.exceptions import HTTPException
+    from starlette.requests import Request
+
+    from service.api.problems import _on_http_error
+
+    request = Request({"type": "http", "method": "GET", "path": "/", "headers": [],
+                       "app": api.app})
+    import asyncio
+
+    r = asyncio.run(_on_http_error(request, HTTPException(status_code=429, detail="slow down")))
+    # a framework 4xx without a code of its own is a 400 bad_request, never a 500
+    assert r.status_code == 400 and json.loads(r.body)["code"] == "bad_request"

@@ -68,3 +68,8 @@ def test_catalog_findings_are_warnings(api):
     pr2 = api.get("/v1/robots/pr2").json()
     assert any(w["code"] == "triangle_inequality" and w["element"] == "link"
                and w["name"] in w["message"] for w in pr2["warnings"])
+
+
+def test_continuous_joints_have_no_position_limits(api):
+    joints = api.get("/v1/robots/double_pendulum_continuous").json()["joints"]
+    assert all(j["lower"] == [None, None] and j["upper"] == [None, None] for j in joints)

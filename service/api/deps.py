@@ -12,15 +12,15 @@ from service.registry import Registry
 from service.settings import Settings
 
 
-def get_registry(request: Request) -> Registry:
+async def get_registry(request: Request) -> Registry:
     return request.app.state.registry  # type: ignore[no-any-return]
 
 
-def get_settings(request: Request) -> Settings:
+async def get_settings(request: Request) -> Settings:
     return request.app.state.settings  # type: ignore[no-any-return]
 
 
-def require_api_key(request: Request) -> None:
+async def require_api_key(request: Request) -> None:
     """Where `ROBODYN_API_KEYS` is set, demand `Authorization: Bearer <key>` (constant time)."""
     keys: list[bytes] = request.app.state.api_keys
     if not keys:

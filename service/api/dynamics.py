@@ -1,32 +1,48 @@
-"""Routes of the dynamics quantities: POST /v1/robots/{id}/<quantity>, one per quantity."""
+"""Routes of the dynamics quantities: POST /v1/robots/{id}/<quantity>, one per quantity.
 
-# No `from __future__ import annotations`: FastAPI must see the closure's request model.
+This is the hot path, so each route is a plain ASGI endpoint without per-request dependency
+injection: the body is validated by the quantity's strict pydantic model straight from its bytes
+(`model_validate_json`), or decoded from the binary form (`service.api.binary`), and the answer
+is written by orjson or the binary encoder. The OpenAPI document describes these routes with
+the very same models (`openapi_routes`), and failures are the same problem+json answers.
+"""
+
+# No `from __future__ import annotations`: FastAPI must see the closures' request models.
+import time
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
+from fastapi.exceptions import RequestValidationError
+from pydantic import BaseModel, ValidationError, create_model
 from starlette.concurrency import run_in_threadpool
+from starlette.routing import Route
 
 from service import dynamics
+from service.api import binary, schemas_dynamics
 from service.api.answers import JSONAnswer
-from service.api.deps import RegistryDep
-from service.api.schemas import ANSWER_BY_QUANTITY, REQUEST_BY_INPUTS, Problem
-from service.errors import Overloaded
+from service.api.problems import problem
+from service.api.schemas import Problem
+from service.errors import InvalidInput, Overloaded
 from service.states import prepare
 
-router = APIRouter(prefix="/v1/robots", tags=["dynamics"])
+PREFIX = "/v1/robots"
+REQUESTS: dict[str, type[BaseModel]] = {**schemas_dynamics.REQUESTS}
+ANSWERS: dict[str, type[BaseModel]] = {**schemas_dynamics.ANSWERS}
 
 # Batches bigger than this (states × nv) run in a worker thread, not on the event loop.
 INLINE_WORK = 2_000
 
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
     404: {"model": Problem, "description": "robot_not_found"},
+    415: {"model": Problem, "description": "unsupported_media_type"},
     422: {"model": Problem, "description": "validation_error, dimension_mismatch, "
-          "invalid_configuration, non_finite_result"},
-    503: {"model": Problem, "description": "not_ready"},
+          "invalid_configuration, non_finite_result (and the quantity's own codes)"},
+    503: {"model": Problem, "description": "not_ready, overloaded"},
 }
 
 
-async def _off_loop(request: Request, robot: Any, quantity: str, states: Any) -> Any:
+async def _off_loop(request: Request, robot: Any, quantity: dynamics.Quantity, states: Any,
+                    options: dict[str, Any]) -> Any:
     """Run a large batch in a worker thread; shed load (503 overloaded) past the queue limit."""
     state = request.app.state
     if state.batches_in_flight >= state.settings.max_pending_batches:
@@ -34,33 +50,109 @@ async def _off_loop(request: Request, robot: Any, quantity: str, states: Any) ->
                          "retry shortly")
     state.batches_in_flight += 1  # only touched on the event loop: no lock needed
     try:
-        return await run_in_threadpool(dynamics.compute, robot, quantity, states)
+        return await run_in_threadpool(dynamics.run, robot, quantity, states, options)
     finally:
         state.batches_in_flight -= 1
 
 
-def _make_endpoint(quantity: dynamics.Quantity) -> Any:
-    request_model = REQUEST_BY_INPUTS[quantity.inputs]
+def _invalid(exc: ValidationError) -> RequestValidationError:
+    return RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in exc.errors()])
 
-    async def endpoint(robot_id: str, body: request_model, request: Request,  # type: ignore[valid-type]
-                       registry: RegistryDep) -> Response:
-        robot = registry.get(robot_id)
-        inputs = {name: getattr(body, name) for name in quantity.inputs}
-        max_batch = request.app.state.settings.max_batch
-        states = prepare(robot, inputs, max_batch)
-        if states.count * robot.nv <= INLINE_WORK:
-            result = dynamics.compute(robot, quantity.path, states)
+
+class Endpoint:
+    """The endpoint of one quantity: `answer` takes the Starlette request."""
+
+    def __init__(self, quantity: dynamics.Quantity) -> None:
+        self.quantity = quantity
+        self.route = Route(f"{PREFIX}/{{robot_id}}/{quantity.path}", self.answer,
+                           methods=["POST"], name=quantity.path)
+        self.model = REQUESTS[quantity.path]
+        self.joint_inputs = (*quantity.inputs, *quantity.optional)
+        fields: dict[str, Any] = {
+            name: (info.annotation, info) for name, info in self.model.model_fields.items()
+            if name not in self.joint_inputs}
+        self.options_model = create_model(  # the non-array fields, for binary bodies
+            f"{self.model.__name__}Options", __config__=self.model.model_config, **fields)
+
+    def _parse_json(self, body: bytes) -> tuple[dict[str, Any], dict[str, Any]]:
+        try:
+            parsed = self.model.model_validate_json(body)
+        except ValidationError as exc:
+            raise _invalid(exc) from None
+        arrays = {n: getattr(parsed, n) for n in self.joint_inputs if getattr(parsed, n, None)
+                  is not None}
+        given = parsed.model_fields_set.difference(self.joint_inputs)
+        return arrays, (parsed.model_dump(include=given) if given else {})
+
+    def _parse_binary(self, body: bytes) -> tuple[dict[str, Any], dict[str, Any]]:
+        fields, arrays = binary.decode(body)
+        unknown = sorted(set(arrays) - set(self.joint_inputs))
+        missing = [n for n in self.quantity.inputs if n not in arrays]
+        if unknown or missing:
+            wrong = (f"unknown array {unknown[0]!r}" if unknown else
+                     f"missing array {missing[0]!r}")
+            raise InvalidInput(f"binary body: {wrong}; {self.quantity.path} takes "
+                                      f"the arrays {', '.join(self.joint_inputs)}")
+        try:
+            options = self.options_model.model_validate(fields)
+        except ValidationError as exc:
+            raise _invalid(exc) from None
+        given = options.model_fields_set
+        return arrays, (options.model_dump(include=given) if given else {})
+
+    async def answer(self, request: Request) -> Response:
+        request.scope["route"] = self.route  # FastAPI's router records only its own routes
+        state = request.app.state
+        robot = state.registry.get(request.path_params["robot_id"])
+        content_type = request.headers.get("content-type", "")
+        body = await request.body()
+        if content_type.startswith(binary.BINARY_MEDIA_TYPE):
+            arrays, options = self._parse_binary(body)
+        elif content_type and "json" not in content_type.split(";")[0]:
+            return problem("unsupported_media_type", "Unsupported media type",
+                           "send the body as JSON ('Content-Type: application/json') or in "
+                           f"the binary form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
         else:
-            result = await _off_loop(request, robot, quantity.path, states)
+            arrays, options = self._parse_json(body)
+        states = prepare(robot, arrays, state.settings.max_batch)
+        started = time.perf_counter()
+        if states.count * robot.nv <= INLINE_WORK:
+            result = dynamics.run(robot, self.quantity, states, options)
+        else:
+            result = await _off_loop(request, robot, self.quantity, states, options)
+        request.scope["robodyn"] = {
+            "robot": robot.id, "quantity": self.quantity.path, "batch_size": states.count,
+            "compute_seconds": time.perf_counter() - started}
+        if binary.BINARY_MEDIA_TYPE in request.headers.get("accept", ""):
+            return Response(binary.encode(result), media_type=binary.BINARY_MEDIA_TYPE)
         return JSONAnswer(result)
 
+
+def routes() -> list[Route]:
+    """The serving routes, one per quantity."""
+    return [Endpoint(q).route for q in dynamics.QUANTITIES.values()]
+
+
+def openapi_routes() -> APIRouter:
+    """Routes that only describe the serving routes in the OpenAPI document (never mounted)."""
+    router = APIRouter(prefix=PREFIX, tags=["dynamics"])
+    for quantity in dynamics.QUANTITIES.values():
+        router.add_api_route(
+            f"/{{robot_id}}/{quantity.path}", _describe(quantity), methods=["POST"],
+            response_model=ANSWERS[quantity.path], responses=_PROBLEMS,
+            summary=quantity.summary, name=quantity.path,
+            openapi_extra={"x-binary-media-type": binary.BINARY_MEDIA_TYPE})
+    return router
+
+
+def _describe(quantity: dynamics.Quantity) -> Any:
+    request_model = REQUESTS[quantity.path]
+
+    async def endpoint(robot_id: str, body: request_model) -> None:  # type: ignore[valid-type]
+        raise NotImplementedError  # documentation only: Endpoint serves the route
+
     endpoint.__name__ = quantity.path.replace("-", "_")
-    endpoint.__doc__ = quantity.compute.__doc__
+    endpoint.__doc__ = (f"{quantity.compute.__doc__}\n\nThe body may also be sent, and the answer "
+                        f"asked for, in the binary form ({binary.BINARY_MEDIA_TYPE}, see "
+                        "docs/binary-format.md).")
     return endpoint
-
-
-for _quantity in dynamics.QUANTITIES.values():
-    router.add_api_route(
-        f"/{{robot_id}}/{_quantity.path}", _make_endpoint(_quantity), methods=["POST"],
-        response_model=ANSWER_BY_QUANTITY[_quantity.path], responses=_PROBLEMS,
-        summary=_quantity.summary, name=_quantity.path)

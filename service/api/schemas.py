@@ -2,90 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
-JointArray = list[Number] | list[list[Number]]
-
-
-def _joint_field(desc: str) -> Any:
-    return Field(description=desc + " A 1-D array is one state; a 2-D array [N][n] is a batch "
-                 "of N states, and every answer then gains a leading axis of length N.")
-
-
-Q_DESC = ("Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "
-          "free-flyer base takes [x, y, z, qx, qy, qz, qw] (m, unit quaternion, scalar last), a "
-          "continuous joint [cos θ, sin θ]. GET /v1/robots/{id} gives each joint's idx_q.")
-V_DESC = ("Velocity v, length nv: rad/s or m/s; a free-flyer base takes 6 entries first "
-          "(linear then angular, in the base frame).")
-A_DESC = "Acceleration a, length nv: rad/s² or m/s² (free-flyer: linear then angular)."
-TAU_DESC = "Generalized force τ, length nv: N·m for revolute joints, N for prismatic ones."
 
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-
-
-class QRequest(_Strict):
-    q: JointArray = _joint_field(Q_DESC)
-
-
-class QVRequest(QRequest):
-    v: JointArray = _joint_field(V_DESC)
-
-
-class QVARequest(QVRequest):
-    a: JointArray = _joint_field(A_DESC)
-
-
-class QVTauRequest(QVRequest):
-    tau: JointArray = _joint_field(TAU_DESC)
-
-
-REQUEST_BY_INPUTS: dict[tuple[str, ...], type[QRequest]] = {
-    ("q",): QRequest, ("q", "v"): QVRequest, ("q", "v", "a"): QVARequest,
-    ("q", "v", "tau"): QVTauRequest,
-}
-
-Matrix = list[list[float]] | list[list[list[float]]]
-Vector = list[float] | list[list[float]]
-
-
-class MassMatrixAnswer(BaseModel):
-    mass_matrix: Matrix = Field(description="M(q), nv×nv symmetric positive definite, kg·m² "
-                                "(kg for prismatic rows); (N, nv, nv) for a batch.")
-
-
-class GravityAnswer(BaseModel):
-    gravity: Vector = Field(description="g(q), length nv, N·m or N: generalized gravity "
-                            "torques, the gradient of the potential energy.")
-
-
-class CoriolisAnswer(BaseModel):
-    coriolis_matrix: Matrix = Field(description="C(q, v), nv×nv, with Ṁ = C + Cᵀ; N·m·s.")
-    coriolis_forces: Vector = Field(description="C(q, v) v, length nv, N·m or N.")
-
-
-class NonlinearEffectsAnswer(BaseModel):
-    nonlinear_effects: Vector = Field(description="C(q, v) v + g(q), length nv, N·m or N.")
-
-
-class InverseDynamicsAnswer(BaseModel):
-    tau: Vector = Field(description="τ = M(q) a + C(q, v) v + g(q), length nv, N·m or N.")
-
-
-class ForwardDynamicsAnswer(BaseModel):
-    a: Vector = Field(description="a = M(q)⁻¹ (τ − C(q, v) v − g(q)), length nv, rad/s² or "
-                      "m/s².")
-
-
-ANSWER_BY_QUANTITY: dict[str, type[BaseModel]] = {
-    "mass-matrix": MassMatrixAnswer, "gravity": GravityAnswer, "coriolis": CoriolisAnswer,
-    "nonlinear-effects": NonlinearEffectsAnswer, "inverse-dynamics": InverseDynamicsAnswer,
-    "forward-dynamics": ForwardDynamicsAnswer,
-}
 
 
 class UploadRequest(_Strict):

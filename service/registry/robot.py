@@ -8,7 +8,9 @@ silently wrong answers).
 from __future__ import annotations
 
 import math
+import os
 import queue
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -41,6 +43,10 @@ UNIT_PARTS: dict[str, tuple[int, int]] = {
 }
 
 
+# Threads for Pinocchio's OpenMP batch algorithms: the cores this process may run on.
+PARALLEL_THREADS = max(1, len(os.sched_getaffinity(0)))
+
+
 def joint_type(joint: Any) -> str:
     """The robodyn name of a Pinocchio joint's type (its short name when unknown)."""
     short = joint.shortname()
@@ -65,6 +71,8 @@ class Robot:
     default_configuration: np.ndarray | None = None
     warnings: list[dict[str, str]] = field(default_factory=list)
     _pool: queue.SimpleQueue = field(default_factory=queue.SimpleQueue, repr=False)
+    _model_pool: Any = field(default=None, repr=False)
+    _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
         self.unit_joints: list[tuple[str, int, int]] = []  # (joint name, q start, q end)
@@ -98,6 +106,16 @@ class Robot:
             yield data
         finally:
             self._pool.put(data)
+
+    @contextmanager
+    def model_pool(self) -> Iterator[tuple[Any, int]]:
+        """Borrow this robot's `pin.ModelPool` (one Data per OpenMP thread) and the thread
+        count, for Pinocchio's parallel batch algorithms. One batch at a time per robot: a
+        batch already uses every core, and a pool's Datas must not be shared."""
+        with self._model_pool_lock:
+            if self._model_pool is None:
+                self._model_pool = pin.ModelPool(self.model, PARALLEL_THREADS)
+            yield self._model_pool, PARALLEL_THREADS
 
     def summary(self) -> dict[str, Any]:
         return {"id": self.id, "name": self.name, "source": self.source, "nq": self.nq,

@@ -19,7 +19,8 @@ import robodyn
 from robodyn import core, errors
 
 from service.api.problems import STATUS_BY_CODE
-from service.api.schemas import REQUEST_BY_INPUTS, UploadRequest
+from service.api.schemas import UploadRequest
+from service.api.schemas_dynamics import REQUESTS
 from service.main import create_app
 from service.settings import Settings
 
@@ -84,7 +85,7 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
     for name, fields in inputs.items():
         body = json.loads(requests[name].content)
         assert tuple(body) == fields
-        REQUEST_BY_INPUTS[fields].model_validate(body)  # strict: no extra or mistyped field
+        REQUESTS[name.replace("_", "-")].model_validate(body)  # strict: no extra or mistyped field
 
 
 def test_every_server_code_has_a_client_class_with_its_status() -> None:
@@ -148,7 +149,7 @@ def test_distribution_depends_on_httpx_and_numpy_only() -> None:
 
 
 def test_answers_are_numpy_and_match_the_server_answer_fields() -> None:
-    from service.api.schemas import ANSWER_BY_QUANTITY
+    from service.api.schemas_dynamics import ANSWERS as ANSWER_BY_QUANTITY
 
     requests = sent_requests()
     paths = {core.ROUTES[name][1].rsplit("/", 1)[-1]: name for name in requests

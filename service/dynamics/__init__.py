@@ -1,0 +1,12 @@
+"""Dynamics quantities: one function per physical quantity, and the table of endpoints.
+
+Each topic module contributes a tuple of `Quantity`; `QUANTITIES` maps every endpoint path to
+its quantity. Only this package and `service.registry` import Pinocchio.
+"""
+
+from service.dynamics.equation_of_motion import EQUATION_OF_MOTION
+from service.dynamics.quantity import Quantity, Results, finite, run
+
+QUANTITIES: dict[str, Quantity] = {q.path: q for q in (*EQUATION_OF_MOTION,)}
+
+__all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

@@ -1,0 +1,110 @@
+"""The terms of the joint-space equation of motion, M(q) a + C(q, v) v + g(q) = τ.
+
+One function per physical quantity. Each takes a `Robot` and validated `States` (arrays of shape
+(N, n), see `service.states`), borrows its own `pin.Data` for the computation, and returns arrays
+with the batch axis first. Units are SI: q in rad (revolute) or m (prismatic), v in rad/s or m/s,
+a in rad/s² or m/s², τ in N·m or N; M in kg·m² (or kg), g and C v in the units of τ.
+
+A non-finite result (e.g. forward dynamics of a robot with a massless moving body) raises
+`NonFiniteResult`: JSON cannot carry it, and it is never silently returned.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pinocchio as pin
+
+from service.dynamics import parallel
+from service.dynamics.quantity import Quantity, Results, finite
+from service.registry.robot import Robot
+from service.states import States
+
+
+@functools.cache
+def _lower_triangle(n: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.tril_indices(n, -1)
+
+
+def mass_matrix(robot: Robot, s: States) -> Results:
+    """M(q), the joint-space inertia matrix (CRBA), shape (N, nv, nv), symmetric positive
+    definite; the kinetic energy is T = ½ vᵀ M v. Includes the armature on its diagonal."""
+    q = s["q"]
+    out = np.empty((q.shape[0], robot.nv, robot.nv))
+    with robot.data() as data:
+        for i in range(q.shape[0]):
+            out[i] = pin.crba(robot.model, data, q[i])
+    # CRBA fills the upper triangle; the lower one is not guaranteed to be up to date.
+    rows, cols = _lower_triangle(robot.nv)
+    out[:, rows, cols] = out[:, cols, rows]
+    return finite("mass-matrix", mass_matrix=out)
+
+
+def gravity(robot: Robot, s: States) -> Results:
+    """g(q), the generalized gravity torques (gradient of the potential energy), (N, nv)."""
+    q = s["q"]
+    out = np.empty((q.shape[0], robot.nv))
+    with robot.data() as data:
+        for i in range(q.shape[0]):
+            out[i] = pin.computeGeneralizedGravity(robot.model, data, q[i])
+    return finite("gravity", gravity=out)
+
+
+def coriolis(robot: Robot, s: States) -> Results:
+    """C(q, v), the Coriolis/centrifugal matrix with Ṁ = C + Cᵀ, (N, nv, nv), and the forces
+    C(q, v) v, (N, nv)."""
+    q, v = s["q"], s["v"]
+    n = q.shape[0]
+    C = np.empty((n, robot.nv, robot.nv))
+    with robot.data() as data:
+        for i in range(n):
+            C[i] = pin.computeCoriolisMatrix(robot.model, data, q[i], v[i])
+    Cv = np.einsum("nij,nj->ni", C, v)
+    return finite("coriolis", coriolis_matrix=C, coriolis_forces=Cv)
+
+
+def nonlinear_effects(robot: Robot, s: States) -> Results:
+    """h(q, v) = C(q, v) v + g(q) (Pinocchio's nonlinear effects include gravity), (N, nv)."""
+    q, v = s["q"], s["v"]
+    out = np.empty((q.shape[0], robot.nv))
+    with robot.data() as data:
+        for i in range(q.shape[0]):
+            out[i] = pin.nonLinearEffects(robot.model, data, q[i], v[i])
+    return finite("nonlinear-effects", nonlinear_effects=out)
+
+
+def inverse_dynamics(robot: Robot, s: States) -> Results:
+    """τ = M(q) a + C(q, v) v + g(q) by the recursive Newton–Euler algorithm, (N, nv)."""
+    q, v, a = s["q"], s["v"], s["a"]
+    out = np.empty((q.shape[0], robot.nv))
+    with robot.data() as data:
+        for i in range(q.shape[0]):
+            out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
+    return finite("inverse-dynamics", tau=out)
+
+
+def forward_dynamics(robot: Robot, s: States) -> Results:
+    """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) by the articulated-body algorithm, (N, nv).
+
+    ABA in Pinocchio's WORLD convention, the one `abaInParallel` uses, so that a batch gives
+    bit for bit the same answer however it is computed (LOCAL differs by rounding, ~1e-10)."""
+    q, v, tau = s["q"], s["v"], s["tau"]
+    out = np.empty((q.shape[0], robot.nv))
+    with robot.data() as data:
+        for i in range(q.shape[0]):
+            out[i] = pin.aba(robot.model, data, q[i], v[i], tau[i], pin.Convention.WORLD)
+    return finite("forward-dynamics", a=out)
+
+
+EQUATION_OF_MOTION = (
+    Quantity("mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)"),
+    Quantity("gravity", ("q",), gravity, "Gravity vector g(q)"),
+    Quantity("coriolis", ("q", "v"), coriolis, "Coriolis matrix C(q, v) and forces C v"),
+    Quantity("nonlinear-effects", ("q", "v"), nonlinear_effects,
+             "Nonlinear effects C(q, v) v + g(q)"),
+    Quantity("inverse-dynamics", ("q", "v", "a"), inverse_dynamics,
+             "Inverse dynamics τ = M a + C v + g (RNEA)", parallel=parallel.inverse_dynamics),
+    Quantity("forward-dynamics", ("q", "v", "tau"), forward_dynamics,
+             "Forward dynamics a = M⁻¹ (τ − C v − g) (ABA)", parallel=parallel.forward_dynamics),
+)

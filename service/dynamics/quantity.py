@@ -1,0 +1,58 @@
+"""What a dynamics quantity is, for the layers above: inputs, computing function, batch form.
+
+A quantity's `compute(robot, states, **options)` takes validated joint-space `States` (arrays
+of shape (N, n), see `service.states`) and keyword options (e.g. `frame`), and returns named
+arrays whose first axis is the batch axis N. `parallel`, where given, computes the same arrays
+bit for bit, faster for large N (Pinocchio's OpenMP batch algorithms).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from service.errors import NonFiniteResult
+from service.registry.robot import Robot
+from service.states import States
+
+Results = dict[str, np.ndarray]
+Compute = Callable[..., Results]
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A dynamics endpoint: `POST /v1/robots/{id}/<path>`.
+
+    `inputs` are the required joint-space arrays and `optional` the optional ones (names from
+    `service.states.SPACES`: q, v, a, tau); every other request field is passed to `compute`
+    as a keyword option.
+    """
+
+    path: str
+    inputs: tuple[str, ...]
+    compute: Compute
+    summary: str
+    optional: tuple[str, ...] = ()
+    parallel: Compute | None = None
+    parallel_from: int = 64  # smallest batch for which `parallel` is used
+
+
+def finite(quantity: str, **results: np.ndarray) -> Results:
+    """Return `results`, or raise NonFiniteResult naming the first non-finite one."""
+    for name, value in results.items():
+        if not np.isfinite(value).all():
+            raise NonFiniteResult(f"{quantity}: the computed {name} is not finite for these "
+                                  "inputs (is a moving body massless, or an input extreme?)")
+    return results
+
+
+def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) -> dict[str, Any]:
+    """Compute one quantity and drop the batch axis again for a single-state request."""
+    if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
+        results = quantity.parallel(robot, s)
+    else:
+        results = quantity.compute(robot, s, **options)
+    return {name: s.unbatch(value) for name, value in results.items()}

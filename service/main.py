@@ -14,7 +14,7 @@ from fastapi.openapi.utils import get_openapi
 
 from service import __version__
 from service.api import dynamics as dynamics_routes
-from service.api import health, robots
+from service.api import health, robots, stream
 from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
 from service.api.problems import install_problem_handlers
 from service.registry import Registry
@@ -55,7 +55,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(health.router)
     app.include_router(robots.router)
     # The dynamics routes are the hot path: they are matched first.
-    app.router.routes[0:0] = dynamics_routes.routes()
+    app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
     _document(app, dynamics_routes.openapi_routes())
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics,

@@ -15,6 +15,7 @@ from fastapi import APIRouter, Request, Response
 from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ValidationError, create_model
 from starlette.concurrency import run_in_threadpool
+from starlette.requests import HTTPConnection
 from starlette.routing import Route
 
 from service import dynamics
@@ -41,7 +42,7 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 }
 
 
-async def _off_loop(request: Request, robot: Any, quantity: dynamics.Quantity, states: Any,
+async def _off_loop(request: HTTPConnection, robot: Any, quantity: dynamics.Quantity, states: Any,
                     options: dict[str, Any]) -> Any:
     """Run a large batch in a worker thread; shed load (503 overloaded) past the queue limit."""
     state = request.app.state
@@ -74,17 +75,31 @@ class Endpoint:
         self.options_model = create_model(  # the non-array fields, for binary bodies
             f"{self.model.__name__}Options", __config__=self.model.model_config, **fields)
 
-    def _parse_json(self, body: bytes) -> tuple[dict[str, Any], dict[str, Any]]:
+    def parse_json(self, body: bytes | str) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(joint-space arrays, options) of a JSON body."""
         try:
             parsed = self.model.model_validate_json(body)
         except ValidationError as exc:
             raise _invalid(exc) from None
+        return self._split(parsed)
+
+    def parse_object(self, body: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(joint-space arrays, options) of an already decoded JSON object."""
+        try:
+            parsed = self.model.model_validate(body)
+        except ValidationError as exc:
+            raise _invalid(exc) from None
+        return self._split(parsed)
+
+    def _split(self, parsed: BaseModel) -> tuple[dict[str, Any], dict[str, Any]]:
         arrays = {n: getattr(parsed, n) for n in self.joint_inputs if getattr(parsed, n, None)
                   is not None}
         given = parsed.model_fields_set.difference(self.joint_inputs)
         return arrays, (parsed.model_dump(include=given) if given else {})
 
-    def _parse_binary(self, body: bytes) -> tuple[dict[str, Any], dict[str, Any]]:
+    def parse_binary(self, body: bytes, extra: tuple[str, ...] = ()
+                     ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(joint-space arrays, options) of a binary body; `extra` fields are ignored here."""
         fields, arrays = binary.decode(body)
         unknown = sorted(set(arrays) - set(self.joint_inputs))
         missing = [n for n in self.quantity.inputs if n not in arrays]
@@ -92,7 +107,9 @@ class Endpoint:
             wrong = (f"unknown array {unknown[0]!r}" if unknown else
                      f"missing array {missing[0]!r}")
             raise InvalidInput(f"binary body: {wrong}; {self.quantity.path} takes "
-                                      f"the arrays {', '.join(self.joint_inputs)}")
+                               f"the arrays {', '.join(self.joint_inputs)}")
+        for name in extra:
+            fields.pop(name, None)
         try:
             options = self.options_model.model_validate(fields)
         except ValidationError as exc:
@@ -100,21 +117,12 @@ class Endpoint:
         given = options.model_fields_set
         return arrays, (options.model_dump(include=given) if given else {})
 
-    async def answer(self, request: Request) -> Response:
-        request.scope["route"] = self.route  # FastAPI's router records only its own routes
-        state = request.app.state
-        robot = state.registry.get(request.path_params["robot_id"])
-        content_type = request.headers.get("content-type", "")
-        body = await request.body()
-        if content_type.startswith(binary.BINARY_MEDIA_TYPE):
-            arrays, options = self._parse_binary(body)
-        elif content_type and "json" not in content_type.split(";")[0]:
-            return problem("unsupported_media_type", "Unsupported media type",
-                           "send the body as JSON ('Content-Type: application/json') or in "
-                           f"the binary form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
-        else:
-            arrays, options = self._parse_json(body)
-        states = prepare(robot, arrays, state.settings.max_batch)
+    async def compute(self, request: HTTPConnection, robot: Any, arrays: dict[str, Any],
+                      options: dict[str, Any]) -> dict[str, Any]:
+        """Validate the states and compute: inline when small, in a worker thread when large.
+        Records what was computed in the ASGI scope (`scope["robodyn"]`) for logs and
+        Server-Timing."""
+        states = prepare(robot, arrays, request.app.state.settings.max_batch)
         started = time.perf_counter()
         if states.count * robot.nv <= INLINE_WORK:
             result = dynamics.run(robot, self.quantity, states, options)
@@ -123,14 +131,34 @@ class Endpoint:
         request.scope["robodyn"] = {
             "robot": robot.id, "quantity": self.quantity.path, "batch_size": states.count,
             "compute_seconds": time.perf_counter() - started}
+        return result
+
+    async def answer(self, request: Request) -> Response:
+        request.scope["route"] = self.route  # FastAPI's router records only its own routes
+        robot = request.app.state.registry.get(request.path_params["robot_id"])
+        content_type = request.headers.get("content-type", "")
+        body = await request.body()
+        if content_type.startswith(binary.BINARY_MEDIA_TYPE):
+            arrays, options = self.parse_binary(body)
+        elif content_type and "json" not in content_type.split(";")[0]:
+            return problem("unsupported_media_type", "Unsupported media type",
+                           "send the body as JSON ('Content-Type: application/json') or in "
+                           f"the binary form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+        else:
+            arrays, options = self.parse_json(body)
+        result = await self.compute(request, robot, arrays, options)
         if binary.BINARY_MEDIA_TYPE in request.headers.get("accept", ""):
             return Response(binary.encode(result), media_type=binary.BINARY_MEDIA_TYPE)
         return JSONAnswer(result)
 
 
+ENDPOINTS: dict[str, Endpoint] = {}
+
+
 def routes() -> list[Route]:
     """The serving routes, one per quantity."""
-    return [Endpoint(q).route for q in dynamics.QUANTITIES.values()]
+    ENDPOINTS.update({q.path: Endpoint(q) for q in dynamics.QUANTITIES.values()})
+    return [endpoint.route for endpoint in ENDPOINTS.values()]
 
 
 def openapi_routes() -> APIRouter:

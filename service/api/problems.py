@@ -84,13 +84,24 @@ async def _on_validation_error(request: Request, exc: Exception) -> Response:
         return problem("unsupported_media_type", "Unsupported media type",
                        "send the body as JSON with 'Content-Type: application/json' "
                        "(with curl: --json '{...}')")
+    return problem("validation_error", "Invalid request", **validation_details(exc))
+
+
+def validation_details(exc: RequestValidationError) -> dict[str, Any]:
+    """`detail` (the first error, located) and `errors` (up to 20) of a validation failure."""
     errors = [{"loc": _location(tuple(e.get("loc", ()))), "msg": e.get("msg", "invalid")}
               for e in exc.errors()[:20]]
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
     detail = f"{first['loc']}: {first['msg']}"
     if len(errors) > 1:
         detail += f" (and {len(exc.errors()) - 1} more)"
-    return problem("validation_error", "Invalid request", detail, errors=errors)
+    return {"detail": detail, "errors": errors}
+
+
+def problem_body(code: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:
+    """The problem+json object of `code` (for channels other than an HTTP answer)."""
+    return {"type": "about:blank", "title": title, "status": STATUS_BY_CODE[code],
+            "detail": detail, "code": code, **extra}
 
 
 async def _on_http_error(request: Request, exc: Exception) -> Response:

@@ -2,8 +2,10 @@
 
 `rneaInParallel` and `abaInParallel` take states as columns (nq × N, nv × N); the (N, n)
 row-major arrays of `States` are exactly that layout transposed, so no copy is made. They hold
-the GIL while they run, so a batch is cut into chunks of about `CHUNK_SECONDS` of work: between
-chunks the event loop gets the interpreter back and single-state requests stay responsive.
+the GIL while they run, so a batch is cut into chunks of `CHUNK_WORK` states × nv (a few
+milliseconds): between chunks the event loop gets the interpreter back and single-state
+requests stay responsive. OpenMP threads wait passively between calls (`OMP_WAIT_POLICY`, set
+in `service/__init__.py`), so they do not spin on the cores the event loop needs.
 Each state is computed by the same algorithm as the serial path, so the answers are bit for
 bit the same as `pin.rnea` / `pin.aba` state by state.
 """
@@ -20,8 +22,7 @@ from service.dynamics.quantity import Results, finite
 from service.registry.robot import Robot
 from service.states import States
 
-CHUNK_SECONDS = 0.002  # target wall time of one GIL-holding native call
-_SECONDS_PER_STATE_PER_DOF = 1e-7  # first guess, refined by measurement
+CHUNK_WORK = 50_000  # states × nv per GIL-holding native call: ~1–3 ms on one core
 
 
 def _in_chunks(robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: np.ndarray,
@@ -29,18 +30,12 @@ def _in_chunks(robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: n
     """Run `algorithm(threads, pool, q, x, y, out)` over the batch in GIL-friendly chunks."""
     n = q.shape[0]
     out = np.empty((n, robot.nv))
-    per_state = _SECONDS_PER_STATE_PER_DOF * robot.nv
+    size = max(256, CHUNK_WORK // robot.nv)
     with robot.model_pool() as (pool, threads):
-        start = 0
-        while start < n:
-            size = max(threads, int(CHUNK_SECONDS * threads / per_state))
+        for start in range(0, n, size):
             stop = min(n, start + size)
-            began = time.perf_counter()
             algorithm(threads, pool, q[start:stop].T, x[start:stop].T, y[start:stop].T,
                       out[start:stop].T)
-            elapsed = time.perf_counter() - began
-            per_state = max(elapsed * threads / (stop - start), 1e-9)
-            start = stop
             time.sleep(0)  # hand the GIL to the event loop if it is waiting
     return out
 

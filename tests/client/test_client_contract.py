@@ -101,7 +101,10 @@ def test_client_and_async_client_mirror_each_other() -> None:
         return {n: f for n, f in vars(cls).items() if not n.startswith("_") and callable(f)}
 
     sync, asynchronous = public(robodyn.Client), public(robodyn.AsyncClient)
-    assert set(sync) - {"close"} == set(asynchronous) - {"aclose"} == set(core.METHODS)
+    assert (set(sync) - {"close", "stream"} == set(asynchronous) - {"aclose", "stream"}
+            == set(core.METHODS))
+    assert inspect.signature(sync["stream"]).parameters == inspect.signature(
+        asynchronous["stream"]).parameters
     for name in core.METHODS:
         assert inspect.signature(sync[name]) == inspect.signature(asynchronous[name]), name
         assert inspect.iscoroutinefunction(asynchronous[name]), name

@@ -45,12 +45,14 @@ from robodyn.errors import (
     ValidationError,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
+from robodyn.stream import AsyncStream, Stream
 from robodyn.transport import DEFAULT_TIMEOUT
 
 __all__ = [
     "DEFAULT_TIMEOUT",
     "APIError",
     "AsyncClient",
+    "AsyncStream",
     "BadRequestError",
     "CatalogRobotError",
     "Client",
@@ -78,6 +80,7 @@ __all__ = [
     "ServerError",
     "ServiceUnavailableError",
     "SingularConfigurationError",
+    "Stream",
     "TimeoutError",
     "TransportError",
     "UnauthorizedError",

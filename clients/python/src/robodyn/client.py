@@ -13,6 +13,7 @@ import numpy as np
 from robodyn import core, transport
 from robodyn.arrays import ArrayLike
 from robodyn.models import RobotInfo, RobotList
+from robodyn.stream import Stream, stream_url
 
 T = TypeVar("T")
 
@@ -28,13 +29,16 @@ class Client:
     instead of creating one (e.g. with a custom transport); its own timeouts apply, and
     `close()` leaves it open.
     `headers`: extra headers for every request.
+    `binary`: send dynamics inputs and read answers in the binary form (raw float64, see the
+    server's docs/binary-format.md): None (default) for requests of `core.BINARY_FROM` numbers
+    or more, True always, False never. Answers are bit for bit the same either way.
     """
 
     def __init__(self, base_url: str | None = None, *, api_key: str | None = None,
                  timeout: transport.TimeoutLike = transport.DEFAULT_TIMEOUT,
                  http_client: httpx.Client | None = None,
-                 headers: Mapping[str, str] | None = None) -> None:
-        self._settings = transport.settings(base_url, api_key, http_client, headers)
+                 headers: Mapping[str, str] | None = None, binary: bool | None = None) -> None:
+        self._settings = transport.settings(base_url, api_key, http_client, headers, binary)
         self._owns_http = http_client is None
         self._http = http_client or httpx.Client(timeout=transport.timeout_of(timeout),
                                                  limits=transport.DEFAULT_LIMITS)
@@ -63,6 +67,14 @@ class Client:
 
     def __repr__(self) -> str:
         return f"Client({self.base_url!r})"
+
+    def stream(self, robot_id: str, *, open_timeout: float | None = 10.0) -> Stream:
+        """A WebSocket stream of one robot: every dynamics method of this client, minus the
+        `robot_id` argument, over one connection, answered in order (needs
+        `pip install 'robodyn[stream]'`). Use it as a context manager:
+        `with client.stream("ur5") as s: tau = s.inverse_dynamics(q, v, a)`."""
+        return Stream(stream_url(self.base_url, robot_id), robot_id,
+                      dict(self._settings.headers), self._settings.use_binary, open_timeout)
 
     # The docstrings of the methods below are those of `robodyn.core` (see `share_docs`).
 

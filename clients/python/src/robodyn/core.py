@@ -22,6 +22,7 @@ from urllib.parse import quote
 import httpx
 import numpy as np
 
+from robodyn import binary
 from robodyn.arrays import ArrayLike, answer_array, gravity_vector, joint_states, to_json
 from robodyn.errors import APIError, InputError, ResponseFormatError, error_class
 from robodyn.models import RobotInfo, RobotList
@@ -46,6 +47,11 @@ ROUTES: dict[str, tuple[str, str]] = {
 
 METHODS: tuple[str, ...] = tuple(ROUTES)
 
+BINARY_FROM = 4096
+"""Requests with this many input numbers or more are sent, and answered, in the binary form
+(raw float64 instead of JSON text: see docs/binary-format.md), unless the client says otherwise
+(`Client(binary=...)`)."""
+
 
 @dataclass(frozen=True)
 class Call(Generic[T]):
@@ -56,10 +62,33 @@ class Call(Generic[T]):
     read: Callable[[int, Any], T]
     json: Any = None
     accept: frozenset[int] = frozenset()  # statuses handed to `read` (body None), not raised
+    arrays: Mapping[str, np.ndarray] | None = None  # joint-space inputs (JSON or binary form)
+
+    def binary(self, use_binary: bool | None) -> bool:
+        """Whether the joint-space inputs go in the binary form (see `body`)."""
+        if self.arrays is None or use_binary is False:
+            return False
+        return bool(use_binary) or sum(a.size for a in self.arrays.values()) >= BINARY_FROM
+
+    def json_body(self) -> dict[str, Any]:
+        """The JSON object of the request (inputs as nested lists, then the other fields)."""
+        return {**to_json(self.arrays or {}), **(self.json or {})}
+
+    def body(self, use_binary: bool | None) -> tuple[bytes | None, str | None]:
+        """The body bytes and their media type. Joint-space inputs go in the binary form when
+        `use_binary` is True, or when it is None and they hold `BINARY_FROM` numbers or more."""
+        if self.arrays is not None:
+            if self.binary(use_binary):
+                return binary.encode(self.arrays, self.json), binary.MEDIA_TYPE
+            return encode(self.json_body()), "application/json"
+        if self.json is not None:
+            return encode(self.json), "application/json"
+        return None, None
 
 
 def _call(name: str, read: Callable[[int, Any], T], robot_id: str | None = None,
-          body: Any = None, accept: frozenset[int] = frozenset()) -> Call[T]:
+          body: Any = None, accept: frozenset[int] = frozenset(),
+          arrays: Mapping[str, np.ndarray] | None = None) -> Call[T]:
     method, template = ROUTES[name]
     path = template
     if robot_id is not None:
@@ -68,7 +97,7 @@ def _call(name: str, read: Callable[[int, Any], T], robot_id: str | None = None,
         if not robot_id:
             raise InputError("robot_id is empty; robots() lists the valid ids")
         path = template.format(robot_id=quote(robot_id, safe=""))
-    return Call(method, path, read, body, accept)
+    return Call(method, path, read, body, accept, arrays)
 
 
 def read_response(call: Call[T], response: httpx.Response) -> T:
@@ -80,11 +109,13 @@ def read_response(call: Call[T], response: httpx.Response) -> T:
         raise api_error(response)
     body: Any = None
     if response.content:
+        is_binary = response.headers.get("content-type", "").startswith(binary.MEDIA_TYPE)
         try:
-            body = response.json()
+            body = binary.decode(response.content) if is_binary else response.json()
         except ValueError:
+            form = "in the binary form it claims" if is_binary else "JSON"
             raise ResponseFormatError(f"{call.method} {call.path} answered {status} with a body "
-                                      "that is not JSON", status=status,
+                                      f"that is not {form}", status=status,
                                       body=response.text[:1000]) from None
     try:
         return call.read(status, body)
@@ -192,7 +223,7 @@ def _dynamics(name: str, robot_id: str, outputs: Mapping[str, int], **inputs: Ar
         out = tuple(answer_array(body, key, ndim, batched, rows) for key, ndim in outputs.items())
         return out[0] if len(out) == 1 else out
 
-    return _call(name, read, robot_id, to_json(arrays))
+    return _call(name, read, robot_id, arrays=arrays)
 
 
 def mass_matrix(robot_id: str, q: ArrayLike) -> Call[np.ndarray]:

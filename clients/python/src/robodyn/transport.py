@@ -10,8 +10,8 @@ from typing import Any
 
 import httpx
 
-from robodyn import __version__
-from robodyn.core import Call, encode
+from robodyn import __version__, binary
+from robodyn.core import Call
 from robodyn.errors import TimeoutError, TransportError
 
 DEFAULT_URL = "http://127.0.0.1:8000"
@@ -32,19 +32,22 @@ class Settings:
 
     base_url: str
     headers: Mapping[str, str]
+    use_binary: bool | None = None  # None: the binary form for large batches only
 
     def prepare(self, call: Call[Any]) -> tuple[str, dict[str, str], bytes | None]:
         """The absolute URL, headers and body bytes of `call`."""
         headers = dict(self.headers)
-        content = None
-        if call.json is not None:
-            content = encode(call.json)
-            headers["Content-Type"] = "application/json"
+        content, media_type = call.body(self.use_binary)
+        if media_type is not None:
+            headers["Content-Type"] = media_type
+            if media_type == binary.MEDIA_TYPE:
+                headers["Accept"] = f"{binary.MEDIA_TYPE}, application/problem+json"
         return self.base_url + call.path, headers, content
 
 
 def settings(base_url: str | None, api_key: str | None, http_client: httpx.Client |
-             httpx.AsyncClient | None, headers: Mapping[str, str] | None) -> Settings:
+             httpx.AsyncClient | None, headers: Mapping[str, str] | None,
+             use_binary: bool | None = None) -> Settings:
     """Resolve the base URL (argument, else the injected client's, else $ROBODYN_URL, else
     http://127.0.0.1:8000) and the headers sent with each request."""
     if base_url is None and http_client is not None and str(http_client.base_url):
@@ -61,7 +64,7 @@ def settings(base_url: str | None, api_key: str | None, http_client: httpx.Clien
         if not api_key or any(c in api_key for c in "\r\n"):
             raise ValueError("api_key must be a non-empty single-line string")
         sent["Authorization"] = f"Bearer {api_key}"
-    return Settings(base_url=str(url).rstrip("/"), headers=sent)
+    return Settings(base_url=str(url).rstrip("/"), headers=sent, use_binary=use_binary)
 
 
 def timeout_of(timeout: TimeoutLike) -> httpx.Timeout:

@@ -1,0 +1,60 @@
+"""The server's binary encoding of dynamics requests and answers (docs/binary-format.md).
+
+    b"RDY1" | header length H (uint32, little-endian) | header (UTF-8 JSON, H bytes)
+    | 0–7 zero bytes up to a multiple of 8 | data: float64 little-endian, row-major
+
+The header is `{"fields": {...}, "arrays": {name: {"shape": [...], "offset": o}}}`, offsets
+relative to the start of the data section. Large batches travel this way: no text formatting or
+parsing of numbers on either side, and float64 values arrive bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+MEDIA_TYPE = "application/vnd.robodyn.binary"
+_PREFIX = struct.Struct("<4sI")
+_MAGIC = b"RDY1"
+
+
+def encode(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = None) -> bytes:
+    """A request body: `arrays` (float64, any shape) in the data section, `fields` as JSON."""
+    descriptors: dict[str, Any] = {}
+    chunks: list[Any] = []
+    offset = 0
+    for name, value in arrays.items():
+        array = np.ascontiguousarray(value, dtype="<f8")
+        descriptors[name] = {"shape": list(array.shape), "offset": offset}
+        chunks.append(array.data.cast("B"))
+        offset += array.nbytes
+    header = json.dumps({"fields": dict(fields or {}), "arrays": descriptors},
+                        separators=(",", ":"), allow_nan=False).encode()
+    padding = b"\0" * (-(_PREFIX.size + len(header)) % 8)
+    return b"".join([_PREFIX.pack(_MAGIC, len(header)), header, padding, *chunks])
+
+
+def decode(content: bytes) -> dict[str, Any]:
+    """An answer as one mapping: its fields, and its arrays as writable float64 arrays.
+    Raises ValueError when the content is not in the binary form."""
+    if len(content) < _PREFIX.size:
+        raise ValueError("binary answer shorter than its prefix")
+    magic, size = _PREFIX.unpack_from(content)
+    if magic != _MAGIC or _PREFIX.size + size > len(content):
+        raise ValueError("not a robodyn binary answer")
+    header = json.loads(content[_PREFIX.size:_PREFIX.size + size])
+    start = _PREFIX.size + size + (-(_PREFIX.size + size) % 8)
+    data = bytearray(content[start:])  # one copy: the answer's arrays are writable
+    out: dict[str, Any] = dict(header["fields"])
+    for name, d in header["arrays"].items():
+        count = math.prod(d["shape"])
+        if d["offset"] + 8 * count > len(data):
+            raise ValueError(f"array {name} runs past the answer")
+        out[name] = np.frombuffer(data, dtype="<f8", count=count,
+                                  offset=d["offset"]).reshape(d["shape"])
+    return out

@@ -1,0 +1,173 @@
+"""WebSocket streams: many small dynamics requests of one robot over one connection.
+
+    with client.stream("ur5") as s:
+        tau = s.inverse_dynamics(q, v, a)      # same arguments as the client's, minus robot_id
+
+Every dynamics method of the client exists on a stream. Requests are answered in order; an
+error raises the same `APIError` subclass as over HTTP and the stream stays usable. Streams
+need the `websockets` package: `pip install 'robodyn[stream]'`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from types import TracebackType
+from typing import Any
+
+from robodyn import binary, core
+from robodyn.errors import ResponseFormatError, TransportError, error_class
+
+STREAM_PATH = "/v1/robots/{robot_id}/stream"
+
+
+def _require_websockets() -> None:
+    try:
+        import websockets  # noqa: F401
+    except ImportError:
+        raise ImportError("streams need the 'websockets' package: "
+                          "pip install 'robodyn[stream]'") from None
+
+
+def stream_url(base_url: str, robot_id: str) -> str:
+    """The ws:// (or wss://) URL of a robot's stream."""
+    call = core.robot(robot_id)  # checks and quotes the id
+    scheme, rest = base_url.split("://", 1)
+    return f"{'wss' if scheme == 'https' else 'ws'}://{rest}{call.path}/stream"
+
+
+def dynamics_methods() -> list[str]:
+    """The client methods that a stream offers: the per-robot dynamics quantities."""
+    return [name for name, (method, path) in core.ROUTES.items()
+            if method == "POST" and path.startswith("/v1/robots/{robot_id}/")
+            and call_quantity(name) and name != "reduce"]
+
+
+def call_quantity(name: str) -> str:
+    return core.ROUTES[name][1].rsplit("/", 1)[-1]
+
+
+def message(name: str, call: core.Call[Any], use_binary: bool | None) -> str | bytes:
+    """The stream message of a client call: JSON text, or the binary form for large inputs."""
+    quantity = call_quantity(name)
+    if call.binary(use_binary):
+        return binary.encode(call.arrays or {}, {**(call.json or {}), "quantity": quantity})
+    return core.encode({"quantity": quantity, **call.json_body()}).decode()
+
+
+def answer(call: core.Call[Any], reply: str | bytes) -> Any:
+    """The result of `call` from the stream's reply; raises the APIError of a problem."""
+    body: Any = binary.decode(reply) if isinstance(reply, bytes) else json.loads(reply)
+    if isinstance(body, dict) and isinstance(body.get("code"), str) and "status" in body:
+        status = int(body["status"])
+        raise error_class(status, body["code"])(status, body["code"], str(body.get("title")),
+                                                str(body.get("detail")), body, None)
+    try:
+        return call.read(200, body)
+    except (KeyError, ValueError, TypeError, IndexError) as exc:
+        raise ResponseFormatError(f"stream answer of {call.path} is unexpected: {exc!s}",
+                                  status=200, body=body) from exc
+
+
+@contextmanager
+def _wrapped(robot_id: str) -> Iterator[None]:
+    """A closed or failed connection becomes `robodyn.TransportError`."""
+    from websockets.exceptions import WebSocketException
+
+    try:
+        yield
+    except (WebSocketException, OSError) as exc:
+        raise TransportError(f"the stream of {robot_id!r} failed ({type(exc).__name__}): {exc}",
+                             method="WEBSOCKET", url=STREAM_PATH) from exc
+
+
+def _method(name: str, send: Callable[..., Any]) -> Callable[..., Any]:
+    build = getattr(core, name)
+
+    def method(self: Any, *args: Any, **kwargs: Any) -> Any:
+        return send(self, name, build(self.robot_id, *args, **kwargs))
+
+    method.__name__ = name
+    method.__doc__ = build.__doc__
+    return method
+
+
+class Stream:
+    """A blocking stream of one robot (from `Client.stream`); a context manager."""
+
+    def __init__(self, url: str, robot_id: str, headers: dict[str, str],
+                 use_binary: bool | None, open_timeout: float | None) -> None:
+        _require_websockets()
+        from websockets.sync.client import connect
+
+        self.robot_id, self._use_binary = robot_id, use_binary
+        self._ws = connect(url, additional_headers=headers, open_timeout=open_timeout,
+                           max_size=None, compression=None)
+
+    def _send(self, name: str, call: core.Call[Any]) -> Any:
+        with _wrapped(self.robot_id):
+            self._ws.send(message(name, call, self._use_binary))
+            reply = self._ws.recv()
+        return answer(call, reply)
+
+    def close(self) -> None:
+        self._ws.close()
+
+    def __enter__(self) -> Stream:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
+class AsyncStream:
+    """An asyncio stream of one robot (from `AsyncClient.stream`); an async context manager."""
+
+    def __init__(self, url: str, robot_id: str, headers: dict[str, str],
+                 use_binary: bool | None, open_timeout: float | None) -> None:
+        _require_websockets()
+        self.robot_id, self._use_binary = robot_id, use_binary
+        self._url, self._headers, self._open_timeout = url, headers, open_timeout
+        self._ws: Any = None
+
+    async def _send(self, name: str, call: core.Call[Any]) -> Any:
+        if self._ws is None:
+            raise RuntimeError("use the stream as `async with client.stream(robot_id) as s:`")
+        with _wrapped(self.robot_id):
+            await self._ws.send(message(name, call, self._use_binary))
+            reply = await self._ws.recv()
+        return answer(call, reply)
+
+    async def close(self) -> None:
+        if self._ws is not None:
+            await self._ws.close()
+
+    async def __aenter__(self) -> AsyncStream:
+        from websockets.asyncio.client import connect
+
+        self._ws = await connect(self._url, additional_headers=self._headers,
+                                 open_timeout=self._open_timeout, max_size=None,
+                                 compression=None)
+        return self
+
+    async def __aexit__(self, exc_type: type[BaseException] | None,
+                        exc: BaseException | None, tb: TracebackType | None) -> None:
+        await self.close()
+
+
+def _add_methods() -> None:
+    def send_sync(self: Stream, name: str, call: core.Call[Any]) -> Any:
+        return self._send(name, call)
+
+    async def send_async(self: AsyncStream, name: str, call: core.Call[Any]) -> Any:
+        return await self._send(name, call)
+
+    for name in dynamics_methods():
+        setattr(Stream, name, _method(name, send_sync))
+        setattr(AsyncStream, name, _method(name, send_async))
+
+
+_add_methods()
+__all__ = ["AsyncStream", "Stream"]

@@ -1,0 +1,93 @@
+"""WebSocket stream of dynamics requests: `/v1/robots/{robot_id}/stream`.
+
+One connection serves one robot. Each message is a request object with a `quantity` member,
+e.g. `{"quantity": "inverse-dynamics", "q": [...], "v": [...], "a": [...]}`, and is answered,
+in order, by the object the HTTP endpoint of that quantity gives. A text message is JSON and
+is answered in JSON; a binary message is the binary form (`service.api.binary`, `quantity` in
+its `fields`) and is answered in the binary form. An error is answered by a problem object
+(JSON text) and the stream stays open. An unknown robot is answered by a problem object and the
+connection is closed with code 4404.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from typing import Any
+
+import orjson
+from fastapi.exceptions import RequestValidationError
+from starlette.routing import WebSocketRoute
+from starlette.websockets import WebSocket
+
+from service.api import binary
+from service.api.dynamics import ENDPOINTS, PREFIX, Endpoint
+from service.api.problems import problem_body, validation_details
+from service.errors import InvalidInput, RobodynError
+
+log = logging.getLogger("robodyn.api")
+
+CLOSE_ROBOT_NOT_FOUND = 4404
+
+
+def _endpoint(quantity: Any) -> Endpoint:
+    endpoint = ENDPOINTS.get(quantity) if isinstance(quantity, str) else None
+    if endpoint is None:
+        raise InvalidInput(f"quantity must be one of {', '.join(ENDPOINTS)}; "
+                           f"got {str(quantity)[:40]!r}")
+    return endpoint
+
+
+async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) -> None:
+    data = message.get("bytes")
+    if data is not None:
+        fields, _ = binary.decode(data)
+        endpoint = _endpoint(fields.get("quantity"))
+        arrays, options = endpoint.parse_binary(data, extra=("quantity",))
+        result = await endpoint.compute(websocket, robot, arrays, options)
+        await websocket.send_bytes(binary.encode(result))
+        return
+    try:
+        body = orjson.loads(message.get("text") or "")
+    except orjson.JSONDecodeError:
+        raise InvalidInput("the message is not valid JSON") from None
+    if not isinstance(body, dict):
+        raise InvalidInput("the message must be a JSON object with a 'quantity' member")
+    endpoint = _endpoint(body.pop("quantity", None))
+    arrays, options = endpoint.parse_object(body)
+    result = await endpoint.compute(websocket, robot, arrays, options)
+    await websocket.send_text(orjson.dumps(result, option=orjson.OPT_SERIALIZE_NUMPY).decode())
+
+
+async def stream(websocket: WebSocket) -> None:
+    await websocket.accept()
+    try:
+        robot = websocket.app.state.registry.get(websocket.path_params["robot_id"])
+    except RobodynError as exc:
+        await websocket.send_text(orjson.dumps(
+            problem_body(exc.code, exc.title, exc.detail)).decode())
+        await websocket.close(CLOSE_ROBOT_NOT_FOUND)
+        return
+    while True:
+        message = await websocket.receive()
+        if message["type"] == "websocket.disconnect":
+            return
+        try:
+            await _answer(websocket, robot, message)
+        except RobodynError as exc:
+            problem = problem_body(exc.code, exc.title, exc.detail, **exc.extra)
+        except RequestValidationError as exc:
+            problem = problem_body("validation_error", "Invalid request",
+                                   **validation_details(exc))
+        except Exception:
+            log.exception("unexpected error on the stream of %s", robot.id)
+            problem = problem_body("internal_error", "Internal error",
+                                   "the service failed to answer this message; the failure "
+                                   "was logged")
+        else:
+            continue
+        await websocket.send_text(orjson.dumps(problem).decode())
+
+
+def routes() -> list[WebSocketRoute]:
+    return [WebSocketRoute(f"{PREFIX}/{{robot_id}}/stream", stream, name="stream")]

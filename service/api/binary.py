@@ -91,8 +91,10 @@ def encode(values: Mapping[str, Any]) -> bytes:
     chunks: list[Any] = []
     offset = 0
     for name, value in values.items():
-        if isinstance(value, np.ndarray):
-            array = np.ascontiguousarray(value, dtype="<f8")
+        if isinstance(value, np.ndarray | np.generic):
+            array = np.asarray(value, dtype="<f8")
+            if not array.flags.c_contiguous:  # (not np.ascontiguousarray: it makes 0-d 1-d)
+                array = array.copy(order="C")
             descriptors[name] = {"shape": list(array.shape), "offset": offset}
             chunks.append(array.data.cast("B"))
             offset += array.nbytes

@@ -11,6 +11,7 @@ from fastapi.exceptions import RequestValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import Response
 
+from service.api.binary import BINARY_MEDIA_TYPE
 from service.errors import ALL_ERRORS, RobodynError
 
 log = logging.getLogger("robodyn.api")
@@ -80,7 +81,8 @@ async def _on_domain_error(request: Request, exc: Exception) -> Response:
 async def _on_validation_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, RequestValidationError)
     content_type = request.headers.get("content-type", "")
-    if content_type and "json" not in content_type.split(";")[0]:
+    media_type = content_type.split(";")[0].strip()
+    if media_type and "json" not in media_type and media_type != BINARY_MEDIA_TYPE:
         return problem("unsupported_media_type", "Unsupported media type",
                        "send the body as JSON with 'Content-Type: application/json' "
                        "(with curl: --json '{...}')")

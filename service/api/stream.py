@@ -5,8 +5,9 @@ e.g. `{"quantity": "inverse-dynamics", "q": [...], "v": [...], "a": [...]}`, and
 in order, by the object the HTTP endpoint of that quantity gives. A text message is JSON and
 is answered in JSON; a binary message is the binary form (`service.api.binary`, `quantity` in
 its `fields`) and is answered in the binary form. An error is answered by a problem object
-(JSON text) and the stream stays open. An unknown robot is answered by a problem object and the
-connection is closed with code 4404.
+(JSON text) and the stream stays open. An unknown robot refuses the handshake with a 404
+problem+json answer (on servers without the ASGI denial-response extension: the problem object
+as the first message, then close code 4404).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from starlette.websockets import WebSocket
 
 from service.api import binary
 from service.api.dynamics import ENDPOINTS, PREFIX, Endpoint
-from service.api.problems import problem_body, validation_details
+from service.api.problems import error_response, problem_body, validation_details
 from service.errors import InvalidInput, RobodynError
 
 log = logging.getLogger("robodyn.api")
@@ -60,14 +61,19 @@ async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) 
 
 
 async def stream(websocket: WebSocket) -> None:
-    await websocket.accept()
     try:
         robot = websocket.app.state.registry.get(websocket.path_params["robot_id"])
     except RobodynError as exc:
+        if "websocket.http.response" in websocket.scope.get("extensions", {}):
+            # Refuse the handshake with the same 404 problem+json as the HTTP routes.
+            await websocket.send_denial_response(error_response(exc))
+            return
+        await websocket.accept()  # servers without the denial extension: problem, then close
         await websocket.send_text(orjson.dumps(
             problem_body(exc.code, exc.title, exc.detail)).decode())
         await websocket.close(CLOSE_ROBOT_NOT_FOUND)
         return
+    await websocket.accept()
     while True:
         message = await websocket.receive()
         if message["type"] == "websocket.disconnect":

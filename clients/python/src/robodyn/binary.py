@@ -29,7 +29,9 @@ def encode(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = 
     chunks: list[Any] = []
     offset = 0
     for name, value in arrays.items():
-        array = np.ascontiguousarray(value, dtype="<f8")
+        array = np.asarray(value, dtype="<f8")
+        if not array.flags.c_contiguous:  # (not np.ascontiguousarray: it makes 0-d 1-d)
+            array = array.copy(order="C")
         descriptors[name] = {"shape": list(array.shape), "offset": offset}
         chunks.append(array.data.cast("B"))
         offset += array.nbytes

@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from types import TracebackType
 from typing import Any
+
+import httpx
 
 from robodyn import binary, core
 from robodyn.errors import ResponseFormatError, TransportError, error_class
@@ -73,10 +75,14 @@ def answer(call: core.Call[Any], reply: str | bytes) -> Any:
 @contextmanager
 def _wrapped(robot_id: str) -> Iterator[None]:
     """A closed or failed connection becomes `robodyn.TransportError`."""
-    from websockets.exceptions import WebSocketException
+    from websockets.exceptions import InvalidStatus, WebSocketException
 
     try:
         yield
+    except InvalidStatus as exc:  # the handshake was refused with an HTTP answer
+        raise core.api_error(httpx.Response(
+            exc.response.status_code, headers=list(exc.response.headers.raw_items()),
+            content=bytes(exc.response.body or b""))) from exc
     except (WebSocketException, OSError) as exc:
         raise TransportError(f"the stream of {robot_id!r} failed ({type(exc).__name__}): {exc}",
                              method="WEBSOCKET", url=STREAM_PATH) from exc
@@ -102,8 +108,11 @@ class Stream:
         from websockets.sync.client import connect
 
         self.robot_id, self._use_binary = robot_id, use_binary
-        self._ws = connect(url, additional_headers=headers, open_timeout=open_timeout,
-                           max_size=None, compression=None)
+        self._exit = ExitStack()
+        with _wrapped(robot_id):
+            self._ws = self._exit.enter_context(connect(
+                url, additional_headers=headers, open_timeout=open_timeout, max_size=None,
+                compression=None))
 
     def _send(self, name: str, call: core.Call[Any]) -> Any:
         with _wrapped(self.robot_id):
@@ -112,7 +121,7 @@ class Stream:
         return answer(call, reply)
 
     def close(self) -> None:
-        self._ws.close()
+        self._exit.close()
 
     def __enter__(self) -> Stream:
         return self
@@ -147,9 +156,10 @@ class AsyncStream:
     async def __aenter__(self) -> AsyncStream:
         from websockets.asyncio.client import connect
 
-        self._ws = await connect(self._url, additional_headers=self._headers,
-                                 open_timeout=self._open_timeout, max_size=None,
-                                 compression=None)
+        with _wrapped(self.robot_id):
+            self._ws = await connect(self._url, additional_headers=self._headers,
+                                     open_timeout=self._open_timeout, max_size=None,
+                                     compression=None)
         return self
 
     async def __aexit__(self, exc_type: type[BaseException] | None,

@@ -1,0 +1,104 @@
+"""The client's binary form for large batches, and its WebSocket streams, against a real server."""
+
+from __future__ import annotations
+
+import asyncio
+
+import httpx
+import numpy as np
+import pytest
+import robodyn
+from robodyn import AsyncClient, Client, core
+
+from tests.client.helpers import ATOL, RTOL, Reference
+
+QUANTITIES = {
+    "mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
+    "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
+    "forward_dynamics": ("q", "v", "tau"),
+}
+
+
+def _as_tuple(x):
+    return x if isinstance(x, tuple) else (x,)
+
+
+@pytest.mark.parametrize("quantity", list(QUANTITIES))
+def test_binary_and_json_answers_are_bit_identical(server: str, reference: Reference,
+                                                   quantity: str) -> None:
+    states = reference.states("talos", 80, seed=3)
+    inputs = [states[name] for name in QUANTITIES[quantity]]
+    with Client(server, binary=True) as b, Client(server, binary=False) as j:
+        got_binary = _as_tuple(getattr(b, quantity)("talos", *inputs))
+        got_json = _as_tuple(getattr(j, quantity)("talos", *inputs))
+        single = _as_tuple(getattr(b, quantity)("talos", *(x[5] for x in inputs)))
+    want = _as_tuple(getattr(reference, quantity)("talos", *inputs))
+    for gb, gj, s, w in zip(got_binary, got_json, single, want, strict=True):
+        np.testing.assert_array_equal(gb, gj)
+        np.testing.assert_array_equal(s, gj[5])
+        np.testing.assert_allclose(gb, w, rtol=RTOL, atol=ATOL)
+        assert gb.flags.writeable
+
+
+def test_the_client_chooses_the_binary_form_for_large_batches(app) -> None:
+    seen: list[httpx.Request] = []
+    transport = httpx.ASGITransport(app=app)
+
+    async def run() -> tuple[np.ndarray, np.ndarray]:
+        async def record(request: httpx.Request) -> None:
+            seen.append(request)
+
+        async with httpx.AsyncClient(transport=transport, base_url="http://robodyn",
+                                     event_hooks={"request": [record]}) as http, \
+                AsyncClient(http_client=http) as client:
+            small = await client.gravity("ur5", np.zeros((2, 6)))
+            large_n = core.BINARY_FROM // 6 + 1
+            large = await client.gravity("ur5", np.zeros((large_n, 6)))
+            return small, large
+
+    small, large = asyncio.run(run())
+    assert seen[0].headers["content-type"] == "application/json"
+    assert seen[1].headers["content-type"] == robodyn.binary.MEDIA_TYPE
+    np.testing.assert_array_equal(large[0], small[0])
+
+
+def test_stream_sync(server: str, reference: Reference) -> None:
+    states = reference.states("ur5", 5, seed=1)
+    want = reference.inverse_dynamics("ur5", states["q"], states["v"], states["a"])
+    with Client(server) as client, client.stream("ur5") as s:
+        for i in range(5):
+            q, v, a = states["q"][i], states["v"][i], states["a"][i]
+            np.testing.assert_allclose(s.inverse_dynamics(q, v, a), want[i],
+                                       rtol=RTOL, atol=ATOL)
+        C, Cv = s.coriolis(states["q"], states["v"])  # a batch over the stream
+        assert C.shape == (5, 6, 6) and Cv.shape == (5, 6)
+        with pytest.raises(robodyn.DimensionMismatchError):
+            s.gravity(np.zeros(5))
+        np.testing.assert_allclose(s.mass_matrix(states["q"][0]),
+                                   reference.mass_matrix("ur5", states["q"][:1])[0],
+                                   rtol=RTOL, atol=ATOL)  # still open after the error
+
+
+def test_stream_binary_and_async(server: str, reference: Reference) -> None:
+    states = reference.states("talos", 100, seed=4)
+
+    async def run() -> np.ndarray:
+        async with AsyncClient(server) as client, client.stream("talos") as s:
+            return await s.forward_dynamics(states["q"], states["v"], states["tau"])
+
+    a = asyncio.run(run())
+    with Client(server, binary=False) as j:
+        np.testing.assert_array_equal(
+            a, j.forward_dynamics("talos", states["q"], states["v"], states["tau"]))
+
+
+def test_stream_of_an_unknown_robot_raises(server: str) -> None:
+    with Client(server) as client:
+        with pytest.raises(robodyn.RobotNotFoundError) as raised:
+            client.stream("no_such_robot")
+        assert "GET /v1/robots" in raised.value.detail
+
+
+def test_a_stream_to_no_server_is_a_transport_error() -> None:
+    with Client("http://127.0.0.1:9") as client, pytest.raises(robodyn.TransportError):
+        client.stream("ur5")

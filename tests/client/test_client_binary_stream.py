@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+from pathlib import Path
 
 import httpx
 import numpy as np
@@ -102,3 +103,13 @@ def test_stream_of_an_unknown_robot_raises(server: str) -> None:
 def test_a_stream_to_no_server_is_a_transport_error() -> None:
     with Client("http://127.0.0.1:9") as client, pytest.raises(robodyn.TransportError):
         client.stream("ur5")
+
+
+def test_the_binary_format_example_in_the_docs_runs(server: str, reference: Reference) -> None:
+    doc = (Path(__file__).parents[2] / "docs" / "binary-format.md").read_text()
+    code = doc.split("```python\n", 1)[1].split("```", 1)[0]
+    scope: dict = {}
+    exec(code.replace("http://127.0.0.1:8000", server), scope)
+    M = np.array(scope["values"]).reshape(3, 6, 6)
+    q = np.array(scope["q"])
+    np.testing.assert_allclose(M, reference.mass_matrix("ur5", q), rtol=RTOL, atol=ATOL)

@@ -63,17 +63,14 @@ def server(args: list[str], env: dict[str, str] | None = None) -> Iterator[str]:
 
 def wrk(url: str, seconds: int, body: str | None = None) -> float:
     """Requests per second with wrk: 1 thread, 8 connections."""
-    script = None
     cmd = ["wrk", "-t1", "-c8", f"-d{seconds}s", url]
-    if body is not None:
-        script = tempfile.NamedTemporaryFile("w", suffix=".lua", delete=False)
-        script.write(f'wrk.method = "POST"\nwrk.body = \'{body}\'\n'
-                     'wrk.headers["Content-Type"] = "application/json"\n')
-        script.close()
-        cmd[1:1] = ["-s", script.name]
-    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
-    if script:
-        os.unlink(script.name)
+    with tempfile.TemporaryDirectory() as tmp:
+        if body is not None:
+            script = Path(tmp) / "post.lua"
+            script.write_text(f'wrk.method = "POST"\nwrk.body = \'{body}\'\n'
+                              'wrk.headers["Content-Type"] = "application/json"\n')
+            cmd[1:1] = ["-s", str(script)]
+        out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
     errors = re.search(r"Non-2xx or 3xx responses: (\d+)", out)
     if errors:
         raise RuntimeError(f"wrk saw {errors.group(1)} failed requests on {url}")
@@ -130,7 +127,7 @@ def batches(url: str, rounds: int) -> None:
     model, s = talos_states(10_000)
     threads = len(os.sched_getaffinity(0))
     pool = pin.ModelPool(model, threads)
-    qT, vT, aT, tT = (np.asfortranarray(s[k].T) for k in ("q", "v", "a", "tau"))
+    qT, vT, aT = (np.asfortranarray(s[k].T) for k in ("q", "v", "a"))
 
     def in_process_rnea() -> float:
         t = time.perf_counter()

@@ -9,14 +9,16 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
-from fastapi import FastAPI
+from fastapi import Depends, FastAPI
 
 from service import __version__
 from service.api import dynamics as dynamics_routes
 from service.api import health, robots
+from service.api.deps import require_api_key_for_all
 from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
 from service.api.problems import install_problem_handlers
 from service.registry import Registry
+from service.registry.urdf_check import Limits
 from service.settings import Settings
 
 log = logging.getLogger("robodyn")
@@ -32,7 +34,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     settings = settings or Settings()
     injected = registry is not None
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),
-                                    settings.build_timeout_s)
+                                    settings.build_timeout_s,
+                                    limits=Limits(**settings.model_limits()),
+                                    build_limits=settings.build_limits())
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -52,9 +56,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.batches_in_flight = 0
     install_problem_handlers(app)
     app.include_router(health.router)
-    app.include_router(robots.router)
-    app.include_router(dynamics_routes.router)
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
+    # With ROBODYN_API_KEYS_SCOPE=all every /v1 route needs a key (uploads always do).
+    private = [Depends(require_api_key_for_all)]
+    app.include_router(robots.router, dependencies=private)
+    app.include_router(dynamics_routes.router, dependencies=private)
+    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
+                       upload_limit=settings.max_upload_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics,
                        catalog_ids=lambda: registry.catalog)
     return app

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.errors import InvalidModel
+from service.errors import InvalidModel, Overloaded
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
 
@@ -132,8 +132,13 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
     parent, child = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_child_build, daemon=True,
                        args=(child, text, root_joint, gravity, memory_mb, cpu_s, max_nv))
-    proc.start()
-    child.close()
+    try:
+        proc.start()
+    except OSError:  # no processes or descriptors left: the server's condition, not the model's
+        parent.close()
+        raise Overloaded("could not start a model builder process; retry shortly") from None
+    finally:
+        child.close()
     try:
         if not parent.poll(timeout_s):
             raise InvalidModel(f"building the model took longer than {timeout_s:g} s "

@@ -196,6 +196,29 @@ def _check_joint(joint: Element, name: str, jtype: str) -> None:
                     _numbers(value, 1, f"joint '{label}' {tag} {attr}")
 
 
+def _check_parser_requirements(joint: Element, name: str, jtype: str) -> None:
+    """What the native URDF parser (urdfdom) refuses with one generic message; named here."""
+    label = shown(name)
+    limit = joint.find("limit")
+    if limit is None and jtype in ("revolute", "prismatic"):
+        raise InvalidModel(f"joint '{label}': a {jtype} joint needs a <limit effort=... "
+                           "velocity=...> element")
+    if limit is not None:
+        for attr in ("effort", "velocity"):
+            if limit.get(attr) is None:
+                raise InvalidModel(f"joint '{label}': <limit> needs an {attr} attribute")
+    safety = joint.find("safety_controller")
+    if safety is not None and safety.get("k_velocity") is None:
+        raise InvalidModel(f"joint '{label}': <safety_controller> needs k_velocity")
+    dynamics = joint.find("dynamics")
+    if dynamics is not None and dynamics.get("damping") is None and dynamics.get(
+            "friction") is None:
+        raise InvalidModel(f"joint '{label}': <dynamics> needs damping or friction")
+    mimic = joint.find("mimic")
+    if mimic is not None and not mimic.get("joint"):
+        raise InvalidModel(f"joint '{label}': <mimic> needs a joint attribute")
+
+
 def _names(elements: Iterable[Element], kind: str) -> dict[str, Element]:
     out: dict[str, Element] = {}
     for el in elements:
@@ -324,6 +347,8 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
                     "massless_subtree", "joint", jname,
                     f"joint '{shown(jname)}' moves link '{shown(child)}', whose subtree has no "
                     "mass: the mass matrix is singular"))
+    for jname, joint in joints.items():
+        _check_parser_requirements(joint, jname, joint.get("type", ""))
     return URDFSummary(robot_name=robot_name, links=len(links), joints=len(joints),
                        moving_joints=moving, depth=max(d for _, d in order), findings=findings,
                        nv=nv)

@@ -3,6 +3,7 @@ servers in subprocesses on free loopback ports."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import signal
@@ -94,20 +95,16 @@ class Server:
     def kill(self, sig: int = signal.SIGKILL) -> None:
         """Signal the whole process group (server, workers, builder children)."""
         assert self.proc is not None
-        try:
+        with contextlib.suppress(ProcessLookupError):
             os.killpg(self.proc.pid, sig)
-        except ProcessLookupError:
-            pass
         self.proc.wait(timeout=60)
 
     def stop(self) -> None:
         if self.alive():
             self.kill(signal.SIGTERM)
         elif self.proc is not None:  # reap leftover children of a dead group
-            try:
+            with contextlib.suppress(ProcessLookupError):
                 os.killpg(self.proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
 
     def log_text(self) -> str:
         return self.log.read_text(errors="replace") if self.log.exists() else ""

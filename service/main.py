@@ -16,6 +16,7 @@ from service.api import dynamics as dynamics_routes
 from service.api import health, robots
 from service.api.deps import require_api_key_for_all
 from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
+from service.api.openapi_problems import problem_openapi
 from service.api.problems import install_problem_handlers
 from service.registry import Registry
 from service.registry.urdf_check import Limits
@@ -55,6 +56,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.metrics = Metrics()
     app.state.batches_in_flight = 0
     install_problem_handlers(app)
+    app.openapi = lambda: problem_openapi(app)  # type: ignore[method-assign]
     app.include_router(health.router)
     # With ROBODYN_API_KEYS_SCOPE=all every /v1 route needs a key (uploads always do).
     private = [Depends(require_api_key_for_all)]

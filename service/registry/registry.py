@@ -127,6 +127,8 @@ class Registry:
         warnings = [f.as_dict() for f in summary.findings]
         robot = Robot(id=model_id, name=name or summary.robot_name, source="upload",
                       root_joint=root_joint, model=model, warnings=warnings)
+        with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
+            pass
         record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
                       warnings=warnings, summary=robot.summary(), created_at=time.time())
         self.store.write(record)

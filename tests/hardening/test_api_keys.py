@@ -7,6 +7,7 @@ import logging
 import re
 
 import pytest
+
 KEY = "s3cr3t-key-0123456789"
 
 

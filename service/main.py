@@ -9,15 +9,17 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
-from fastapi import APIRouter, FastAPI
-from fastapi.openapi.utils import get_openapi
+from fastapi import Depends, FastAPI
 
 from service import __version__
 from service.api import dynamics as dynamics_routes
 from service.api import health, robots, stream
+from service.api.deps import require_api_key_for_all
 from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
+from service.api.openapi_problems import problem_openapi
 from service.api.problems import install_problem_handlers
 from service.registry import Registry
+from service.registry.urdf_check import Limits
 from service.settings import Settings
 
 log = logging.getLogger("robodyn")
@@ -33,7 +35,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     settings = settings or Settings()
     injected = registry is not None
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),
-                                    settings.build_timeout_s)
+                                    settings.build_timeout_s,
+                                    limits=Limits(**settings.model_limits()),
+                                    build_limits=settings.build_limits())
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -52,29 +56,20 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.metrics = Metrics()
     app.state.batches_in_flight = 0
     install_problem_handlers(app)
+    described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
+    app.openapi = lambda: problem_openapi(app, described)  # type: ignore[method-assign]
     app.include_router(health.router)
-    app.include_router(robots.router)
+    # With ROBODYN_API_KEYS_SCOPE=all every /v1 route needs a key (uploads always do); the
+    # lean dynamics and stream routes check it themselves (deps.check_api_key_for_all).
+    private = [Depends(require_api_key_for_all)]
+    app.include_router(robots.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
     app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
-    _document(app, dynamics_routes.openapi_routes())
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
+    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
+                       upload_limit=settings.max_upload_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics,
                        catalog_ids=lambda: registry.catalog)
     return app
-
-
-def _document(app: FastAPI, described: APIRouter) -> None:
-    """Generate the OpenAPI document from the app's routes plus `described`, the schema-only
-    twins of the lean dynamics routes."""
-
-    def openapi() -> dict[str, Any]:
-        if app.openapi_schema is None:
-            app.openapi_schema = get_openapi(
-                title=app.title, version=app.version, description=app.description,
-                routes=[*app.routes, *described.routes])
-        return app.openapi_schema
-
-    app.openapi = openapi  # type: ignore[method-assign]
 
 
 def app_from_environment() -> FastAPI:

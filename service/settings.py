@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import platformdirs
 from pydantic import Field
@@ -46,8 +47,40 @@ class Settings(BaseSettings):
     )
     log_level: str = Field("info", description="Log level: debug, info, warning, error.")
 
+    # -- hardening: API keys for reads and compute, upload limits (see README "Security") --
+    api_keys_scope: Literal["writes", "all"] = Field(
+        "writes", description="With API keys set: `writes` guards uploads, reductions and "
+        "deletions; `all` guards every /v1 route (reads and compute too). Health, metrics and "
+        "docs stay open.")
+    max_upload_bytes: int = Field(
+        4 * 1024 * 1024, ge=1024, description="Largest body of POST /v1/robots, in bytes "
+        "(the largest catalog URDF is 211 kB).")
+    max_links: int = Field(1000, ge=1, description="Most <link> elements in an uploaded model.")
+    max_nv: int = Field(
+        128, ge=1, description="Largest nv (velocity coordinates, root joint included) of an "
+        "uploaded model; a Pinocchio Data takes about 80·nv³ bytes.")
+    max_depth: int = Field(128, ge=1, description="Deepest kinematic chain, in links.")
+    max_xml_elements: int = Field(50_000, ge=10, description="Most XML elements in an upload.")
+    max_xml_depth: int = Field(32, ge=4, description="Deepest XML element nesting.")
+    build_memory_mb: int = Field(
+        1024, ge=256, description="Address-space limit of the process that builds an upload, "
+        "in MB.")
+    build_cpu_s: int = Field(
+        20, ge=1, description="CPU-time limit of the process that builds an upload, in seconds.")
+
     def api_key_list(self) -> list[str]:
         return [k.strip() for k in self.api_keys.split(",") if k.strip()]
+
+    def model_limits(self) -> dict[str, int]:
+        """The caps of upload validation: keyword arguments of `urdf_check.Limits`."""
+        return {"max_links": self.max_links, "max_nv": self.max_nv,
+                "max_depth": self.max_depth, "max_elements": self.max_xml_elements,
+                "max_xml_depth": self.max_xml_depth}
+
+    def build_limits(self) -> dict[str, int]:
+        """Keyword arguments of `build_isolated` besides the timeout."""
+        return {"memory_mb": self.build_memory_mb, "cpu_s": self.build_cpu_s,
+                "max_nv": self.max_nv}
 
     def catalog_names(self) -> list[str] | None:
         names = [n.strip() for n in self.catalog.split(",") if n.strip()]

@@ -21,6 +21,7 @@ from starlette.routing import Route
 from service import dynamics
 from service.api import binary, schemas_dynamics
 from service.api.answers import JSONAnswer
+from service.api.deps import check_api_key_for_all
 from service.api.problems import problem
 from service.api.schemas import Problem
 from service.errors import InvalidInput, Overloaded
@@ -135,6 +136,7 @@ class Endpoint:
 
     async def answer(self, request: Request) -> Response:
         request.scope["route"] = self.route  # FastAPI's router records only its own routes
+        check_api_key_for_all(request)
         robot = request.app.state.registry.get(request.path_params["robot_id"])
         content_type = request.headers.get("content-type", "")
         body = await request.body()

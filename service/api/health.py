@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from fastapi import APIRouter, Request, Response
+from fastapi.responses import PlainTextResponse
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
 from service.api.answers import JSONAnswer
@@ -26,7 +27,8 @@ async def ready(request: Request) -> Response:
                        "unavailable": sorted(registry.catalog_failures)})
 
 
-@router.get("/metrics", summary="Prometheus metrics: requests and latency by route and robot")
+@router.get("/metrics", response_class=PlainTextResponse,
+            summary="Prometheus metrics: requests and latency by route and robot")
 async def metrics(request: Request) -> Response:
     return Response(generate_latest(request.app.state.metrics.registry),
                     media_type=CONTENT_TYPE_LATEST)

@@ -61,21 +61,27 @@ class MetricsMiddleware:
 
 class BodyLimitMiddleware:
     """Answer 413 `payload_too_large` for a body over `limit` bytes, without buffering it:
-    by its Content-Length up front, or as soon as a chunked body passes the limit."""
+    by its Content-Length up front, or as soon as a chunked body passes the limit.
+    Uploads (POST on `upload_path`) have the smaller of `limit` and `upload_limit`."""
 
-    def __init__(self, app: Any, limit: int) -> None:
+    def __init__(self, app: Any, limit: int, upload_limit: int | None = None,
+                 upload_path: str = "/v1/robots") -> None:
         self.app, self.limit = app, limit
+        self.upload_limit, self.upload_path = upload_limit, upload_path
 
     async def __call__(self, scope: Scope, receive: Any, send: Any) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        detail = (f"the request body is larger than the limit of {self.limit} bytes "
-                  "(ROBODYN_MAX_BODY_BYTES)")
+        limit, setting = self.limit, "ROBODYN_MAX_BODY_BYTES"
+        if (self.upload_limit is not None and self.upload_limit < limit
+                and scope["method"] == "POST" and scope["path"].rstrip("/") == self.upload_path):
+            limit, setting = self.upload_limit, "ROBODYN_MAX_UPLOAD_BYTES"
+        detail = f"the request body is larger than the limit of {limit} bytes ({setting})"
         for name, value in scope.get("headers", []):
             if name == b"content-length":
                 try:
-                    too_big = int(value) > self.limit
+                    too_big = int(value) > limit
                 except ValueError:
                     too_big = False
                 if too_big:
@@ -90,8 +96,8 @@ class BodyLimitMiddleware:
             message: dict[str, Any] = await receive()
             if message["type"] == "http.request":
                 received += len(message.get("body", b""))
-                if received > self.limit:
-                    raise _TooLarge()
+                if received > limit:
+                    raise _TooLarge(detail)
             return message
 
         async def tracking_send(message: dict[str, Any]) -> None:
@@ -111,5 +117,5 @@ class BodyLimitMiddleware:
 class _TooLarge(HTTPException):
     """Raised from `receive`; an HTTPException so the framework's body reader re-raises it."""
 
-    def __init__(self) -> None:
-        super().__init__(status_code=413, detail="the request body is too large")
+    def __init__(self, detail: str) -> None:
+        super().__init__(status_code=413, detail=detail)

@@ -115,10 +115,8 @@ async def _on_http_error(request: Request, exc: Exception) -> Response:
         detail = "no such route; see /openapi.json or /docs for the API"
     elif code == "method_not_allowed":
         detail = f"method {request.method} is not allowed on this route"
-    elif code == "payload_too_large":
-        limit = request.app.state.settings.max_body_bytes
-        detail = (f"the request body is larger than the limit of {limit} bytes "
-                  "(ROBODYN_MAX_BODY_BYTES)")
+    elif code == "payload_too_large":  # raised by BodyLimitMiddleware, which names the limit
+        detail = str(exc.detail)
     else:
         detail = str(exc.detail) if isinstance(exc.detail, str) else title
     headers = dict(exc.headers) if exc.headers else None

@@ -22,6 +22,7 @@ from starlette.routing import WebSocketRoute
 from starlette.websockets import WebSocket
 
 from service.api import binary
+from service.api.deps import check_api_key_for_all
 from service.api.dynamics import ENDPOINTS, PREFIX, Endpoint
 from service.api.problems import error_response, problem_body, validation_details
 from service.errors import InvalidInput, RobodynError
@@ -62,11 +63,12 @@ async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) 
 
 async def stream(websocket: WebSocket) -> None:
     try:
+        check_api_key_for_all(websocket)
         robot = websocket.app.state.registry.get(websocket.path_params["robot_id"])
     except RobodynError as exc:
         if "websocket.http.response" in websocket.scope.get("extensions", {}):
             # Refuse the handshake with the same 404 problem+json as the HTTP routes.
-            await websocket.send_denial_response(error_response(exc))
+            await websocket.send_denial_response(error_response(exc))  # 404 or 401
             return
         await websocket.accept()  # servers without the denial extension: problem, then close
         await websocket.send_text(orjson.dumps(

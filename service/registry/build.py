@@ -2,21 +2,26 @@
 
 `build_urdf_model` runs the native URDF parser on text that `urdf_check` has already validated.
 `build_isolated` runs it in a separate short-lived process (forked from a forkserver that has
-Pinocchio imported) under a wall-clock timeout, and brings back the model serialized by Pinocchio
-itself: a crash or a hang of the native parser on an upload never touches the serving process.
+Pinocchio imported) and brings back the model serialized by Pinocchio itself. The child limits
+itself before it touches the text: address space (`RLIMIT_AS`, memory_mb), CPU time
+(`RLIMIT_CPU`, cpu_s: SIGXCPU, then SIGKILL one second later), no core files, no file writes, few
+file descriptors; the parent adds a wall-clock timeout. A crash, a kill, a memory blow-up or a
+hang of the native parser becomes `InvalidModel` with a reason; the serving process never sees it.
 """
 
 from __future__ import annotations
 
 import multiprocessing as mp
 import pickle
+import resource
+import signal
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from service.errors import InvalidModel
+from service.errors import InvalidModel, Overloaded
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
 
@@ -53,13 +58,32 @@ def check_mass_matrix(model: Any) -> None:
                            "definite (a moving body without mass or inertia)")
 
 
-def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None) -> None:
+def _limit_resources(memory_mb: int, cpu_s: int) -> None:
+    """Resource limits of the builder child (Linux/Unix `setrlimit`; soft = hard)."""
+    memory = memory_mb * 1024 * 1024
+    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu_s, cpu_s + 1))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (64, 64))
+
+
+def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None,
+                 memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None) -> None:
     try:
+        _limit_resources(memory_mb, cpu_s)
         model = build_urdf_model(text, root_joint, gravity)
+        if max_nv is not None and model.nv > max_nv:
+            # before createData: its memory grows with nv³
+            raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates (with its "
+                               f"root joint); the limit is {max_nv} (ROBODYN_MAX_NV)")
         check_mass_matrix(model)
         conn.send(("ok", pickle.dumps(model)))
     except InvalidModel as exc:
         conn.send(("invalid", exc.detail))
+    except MemoryError:
+        conn.send(("invalid", f"building the model needed more than its memory limit of "
+                              f"{memory_mb} MB (ROBODYN_BUILD_MEMORY_MB)"))
     except Exception:  # the parser's own messages carry C++ paths: never forward them
         conn.send(("invalid", "Pinocchio could not build a model from this description"))
     finally:
@@ -77,20 +101,52 @@ def _mp_context() -> Any:
     return _context
 
 
+def _death(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
+    """Why the builder child ended without an answer, for the user."""
+    if exitcode is not None and exitcode < 0:
+        sig = -exitcode
+        if sig == signal.SIGXCPU or sig == signal.SIGKILL:
+            return (f"building the model was stopped: it used more than its CPU limit of "
+                    f"{cpu_s} s (ROBODYN_BUILD_CPU_S) or was killed")
+        if sig == signal.SIGSEGV:
+            return ("the native model builder crashed on this description (segmentation fault, "
+                    "e.g. a stack overflow on a very long chain)")
+        name = signal.Signals(sig).name if sig in signal.valid_signals() else str(sig)
+        return f"the native model builder crashed on this description (signal {name})"
+    if exitcode not in (None, 0):  # e.g. std::bad_alloc → abort, or Python could not start
+        return (f"the native model builder failed on this description (it may have needed more "
+                f"than its memory limit of {memory_mb} MB, ROBODYN_BUILD_MEMORY_MB)")
+    return "the native model builder ended without an answer on this description"
+
+
 def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
-                   timeout_s: float) -> Any:
-    """Build a URDF model in a child process; raise `InvalidModel` on failure, crash or timeout."""
+                   timeout_s: float, *, memory_mb: int = 1024, cpu_s: int = 20,
+                   max_nv: int | None = None) -> Any:
+    """Build a URDF model in a resource-limited child process.
+
+    Raises `InvalidModel` (with the reason, never a C++ message) on an invalid description, a
+    crash or kill of the child, a memory or CPU limit, or after `timeout_s` seconds of wall
+    clock; the child is then killed.
+    """
     ctx = _mp_context()
     parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child_build, args=(child, text, root_joint, gravity), daemon=True)
-    proc.start()
-    child.close()
+    proc = ctx.Process(target=_child_build, daemon=True,
+                       args=(child, text, root_joint, gravity, memory_mb, cpu_s, max_nv))
+    try:
+        proc.start()
+    except OSError:  # no processes or descriptors left: the server's condition, not the model's
+        parent.close()
+        raise Overloaded("could not start a model builder process; retry shortly") from None
+    finally:
+        child.close()
     try:
         if not parent.poll(timeout_s):
-            raise InvalidModel(f"building the model took longer than {timeout_s:g} s")
+            raise InvalidModel(f"building the model took longer than {timeout_s:g} s "
+                               "(ROBODYN_BUILD_TIMEOUT_S)")
         status, payload = parent.recv()
-    except EOFError:
-        raise InvalidModel("the model builder crashed on this description") from None
+    except (EOFError, OSError):
+        proc.join(5)
+        raise InvalidModel(_death(proc.exitcode, memory_mb, cpu_s)) from None
     finally:
         parent.close()
         if proc.is_alive():

@@ -18,7 +18,7 @@ from service.registry.build import build_isolated, build_urdf_model
 from service.registry.catalog import load_catalog
 from service.registry.robot import Robot
 from service.registry.store import ModelStore, content_id
-from service.registry.urdf_check import check_urdf
+from service.registry.urdf_check import Limits, check_urdf
 
 log = logging.getLogger("robodyn.registry")
 
@@ -27,10 +27,15 @@ NOT_FOUND_HINT = "GET /v1/robots lists the valid ids"
 
 class Registry:
     def __init__(self, data_dir: Path, catalog_names: list[str] | None = None,
-                 build_timeout_s: float = 30.0) -> None:
+                 build_timeout_s: float = 30.0, *, limits: Limits | None = None,
+                 build_limits: dict[str, Any] | None = None) -> None:
         self.store = ModelStore(data_dir)
         self.catalog_names = catalog_names
         self.build_timeout_s = build_timeout_s
+        # Hardening (issue 9): caps of upload validation, and keyword arguments of
+        # `build_isolated` (memory_mb, cpu_s, max_nv) for every isolated build.
+        self.limits = limits or Limits()
+        self.build_limits: dict[str, Any] = dict(build_limits or {})
         self.catalog: dict[str, Robot] = {}
         self.catalog_failures: dict[str, str] = {}
         self.uploads: dict[str, Robot] = {}
@@ -105,7 +110,7 @@ class Registry:
         """Validate, build (out of process) and store an uploaded URDF: (robot, created)."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
-        summary = check_urdf(urdf)
+        summary = check_urdf(urdf, self.limits)
         if summary.findings and inertia_check == "reject":
             listed = "; ".join(f.message for f in summary.findings[:10])
             more = len(summary.findings) - 10
@@ -117,10 +122,13 @@ class Registry:
         model_id = content_id(record)
         if self.store.exists(model_id):
             return self.get(model_id), False
-        model = build_isolated(urdf, root_joint, list(gravity), self.build_timeout_s)
+        model = build_isolated(urdf, root_joint, list(gravity), self.build_timeout_s,
+                               **self.build_limits)
         warnings = [f.as_dict() for f in summary.findings]
         robot = Robot(id=model_id, name=name or summary.robot_name, source="upload",
                       root_joint=root_joint, model=model, warnings=warnings)
+        with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
+            pass
         record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
                       warnings=warnings, summary=robot.summary(), created_at=time.time())
         self.store.write(record)

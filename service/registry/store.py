@@ -3,7 +3,9 @@
 One JSON record per model at `<data_dir>/models/<id>.json` holding what is needed to rebuild it
 (the description text and the upload options) plus its summary. Writes are atomic: write a
 temporary file, fsync, rename over the final name, fsync the directory. A record is therefore
-either absent or complete; an unreadable one is skipped with a log line.
+either absent or complete; an unreadable one is skipped with a log line. Temporary files left by
+a process killed in the middle of a write are never read as records (their names start with a
+dot) and are removed when a store opens and finds them older than a minute.
 """
 
 from __future__ import annotations
@@ -14,12 +16,14 @@ import logging
 import os
 import re
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
 log = logging.getLogger("robodyn.store")
 
 _ID = re.compile(r"^[a-z0-9][a-z0-9_-]{0,63}$")
+STALE_TMP_S = 60.0  # a temporary file this old belongs to a write that died
 
 
 def content_id(record: dict[str, Any]) -> str:
@@ -42,6 +46,17 @@ class ModelStore:
     def __init__(self, data_dir: Path) -> None:
         self.dir = Path(data_dir) / "models"
         self.dir.mkdir(parents=True, exist_ok=True)
+        self._remove_stale_temporaries()
+
+    def _remove_stale_temporaries(self) -> None:
+        now = time.time()
+        for tmp in self.dir.glob(".tmp-*.json"):
+            try:
+                if now - tmp.stat().st_mtime > STALE_TMP_S:
+                    tmp.unlink()
+                    log.warning("removed %s, left by an interrupted write", tmp.name)
+            except OSError:  # removed meanwhile by another process
+                pass
 
     def _path(self, model_id: str) -> Path | None:
         return self.dir / f"{model_id}.json" if _ID.match(model_id) else None

@@ -2,19 +2,27 @@
 
 Pinocchio's URDF parser trusts its input: a mass of `nan` silently becomes a massless link, a zero
 axis is accepted, and every structural error comes back as one generic message. This module parses
-the text with a safe XML parser (no DTD, no entities, no external references) and checks structure
-and physics itself, so that errors name the element at fault.
+the text with a safe, bounded XML parser (`safe_xml`: no DTD, no entities, no external references,
+element count and nesting capped) and checks structure and physics itself, so that errors name the
+element at fault.
 
-Physical findings (reported, and rejected by default for uploads; see API.md `inertia_check`):
+Physical findings (reported, and rejected by default for uploads; see API.md `inertia_check`), on
+the principal moments λ₁ ≤ λ₂ ≤ λ₃ (kg·m², eigenvalues of the inertia tensor about the centre of
+mass), one finding per link at most:
 
-- `negative_principal_moment`: an inertia tensor (kg·m², about the centre of mass) whose smallest
-  principal moment is below −(1e-6 · largest moment + 1e-12); rounding-level negatives pass.
-- `triangle_inequality`: principal moments with I_i + I_j < I_k − (1e-6 · trace + 1e-12).
+- `negative_principal_moment`: λ₁ < −(1e-4 · max|λ| + 1e-12 kg·m²). Eigenvalue rounding of a
+  tensor written with a few significant digits gives negatives of about 1e-16 · max|λ| (e.g.
+  −2.5e-22 against 3e-6 on several quadruped bases): those pass.
+- `triangle_inequality`: λ₁ + λ₂ < λ₃ − (1e-4 · (λ₁ + λ₂ + λ₃) + 1e-12 kg·m²), checked on
+  tensors without a negative moment. No rigid body has it (λ₁ + λ₂ ≥ λ₃ follows from the
+  definition); descriptions that get it wrong are usually hand-written sensor or cover links.
 
-Always rejected: malformed XML, a root element other than <robot>, missing or duplicate names,
-unknown joint types, dangling parent/child links, several roots, cycles, non-finite or unparsable
-numbers, negative masses, zero joint axes, mimic joints naming no joint, and a moving joint whose
-subtree carries no mass (its column of M would be zero: M singular).
+Zero inertia (a point mass) is not a finding. Always rejected: malformed XML, a root element other
+than <robot>, missing or duplicate names, unknown joint types, dangling parent/child links, several
+roots, cycles, unparsable or non-finite numbers (in inertials, origins, axes, limits, dynamics,
+mimics and visual/collision geometry), negative masses, zero joint axes, mimic joints naming no
+joint, a moving joint whose subtree carries no mass (its column of M would be zero: M singular),
+and descriptions over the caps of `Limits`.
 """
 
 from __future__ import annotations
@@ -24,17 +32,18 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from xml.etree.ElementTree import Element
 
-import defusedxml.ElementTree as SafeET
 import numpy as np
-from defusedxml import DefusedXmlException
 
 from service.errors import InvalidModel
+from service.registry.safe_xml import parse_bounded, read_numbers, shown
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
-MOVING_AXIS_TYPES = ("revolute", "continuous", "prismatic")
-NEGATIVE_REL_TOL = 1e-6
-TRIANGLE_REL_TOL = 1e-6
-ABS_TOL = 1e-12
+AXIS_TYPES = ("revolute", "continuous", "prismatic", "planar")
+JOINT_NV = {"revolute": 1, "continuous": 1, "prismatic": 1, "fixed": 0, "floating": 6,
+            "planar": 3}
+NEGATIVE_REL_TOL = 1e-4  # of the largest principal moment
+TRIANGLE_REL_TOL = 1e-4  # of the trace
+ABS_TOL = 1e-12  # kg·m²
 
 
 @dataclass(frozen=True)
@@ -61,32 +70,24 @@ class URDFSummary:
     moving_joints: int
     depth: int
     findings: list[Finding] = field(default_factory=list)
+    nv: int = 0  # velocity dimension of the description's own joints (without a root joint)
 
 
 @dataclass(frozen=True)
 class Limits:
-    """Caps that bound parse time and memory (defaults admit every catalog robot)."""
+    """Caps that bound parse time and memory. The defaults admit every catalog robot (at most
+    130 links, nv 101, kinematic depth 21, 3,851 XML elements, XML nesting 6) with a wide margin;
+    `nv` matters most: a Pinocchio `Data` takes about 80·nv³ bytes (170 MB at nv = 128)."""
 
-    max_links: int = 2000
-    max_moving_joints: int = 300
-    max_depth: int = 256
-    max_elements: int = 200_000
+    max_links: int = 1000
+    max_nv: int = 128
+    max_depth: int = 128
+    max_elements: int = 50_000
+    max_xml_depth: int = 32
 
 
 def _numbers(text: str | None, count: int, what: str, default: str | None = None) -> list[float]:
-    raw = text if text is not None else default
-    if raw is None:
-        raise InvalidModel(f"{what} is missing")
-    parts = raw.split()
-    if len(parts) != count:
-        raise InvalidModel(f"{what} must have {count} numbers, found {len(parts)}")
-    try:
-        values = [float(p) for p in parts]
-    except ValueError:
-        raise InvalidModel(f"{what} is not a number") from None
-    if not all(math.isfinite(x) for x in values):
-        raise InvalidModel(f"{what} must be finite")
-    return values
+    return read_numbers(text, count, what, default)
 
 
 def _number(el: Element, attr: str, what: str, default: str | None = None) -> float:
@@ -100,43 +101,67 @@ def _check_origin(el: Element | None, what: str) -> None:
     _numbers(el.get("rpy"), 3, f"{what} origin rpy", "0 0 0")
 
 
+_GEOMETRY = {"box": (("size", 3),), "cylinder": (("radius", 1), ("length", 1)),
+             "sphere": (("radius", 1),), "capsule": (("radius", 1), ("length", 1))}
+
+
+def _check_shapes(link: Element, name: str) -> None:
+    """Visual and collision elements: the native parser reads their numbers too."""
+    for tag in ("visual", "collision"):
+        for el in link.findall(tag):
+            what = f"link '{name}' {tag}"
+            _check_origin(el.find("origin"), what)
+            geometry = el.find("geometry")
+            for shape in () if geometry is None else list(geometry):
+                for attr, count in _GEOMETRY.get(shape.tag, ()):
+                    _numbers(shape.get(attr), count, f"{what} {shape.tag} {attr}")
+                if shape.tag == "mesh" and shape.get("scale") is not None:
+                    _numbers(shape.get("scale"), 3, f"{what} mesh scale")
+            material = el.find("material")
+            color = None if material is None else material.find("color")
+            if color is not None and color.get("rgba") is not None:
+                _numbers(color.get("rgba"), 4, f"{what} material color rgba")
+
+
 def _inertia_findings(link: str, tensor: np.ndarray) -> list[Finding]:
+    """At most one finding for an inertia tensor (kg·m², about the centre of mass)."""
     moments = np.linalg.eigvalsh(tensor)
-    shown = ", ".join(f"{m:.6g}" for m in moments)
-    out = []
+    shown_moments = ", ".join(f"{m:.6g}" for m in moments)
+    name = shown(link)
     largest = float(np.max(np.abs(moments)))
     if moments[0] < -(NEGATIVE_REL_TOL * largest + ABS_TOL):
-        out.append(Finding(
+        return [Finding(
             "negative_principal_moment", "link", link,
-            f"link '{link}': inertia has a negative principal moment {moments[0]:.6g} kg·m² "
-            f"(principal moments {shown})"))
-    trace = float(np.sum(moments))
-    tol = TRIANGLE_REL_TOL * abs(trace) + ABS_TOL
+            f"link '{name}': inertia has a negative principal moment {moments[0]:.6g} kg·m² "
+            f"(principal moments {shown_moments}; largest {largest:.6g})")]
     a, b, c = moments
-    if a + b < c - tol:
-        excess = (c - a - b) / c * 100 if c > 0 else float("inf")
-        out.append(Finding(
+    trace = float(a + b + c)
+    if a + b < c - (TRIANGLE_REL_TOL * abs(trace) + ABS_TOL):
+        excess = (c - a - b) / c * 100
+        return [Finding(
             "triangle_inequality", "link", link,
-            f"link '{link}': principal moments {shown} kg·m² violate the triangle inequality "
-            f"({a:.6g} + {b:.6g} < {c:.6g}, by {excess:.3g} %)"))
-    return out
+            f"link '{name}': principal moments {shown_moments} kg·m² violate the triangle "
+            f"inequality ({a:.6g} + {b:.6g} < {c:.6g}, short by {excess:.3g} % of the largest)")]
+    return []
 
 
 def _link_mass(link: Element, name: str, findings: list[Finding]) -> float:
+    _check_shapes(link, name)
     inertial = link.find("inertial")
     if inertial is None:
         return 0.0
-    _check_origin(inertial.find("origin"), f"link '{name}' inertial")
+    label = shown(name)
+    _check_origin(inertial.find("origin"), f"link '{label}' inertial")
     mass_el = inertial.find("mass")
     if mass_el is None:
-        raise InvalidModel(f"link '{name}': <inertial> needs a <mass value=...>")
-    mass = _number(mass_el, "value", f"link '{name}' mass value")
+        raise InvalidModel(f"link '{label}': <inertial> needs a <mass value=...>")
+    mass = _number(mass_el, "value", f"link '{label}' mass value")
     if mass < 0:
-        raise InvalidModel(f"link '{name}': mass {mass:.6g} kg is negative")
+        raise InvalidModel(f"link '{label}': mass {mass:.6g} kg is negative")
     inertia_el = inertial.find("inertia")
     if inertia_el is None:
-        raise InvalidModel(f"link '{name}': <inertial> needs an <inertia> element")
-    comps = {k: _number(inertia_el, k, f"link '{name}' inertia {k}")
+        raise InvalidModel(f"link '{label}': <inertial> needs an <inertia> element")
+    comps = {k: _number(inertia_el, k, f"link '{label}' inertia {k}")
              for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
     tensor = np.array([
         [comps["ixx"], comps["ixy"], comps["ixz"]],
@@ -148,25 +173,50 @@ def _link_mass(link: Element, name: str, findings: list[Finding]) -> float:
 
 
 def _check_joint(joint: Element, name: str, jtype: str) -> None:
-    _check_origin(joint.find("origin"), f"joint '{name}'")
-    if jtype in MOVING_AXIS_TYPES:
+    label = shown(name)
+    _check_origin(joint.find("origin"), f"joint '{label}'")
+    if jtype in AXIS_TYPES:
         axis_el = joint.find("axis")
         axis = _numbers(None if axis_el is None else axis_el.get("xyz"), 3,
-                        f"joint '{name}' axis xyz", "1 0 0")
+                        f"joint '{label}' axis xyz", "1 0 0")
         if math.sqrt(sum(x * x for x in axis)) < 1e-9:
-            raise InvalidModel(f"joint '{name}': axis is zero; a {jtype} joint needs a direction")
+            raise InvalidModel(f"joint '{label}': axis is zero; a {jtype} joint needs a "
+                               "direction")
     limit = joint.find("limit")
     if limit is not None:
         for attr in ("lower", "upper", "effort", "velocity"):
             if limit.get(attr) is not None:
-                _number(limit, attr, f"joint '{name}' limit {attr}")
+                _number(limit, attr, f"joint '{label}' limit {attr}")
     for tag in ("dynamics", "calibration", "safety_controller"):
         el = joint.find(tag)
         if el is not None:
             for attr, value in el.attrib.items():
                 if attr in ("damping", "friction", "rising", "falling", "soft_lower_limit",
                             "soft_upper_limit", "k_position", "k_velocity"):
-                    _numbers(value, 1, f"joint '{name}' {tag} {attr}")
+                    _numbers(value, 1, f"joint '{label}' {tag} {attr}")
+
+
+def _check_parser_requirements(joint: Element, name: str, jtype: str) -> None:
+    """What the native URDF parser (urdfdom) refuses with one generic message; named here."""
+    label = shown(name)
+    limit = joint.find("limit")
+    if limit is None and jtype in ("revolute", "prismatic"):
+        raise InvalidModel(f"joint '{label}': a {jtype} joint needs a <limit effort=... "
+                           "velocity=...> element")
+    if limit is not None:
+        for attr in ("effort", "velocity"):
+            if limit.get(attr) is None:
+                raise InvalidModel(f"joint '{label}': <limit> needs an {attr} attribute")
+    safety = joint.find("safety_controller")
+    if safety is not None and safety.get("k_velocity") is None:
+        raise InvalidModel(f"joint '{label}': <safety_controller> needs k_velocity")
+    dynamics = joint.find("dynamics")
+    if dynamics is not None and dynamics.get("damping") is None and dynamics.get(
+            "friction") is None:
+        raise InvalidModel(f"joint '{label}': <dynamics> needs damping or friction")
+    mimic = joint.find("mimic")
+    if mimic is not None and not mimic.get("joint"):
+        raise InvalidModel(f"joint '{label}': <mimic> needs a joint attribute")
 
 
 def _names(elements: Iterable[Element], kind: str) -> dict[str, Element]:
@@ -176,34 +226,22 @@ def _names(elements: Iterable[Element], kind: str) -> dict[str, Element]:
         if not name:
             raise InvalidModel(f"a <{kind}> element has no name")
         if name in out:
-            raise InvalidModel(f"{kind} name '{name}' is used twice")
+            raise InvalidModel(f"{kind} name '{shown(name)}' is used twice")
         out[name] = el
     return out
 
 
 def parse_urdf(text: str, limits: Limits = Limits()) -> Element:
-    """Parse URDF text safely; refuse DTDs, entities and external references."""
-    try:
-        root = SafeET.fromstring(text, forbid_dtd=True, forbid_entities=True,
-                                 forbid_external=True)
-    except DefusedXmlException:
-        raise InvalidModel("the XML has a DTD, entity or external reference; "
-                           "these are refused") from None
-    except SafeET.ParseError as exc:
-        raise InvalidModel(f"the text is not well-formed XML ({exc})") from None
-    except ValueError:
-        raise InvalidModel("the text is not well-formed XML") from None
+    """Parse URDF text safely (no DTDs, entities or external references; element count and
+    nesting capped) and check that its root is <robot>."""
+    root = parse_bounded(text, limits.max_elements, limits.max_xml_depth)
     if root.tag != "robot":
-        raise InvalidModel(f"the root element is <{root.tag}>; a URDF needs <robot>")
-    count = sum(1 for _ in root.iter())
-    if count > limits.max_elements:
-        raise InvalidModel(f"the description has {count} XML elements; "
-                           f"the limit is {limits.max_elements}")
+        raise InvalidModel(f"the root element is <{shown(root.tag)}>; a URDF needs <robot>")
     return root
 
 
 def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -> URDFSummary:
-    """Validate URDF text: structure, finite numbers and physics. Raises `InvalidModel`.
+    """Validate URDF text: structure, finite numbers, physics and caps. Raises `InvalidModel`.
 
     `lenient=True` (trusted catalog files) reports a dangling mimic target and a massless moving
     subtree as findings instead of rejecting them: real descriptions contain both.
@@ -224,29 +262,31 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
     if not links:
         raise InvalidModel("the description has no <link>")
     if len(links) > limits.max_links:
-        raise InvalidModel(f"the description has {len(links)} links; "
-                           f"the limit is {limits.max_links}")
+        raise InvalidModel(f"the description has {len(links)} links; the limit is "
+                           f"{limits.max_links} (ROBODYN_MAX_LINKS)")
 
     children: dict[str, list[tuple[str, str]]] = {name: [] for name in links}
     parent_of: dict[str, str] = {}
     child_of_joint: dict[str, str] = {}
-    moving = 0
+    moving = nv = 0
     for jname, joint in joints.items():
         jtype = joint.get("type")
+        label = shown(jname)
         if jtype not in JOINT_TYPES:
-            raise InvalidModel(f"joint '{jname}': type '{jtype}' is not one of "
+            raise InvalidModel(f"joint '{label}': type '{shown(jtype)}' is not one of "
                                f"{', '.join(JOINT_TYPES)}")
         parent_el, child_el = joint.find("parent"), joint.find("child")
         parent = None if parent_el is None else parent_el.get("link")
         child = None if child_el is None else child_el.get("link")
         if not parent or not child:
-            raise InvalidModel(f"joint '{jname}': needs <parent link=...> and <child link=...>")
+            raise InvalidModel(f"joint '{label}': needs <parent link=...> and <child link=...>")
         for role, link in (("parent", parent), ("child", child)):
             if link not in links:
-                raise InvalidModel(f"joint '{jname}': {role} link '{link}' does not exist")
+                raise InvalidModel(f"joint '{label}': {role} link '{shown(link)}' does not "
+                                   "exist")
         if child in parent_of:
-            raise InvalidModel(f"link '{child}' is the child of two joints "
-                               f"('{parent_of[child]}' and '{jname}')")
+            raise InvalidModel(f"link '{shown(child)}' is the child of two joints "
+                               f"('{shown(parent_of[child])}' and '{label}')")
         parent_of[child] = jname
         child_of_joint[jname] = child
         children[parent].append((jname, child))
@@ -256,23 +296,25 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
             target = mimic.get("joint")
             if target not in joints:
                 tolerable(Finding("dangling_mimic", "joint", jname,
-                                  f"joint '{jname}': mimics joint '{target}', which does not "
-                                  "exist (the mimic is ignored)"))
+                                  f"joint '{label}': mimics joint '{shown(target)}', which "
+                                  "does not exist (the mimic is ignored)"))
             for attr in ("multiplier", "offset"):
                 if mimic.get(attr) is not None:
-                    _number(mimic, attr, f"joint '{jname}' mimic {attr}")
+                    _number(mimic, attr, f"joint '{label}' mimic {attr}")
         if jtype != "fixed":
             moving += 1
-    if moving > limits.max_moving_joints:
-        raise InvalidModel(f"the description has {moving} moving joints; "
-                           f"the limit is {limits.max_moving_joints}")
+            nv += JOINT_NV[jtype]
+    if nv > limits.max_nv:
+        raise InvalidModel(f"the description has nv = {nv} velocity coordinates ({moving} "
+                           f"moving joints); the limit is {limits.max_nv} (ROBODYN_MAX_NV)")
 
     roots = [name for name in links if name not in parent_of]
     if len(roots) != 1:
         if not roots:
             raise InvalidModel("the kinematic graph has a cycle: every link has a parent joint")
         raise InvalidModel(f"the description has {len(roots)} root links "
-                           f"({', '.join(sorted(roots)[:5])}); a URDF tree has exactly one")
+                           f"({', '.join(shown(r) for r in sorted(roots)[:5])}); a URDF tree "
+                           "has exactly one")
 
     masses = {name: _link_mass(link, name, findings) for name, link in links.items()}
 
@@ -283,14 +325,15 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
     while stack:
         link, depth = stack.pop()
         if depth > limits.max_depth:
-            raise InvalidModel(f"the kinematic chain is deeper than {limits.max_depth} links")
+            raise InvalidModel(f"the kinematic chain is deeper than {limits.max_depth} links "
+                               "(ROBODYN_MAX_DEPTH)")
         seen.add(link)
         order.append((link, depth))
         stack.extend((child, depth + 1) for _, child in children[link])
     if len(seen) != len(links):
         stray = sorted(set(links) - seen)[:5]
-        raise InvalidModel(f"links {', '.join(stray)} are not connected to the root "
-                           f"'{roots[0]}' (a cycle)")
+        raise InvalidModel(f"links {', '.join(shown(s) for s in stray)} are not connected to "
+                           f"the root '{shown(roots[0])}' (a cycle)")
 
     subtree_mass = dict(masses)
     for link, _ in reversed(order):
@@ -302,7 +345,10 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
             if subtree_mass[child] <= 0.0:
                 tolerable(Finding(
                     "massless_subtree", "joint", jname,
-                    f"joint '{jname}' moves link '{child}', whose subtree has no mass: "
-                    "the mass matrix is singular"))
+                    f"joint '{shown(jname)}' moves link '{shown(child)}', whose subtree has no "
+                    "mass: the mass matrix is singular"))
+    for jname, joint in joints.items():
+        _check_parser_requirements(joint, jname, joint.get("type", ""))
     return URDFSummary(robot_name=robot_name, links=len(links), joints=len(joints),
-                       moving_joints=moving, depth=max(d for _, d in order), findings=findings)
+                       moving_joints=moving, depth=max(d for _, d in order), findings=findings,
+                       nv=nv)

@@ -13,7 +13,7 @@ from fastapi import FastAPI
 
 from service import __version__
 from service.api import dynamics as dynamics_routes
-from service.api import health, robots
+from service.api import health, pages, robots
 from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
 from service.api.problems import install_problem_handlers
 from service.registry import Registry
@@ -43,8 +43,10 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     options: dict[str, Any] = {}
     if "strict_content_type" in inspect.signature(FastAPI.__init__).parameters:
         options["strict_content_type"] = False  # a JSON body is read as JSON whatever its label
+    # /docs is served by service.api.pages from local assets (FastAPI's default loads a CDN);
+    # ReDoc is off, as its page would load its script and fonts from the internet.
     app = FastAPI(title="robodyn", version=__version__, description=DESCRIPTION,
-                  lifespan=lifespan, **options)
+                  lifespan=lifespan, docs_url=None, redoc_url=None, **options)
     app.state.settings = settings
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
@@ -54,6 +56,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(health.router)
     app.include_router(robots.router)
     app.include_router(dynamics_routes.router)
+    app.include_router(pages.router)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics,
                        catalog_ids=lambda: registry.catalog)

@@ -302,7 +302,7 @@ function renderHeatmap(M, labels, stamp) {
   const box = el("heatmap");
   const n = M.length;
   const maxAbs = Math.max(...M.flat().map(Math.abs)) || 1;
-  const cell = Math.max(8, Math.min(36, Math.floor(440 / Math.max(n, 1))));
+  const cell = Math.max(8, Math.min(48, Math.floor(440 / Math.max(n, 1))));
   const font = Math.max(7, Math.min(12, cell * 0.75));
   const pad = Math.ceil(Math.max(0, ...labels.map((l) => l.length)) * font * 0.6) + 8;
   const size = pad + n * cell;
@@ -581,10 +581,19 @@ async function start() {
   el("log-scale").addEventListener("change", () => {
     if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
   });
-  try {
-    await selectRobot(await loadRobots());
-  } catch (err) {
-    setStatus(err.message, true);
+  for (;;) {
+    try {
+      await selectRobot(await loadRobots());
+      return;
+    } catch (err) {
+      if (!(err instanceof Problem && err.code === "not_ready")) {
+        setStatus(err.message, true);
+        return;
+      }
+      // Just started: the catalog is still loading (503 not_ready). Ask again shortly.
+      setStatus("The service is still loading its robots…");
+      await new Promise((resolve) => setTimeout(resolve, 1000));
+    }
   }
 }
 

@@ -80,8 +80,11 @@ def api(server: str) -> Iterator[httpx.Client]:
         yield client
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def browser() -> Iterator[object]:
+    """Chromium for one test module. Not for the session: Playwright's sync API keeps an
+    asyncio loop marked running in this thread while it is open, which would break the
+    asyncio tests of other modules; closing it after each module releases the loop."""
     if not (Path(CHROMIUM).is_file() and os.access(CHROMIUM, os.X_OK)):
         pytest.skip(f"browser tests need Debian's Chromium at {CHROMIUM}, which is absent: "
                     "run `apt-get install -y chromium` (as .ci/run does); no browser is "

@@ -317,3 +317,43 @@ def test_colour_scale_follows_the_value(page, server, api, robot) -> None:
         assert signs <= {(True, True), (False, False)}  # red for positive, blue for negative
         page.screenshot(path=str(ARTIFACTS / f"heatmap-{robot}-{'log' if checked else 'lin'}.png"),
                         clip=page.locator("#mass-matrix-figure").bounding_box())
+
+
+def test_zero_velocity_button_zeroes_kinetic_energy_and_coriolis(page, server, api) -> None:
+    open_explorer(page, server, "panda")
+    assert float(page.locator("#kinetic-energy").get_attribute("data-value")) > 0
+    page.click("#zero-velocity")
+    page.wait_for_function(
+        "() => JSON.parse(document.querySelector('#heatmap').dataset.v).every(x => x === 0)")
+    wait_computed(page)
+    q, v = shown_state(page)
+    assert v == [0.0] * len(v) and velocity_sliders(page) == v
+    assert float(page.locator("#kinetic-energy").get_attribute("data-value")) == 0.0
+    assert_matches_api(page, api, "panda", q, v)
+    assert not any(shown_bars(page, "coriolis-chart"))
+
+
+def test_page_waits_for_a_service_still_loading_its_catalog(page, server) -> None:
+    """Opened right after start, the list answers 503 not_ready: the page says so and asks
+    again until the service is ready (simulated by answering the first two lists with 503)."""
+    refused = []
+
+    def not_ready_twice(route) -> None:
+        if len(refused) < 2:
+            refused.append(route.request.url)
+            route.fulfill(status=503, content_type="application/problem+json",
+                          headers={"Retry-After": "1"},
+                          body=json.dumps({"type": "about:blank", "title": "Not ready",
+                                           "status": 503, "code": "not_ready",
+                                           "detail": "the robot catalog is still loading"}))
+        else:
+            route.continue_()
+
+    page.route(f"{server}/v1/robots", not_ready_twice)
+    page.goto(server + "/")
+    page.wait_for_function("() => document.querySelector('#status').textContent"
+                           ".includes('still loading')")
+    wait_computed(page)
+    assert len(refused) == 2
+    assert page.locator("#robot").input_value() == "ur5"
+    assert page.log.page_errors == [] and page.log.foreign_requests(server) == []

@@ -157,7 +157,10 @@ function slider(id, label, min, max, value, unit) {
   input.value = String(value);
   const out = document.createElement("output");
   out.htmlFor = id;
-  const show = () => { out.textContent = `${Number(input.value).toFixed(3)} ${unit}`; };
+  const show = () => {
+    const x = Number(input.value);
+    out.textContent = `${(Math.abs(x) < 5e-4 ? 0 : x).toFixed(3)} ${unit}`; // no "-0.000"
+  };
   show();
   input.addEventListener("input", () => { show(); schedule(); });
   wrap.append(lab, input, out);
@@ -233,8 +236,10 @@ function schedule() {
 // ---- Computation and rendering ------------------------------------------------------------
 
 function setStatus(text, isError = false) {
+  // A polite live region: changed only when its text changes, so that moving a slider does
+  // not make a screen reader repeat it.
   const s = el("status");
-  s.textContent = text;
+  if (s.textContent !== text) s.textContent = text;
   s.classList.toggle("error", isError);
 }
 
@@ -243,7 +248,7 @@ async function compute() {
   const id = state.info.id;
   const q = currentQ();
   const v = currentV();
-  setStatus("Computing…");
+  el("results").setAttribute("aria-busy", "true");
   try {
     const [mm, g, c] = await Promise.all([
       api(robotPath(id, "mass-matrix"), { q }),
@@ -267,6 +272,8 @@ async function compute() {
     setStatus("Computed by the service for the state set on the left.");
   } catch (err) {
     if (seq === state.seq) setStatus(err.message, true);
+  } finally {
+    if (seq === state.seq) el("results").setAttribute("aria-busy", "false");
   }
 }
 

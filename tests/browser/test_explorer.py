@@ -357,3 +357,49 @@ def test_page_waits_for_a_service_still_loading_its_catalog(page, server) -> Non
     assert len(refused) == 2
     assert page.locator("#robot").input_value() == "ur5"
     assert page.log.page_errors == [] and page.log.foreign_requests(server) == []
+
+
+CONTRAST_JS = """() => {
+  const rgba = (s) => (s.match(/[\\d.]+/g) || []).map(Number);
+  const lum = ([r, g, b]) => {
+    const f = (c) => { c /= 255; return c <= 0.03928 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4; };
+    return 0.2126 * f(r) + 0.7152 * f(g) + 0.0722 * f(b);
+  };
+  const background = (el) => {
+    for (let e = el; e; e = e.parentElement) {
+      const c = rgba(getComputedStyle(e).backgroundColor);
+      if (c.length === 3 || c[3] > 0) return c;
+    }
+    return [255, 255, 255];
+  };
+  const out = [];
+  for (const el of document.querySelectorAll('body *')) {
+    const own = [...el.childNodes].some((n) => n.nodeType === 3 && n.textContent.trim());
+    if (!own || !el.getClientRects().length) continue;
+    if (el.closest('.visually-hidden, [hidden], option, optgroup')) continue;
+    const style = getComputedStyle(el);
+    const fg = rgba(el instanceof SVGElement ? style.fill : style.color);
+    const [a, b] = [lum(fg), lum(background(el))].sort((x, y) => y - x);
+    out.push([el.tagName + (el.id ? '#' + el.id : ''), el.textContent.trim().slice(0, 30),
+              (a + 0.05) / (b + 0.05)]);
+  }
+  return out;
+}"""
+
+
+def test_every_visible_text_has_readable_contrast(page, server) -> None:
+    """WCAG AA: at least 4.5:1 between each visible text and the background behind it,
+    including the heat map's labels, the tooltip and an upload error."""
+    open_explorer(page, server, "ur5")
+    page.hover("#heatmap rect[data-row='0'][data-col='0']")
+    page.set_input_files("#urdf-file", files=[{"name": "x.urdf", "mimeType": "text/xml",
+                                               "buffer": b"<robot"}])
+    page.click("#upload button[type=submit]")
+    page.locator("#upload-status .detail").wait_for()
+    page.hover("#heatmap rect[data-row='0'][data-col='1']")
+    measured = page.evaluate(CONTRAST_JS)
+    kinds = {tag.split("#")[0] for tag, _, _ in measured}
+    assert {"H1", "LABEL", "OUTPUT", "BUTTON", "text", "SPAN", "DIV", "DD"} <= kinds
+    assert any(tag == "DIV#tooltip" for tag, _, _ in measured)
+    poor = [(tag, text, round(ratio, 2)) for tag, text, ratio in measured if ratio < 4.5]
+    assert poor == []

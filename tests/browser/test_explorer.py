@@ -403,3 +403,29 @@ def test_every_visible_text_has_readable_contrast(page, server) -> None:
     assert any(tag == "DIV#tooltip" for tag, _, _ in measured)
     poor = [(tag, text, round(ratio, 2)) for tag, text, ratio in measured if ratio < 4.5]
     assert poor == []
+
+
+def test_planar_root_gives_x_y_and_an_angle(page, server, api) -> None:
+    """An upload with a planar root: x, y sliders (unbounded limits fall back to ±1 m) and an
+    angle θ sent as (cos θ, sin θ)."""
+    urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text()
+    stored = api.post("/v1/robots", json={"urdf": urdf, "root_joint": "planar",
+                                          "name": "arm on a plane"})
+    assert stored.status_code in (200, 201), stored.text
+    robot = stored.json()["id"]
+    root = stored.json()["joints"][0]
+    assert root["type"] == "planar" and (root["nq"], root["nv"]) == (4, 3)
+    open_explorer(page, server, robot)
+    bounds = page.eval_on_selector_all("#joints input[id^='q-']",
+                                       "xs => xs.slice(0, 3).map(x => [+x.min, +x.max])")
+    assert bounds[:2] == [[-1, 1], [-1, 1]]
+    assert bounds[2] == pytest.approx([-math.pi, math.pi])
+    set_slider(page, "#q-0", 0.25)
+    set_slider(page, "#q-2", 2.0)
+    page.wait_for_function("""() => {
+        const q = JSON.parse(document.querySelector('#heatmap').dataset.q);
+        return q[0] === 0.25 && q[2] < 0 }""")
+    wait_computed(page)
+    q, v = shown_state(page)
+    assert q[:4] == pytest.approx([0.25, 0.0, math.cos(2.0), math.sin(2.0)], abs=1e-15)
+    assert_matches_api(page, api, robot, q, v)

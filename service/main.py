@@ -13,7 +13,7 @@ from fastapi import Depends, FastAPI
 
 from service import __version__
 from service.api import dynamics as dynamics_routes
-from service.api import health, robots, stream
+from service.api import health, pages, robots, stream
 from service.api.deps import require_api_key_for_all
 from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
 from service.api.openapi_problems import problem_openapi
@@ -48,8 +48,10 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     options: dict[str, Any] = {}
     if "strict_content_type" in inspect.signature(FastAPI.__init__).parameters:
         options["strict_content_type"] = False  # a JSON body is read as JSON whatever its label
+    # /docs is served by service.api.pages from local assets (FastAPI's default loads a CDN);
+    # ReDoc is off, as its page would load its script and fonts from the internet.
     app = FastAPI(title="robodyn", version=__version__, description=DESCRIPTION,
-                  lifespan=lifespan, **options)
+                  lifespan=lifespan, docs_url=None, redoc_url=None, **options)
     app.state.settings = settings
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
@@ -65,6 +67,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(robots.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
     app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
+    app.include_router(pages.router)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
                        upload_limit=settings.max_upload_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics,

@@ -1,0 +1,85 @@
+"""Human pages: the explorer at `GET /` and the API documentation at `GET /docs`, both offline.
+
+Neither page loads anything from outside the service. The explorer's files are package data of
+`service.web`; Swagger UI's JavaScript, CSS and favicon come from the `swagger-ui-bundle-v2`
+distribution (import name `swagger_ui_bundle`, Swagger UI 5, which renders OpenAPI 3.1), served
+under `/docs/assets/`. Only the files the pages reference are served (an allow-list), so neither
+the Python sources next to them nor Swagger UI's demo `index.html` (which points at a remote
+example API) is reachable. A Content-Security-Policy of `'self'` makes the browser itself refuse
+any other origin.
+"""
+
+from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
+
+from fastapi import APIRouter, HTTPException, Request
+from fastapi.openapi.docs import get_swagger_ui_html, swagger_ui_default_parameters
+from fastapi.responses import FileResponse, HTMLResponse
+from swagger_ui_bundle import swagger_ui_path
+
+router = APIRouter(include_in_schema=False)
+
+WEB_DIR = Path(str(files("service.web")))
+SWAGGER_DIR = Path(str(swagger_ui_path))
+
+# name → media type of every file the pages may load; anything else is a 404.
+EXPLORER_FILES = {"explorer.js": "text/javascript; charset=utf-8",
+                  "explorer.css": "text/css; charset=utf-8",
+                  "favicon.svg": "image/svg+xml"}
+DOCS_FILES = {"swagger-ui-bundle.js": "text/javascript; charset=utf-8",
+              "swagger-ui.css": "text/css; charset=utf-8",
+              "favicon-32x32.png": "image/png"}
+
+# The browser enforces "nothing from elsewhere": scripts, styles, images, fonts and fetches
+# only from this origin (images also as data: URIs, which Swagger UI's CSS uses for icons).
+EXPLORER_CSP = ("default-src 'self'; img-src 'self' data:; object-src 'none'; "
+                "base-uri 'none'; frame-ancestors 'none'; form-action 'none'")
+# FastAPI's docs page starts Swagger UI with an inline script; Swagger UI sets inline styles.
+DOCS_CSP = ("default-src 'self'; script-src 'self' 'unsafe-inline'; "
+            "style-src 'self' 'unsafe-inline'; img-src 'self' data:; object-src 'none'; "
+            "base-uri 'none'; frame-ancestors 'none'")
+_REVALIDATE = "no-cache"  # files change with the installed version; ETags make it cheap
+
+
+def _file(directory: Path, name: str, allowed: dict[str, str]) -> FileResponse:
+    if name not in allowed:
+        raise HTTPException(404)  # answered as problem+json `not_found` by the handlers
+    return FileResponse(directory / name, media_type=allowed[name],
+                        headers={"Cache-Control": _REVALIDATE})
+
+
+@router.get("/")
+async def explorer_page() -> FileResponse:
+    """The explorer: choose a robot, move its joints, see M(q), g(q) and C(q, v) v."""
+    return FileResponse(WEB_DIR / "index.html", media_type="text/html; charset=utf-8",
+                        headers={"Cache-Control": _REVALIDATE,
+                                 "Content-Security-Policy": EXPLORER_CSP})
+
+
+@router.get("/static/{name}")
+async def explorer_file(name: str) -> FileResponse:
+    return _file(WEB_DIR, name, EXPLORER_FILES)
+
+
+@router.get("/docs")
+async def api_docs(request: Request) -> HTMLResponse:
+    """Swagger UI over `/openapi.json`, with every asset served by this service."""
+    root = request.scope.get("root_path", "")
+    openapi_url = request.app.openapi_url or "/openapi.json"
+    page = get_swagger_ui_html(
+        openapi_url=f"{root}{openapi_url}",
+        title=f"{request.app.title} — API documentation",
+        swagger_js_url=f"{root}/docs/assets/swagger-ui-bundle.js",
+        swagger_css_url=f"{root}/docs/assets/swagger-ui.css",
+        swagger_favicon_url=f"{root}/docs/assets/favicon-32x32.png",
+        # validatorUrl None: no badge fetched from validator.swagger.io.
+        swagger_ui_parameters={**swagger_ui_default_parameters, "validatorUrl": None})
+    page.headers["Content-Security-Policy"] = DOCS_CSP
+    return page
+
+
+@router.get("/docs/assets/{name}")
+async def api_docs_file(name: str) -> FileResponse:
+    return _file(SWAGGER_DIR, name, DOCS_FILES)

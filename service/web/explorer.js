@@ -1,0 +1,607 @@
+// robodyn explorer: plain JavaScript, no library and no build step. Every request goes to this
+// service through a relative URL (so the page also works behind a path prefix); the page's
+// Content-Security-Policy forbids any other origin.
+"use strict";
+
+const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
+const DEFAULT_VELOCITY = 0.5; // rad/s or m/s in every coordinate when a robot is chosen
+const UNITS = {
+  angle: { q: "rad", v: "rad/s", f: "N·m" },
+  length: { q: "m", v: "m/s", f: "N" },
+  other: { q: "", v: "", f: "" },
+};
+
+const el = (id) => document.getElementById(id);
+const state = {
+  info: null, // RobotInfo of the chosen robot (GET /v1/robots/{id})
+  joints: [], // per joint: {joint, coords, toQ(positions) → its nq entries of q}
+  rows: [], // one per velocity coordinate: {label, kind, pos input | null, vel input}
+  seq: 0, // stamp of the newest computation: older answers are dropped
+  robotSeq: 0,
+  timer: 0,
+  last: null, // the last drawn M(q), to redraw it when the colour scale changes
+  chooseScale: false,
+};
+
+// ---- HTTP ---------------------------------------------------------------------------------
+
+class Problem extends Error {
+  constructor(status, body) {
+    super(`${body.title || "Error"} (${status}${body.code ? ", " + body.code : ""}): ` +
+          `${body.detail || "no detail"}`);
+    this.status = status;
+    this.title = body.title || "Error";
+    this.code = body.code || "";
+    this.detail = body.detail || "";
+  }
+}
+
+async function api(path, body, headers = {}) {
+  const init = { headers: { Accept: "application/json", ...headers } };
+  if (body !== undefined) {
+    init.method = "POST";
+    init.headers["Content-Type"] = "application/json";
+    init.body = JSON.stringify(body);
+  }
+  const res = await fetch(path, init);
+  const text = await res.text();
+  let json = null;
+  try { json = text ? JSON.parse(text) : null; } catch { json = null; }
+  if (!res.ok) throw new Problem(res.status, json || { title: res.statusText });
+  return json;
+}
+
+const robotPath = (id, quantity) =>
+  `v1/robots/${encodeURIComponent(id)}${quantity ? "/" + quantity : ""}`;
+
+// ---- Joint coordinates → q ----------------------------------------------------------------
+
+function rpyToQuat(roll, pitch, yaw) {
+  // R = Rz(yaw) Ry(pitch) Rx(roll), as Pinocchio's rpy; q = [x, y, z, w], unit length.
+  const [cr, sr] = [Math.cos(roll / 2), Math.sin(roll / 2)];
+  const [cp, sp] = [Math.cos(pitch / 2), Math.sin(pitch / 2)];
+  const [cy, sy] = [Math.cos(yaw / 2), Math.sin(yaw / 2)];
+  const q = [sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+             cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy];
+  const n = Math.hypot(...q);
+  return q.map((x) => x / n);
+}
+
+function quatToRpy([x, y, z, w]) {
+  return [Math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)),
+          Math.asin(Math.max(-1, Math.min(1, 2 * (w * y - z * x)))),
+          Math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))];
+}
+
+const finite = (x) => x !== null && Number.isFinite(x) && Math.abs(x) < LARGE;
+
+function coord(suffix, vSuffix, kind, lo, hi, value, fallback) {
+  // A slider range: the joint limits when both are finite, else the fallback, widened if
+  // needed so that the starting value itself is kept exactly.
+  let [min, max] = finite(lo) && finite(hi) && hi > lo ? [lo, hi] : fallback;
+  min = Math.min(min, value);
+  max = Math.max(max, value);
+  return { suffix, vSuffix, kind, min, max, value };
+}
+
+function jointCoordinates(j, q0) {
+  // One coordinate per velocity entry (nv of them) and the map back to the joint's nq entries.
+  const qj = q0.slice(j.idx_q, j.idx_q + j.nq);
+  const lo = j.lower, hi = j.upper, PI = Math.PI;
+  const ANGLE = [-PI, PI], LENGTH = [-1, 1];
+  if (j.type === "free_flyer") {
+    const [r, p, y] = quatToRpy(qj.slice(3, 7));
+    return {
+      coords: [coord("x", "vx", "length", lo[0], hi[0], qj[0], LENGTH),
+               coord("y", "vy", "length", lo[1], hi[1], qj[1], LENGTH),
+               coord("z", "vz", "length", lo[2], hi[2], qj[2], LENGTH),
+               coord("roll", "ωx", "angle", null, null, r, ANGLE),
+               coord("pitch", "ωy", "angle", null, null, p, [-PI / 2, PI / 2]),
+               coord("yaw", "ωz", "angle", null, null, y, ANGLE)],
+      toQ: (c) => [c[0], c[1], c[2], ...rpyToQuat(c[3], c[4], c[5])],
+    };
+  }
+  if (j.type === "spherical") {
+    const [r, p, y] = quatToRpy(qj);
+    return {
+      coords: [coord("roll", "ωx", "angle", null, null, r, ANGLE),
+               coord("pitch", "ωy", "angle", null, null, p, [-PI / 2, PI / 2]),
+               coord("yaw", "ωz", "angle", null, null, y, ANGLE)],
+      toQ: (c) => rpyToQuat(c[0], c[1], c[2]),
+    };
+  }
+  if (j.type === "planar") {
+    return {
+      coords: [coord("x", "vx", "length", lo[0], hi[0], qj[0], LENGTH),
+               coord("y", "vy", "length", lo[1], hi[1], qj[1], LENGTH),
+               coord("θ", "ω", "angle", null, null, Math.atan2(qj[3], qj[2]), ANGLE)],
+      toQ: (c) => [c[0], c[1], Math.cos(c[2]), Math.sin(c[2])],
+    };
+  }
+  if (j.type === "continuous") { // q = [cos θ, sin θ]
+    return {
+      coords: [coord("θ", "ω", "angle", null, null, Math.atan2(qj[1], qj[0]), ANGLE)],
+      toQ: (c) => [Math.cos(c[0]), Math.sin(c[0])],
+    };
+  }
+  if (j.nq === j.nv) { // revolute, prismatic, spherical_zyx, translation, ...
+    const kind = ["revolute", "spherical_zyx"].includes(j.type) ? "angle"
+      : ["prismatic", "translation"].includes(j.type) ? "length" : "other";
+    const fallback = kind === "angle" ? ANGLE : LENGTH;
+    const names = j.nv === 1 ? [""] : [...Array(j.nv).keys()].map(String);
+    return {
+      coords: names.map((s, k) => coord(s, s, kind, lo[k], hi[k], qj[k], fallback)),
+      toQ: (c) => c,
+    };
+  }
+  // An unknown joint whose q is not its v: held at the starting configuration.
+  return {
+    coords: [...Array(j.nv).keys()].map((k) => ({ suffix: String(k), vSuffix: String(k),
+                                                  kind: "other", held: true })),
+    toQ: () => qj,
+  };
+}
+
+// ---- Controls -----------------------------------------------------------------------------
+
+function slider(id, label, min, max, value, unit) {
+  // A native range input (keyboard: arrows move 1 % of the range, Page Up/Down 10 %).
+  const wrap = document.createElement("div");
+  wrap.className = "slider";
+  const lab = document.createElement("label");
+  lab.htmlFor = id;
+  lab.className = "visually-hidden";
+  lab.textContent = label;
+  const input = document.createElement("input");
+  Object.assign(input, { type: "range", id, min: String(min), max: String(max), step: "any" });
+  input.value = String(value);
+  const out = document.createElement("output");
+  out.htmlFor = id;
+  const show = () => {
+    const x = Number(input.value);
+    out.textContent = `${(Math.abs(x) < 5e-4 ? 0 : x).toFixed(3)} ${unit}`; // no "-0.000"
+  };
+  show();
+  input.addEventListener("input", () => { show(); schedule(); });
+  wrap.append(lab, input, out);
+  return { wrap, input };
+}
+
+function breakable(node, text) {
+  // Long joint names (shoulder_lift_joint) may wrap after an underscore, not mid-word.
+  text.split(/(?<=_)/).forEach((part, k) => {
+    if (k) node.append(document.createElement("wbr"));
+    node.append(part);
+  });
+}
+
+function buildControls(q0, v0) {
+  const tbody = el("joints").querySelector("tbody");
+  tbody.replaceChildren();
+  state.joints = [];
+  state.rows = [];
+  for (const j of state.info.joints) {
+    const spec = jointCoordinates(j, q0);
+    const entry = { joint: j, toQ: spec.toQ, inputs: [] };
+    spec.coords.forEach((c, k) => {
+      const row = document.createElement("tr");
+      const name = j.nv === 1 ? j.name : `${j.name} ${c.suffix}`;
+      const vName = j.nv === 1 ? j.name : `${j.name} ${c.vSuffix}`;
+      const th = document.createElement("th");
+      th.scope = "row";
+      breakable(th, name);
+      const n = state.rows.length;
+      const posCell = document.createElement("td");
+      let pos = null;
+      if (c.held) {
+        posCell.textContent = "held at the chosen configuration";
+      } else {
+        pos = slider(`q-${n}`, `${name} position (${UNITS[c.kind].q || "q units"})`,
+                     c.min, c.max, c.value, UNITS[c.kind].q).input;
+        posCell.append(pos.parentElement);
+        entry.inputs.push(pos);
+      }
+      const lim = j.velocity_limit[k];
+      const vmax = finite(lim) && lim > 0 ? lim : c.kind === "angle" ? 2 * Math.PI : 2;
+      const vValue = v0 ? v0[j.idx_v + k] : Math.min(DEFAULT_VELOCITY, vmax);
+      const vel = slider(`v-${n}`, `${vName} velocity (${UNITS[c.kind].v || "v units"})`,
+                         Math.min(-vmax, vValue), Math.max(vmax, vValue), vValue,
+                         UNITS[c.kind].v).input;
+      const velCell = document.createElement("td");
+      velCell.append(vel.parentElement);
+      row.append(th, posCell, velCell);
+      tbody.append(row);
+      state.rows.push({ label: vName, kind: c.kind, pos, vel });
+    });
+    state.joints.push(entry);
+  }
+}
+
+function currentQ() {
+  const q = state.info.neutral_configuration.slice();
+  for (const { joint, toQ, inputs } of state.joints) {
+    const part = toQ(inputs.map((i) => Number(i.value)));
+    part.forEach((x, k) => { q[joint.idx_q + k] = x; });
+  }
+  return q;
+}
+
+const currentV = () => state.rows.map((r) => Number(r.vel.value));
+
+function schedule() {
+  clearTimeout(state.timer);
+  state.timer = setTimeout(compute, 40);
+}
+
+// ---- Computation and rendering ------------------------------------------------------------
+
+function setStatus(text, isError = false) {
+  // A polite live region: changed only when its text changes, so that moving a slider does
+  // not make a screen reader repeat it.
+  const s = el("status");
+  if (s.textContent !== text) s.textContent = text;
+  s.classList.toggle("error", isError);
+}
+
+async function compute() {
+  const seq = ++state.seq;
+  const id = state.info.id;
+  const q = currentQ();
+  const v = currentV();
+  el("results").setAttribute("aria-busy", "true");
+  try {
+    const [mm, g, c] = await Promise.all([
+      api(robotPath(id, "mass-matrix"), { q }),
+      api(robotPath(id, "gravity"), { q }),
+      api(robotPath(id, "coriolis"), { q, v }),
+    ]);
+    if (seq !== state.seq) return; // a newer state is being computed
+    const labels = state.rows.map((r) => r.label);
+    if (state.chooseScale) { // once per robot: log scale if the diagonal spans > 2 decades
+      const diag = mm.mass_matrix.map((r, i) => Math.abs(r[i])).filter((x) => x > 0);
+      el("log-scale").checked = diag.length > 0 &&
+        Math.max(...diag) > 100 * Math.min(...diag);
+      state.chooseScale = false;
+    }
+    state.last = { M: mm.mass_matrix, labels, stamp: { robot: id, q, v } };
+    renderHeatmap(mm.mass_matrix, labels, { robot: id, q, v });
+    renderNumbers(mm.mass_matrix, labels);
+    renderBars(el("gravity-chart"), g.gravity, "f");
+    renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
+    renderEnergy(mm.mass_matrix, v);
+    setStatus("Computed by the service for the state set on the left.");
+  } catch (err) {
+    if (seq === state.seq) setStatus(err.message, true);
+  } finally {
+    if (seq === state.seq) el("results").setAttribute("aria-busy", "false");
+  }
+}
+
+const fmt = (x, digits = 4) => (x === 0 ? "0" : Number(x).toPrecision(digits));
+
+const LOG_DECADES = 4;
+
+function scaled(x, maxAbs) {
+  // The position of x on the colour scale, in [−1, 1]: linear, or logarithmic over
+  // LOG_DECADES decades below max |M| (smaller magnitudes are drawn as 0).
+  if (!el("log-scale").checked) return x / maxAbs;
+  const decades = Math.log10(Math.abs(x) / maxAbs) + LOG_DECADES;
+  return x === 0 || decades <= 0 ? 0 : Math.sign(x) * Math.min(1, decades / LOG_DECADES);
+}
+
+function colour(t) {
+  // Diverging scale for t in [−1, 1]: blue (negative) – light grey (0) – red (positive).
+  const mid = [247, 247, 247], neg = [33, 102, 172], pos = [178, 24, 43];
+  const end = t < 0 ? neg : pos;
+  const a = Math.min(1, Math.abs(t));
+  const c = mid.map((m, k) => Math.round(m + (end[k] - m) * a));
+  return `rgb(${c[0]}, ${c[1]}, ${c[2]})`;
+}
+
+const SVG = "http://www.w3.org/2000/svg";
+function svgEl(name, attrs) {
+  const e = document.createElementNS(SVG, name);
+  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
+  return e;
+}
+
+function renderHeatmap(M, labels, stamp) {
+  const box = el("heatmap");
+  const n = M.length;
+  const maxAbs = Math.max(...M.flat().map(Math.abs)) || 1;
+  const cell = Math.max(8, Math.min(48, Math.floor(440 / Math.max(n, 1))));
+  const font = Math.max(7, Math.min(12, cell * 0.75));
+  const pad = Math.ceil(Math.max(0, ...labels.map((l) => l.length)) * font * 0.6) + 8;
+  const size = pad + n * cell;
+  const svg = svgEl("svg", { width: size, height: size, viewBox: `0 0 ${size} ${size}`,
+                             role: "img", "aria-label": `Heat map of the ${n}×${n} mass ` +
+                             "matrix; the table below lists the numbers" });
+  labels.forEach((label, i) => {
+    const row = svgEl("text", { x: pad - 4, y: pad + (i + 0.5) * cell, "font-size": font,
+                                "text-anchor": "end", "dominant-baseline": "middle" });
+    row.textContent = label;
+    const col = svgEl("text", { x: 0, y: 0, "font-size": font, "text-anchor": "start",
+                                "dominant-baseline": "middle",
+                                transform: `translate(${pad + (i + 0.5) * cell} ${pad - 4}) ` +
+                                           "rotate(-90)" });
+    col.textContent = label;
+    svg.append(row, col);
+  });
+  M.forEach((r, i) => r.forEach((value, j) => {
+    svg.append(svgEl("rect", { x: pad + j * cell, y: pad + i * cell, width: cell, height: cell,
+                               fill: colour(scaled(value, maxAbs)), class: "cell",
+                               "data-row": i, "data-col": j, "data-value": String(value) }));
+  }));
+  svg.addEventListener("mousemove", (ev) => showTooltip(ev, labels));
+  svg.addEventListener("mouseleave", () => { el("tooltip").hidden = true; });
+  box.replaceChildren(svg);
+  box.dataset.robot = stamp.robot;
+  box.dataset.q = JSON.stringify(stamp.q);
+  box.dataset.v = JSON.stringify(stamp.v);
+  renderLegend(maxAbs);
+}
+
+function showTooltip(ev, labels) {
+  const tip = el("tooltip");
+  const t = ev.target;
+  if (!t.classList || !t.classList.contains("cell")) { tip.hidden = true; return; }
+  const i = Number(t.dataset.row), j = Number(t.dataset.col);
+  tip.textContent = `M[${labels[i]}, ${labels[j]}] = ${fmt(Number(t.dataset.value), 6)}`;
+  const fig = el("mass-matrix-figure").getBoundingClientRect();
+  tip.style.left = `${ev.clientX - fig.left + 14}px`;
+  tip.style.top = `${ev.clientY - fig.top + 14}px`;
+  tip.hidden = false;
+}
+
+function renderLegend(maxAbs) {
+  const legend = el("legend");
+  const bar = document.createElement("div");
+  bar.className = "legend-bar";
+  const ticks = document.createElement("div");
+  ticks.className = "legend-ticks";
+  // Ticks at −1, −½, 0, ½, 1 of the scale: on the log scale ½ is 10^(−decades/2) of the max.
+  const log = el("log-scale").checked;
+  const half = log ? maxAbs * 10 ** (-LOG_DECADES / 2) : maxAbs / 2;
+  const floor = `|M| < ${fmt(maxAbs * 10 ** -LOG_DECADES, 2)}`;
+  for (const x of [-maxAbs, -half, 0, half, maxAbs]) {
+    const s = document.createElement("span");
+    s.textContent = x === 0 && log ? floor : fmt(x, 3);
+    ticks.append(s);
+  }
+  legend.replaceChildren(bar, ticks);
+}
+
+function renderNumbers(M, labels) {
+  const table = document.createElement("table");
+  table.className = "numbers";
+  const head = document.createElement("tr");
+  head.append(document.createElement("td"));
+  for (const l of labels) {
+    const th = document.createElement("th");
+    th.scope = "col";
+    th.textContent = l;
+    head.append(th);
+  }
+  table.append(head);
+  M.forEach((r, i) => {
+    const tr = document.createElement("tr");
+    const th = document.createElement("th");
+    th.scope = "row";
+    th.textContent = labels[i];
+    tr.append(th);
+    for (const x of r) {
+      const td = document.createElement("td");
+      td.textContent = fmt(x, 6);
+      tr.append(td);
+    }
+    table.append(tr);
+  });
+  el("mass-matrix-numbers").replaceChildren(table);
+}
+
+function renderBars(box, values, unitKey) {
+  // Horizontal bars about a centre line, one per velocity coordinate, labelled by joint.
+  const maxAbs = Math.max(...values.map(Math.abs)) || 1;
+  const rows = values.map((x, i) => {
+    const r = state.rows[i];
+    const row = document.createElement("div");
+    row.className = "bar-row";
+    row.dataset.index = String(i);
+    row.dataset.value = String(x);
+    const label = document.createElement("span");
+    label.className = "bar-label";
+    label.textContent = r.label;
+    const track = document.createElement("span");
+    track.className = "bar-track";
+    const bar = document.createElement("span");
+    bar.className = x < 0 ? "bar negative" : "bar positive";
+    const width = (Math.abs(x) / maxAbs) * 50;
+    bar.style.width = `${width}%`;
+    bar.style.left = x < 0 ? `${50 - width}%` : "50%";
+    track.append(bar);
+    const value = document.createElement("span");
+    value.className = "bar-value";
+    value.textContent = `${fmt(x)} ${UNITS[r.kind][unitKey]}`;
+    row.append(label, track, value);
+    return row;
+  });
+  box.replaceChildren(...rows);
+}
+
+function renderEnergy(M, v) {
+  // The service's `energy` endpoint is not used here (it may not be deployed yet): the kinetic
+  // energy follows from the mass matrix the page already has, T = ½ vᵀ M(q) v.
+  const Mv = M.map((r) => r.reduce((s, x, k) => s + x * v[k], 0));
+  const T = 0.5 * v.reduce((s, x, k) => s + x * Mv[k], 0);
+  const dl = el("energy");
+  dl.replaceChildren();
+  const add = (term, text, value) => {
+    const dt = document.createElement("dt");
+    dt.textContent = term;
+    const dd = document.createElement("dd");
+    dd.textContent = text;
+    if (value !== undefined) dd.dataset.value = String(value);
+    dl.append(dt, dd);
+    return dd;
+  };
+  add("Total mass", `${fmt(state.info.total_mass, 6)} kg`, state.info.total_mass).id =
+    "total-mass";
+  add("Kinetic energy T = ½ vᵀ M(q) v", `${fmt(T, 6)} J`, T).id = "kinetic-energy";
+}
+
+// ---- Robots -------------------------------------------------------------------------------
+
+async function loadRobots(chosen) {
+  const { robots } = await api("v1/robots");
+  const select = el("robot");
+  select.replaceChildren();
+  const groups = [["catalog", "Catalog"], ["upload", "Uploaded"]];
+  for (const [source, title] of groups) {
+    const members = robots.filter((r) => r.source === source)
+      .sort((a, b) => a.name.localeCompare(b.name));
+    if (!members.length) continue;
+    const group = document.createElement("optgroup");
+    group.label = title;
+    for (const r of members) {
+      const label = source === "upload" ? `${r.name} (${r.id.slice(0, 10)}…, nv ${r.nv})`
+        : `${r.name} (nv ${r.nv})`;
+      group.append(new Option(label, r.id));
+    }
+    select.append(group);
+  }
+  const ids = robots.map((r) => r.id);
+  const fromHash = new URLSearchParams(location.hash.slice(1)).get("robot");
+  select.value = [chosen, fromHash, "ur5", ids[0]].find((x) => x && ids.includes(x)) || "";
+  return select.value;
+}
+
+async function selectRobot(id) {
+  if (!id) { setStatus("No robot is loaded yet.", true); return; }
+  const mine = ++state.robotSeq;
+  setStatus(`Loading ${id}…`);
+  const info = await api(robotPath(id));
+  if (mine !== state.robotSeq) return;
+  state.info = info;
+  history.replaceState(null, "", `#robot=${encodeURIComponent(id)}`);
+  const posture = el("posture");
+  posture.replaceChildren(new Option("default", "default"), new Option("neutral", "neutral"));
+  for (const name of Object.keys(info.reference_configurations)) {
+    if (name !== "default" && name !== "neutral") posture.append(new Option(name, name));
+  }
+  posture.value = "default";
+  renderFacts(info);
+  buildControls(info.default_configuration, null);
+  state.chooseScale = true;
+  await compute();
+}
+
+function postureQ(name) {
+  const info = state.info;
+  if (name === "neutral") return info.neutral_configuration;
+  return info.reference_configurations[name] || info.default_configuration;
+}
+
+function renderFacts(info) {
+  const dl = el("facts");
+  dl.replaceChildren();
+  const facts = [["id", info.id], ["source", info.source], ["root joint", info.root_joint],
+                 ["nq, nv", `${info.nq}, ${info.nv}`],
+                 ["gravity", `[${info.gravity.join(", ")}] m/s²`]];
+  for (const [k, v] of facts) {
+    const dt = document.createElement("dt");
+    dt.textContent = k;
+    const dd = document.createElement("dd");
+    dd.textContent = v;
+    dl.append(dt, dd);
+  }
+  const box = el("warnings");
+  box.replaceChildren();
+  if (info.warnings.length) {
+    const details = document.createElement("details");
+    const summary = document.createElement("summary");
+    summary.textContent = `${info.warnings.length} finding(s) in the description`;
+    const ul = document.createElement("ul");
+    for (const w of info.warnings) {
+      const li = document.createElement("li");
+      li.textContent = w.message || JSON.stringify(w);
+      ul.append(li);
+    }
+    details.append(summary, ul);
+    box.append(details);
+  }
+}
+
+// ---- Upload -------------------------------------------------------------------------------
+
+async function upload(ev) {
+  ev.preventDefault();
+  const out = el("upload-status");
+  const file = el("urdf-file").files[0];
+  if (!file) return;
+  const body = { urdf: await file.text(), root_joint: el("root-joint").value,
+                 inertia_check: el("inertia-warn").checked ? "warn" : "reject" };
+  const name = el("upload-name").value.trim();
+  if (name) body.name = name;
+  const key = el("api-key").value.trim();
+  const headers = key ? { Authorization: `Bearer ${key}` } : {};
+  out.className = "";
+  out.textContent = "Uploading…";
+  try {
+    const info = await api("v1/robots", body, headers);
+    out.className = "ok";
+    out.textContent = `Stored as ${info.id}` +
+      (info.warnings.length ? ` with ${info.warnings.length} finding(s).` : ".");
+    await loadRobots(info.id);
+    await selectRobot(info.id);
+  } catch (err) {
+    out.className = "error";
+    const p = document.createElement("p");
+    const strong = document.createElement("strong");
+    strong.textContent = err instanceof Problem
+      ? `Upload refused: ${err.title} (${err.status}${err.code ? ", " + err.code : ""})`
+      : "Upload failed";
+    const detail = document.createElement("span");
+    detail.className = "detail";
+    detail.textContent = err instanceof Problem ? err.detail : String(err.message || err);
+    p.append(strong, document.createTextNode(": "), detail);
+    out.replaceChildren(p);
+  }
+}
+
+// ---- Start --------------------------------------------------------------------------------
+
+async function start() {
+  el("robot").addEventListener("change", (ev) => {
+    selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
+  });
+  el("posture").addEventListener("change", (ev) => {
+    buildControls(postureQ(ev.target.value), currentV());
+    schedule();
+  });
+  el("zero-velocity").addEventListener("click", () => {
+    for (const r of state.rows) {
+      r.vel.value = "0";
+      r.vel.dispatchEvent(new Event("input"));
+    }
+  });
+  el("upload").addEventListener("submit", upload);
+  el("log-scale").addEventListener("change", () => {
+    if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
+  });
+  for (;;) {
+    try {
+      await selectRobot(await loadRobots());
+      return;
+    } catch (err) {
+      if (!(err instanceof Problem && err.code === "not_ready")) {
+        setStatus(err.message, true);
+        return;
+      }
+      // Just started: the catalog is still loading (503 not_ready). Ask again shortly.
+      setStatus("The service is still loading its robots…");
+      await new Promise((resolve) => setTimeout(resolve, 1000));
+    }
+  }
+}
+
+start();

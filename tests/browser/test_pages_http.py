@@ -1,0 +1,87 @@
+"""The pages' HTTP side, without a browser: what `/` and `/docs` reference is served by the
+service itself, from the package that ships it, and nothing else is reachable."""
+
+from __future__ import annotations
+
+import re
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+from swagger_ui_bundle import swagger_ui_path
+
+from service.api.pages import DOCS_FILES, EXPLORER_FILES, WEB_DIR
+
+
+class _Refs(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.refs: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        self.refs += [v for k, v in attrs if k in ("src", "href") and v]
+
+
+def _refs(html: str) -> list[str]:
+    parser = _Refs()
+    parser.feed(html)
+    return parser.refs
+
+
+@pytest.fixture
+def client(small_app_factory):
+    return small_app_factory(catalog="planar_arm")
+
+
+def test_explorer_page_references_only_its_own_files(client) -> None:
+    page = client.get("/")
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert "default-src 'self'" in page.headers["content-security-policy"]
+    refs = _refs(page.text)
+    assert set(refs) == {"docs", *(f"static/{name}" for name in EXPLORER_FILES)}
+    for name, media_type in EXPLORER_FILES.items():
+        answer = client.get(f"/static/{name}")
+        assert answer.status_code == 200, name
+        assert answer.headers["content-type"] == media_type
+        assert answer.content == (WEB_DIR / name).read_bytes()
+
+
+def test_explorer_files_name_no_other_origin() -> None:
+    for name in ["index.html", *EXPLORER_FILES]:
+        text = (WEB_DIR / name).read_text()
+        urls = set(re.findall(r"[a-z][a-z0-9+.-]*://[^\s\"'`)]+", text))
+        assert urls <= {"http://www.w3.org/2000/svg"}, (name, urls)  # an XML namespace name
+        assert "//" not in "".join(re.findall(r"(?:src|href)=\"([^\"]*)\"", text))
+
+
+def test_docs_page_loads_swagger_ui_from_the_installed_package(client) -> None:
+    page = client.get("/docs")
+    assert page.status_code == 200
+    assert "'self'" in page.headers["content-security-policy"]
+    refs = _refs(page.text)
+    assert sorted(refs) == sorted(f"/docs/assets/{name}" for name in DOCS_FILES)
+    assert "url: '/openapi.json'" in page.text
+    assert '"validatorUrl": null' in page.text  # no badge from validator.swagger.io
+    assert not re.search(r"https?://", page.text)
+    for name, media_type in DOCS_FILES.items():
+        answer = client.get(f"/docs/assets/{name}")
+        assert answer.status_code == 200, name
+        assert answer.headers["content-type"] == media_type
+        assert answer.content == (Path(str(swagger_ui_path)) / name).read_bytes()
+    assert b"SwaggerUIBundle" in client.get("/docs/assets/swagger-ui-bundle.js").content
+
+
+@pytest.mark.parametrize("path", [
+    "/static/__init__.py", "/static/index.html", "/static/..%2f..%2fmain.py",
+    "/static/../api/pages.py", "/docs/assets/index.html", "/docs/assets/swagger-initializer.js",
+    "/docs/assets/..%2f..%2f__init__.py", "/redoc", "/docs/oauth2-redirect"])
+def test_nothing_else_is_served(client, path: str) -> None:
+    answer = client.get(path)
+    assert answer.status_code == 404
+    assert answer.headers["content-type"] == "application/problem+json"
+    assert answer.json()["code"] == "not_found"
+
+
+def test_pages_are_not_api_operations(client) -> None:
+    paths = client.get("/openapi.json").json()["paths"]
+    assert not [p for p in paths if not p.startswith(("/v1/", "/health/", "/metrics"))]

@@ -14,8 +14,9 @@ from fastapi import FastAPI
 from service import __version__
 from service.api import dynamics as dynamics_routes
 from service.api import health, robots
-from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
+from service.api.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
 from service.api.problems import install_problem_handlers
+from service.logs import configure_logging
 from service.registry import Registry
 from service.settings import Settings
 
@@ -55,11 +56,14 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(robots.router)
     app.include_router(dynamics_routes.router)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
-    app.add_middleware(MetricsMiddleware, metrics=app.state.metrics,
-                       catalog_ids=lambda: registry.catalog)
+    app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,
+                       catalog_ids=lambda: registry.catalog)  # outermost: sees every answer
     return app
 
 
 def app_from_environment() -> FastAPI:
-    """Factory used by `python -m service` (also with several workers)."""
-    return create_app(Settings())
+    """Factory used by `python -m service` (also in each worker process, which is why the
+    logging is configured here too)."""
+    settings = Settings()
+    configure_logging(settings.log_level)
+    return create_app(settings)

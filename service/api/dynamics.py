@@ -1,6 +1,7 @@
 """Routes of the dynamics quantities: POST /v1/robots/{id}/<quantity>, one per quantity."""
 
 # No `from __future__ import annotations`: FastAPI must see the closure's request model.
+import time
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
@@ -48,10 +49,15 @@ def _make_endpoint(quantity: dynamics.Quantity) -> Any:
         inputs = {name: getattr(body, name) for name in quantity.inputs}
         max_batch = request.app.state.settings.max_batch
         states = prepare(robot, inputs, max_batch)
+        started = time.perf_counter()
         if states.count * robot.nv <= INLINE_WORK:
             result = dynamics.compute(robot, quantity.path, states)
         else:
             result = await _off_loop(request, robot, quantity.path, states)
+        # For the observability middleware (Server-Timing, access log, compute histogram):
+        request.scope["robodyn"] = {"robot": robot_id, "quantity": quantity.path,
+                                    "batch_size": states.count,
+                                    "compute_seconds": time.perf_counter() - started}
         return JSONAnswer(result)
 
     endpoint.__name__ = quantity.path.replace("-", "_")

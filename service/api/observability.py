@@ -18,6 +18,7 @@ import logging
 import re
 import secrets
 import time
+from collections.abc import MutableMapping
 from typing import Any
 
 from fastapi import HTTPException
@@ -116,7 +117,7 @@ class ObservabilityMiddleware:
         id_header = (b"x-request-id", request_id.encode("ascii"))
         status = 0
 
-        async def send_with_headers(message: dict[str, Any]) -> None:
+        async def send_with_headers(message: MutableMapping[str, Any]) -> None:
             nonlocal status
             if message["type"] == "http.response.start":
                 status = message["status"]

@@ -11,7 +11,8 @@ one JSON line:
 - `batch`: RSS peak and CPU while `clients` threads send large batches (talos mass matrices
   and inverse dynamics of 2,000 states: 23 MB answers) at the same time;
 - `largest_answer`: RSS peak for one talos mass-matrix batch of 20,000 states (a 230 MB array,
-  about 600 MB of JSON), to show how memory grows with the size of one answer.
+  about 340 MB of JSON), and for two of them at once: what one answer of the largest batch the
+  Kubernetes deployment allows (ROBODYN_MAX_BATCH=20000) costs.
 
 CPU is the process's user + system time over wall time (1.0 = one core busy). The load
 generator runs on the same machine, so on a small machine the server's figures are a lower
@@ -144,11 +145,18 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                     {"q": qs.tolist(), "v": vs.tolist(), "a": as_.tolist()})]
         out["batch"] = load_phase(base, proc.pid, batches, args.clients, args.seconds)
         big = {"q": np.tile(qs, (10, 1)).tolist()}
-        with Sampler(proc.pid) as sampler, httpx.Client(timeout=300) as http:
-            r = http.post(f"{base}/v1/robots/talos/mass-matrix", json=big)
-        out["largest_answer"] = {"states": 20000, "status": r.status_code,
-                                 "answer_mb": round(len(r.content) / 1e6),
-                                 "rss_peak_mib": round(sampler.peak_kib / 1024)}
+        out["largest_answer"] = {"states": 20000}
+        for at_once in (1, 2):
+            def one(_: int) -> httpx.Response:
+                with httpx.Client(timeout=300) as http:
+                    return http.post(f"{base}/v1/robots/talos/mass-matrix", json=big)
+
+            with Sampler(proc.pid) as sampler, ThreadPoolExecutor(at_once) as pool:
+                answers = list(pool.map(one, range(at_once)))
+            assert all(r.status_code == 200 for r in answers), answers[0].text[:300]
+            out["largest_answer"]["answer_mb"] = round(len(answers[0].content) / 1e6)
+            out["largest_answer"][f"rss_peak_mib_{at_once}_at_once"] = round(
+                sampler.peak_kib / 1024)
         time.sleep(1)
         out["rss_after_mib"] = round(process_tree_rss_kib(proc.pid) / 1024)
     finally:

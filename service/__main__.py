@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import logging
 import os
 
 import uvicorn
 
+from service.logs import configure_logging
 from service.settings import Settings
 
 
@@ -22,11 +22,15 @@ def main(argv: list[str] | None = None) -> None:
     # Workers build their settings from the environment: pass the flags on through it.
     os.environ["ROBODYN_HOST"], os.environ["ROBODYN_PORT"] = args.host, str(args.port)
     os.environ["ROBODYN_WORKERS"] = str(args.workers)
-    level = settings.log_level.upper()
-    logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    try:
+        configure_logging(settings.log_level)  # JSON lines on stderr (service/logs.py)
+    except ValueError as exc:
+        parser.error(f"ROBODYN_LOG_LEVEL: {exc}")
+    # log_config=None: uvicorn keeps our handlers; access_log=False: our middleware writes one
+    # structured line per request instead (service/api/observability.py).
     uvicorn.run("service.main:app_from_environment", factory=True, host=args.host,
                 port=args.port, workers=args.workers, log_level=settings.log_level.lower(),
-                timeout_graceful_shutdown=30)
+                log_config=None, access_log=False, timeout_graceful_shutdown=30)
 
 
 if __name__ == "__main__":

@@ -15,9 +15,10 @@ from service import __version__
 from service.api import dynamics as dynamics_routes
 from service.api import health, pages, robots, stream
 from service.api.deps import require_api_key_for_all
-from service.api.observability import BodyLimitMiddleware, Metrics, MetricsMiddleware
+from service.api.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
 from service.api.openapi_problems import problem_openapi
 from service.api.problems import install_problem_handlers
+from service.logs import configure_logging
 from service.registry import Registry
 from service.registry.urdf_check import Limits
 from service.settings import Settings
@@ -70,11 +71,14 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(pages.router)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
                        upload_limit=settings.max_upload_bytes)
-    app.add_middleware(MetricsMiddleware, metrics=app.state.metrics,
-                       catalog_ids=lambda: registry.catalog)
+    app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,
+                       catalog_ids=lambda: registry.catalog)  # outermost: sees every answer
     return app
 
 
 def app_from_environment() -> FastAPI:
-    """Factory used by `python -m service` (also with several workers)."""
-    return create_app(Settings())
+    """Factory used by `python -m service` (also in each worker process, which is why the
+    logging is configured here too)."""
+    settings = Settings()
+    configure_logging(settings.log_level)
+    return create_app(settings)

@@ -1,34 +1,109 @@
-"""Prometheus metrics by route and robot, and the request body-size limit (pure ASGI)."""
+"""Per-request observability (pure ASGI): Prometheus metrics by route and robot, one JSON
+access-log line per request, `X-Request-ID` and `Server-Timing` headers; and the request
+body-size limit.
+
+What a route tells the middleware: a dynamics route puts
+`scope["robodyn"] = {"robot": id, "quantity": path name, "batch_size": N (1 for one state),
+"compute_seconds": float}` into the ASGI scope before it answers. The middleware reads it when
+the response starts (for `Server-Timing: compute;dur=<ms>`) and when the request ends (for the
+log line and the compute-time histogram).
+
+Kept cheap, since a single-state answer takes tens of microseconds: metric children are cached
+per label set, and the log line is built only when the `robodyn.access` logger is enabled.
+"""
 
 from __future__ import annotations
 
+import logging
+import re
+import secrets
 import time
+from collections.abc import MutableMapping
 from typing import Any
 
 from fastapi import HTTPException
 from prometheus_client import CollectorRegistry, Counter, Histogram
 
 from service.api.problems import problem
+from service.logs import REQUEST_ID, sole_json_handler
 
 Scope = dict[str, Any]
 
+access_log = logging.getLogger("robodyn.access")
+
+# An incoming X-Request-ID is kept when it is 1-128 characters of this set (so it cannot
+# inject anything into a header or a log line); otherwise a new one is generated.
+_REQUEST_ID_FORMAT = re.compile(rb"[A-Za-z0-9._~:/+=@-]{1,128}")
+
+# Routes polled by probes and scrapers: their access lines are logged at DEBUG, not INFO.
+QUIET_ROUTES = frozenset({"/health/live", "/health/ready", "/metrics"})
+
+_LATENCY_BUCKETS = (0.0002, 0.0005, 0.001, 0.002, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5,
+                    1.0, 2.5, 5.0, 10.0, 30.0)
+_COMPUTE_BUCKETS = (0.00001, 0.00002, 0.00005, 0.0001, 0.0002, 0.0005, 0.001, 0.002, 0.005,
+                    0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0)
+_BATCH_BUCKETS = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000, 50000,
+                  100000)
+
 
 class Metrics:
-    """Request counts and latencies. The `robot` label is the id for catalog robots and
-    `upload` for uploaded models, so label cardinality stays bounded."""
+    """Request counts, latencies, compute times and batch sizes.
+
+    The `robot` label is the id for catalog robots, `upload` for any other robot the route
+    found, `unknown` for a robot id that was not found (404), and empty on routes without a
+    robot, so label cardinality stays bounded whatever ids clients send."""
 
     def __init__(self) -> None:
         self.registry = CollectorRegistry()
         self.requests = Counter("robodyn_requests_total", "HTTP requests answered",
                                 ["method", "route", "robot", "status"], registry=self.registry)
         self.latency = Histogram(
-            "robodyn_request_duration_seconds", "Time to answer a request, in seconds",
-            ["method", "route", "robot"], registry=self.registry,
-            buckets=(0.0002, 0.0005, 0.001, 0.002, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5,
-                     1.0, 2.5, 5.0, 10.0, 30.0))
+            "robodyn_request_duration_seconds",
+            "Time from receiving a request to sending the end of its answer, in seconds",
+            ["method", "route", "robot"], registry=self.registry, buckets=_LATENCY_BUCKETS)
+        self.compute = Histogram(
+            "robodyn_compute_seconds",
+            "Time spent computing the dynamics of one request (all its states), in seconds",
+            ["quantity", "robot"], registry=self.registry, buckets=_COMPUTE_BUCKETS)
+        self.batch_size = Histogram(
+            "robodyn_batch_size", "States per dynamics request (1 for a single state)",
+            ["quantity"], registry=self.registry, buckets=_BATCH_BUCKETS)
+        self._request_children: dict[tuple[str, str, str, int], tuple[Any, Any]] = {}
+        self._compute_children: dict[tuple[str, str], tuple[Any, Any]] = {}
+
+    def observe_request(self, method: str, route: str, robot: str, status: int,
+                        seconds: float) -> None:
+        key = (method, route, robot, status)
+        children = self._request_children.get(key)
+        if children is None:
+            children = (self.requests.labels(method, route, robot, str(status)),
+                        self.latency.labels(method, route, robot))
+            self._request_children[key] = children
+        children[0].inc()
+        children[1].observe(seconds)
+
+    def observe_compute(self, quantity: str, robot: str, seconds: float, states: int) -> None:
+        key = (quantity, robot)
+        children = self._compute_children.get(key)
+        if children is None:
+            children = (self.compute.labels(quantity, robot), self.batch_size.labels(quantity))
+            self._compute_children[key] = children
+        children[0].observe(seconds)
+        children[1].observe(states)
 
 
-class MetricsMiddleware:
+def _request_id(scope: Scope) -> str:
+    for name, value in scope["headers"]:
+        if name == b"x-request-id":
+            if _REQUEST_ID_FORMAT.fullmatch(value):
+                return value.decode("ascii")
+            break
+    return secrets.token_hex(16)
+
+
+class ObservabilityMiddleware:
+    """Metrics, the access log line, `X-Request-ID` and `Server-Timing` for every HTTP request."""
+
     def __init__(self, app: Any, metrics: Metrics, catalog_ids: Any) -> None:
         self.app, self.metrics, self.catalog_ids = app, metrics, catalog_ids
 
@@ -37,26 +112,65 @@ class MetricsMiddleware:
             await self.app(scope, receive, send)
             return
         started = time.perf_counter()
-        status = 500
+        request_id = _request_id(scope)
+        REQUEST_ID.set(request_id)  # the task's own context: later log records carry it
+        id_header = (b"x-request-id", request_id.encode("ascii"))
+        status = 0
 
-        async def send_and_record(message: dict[str, Any]) -> None:
+        async def send_with_headers(message: MutableMapping[str, Any]) -> None:
             nonlocal status
             if message["type"] == "http.response.start":
                 status = message["status"]
+                timing = f"app;dur={(time.perf_counter() - started) * 1e3:.3f}"
+                info = scope.get("robodyn")
+                if info is not None:
+                    timing = f"compute;dur={info['compute_seconds'] * 1e3:.3f}, {timing}"
+                message = {**message, "headers": [
+                    *message.get("headers", ()), id_header,
+                    (b"server-timing", timing.encode("ascii"))]}
             await send(message)
 
         try:
-            await self.app(scope, receive, send_and_record)
+            await self.app(scope, receive, send_with_headers)
+        except Exception:
+            if status == 0:  # answer the 500 here, so that it too carries the request id
+                await problem("internal_error", "Internal error",
+                              "the service failed to answer this request; the failure was "
+                              "logged")(scope, receive, send_with_headers)
+            raise  # the framework's error handler logs it (its answer is not sent twice)
         finally:
-            route = scope.get("route")
-            path = getattr(route, "path", "unmatched")
-            robot_id = scope.get("path_params", {}).get("robot_id")
-            robot = "" if robot_id is None else (
-                robot_id if robot_id in self.catalog_ids() else "upload")
-            method = scope["method"]
-            self.metrics.requests.labels(method, path, robot, str(status)).inc()
-            self.metrics.latency.labels(method, path, robot).observe(
-                time.perf_counter() - started)
+            self._record(scope, status or 500, time.perf_counter() - started, request_id)
+
+    def _record(self, scope: Scope, status: int, seconds: float, request_id: str) -> None:
+        route = getattr(scope.get("route"), "path", "unmatched")
+        robot_id = (scope.get("path_params") or {}).get("robot_id")
+        if robot_id is None:
+            robot = ""
+        elif robot_id in self.catalog_ids():
+            robot = robot_id
+        else:
+            robot = "unknown" if status == 404 else "upload"
+        method = scope["method"]
+        self.metrics.observe_request(method, route, robot, status, seconds)
+        info = scope.get("robodyn")
+        if info is not None:
+            self.metrics.observe_compute(info["quantity"], robot, info["compute_seconds"],
+                                         info["batch_size"])
+        level = logging.DEBUG if route in QUIET_ROUTES else logging.INFO
+        if not access_log.isEnabledFor(level):
+            return
+        fields = {"request_id": request_id, "method": method, "route": route,
+                  "robot": robot_id, "quantity": None, "batch_size": None, "status": status,
+                  "duration_ms": round(seconds * 1e3, 3), "compute_ms": None}
+        if info is not None:
+            fields["quantity"], fields["batch_size"] = info["quantity"], info["batch_size"]
+            fields["compute_ms"] = round(info["compute_seconds"] * 1e3, 3)
+        handler = sole_json_handler(access_log)
+        if handler is not None:  # the fast path, same line (service/logs.py)
+            handler.write_fields(logging.getLevelName(level).lower(), access_log.name,
+                                 "request", fields)
+        else:
+            access_log.log(level, "request", extra={"fields": fields})
 
 
 class BodyLimitMiddleware:

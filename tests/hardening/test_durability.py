@@ -85,7 +85,10 @@ def test_sigkill_during_uploads_loses_nothing_acknowledged(server_factory, tmp_p
         before = len(acknowledged)
         with ThreadPoolExecutor(4) as pool:
             futures = [pool.submit(upload_loop) for _ in range(4)]
-            time.sleep(rng.uniform(1.0, 3.0))
+            deadline = time.monotonic() + 60
+            while len(acknowledged) == before and time.monotonic() < deadline:
+                time.sleep(0.05)  # uploads are flowing (the first one starts the builder)
+            time.sleep(rng.uniform(0.0, 1.5))
             server.kill()  # SIGKILL to the whole process group, mid-upload
             stop.set()
             for f in futures:

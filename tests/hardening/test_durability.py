@@ -95,8 +95,12 @@ def test_sigkill_during_uploads_loses_nothing_acknowledged(server_factory, tmp_p
                 f.result(timeout=60)
         assert len(acknowledged) > before, f"round {round_}: no upload acknowledged"
 
-        # every record on disk is complete and matches its name
-        for path in (data_dir / "models").glob("*.json"):
+        # every record on disk is complete and matches its name (temporaries of killed writes,
+        # named ".tmp-*", are not records: the store never reads them)
+        records = [p for p in (data_dir / "models").glob("*.json")
+                   if not p.name.startswith(".")]
+        assert set(ModelStore(data_dir).ids()) == {p.stem for p in records}
+        for path in records:
             record = json.loads(path.read_text())
             assert record["id"] == path.stem and record["description"].startswith("<?xml")
 

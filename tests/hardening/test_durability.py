@@ -85,15 +85,22 @@ def test_sigkill_during_uploads_loses_nothing_acknowledged(server_factory, tmp_p
         before = len(acknowledged)
         with ThreadPoolExecutor(4) as pool:
             futures = [pool.submit(upload_loop) for _ in range(4)]
-            time.sleep(rng.uniform(1.0, 3.0))
+            deadline = time.monotonic() + 60
+            while len(acknowledged) == before and time.monotonic() < deadline:
+                time.sleep(0.05)  # uploads are flowing (the first one starts the builder)
+            time.sleep(rng.uniform(0.0, 1.5))
             server.kill()  # SIGKILL to the whole process group, mid-upload
             stop.set()
             for f in futures:
                 f.result(timeout=60)
         assert len(acknowledged) > before, f"round {round_}: no upload acknowledged"
 
-        # every record on disk is complete and matches its name
-        for path in (data_dir / "models").glob("*.json"):
+        # every record on disk is complete and matches its name (temporaries of killed writes,
+        # named ".tmp-*", are not records: the store never reads them)
+        records = [p for p in (data_dir / "models").glob("*.json")
+                   if not p.name.startswith(".")]
+        assert set(ModelStore(data_dir).ids()) == {p.stem for p in records}
+        for path in records:
             record = json.loads(path.read_text())
             assert record["id"] == path.stem and record["description"].startswith("<?xml")
 

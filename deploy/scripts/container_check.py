@@ -24,6 +24,7 @@ import argparse
 import json
 import os
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
@@ -52,6 +53,8 @@ from localrun import (
 BASE_IMAGE = "docker.io/library/python:3.11-slim"
 BASE_SCRIPT = ROOT.parent / "shared" / "tools" / "container-base.sh"
 IMAGE_PORT = 8000
+WRITABLE = ("/data", "/tmp", "/proc", "/sys", "/dev", "/run")  # volumes and kernel file systems
+BUILDAH_FILES = ("/", "/etc", "/etc/hosts", "/etc/resolv.conf", "/etc/hostname")  # run's own
 
 
 def sh(*args: str, check: bool = True, **kw: Any) -> subprocess.CompletedProcess:
@@ -210,6 +213,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         check_contents(ctr, config)
         # The image's CMD; on 8000 when it is free (as in a container with its own network),
         # else with `--port P` appended, since chroot isolation shares this machine's network.
+        sh(*run_args(ctr, config, user="root"), "touch", "/tmp/.before-server")
         port = IMAGE_PORT if port_is_free(IMAGE_PORT) else free_port()
         cmd = [*config["entrypoint"], *config["cmd"]]
         if port != IMAGE_PORT:
@@ -235,11 +239,21 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         server.wait(timeout=40)
         summary["stop_seconds"] = round(time.monotonic() - stopping, 1)
         assert "Finished server process" in log_path.read_text(), "no graceful shutdown"
+        # The server wrote only to /data and /tmp, so a read-only root file system (as in
+        # deploy/k8s and docker-compose.yml) does not get in its way.
+        written = sh(*run_args(ctr, config, user="root"), "find", "/", "-xdev", "(",
+                     *" -o ".join(f"-path {p}" for p in WRITABLE).split(), ")", "-prune",
+                     "-o", "-newer", "/tmp/.before-server", "-print").stdout.split()
+        assert not [w for w in written if w not in BUILDAH_FILES], written
+    except BaseException:
+        print(f"failed; the server's log is {log_path}", file=sys.stderr)
+        raise
     finally:
         if server is not None:
             stop_group(server)
         sh("buildah", "rm", ctr, check=False)
     summary["log_lines"] = check_log(log_path)
+    shutil.rmtree(workdir)  # after a failure it stays, with the server's log
     if not args.keep and not args.no_build:
         sh("buildah", "rmi", args.tag, check=False)
     print(json.dumps(summary))

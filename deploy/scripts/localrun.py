@@ -109,9 +109,10 @@ def load_models(names: list[str]) -> dict[str, Any]:
 
     from service.registry import Registry
 
-    registry = Registry(Path(tempfile.mkdtemp(prefix="robodyn-ref-")), names)
-    registry.load()
-    return {name: registry.catalog[name].model for name in names}
+    with tempfile.TemporaryDirectory(prefix="robodyn-ref-") as store:
+        registry = Registry(Path(store), names)
+        registry.load()
+        return {name: registry.catalog[name].model for name in names}
 
 
 def expected(model: Any, quantity: str, q: np.ndarray, v: np.ndarray,

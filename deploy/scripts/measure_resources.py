@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 import tempfile
 import threading
@@ -161,6 +162,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         out["rss_after_mib"] = round(process_tree_rss_kib(proc.pid) / 1024)
     finally:
         stop_group(proc)
+        shutil.rmtree(data, ignore_errors=True)
     print(json.dumps(out))
     return out
 

@@ -182,6 +182,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--requests", type=int, default=200)
     parser.add_argument("--stop", choices=["term", "kill"], default="term",
                         help="how to stop one replica mid-run: SIGTERM (graceful) or SIGKILL")
+    parser.add_argument("--keep", action="store_true",
+                        help="keep the work directory (logs, nginx config) after a success")
     args = parser.parse_args(argv)
 
     work = Path(tempfile.mkdtemp(prefix="robodyn-scale-out-"))
@@ -239,9 +241,15 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         missing = [i for i in sent if logged.get(i) not in (200, 201)]
         assert not missing, f"not in any replica's access log with 200/201: {missing[:5]}"
         summary["logged_request_ids"] = len(sent)
+    except BaseException:
+        print(f"failed; logs and nginx config kept in {work}", file=sys.stderr)
+        raise
     finally:
         for proc in reversed(procs):
             stop_group(proc)
+    if not args.keep:  # after a failure the directory stays, for its logs
+        shutil.rmtree(work)
+        del summary["work_dir"]
     print(json.dumps(summary))
     return summary
 

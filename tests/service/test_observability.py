@@ -79,7 +79,8 @@ def test_server_timing_reports_compute_within_the_request(api):
         assert r.status_code == 200
         timings = _timings(r.headers["server-timing"])
         assert set(timings) == {"compute", "app"}
-        assert 0 < timings["compute"] <= timings["app"]
+        assert 0 <= timings["compute"] <= timings["app"]  # in ms, to the microsecond
+    assert timings["compute"] > 0  # 500 mass matrices take more than a microsecond
     timings = _timings(api.get("/v1/robots/ur5").headers["server-timing"])
     assert set(timings) == {"app"}  # no computation: no compute entry
 
@@ -97,7 +98,8 @@ def test_access_log_line_says_what_the_request_did(api, json_log):
     assert batch["route"] == "/v1/robots/{robot_id}/inverse-dynamics"
     assert (batch["robot"], batch["quantity"], batch["batch_size"], batch["status"]) == (
         "ur5", "inverse-dynamics", 3, 200)
-    assert 0 < batch["compute_ms"] <= batch["duration_ms"]
+    assert isinstance(batch["compute_ms"], float)
+    assert 0 <= batch["compute_ms"] <= batch["duration_ms"]
     assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z", batch["ts"])
     bad = lines["bad-1"]
     assert (bad["robot"], bad["status"], bad["quantity"], bad["compute_ms"]) == (

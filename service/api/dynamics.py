@@ -154,12 +154,12 @@ class Endpoint:
         return JSONAnswer(result)
 
 
-ENDPOINTS: dict[str, Endpoint] = {}
+# Built once: an endpoint holds no per-app state (it reads the app from each request).
+ENDPOINTS: dict[str, Endpoint] = {q.path: Endpoint(q) for q in dynamics.QUANTITIES.values()}
 
 
 def routes() -> list[Route]:
     """The serving routes, one per quantity."""
-    ENDPOINTS.update({q.path: Endpoint(q) for q in dynamics.QUANTITIES.values()})
     return [endpoint.route for endpoint in ENDPOINTS.values()]
 
 

@@ -8,10 +8,6 @@ The tests skip, saying why, only when the Chromium executable is absent; `.ci/ru
 from __future__ import annotations
 
 import os
-import socket
-import subprocess
-import sys
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,6 +15,8 @@ from urllib.parse import urlsplit
 
 import httpx
 import pytest
+
+from tests.servers import running_server
 
 CHROMIUM = os.environ.get("ROBODYN_TEST_CHROMIUM", "/usr/bin/chromium")
 # Flags known to work here as root on a machine without internet (see the environment notes):
@@ -28,49 +26,13 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
                  "--disable-component-update", "--disable-sync"]
 CATALOG = "ur5,panda,planar_arm,solo12,double_pendulum_continuous"
 ARTIFACTS = Path(__file__).parent / "artifacts"
-SERVER_START_S = 60
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.fixture(scope="session")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """The service in a subprocess over a small catalog and an empty store: yields its URL."""
-    data = tmp_path_factory.mktemp("browser-data")
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ROBODYN_")}
-    env.update(ROBODYN_DATA_DIR=str(data), ROBODYN_CATALOG=CATALOG, ROBODYN_LOG_LEVEL="warning")
-    port = _free_port()
-    url = f"http://127.0.0.1:{port}"
-    log_path = data / "server.log"
-    with open(log_path, "wb") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "service", "--host", "127.0.0.1",
-                                 "--port", str(port)], env=env, stdout=log,
-                                stderr=subprocess.STDOUT, cwd=data)
-    try:
-        deadline = time.monotonic() + SERVER_START_S
-        while True:
-            if proc.poll() is not None:
-                pytest.fail(f"server exited with {proc.returncode}:\n{log_path.read_text()}")
-            try:
-                if httpx.get(f"{url}/health/ready", timeout=1.0).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            if time.monotonic() > deadline:
-                pytest.fail(f"server not ready in {SERVER_START_S} s:\n{log_path.read_text()}")
-            time.sleep(0.1)
+    with running_server(tmp_path_factory.mktemp("browser-data"), catalog=CATALOG) as url:
         yield url
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=5)
 
 
 @pytest.fixture(scope="session")

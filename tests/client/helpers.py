@@ -3,28 +3,21 @@ reference, a 2-link arm URDF, and a real server in a subprocess."""
 
 from __future__ import annotations
 
-import os
-import socket
-import subprocess
-import sys
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
-from pathlib import Path
 from typing import Any
 
-import httpx
 import numpy as np
 import pinocchio as pin
-import pytest
 
 from service.registry import Registry
 from service.registry.build import build_urdf_model
+from tests.servers import free_port, running_server
+
+__all__ = ["API_KEY", "ATOL", "CATALOG", "RTOL", "Reference", "free_port", "running_server",
+           "two_link_urdf"]
 
 CATALOG = ["ur5", "panda", "talos", "planar_arm", "double_pendulum_continuous"]
 API_KEY = "client-test-key"
 RTOL, ATOL = 1e-10, 1e-10
-SERVER_START_S = 90.0
 
 
 class Reference:
@@ -99,47 +92,3 @@ def two_link_urdf(m1: float = 2.0, m2: float = 1.5, l1: float = 0.6, l2: float =
             '<limit lower="-3" upper="3" effort="20" velocity="5"/></joint>\n</robot>\n')
 
 
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-@contextmanager
-def running_server(data: Path, **env_settings: str) -> Iterator[str]:
-    """A real `python -m service` on a free loopback port, with ROBODYN_* settings
-    `env_settings` (e.g. API_KEYS="k"): yields its URL; terminated on exit."""
-    log_path = data / "server.log"
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ROBODYN_")}
-    env.update({f"ROBODYN_{k.upper()}": v for k, v in env_settings.items()})
-    env.update(ROBODYN_DATA_DIR=str(data), ROBODYN_LOG_LEVEL="warning")
-    port = free_port()
-    url = f"http://127.0.0.1:{port}"
-    with open(log_path, "wb") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "service", "--host", "127.0.0.1",
-                                 "--port", str(port)], env=env, stdout=log,
-                                stderr=subprocess.STDOUT, cwd=data)
-    try:
-        _wait_ready(proc, url, log_path)
-        yield url
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=5)
-
-
-def _wait_ready(proc: subprocess.Popen[bytes], url: str, log_path: Path) -> None:
-    deadline = time.monotonic() + SERVER_START_S
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            pytest.fail(f"server exited with {proc.returncode}:\n{log_path.read_text()[-3000:]}")
-        try:
-            if httpx.get(url + "/health/ready", timeout=1.0).status_code == 200:
-                return
-        except httpx.HTTPError:
-            pass
-        time.sleep(0.1)
-    pytest.fail(f"server not ready within {SERVER_START_S} s:\n{log_path.read_text()[-3000:]}")

@@ -190,11 +190,11 @@ def test_an_unknown_log_level_stops_the_server_with_a_clear_message():
 def test_real_server_writes_one_json_line_per_request(tmp_path):
     """`python -m service` at ROBODYN_LOG_LEVEL=info: every stderr line is JSON, one access
     line per request with our request id; at that level probe lines are left out."""
-    from tests.deploy.servers import running_server
+    from tests.servers import running_server
 
-    log_path = tmp_path / "server.log"
-    env = {"ROBODYN_CATALOG": "ur5", "ROBODYN_LOG_LEVEL": "info"}
-    with running_server(tmp_path / "data", env, log_path) as base, httpx.Client() as http:
+    log_path = tmp_path / "data" / "server.log"
+    with running_server(tmp_path / "data", catalog="ur5", log_level="info") as base, \
+            httpx.Client() as http:
         for i in range(3):
             r = http.post(f"{base}/v1/robots/ur5/gravity", json={"q": Q_UR5},
                           headers={"X-Request-ID": f"e2e-{i}"})

@@ -3,11 +3,6 @@ readiness, and many threads of mixed robots and quantities compared with in-proc
 
 from __future__ import annotations
 
-import os
-import socket
-import subprocess
-import sys
-import time
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
@@ -16,39 +11,15 @@ import pinocchio as pin
 import pytest
 
 from tests.helpers import mass_matrix, random_state
+from tests.servers import running_server
 
 ROBOTS = ["ur5", "panda", "talos", "solo12", "double_pendulum_continuous"]
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    port = _free_port()
-    env = {**os.environ, "ROBODYN_DATA_DIR": str(tmp_path_factory.mktemp("e2e")),
-           "ROBODYN_CATALOG": ",".join(ROBOTS), "ROBODYN_LOG_LEVEL": "warning"}
-    proc = subprocess.Popen([sys.executable, "-m", "service", "--port", str(port)], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    base = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 60
-    try:
-        while True:
-            assert proc.poll() is None, proc.stderr.read().decode()
-            try:
-                if httpx.get(f"{base}/health/ready", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert time.monotonic() < deadline, "server did not become ready in 60 s"
-            time.sleep(0.2)
+    with running_server(tmp_path_factory.mktemp("e2e"), catalog=",".join(ROBOTS)) as base:
         yield base
-    finally:
-        proc.terminate()
-        proc.wait(timeout=30)
 
 
 def _expected(model, quantity, q, v, a):

@@ -98,10 +98,9 @@ class Endpoint:
         given = parsed.model_fields_set.difference(self.joint_inputs)
         return arrays, (parsed.model_dump(include=given) if given else {})
 
-    def parse_binary(self, body: bytes, extra: tuple[str, ...] = ()
+    def parse_binary(self, fields: dict[str, Any], arrays: dict[str, Any]
                      ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """(joint-space arrays, options) of a binary body; `extra` fields are ignored here."""
-        fields, arrays = binary.decode(body)
+        """(joint-space arrays, options) of a decoded binary body (`binary.decode`)."""
         unknown = sorted(set(arrays) - set(self.joint_inputs))
         missing = [n for n in self.quantity.inputs if n not in arrays]
         if unknown or missing:
@@ -109,8 +108,6 @@ class Endpoint:
                      f"missing array {missing[0]!r}")
             raise InvalidInput(f"binary body: {wrong}; {self.quantity.path} takes "
                                f"the arrays {', '.join(self.joint_inputs)}")
-        for name in extra:
-            fields.pop(name, None)
         try:
             options = self.options_model.model_validate(fields)
         except ValidationError as exc:
@@ -141,7 +138,7 @@ class Endpoint:
         content_type = request.headers.get("content-type", "")
         body = await request.body()
         if content_type.startswith(binary.BINARY_MEDIA_TYPE):
-            arrays, options = self.parse_binary(body)
+            arrays, options = self.parse_binary(*binary.decode(body))
         elif content_type and "json" not in content_type.split(";")[0]:
             return problem("unsupported_media_type", "Unsupported media type",
                            "send the body as JSON ('Content-Type: application/json') or in "

@@ -43,9 +43,9 @@ def _endpoint(quantity: Any) -> Endpoint:
 async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) -> None:
     data = message.get("bytes")
     if data is not None:
-        fields, _ = binary.decode(data)
-        endpoint = _endpoint(fields.get("quantity"))
-        arrays, options = endpoint.parse_binary(data, extra=("quantity",))
+        fields, arrays = binary.decode(data)
+        endpoint = _endpoint(fields.pop("quantity", None))
+        arrays, options = endpoint.parse_binary(fields, arrays)
         result = await endpoint.compute(websocket, robot, arrays, options)
         await websocket.send_bytes(binary.encode(result))
         return

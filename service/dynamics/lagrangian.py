@@ -17,8 +17,9 @@ from service.states import States
 
 
 def symmetric_from_upper(A: np.ndarray) -> np.ndarray:
-    """A symmetric matrix from the upper triangle of A (Pinocchio's CRBA and computeMinverse
-    fill only that triangle; the lower one holds stale values)."""
+    """A symmetric matrix from the upper triangle of A. Pinocchio's C++ CRBA and
+    computeMinverse fill only that triangle (the Python binding of computeMinverse in pin 4
+    returns it already mirrored; this keeps the answer symmetric whichever binding runs)."""
     upper = np.triu(A)
     return upper + np.triu(A, 1).T
 

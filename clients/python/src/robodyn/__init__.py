@@ -45,6 +45,14 @@ from robodyn.errors import (
     ValidationError,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
+from robodyn.results import (
+    BodyInertia,
+    CenterOfMass,
+    Energy,
+    FrameJacobian,
+    Inertias,
+    OperationalSpace,
+)
 from robodyn.transport import DEFAULT_TIMEOUT
 
 __all__ = [
@@ -52,12 +60,17 @@ __all__ = [
     "APIError",
     "AsyncClient",
     "BadRequestError",
+    "BodyInertia",
     "CatalogRobotError",
+    "CenterOfMass",
     "Client",
     "ConflictError",
     "DimensionMismatchError",
+    "Energy",
     "Finding",
     "FrameInfo",
+    "FrameJacobian",
+    "Inertias",
     "InputError",
     "InternalServerError",
     "InvalidConfigurationError",
@@ -67,6 +80,7 @@ __all__ = [
     "NonFiniteResultError",
     "NotFoundError",
     "NotReadyError",
+    "OperationalSpace",
     "OverloadedError",
     "PayloadTooLargeError",
     "ResponseFormatError",

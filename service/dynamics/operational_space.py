@@ -54,6 +54,10 @@ def _singular(state: int | None, frame: str, task: str, reference_frame: str,
     shown = f"{condition:.3g}" if condition is not None else "infinite"
     if largest <= 0:
         why = f"the Jacobian of frame '{frame}' is zero here (no joint moves it)"
+    elif smallest <= 0:
+        why = (f"it has lost rank: its smallest singular value is 0 to rounding, its largest "
+               f"{largest:.3g} (condition number infinite; robodyn treats a ratio of at most "
+               f"{SINGULAR_RCOND:g} as singular)")
     else:
         why = (f"its smallest singular value {smallest:.3g} is {ratio:.3g} times its largest "
                f"{largest:.3g} (condition number {shown}; robodyn treats a ratio of at most "

@@ -8,6 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from service.api import binary
 from tests.beyond_helpers import (
     ROWS,
     SINGULAR_RCOND,
@@ -238,3 +239,35 @@ def test_a_batch_with_one_singular_state_names_it(api):
     single = post(api, "ur5", "operational-space", q=UR5_Q, frame="tool0", damping=0.05)
     for key, value in single.items():
         np.testing.assert_array_equal(got[key][0], value)
+
+
+# -- the binary form and large batches ---------------------------------------------------
+
+
+@pytest.mark.parametrize(("quantity", "options"), [
+    ("mass-matrix-inverse", {}), ("energy", {}), ("center-of-mass", {}),
+    ("jacobian", {"frame": "arm_left_7_link", "reference_frame": "local"}),
+    ("operational-space", {"frame": "arm_left_7_link", "task": "linear", "damping": 0.01}),
+])
+def test_binary_form_and_large_batches(api, catalog_registry, quantity, options):
+    """200 talos states (computed off the event loop) in JSON and in the binary form give the
+    same numbers, and the same as the states sent one by one."""
+    model = catalog_registry.catalog["talos"].model
+    rng = np.random.default_rng(9)
+    q = np.stack([random_configuration(model, rng) for _ in range(200)])
+    v = rng.normal(size=(200, model.nv))
+    arrays = {"q": q} if quantity == "mass-matrix-inverse" else {"q": q, "v": v}
+    as_json = post(api, "talos", quantity, **arrays, **options)
+    r = api.post(f"/v1/robots/talos/{quantity}", content=binary.encode({**arrays, **options}),
+                 headers={"content-type": binary.BINARY_MEDIA_TYPE,
+                          "accept": binary.BINARY_MEDIA_TYPE})
+    assert r.status_code == 200 and r.headers["content-type"] == binary.BINARY_MEDIA_TYPE
+    fields, as_binary = binary.decode(r.content)
+    assert fields == {} and set(as_binary) == set(as_json)
+    for key, value in as_json.items():
+        np.testing.assert_array_equal(as_binary[key], value)
+        assert value.shape[0] == 200
+    for i in (0, 137):
+        single = post(api, "talos", quantity, **{k: x[i] for k, x in arrays.items()}, **options)
+        for key, value in single.items():
+            np.testing.assert_array_equal(as_json[key][i], value)

@@ -19,7 +19,7 @@ from starlette.requests import HTTPConnection
 from starlette.routing import Route
 
 from service import dynamics
-from service.api import binary, schemas_dynamics
+from service.api import binary, schemas_dynamics, schemas_operational
 from service.api.answers import JSONAnswer
 from service.api.deps import check_api_key_for_all
 from service.api.problems import problem
@@ -28,8 +28,10 @@ from service.errors import InvalidInput, Overloaded
 from service.states import prepare
 
 PREFIX = "/v1/robots"
-REQUESTS: dict[str, type[BaseModel]] = {**schemas_dynamics.REQUESTS}
-ANSWERS: dict[str, type[BaseModel]] = {**schemas_dynamics.ANSWERS}
+REQUESTS: dict[str, type[BaseModel]] = {**schemas_dynamics.REQUESTS,
+                                        **schemas_operational.REQUESTS}
+ANSWERS: dict[str, type[BaseModel]] = {**schemas_dynamics.ANSWERS,
+                                       **schemas_operational.ANSWERS}
 
 # Batches bigger than this (states × nv) run in a worker thread, not on the event loop.
 INLINE_WORK = 2_000

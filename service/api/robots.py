@@ -10,6 +10,8 @@ from starlette.concurrency import run_in_threadpool
 from service.api.answers import JSONAnswer
 from service.api.deps import RegistryDep, require_api_key
 from service.api.schemas import Problem, RobotInfo, RobotList, UploadRequest
+from service.api.schemas_inertias import Inertias
+from service.dynamics.body_inertias import body_inertias
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 
@@ -29,6 +31,15 @@ async def list_robots(registry: RegistryDep) -> Response:
             summary="A robot's joint layout, limits, configurations and findings")
 async def robot_info(robot_id: str, registry: RegistryDep) -> Response:
     return JSONAnswer(registry.get(robot_id).info())
+
+
+@router.get("/{robot_id}/inertias", response_model=Inertias,
+            responses={404: _PROBLEMS[404]},
+            summary="Every body's mass, centre of mass, inertia (at the centre of mass and at "
+            "the joint) and principal moments and axes")
+async def robot_inertias(robot_id: str, registry: RegistryDep) -> Response:
+    """Inertial parameters of every body, each in the frame of the joint that moves it."""
+    return JSONAnswer(body_inertias(registry.get(robot_id)))
 
 
 @router.post("", response_model=RobotInfo, status_code=201,

@@ -55,6 +55,16 @@ class JointInfo(BaseModel):
                                   "entries), added to M's diagonal.")
 
 
+class FrameInfo(BaseModel):
+    name: str = Field(description="What `frame` takes in jacobian and operational-space "
+                      "requests. Where a link and a joint share a name, the first frame of "
+                      "that name in this list is meant.")
+    type: str = Field(description="body (a link), joint (a moving joint), fixed_joint, "
+                      "op_frame or sensor.")
+    parent_joint: str = Field(description="The joint that carries the frame ('universe' for "
+                              "frames fixed to the world).")
+
+
 class RobotSummary(BaseModel):
     id: str
     name: str
@@ -80,4 +90,6 @@ class RobotInfo(RobotSummary):
     warnings: list[dict[str, str]] = Field(description="Physical findings in the description, "
                                            "each with code, element (link/joint), name, message.")
     joints: list[JointInfo]
-    frames: list[dict[str, str]]
+    frames: list[FrameInfo] = Field(description="Every frame of the model in model order "
+                                    "(links, joints, fixed frames): the valid names for "
+                                    "`frame` in jacobian and operational-space requests.")

@@ -5,8 +5,12 @@ its quantity. Only this package and `service.registry` import Pinocchio.
 """
 
 from service.dynamics.equation_of_motion import EQUATION_OF_MOTION
+from service.dynamics.frames import FRAMES
+from service.dynamics.lagrangian import LAGRANGIAN
+from service.dynamics.operational_space import OPERATIONAL_SPACE
 from service.dynamics.quantity import Quantity, Results, finite, run
 
-QUANTITIES: dict[str, Quantity] = {q.path: q for q in (*EQUATION_OF_MOTION,)}
+QUANTITIES: dict[str, Quantity] = {
+    q.path: q for q in (*EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE)}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

@@ -113,3 +113,47 @@ def test_the_binary_format_example_in_the_docs_runs(server: str, reference: Refe
     M = np.array(scope["values"]).reshape(3, 6, 6)
     q = np.array(scope["q"])
     np.testing.assert_allclose(M, reference.mass_matrix("ur5", q), rtol=RTOL, atol=ATOL)
+
+
+BEYOND_CALLS = {
+    "mass_matrix_inverse": lambda c, q, v: (c.mass_matrix_inverse("talos", q),),
+    "energy": lambda c, q, v: (lambda e: (e.kinetic_energy, e.potential_energy,
+                                          e.mechanical_energy))(c.energy("talos", q, v)),
+    "center_of_mass": lambda c, q, v: (lambda r: (r.position, r.jacobian, r.velocity))(
+        c.center_of_mass("talos", q, v)),
+    "jacobian": lambda c, q, v: (lambda r: (r.jacobian, r.jacobian_time_variation))(
+        c.jacobian("talos", q, "gripper_left_joint", reference_frame="local", v=v)),
+    "operational_space": lambda c, q, v: (lambda r: (
+        r.inertia, r.jacobian, r.dynamically_consistent_inverse, r.gravity, r.coriolis))(
+        c.operational_space("talos", q, "gripper_left_joint", v=v, task="linear",
+                            damping=1e-3)),
+}
+
+
+@pytest.mark.parametrize("quantity", list(BEYOND_CALLS))
+def test_beyond_quantities_in_binary_equal_json_and_stream(server: str, reference: Reference,
+                                                           quantity: str) -> None:
+    """Quantities with options (frame, task, damping) travel in the binary header's fields:
+    the binary answer equals the JSON one bit for bit, and the stream gives the same."""
+    states = reference.states("talos", 40, seed=11)
+    q, v = states["q"], states["v"]
+    call = BEYOND_CALLS[quantity]
+    with Client(server, binary=True) as b, Client(server, binary=False) as j:
+        got_binary, got_json = call(b, q, v), call(j, q, v)
+        with b.stream("talos") as s:
+            streamed = call(_StreamAsClient(s), q[7], v[7])
+    for gb, gj, s1 in zip(got_binary, got_json, streamed, strict=True):
+        assert isinstance(gb, np.ndarray) and gb.shape[0] == 40
+        np.testing.assert_array_equal(gb, gj)
+        np.testing.assert_allclose(s1, gj[7], rtol=1e-12, atol=1e-12)
+
+
+class _StreamAsClient:
+    """A stream's methods with the client's signature (the robot id is dropped)."""
+
+    def __init__(self, stream: object) -> None:
+        self._stream = stream
+
+    def __getattr__(self, name: str):
+        method = getattr(self._stream, name)
+        return lambda robot_id, *args, **kwargs: method(*args, **kwargs)

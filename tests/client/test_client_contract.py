@@ -32,13 +32,21 @@ INFO = {"id": "r", "name": "r", "source": "upload", "nq": 1, "nv": 1, "root_join
         "reference_configurations": {}, "warnings": [], "joints": [], "frames": []}
 ANSWERS = {"mass_matrix": [[1.0]], "gravity": [0.0], "coriolis_matrix": [[0.0]],
            "coriolis_forces": [0.0], "nonlinear_effects": [0.0], "tau": [0.0], "a": [0.0],
-           "robots": [], "unavailable": {}, "status": "ok", **INFO}
+           "robots": [], "unavailable": {}, "status": "ok", **INFO,
+           # beyond the equation of motion
+           "mass_matrix_inverse": [[1.0]], "kinetic_energy": 0.5, "potential_energy": 1.0,
+           "mechanical_energy": 1.5, "position": [0.0, 0.0, 1.0], "jacobian": [[0.0]],
+           "inertia": [[1.0]], "dynamically_consistent_inverse": [[0.0]], "coriolis": [0.0],
+           "bodies": []}
 ARGS: dict[str, tuple[Any, ...]] = {
     "health": (), "ready": (), "robots": (), "robot": ("r",), "upload": ("<robot/>",),
     "delete": ("r",), "mass_matrix": ("r", [0.0]), "gravity": ("r", [0.0]),
     "coriolis": ("r", [0.0], [0.0]), "nonlinear_effects": ("r", [0.0], [0.0]),
     "inverse_dynamics": ("r", [0.0], [0.0], [0.0]),
     "forward_dynamics": ("r", [0.0], [0.0], [0.0]),
+    "mass_matrix_inverse": ("r", [0.0]), "energy": ("r", [0.0], [0.0]),
+    "center_of_mass": ("r", [0.0]), "jacobian": ("r", [0.0], "f"),
+    "operational_space": ("r", [0.0], "f"), "inertias": ("r",),
 }
 
 

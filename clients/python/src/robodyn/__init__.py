@@ -45,6 +45,14 @@ from robodyn.errors import (
     ValidationError,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
+from robodyn.results import (
+    BodyInertia,
+    CenterOfMass,
+    Energy,
+    FrameJacobian,
+    Inertias,
+    OperationalSpace,
+)
 from robodyn.stream import AsyncStream, Stream
 from robodyn.transport import DEFAULT_TIMEOUT
 
@@ -54,12 +62,17 @@ __all__ = [
     "AsyncClient",
     "AsyncStream",
     "BadRequestError",
+    "BodyInertia",
     "CatalogRobotError",
+    "CenterOfMass",
     "Client",
     "ConflictError",
     "DimensionMismatchError",
+    "Energy",
     "Finding",
     "FrameInfo",
+    "FrameJacobian",
+    "Inertias",
     "InputError",
     "InternalServerError",
     "InvalidConfigurationError",
@@ -69,6 +82,7 @@ __all__ = [
     "NonFiniteResultError",
     "NotFoundError",
     "NotReadyError",
+    "OperationalSpace",
     "OverloadedError",
     "PayloadTooLargeError",
     "ResponseFormatError",

@@ -71,16 +71,17 @@ def to_json(arrays: Mapping[str, np.ndarray]) -> dict[str, Any]:
 
 
 def answer_array(body: Mapping[str, Any], key: str, ndim: int, batched: bool,
-                 rows: int | None = None) -> np.ndarray:
+                 rows: int | None = None, square: bool = True) -> np.ndarray:
     """Field `key` of an answer as a float64 array with `ndim` dimensions per state (one more
-    when `batched`, with `rows` states). Raises KeyError/ValueError when it does not fit."""
+    when `batched`, with `rows` states; a matrix must be square unless `square` is False).
+    Raises KeyError/ValueError when it does not fit."""
     arr = np.asarray(body[key], dtype=np.float64)
     expected = ndim + 1 if batched else ndim
     if arr.ndim != expected:
         raise ValueError(f"'{key}' has {arr.ndim} dimensions; expected {expected}")
     if batched and rows is not None and arr.shape[0] != rows:
         raise ValueError(f"'{key}' has {arr.shape[0]} states; {rows} were sent")
-    if ndim == 2 and arr.shape[-1] != arr.shape[-2]:
+    if square and ndim == 2 and arr.shape[-1] != arr.shape[-2]:
         raise ValueError(f"'{key}' is not square: shape {arr.shape}")
     return arr
 

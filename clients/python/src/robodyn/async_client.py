@@ -13,6 +13,7 @@ import numpy as np
 from robodyn import core, transport
 from robodyn.arrays import ArrayLike
 from robodyn.models import RobotInfo, RobotList
+from robodyn.results import CenterOfMass, Energy, FrameJacobian, Inertias, OperationalSpace
 from robodyn.stream import AsyncStream, stream_url
 
 T = TypeVar("T")
@@ -119,3 +120,30 @@ class AsyncClient:
     async def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike
                                ) -> np.ndarray:
         return await self._send(core.forward_dynamics(robot_id, q, v, tau))
+
+    async def mass_matrix_inverse(self, robot_id: str, q: ArrayLike) -> np.ndarray:
+        return await self._send(core.mass_matrix_inverse(robot_id, q))
+
+    async def energy(self, robot_id: str, q: ArrayLike, v: ArrayLike) -> Energy:
+        return await self._send(core.energy(robot_id, q, v))
+
+    async def center_of_mass(self, robot_id: str, q: ArrayLike, v: ArrayLike | None = None
+                             ) -> CenterOfMass:
+        return await self._send(core.center_of_mass(robot_id, q, v))
+
+    async def jacobian(self, robot_id: str, q: ArrayLike, frame: str, *,
+                       reference_frame: str = "local_world_aligned",
+                       v: ArrayLike | None = None) -> FrameJacobian:
+        return await self._send(core.jacobian(robot_id, q, frame,
+                                              reference_frame=reference_frame, v=v))
+
+    async def operational_space(self, robot_id: str, q: ArrayLike, frame: str, *,
+                                v: ArrayLike | None = None,
+                                reference_frame: str = "local_world_aligned",
+                                task: str = "full", damping: float = 0.0) -> OperationalSpace:
+        return await self._send(core.operational_space(robot_id, q, frame, v=v,
+                                                       reference_frame=reference_frame,
+                                                       task=task, damping=damping))
+
+    async def inertias(self, robot_id: str) -> Inertias:
+        return await self._send(core.inertias(robot_id))

@@ -13,6 +13,7 @@ Units: SI — q in rad or m, v in rad/s or m/s, a in rad/s² or m/s², τ in N·
 from __future__ import annotations
 
 import json
+import numbers
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -26,6 +27,7 @@ from robodyn import binary
 from robodyn.arrays import ArrayLike, answer_array, gravity_vector, joint_states, to_json
 from robodyn.errors import APIError, InputError, ResponseFormatError, error_class
 from robodyn.models import RobotInfo, RobotList
+from robodyn.results import CenterOfMass, Energy, FrameJacobian, Inertias, OperationalSpace
 
 T = TypeVar("T")
 
@@ -42,6 +44,12 @@ ROUTES: dict[str, tuple[str, str]] = {
     "nonlinear_effects": ("POST", "/v1/robots/{robot_id}/nonlinear-effects"),
     "inverse_dynamics": ("POST", "/v1/robots/{robot_id}/inverse-dynamics"),
     "forward_dynamics": ("POST", "/v1/robots/{robot_id}/forward-dynamics"),
+    "mass_matrix_inverse": ("POST", "/v1/robots/{robot_id}/mass-matrix-inverse"),
+    "energy": ("POST", "/v1/robots/{robot_id}/energy"),
+    "center_of_mass": ("POST", "/v1/robots/{robot_id}/center-of-mass"),
+    "jacobian": ("POST", "/v1/robots/{robot_id}/jacobian"),
+    "operational_space": ("POST", "/v1/robots/{robot_id}/operational-space"),
+    "inertias": ("GET", "/v1/robots/{robot_id}/inertias"),
 }
 """Client method → (HTTP method, path template) of the server route it calls."""
 
@@ -272,3 +280,99 @@ def share_docs(cls: type) -> type:
     for name in METHODS:
         getattr(cls, name).__doc__ = globals()[name].__doc__
     return cls
+
+
+# -- beyond the equation of motion --------------------------------------------------------
+
+REFERENCE_FRAMES = ("local_world_aligned", "local", "world")
+TASKS = ("full", "linear", "angular")
+
+
+def _choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
+    if not isinstance(value, str) or value not in allowed:
+        raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}, "
+                         f"not {value!r}")
+    return value
+
+
+def _frame(frame: Any) -> str:
+    if not isinstance(frame, str):
+        raise TypeError(f"frame must be a str (a name from robot(id).frame_names), not "
+                        f"{type(frame).__name__}")
+    if not frame:
+        raise InputError("frame is empty; robot(id).frame_names lists the valid names")
+    return frame
+
+
+def _quantity(name: str, robot_id: str, read: Callable[[Any, bool, int | None], T],
+              options: Mapping[str, Any], **inputs: ArrayLike | None) -> Call[T]:
+    """A dynamics call with joint-space `inputs` (None: not sent) and other `options`."""
+    arrays, batched = joint_states(**{k: x for k, x in inputs.items() if x is not None})
+    rows = next(iter(arrays.values())).shape[0] if batched else None
+    return _call(name, lambda status, body: read(body, batched, rows), robot_id,
+                 body=dict(options) or None, arrays=arrays)
+
+
+def mass_matrix_inverse(robot_id: str, q: ArrayLike) -> Call[np.ndarray]:
+    """M(q)⁻¹, the inverse joint-space inertia matrix (Pinocchio's computeMinverse, no
+    numerical inversion): symmetric positive definite, 1/(kg·m²) (1/kg on prismatic rows),
+    shape (nv, nv), or (N, nv, nv) for q of shape (N, nq)."""
+    return _dynamics("mass_matrix_inverse", robot_id, {"mass_matrix_inverse": 2}, q=q)
+
+
+def energy(robot_id: str, q: ArrayLike, v: ArrayLike) -> Call[Energy]:
+    """`Energy` with `kinetic_energy` T = ½ vᵀ M v, `potential_energy` U (zero at the world
+    origin, g(q) = ∂U/∂q) and `mechanical_energy` T + U, in J: floats for one state, arrays of
+    shape (N,) for a batch. Along any motion d(T + U)/dt = vᵀ τ (τ the applied torques)."""
+    return _quantity("energy", robot_id, Energy.from_json, {}, q=q, v=v)
+
+
+def center_of_mass(robot_id: str, q: ArrayLike, v: ArrayLike | None = None
+                   ) -> Call[CenterOfMass]:
+    """`CenterOfMass` of the whole robot in the world frame: `position` shape (3,) in m,
+    `jacobian` ∂c/∂q shape (3, nv), and with v `velocity` shape (3,) in m/s (else None);
+    a leading axis N for a batch."""
+    return _quantity("center_of_mass", robot_id, CenterOfMass.from_json, {}, q=q, v=v)
+
+
+def jacobian(robot_id: str, q: ArrayLike, frame: str, *,
+             reference_frame: str = "local_world_aligned", v: ArrayLike | None = None
+             ) -> Call[FrameJacobian]:
+    """`FrameJacobian` of the frame named `frame` (a link, joint or fixed frame:
+    `robot(id).frame_names`): `jacobian` J, shape (6, nv), rows [vx, vy, vz, ωx, ωy, ωz] in
+    `reference_frame` ("local_world_aligned", "local" or "world"), so the frame's velocity is
+    J v; with v also `jacobian_time_variation` J̇, shape (6, nv) (acceleration J a + J̇ v).
+    A leading axis N for a batch. Raises `UnknownFrameError` for a name the robot lacks."""
+    options = {"frame": _frame(frame),
+               "reference_frame": _choice("reference_frame", reference_frame,
+                                          REFERENCE_FRAMES)}
+    return _quantity("jacobian", robot_id, FrameJacobian.from_json, options, q=q, v=v)
+
+
+def operational_space(robot_id: str, q: ArrayLike, frame: str, *, v: ArrayLike | None = None,
+                      reference_frame: str = "local_world_aligned", task: str = "full",
+                      damping: float = 0.0) -> Call[OperationalSpace]:
+    """`OperationalSpace` of `frame` (Khatib): `inertia` Λ = (J M⁻¹ Jᵀ)⁻¹ shape (k, k),
+    `jacobian` J shape (k, nv), `dynamically_consistent_inverse` J̄ = M⁻¹ Jᵀ Λ shape (nv, k),
+    `gravity` p = J̄ᵀ g shape (k,) and with v `coriolis` μ = J̄ᵀ C v − Λ J̇ v shape (k,);
+    k = 6 for `task` "full" ([linear; angular]), 3 for "linear" or "angular". SI units: kg and
+    kg·m², N and N·m. A leading axis N for a batch. At a singular configuration (smallest
+    singular value of J M⁻¹ Jᵀ at most 1e-8 times its largest) raises
+    `SingularConfigurationError` unless `damping` λ > 0, which uses (J M⁻¹ Jᵀ + λ² I)⁻¹."""
+    if isinstance(damping, bool) or not isinstance(damping, numbers.Real):
+        raise InputError(f"damping must be a number, not {type(damping).__name__}")
+    if not np.isfinite(damping) or damping < 0:
+        raise InputError(f"damping must be a finite number ≥ 0, not {damping!r}")
+    options = {"frame": _frame(frame),
+               "reference_frame": _choice("reference_frame", reference_frame,
+                                          REFERENCE_FRAMES),
+               "task": _choice("task", task, TASKS), "damping": float(damping)}
+    return _quantity("operational_space", robot_id, OperationalSpace.from_json, options,
+                     q=q, v=v)
+
+
+def inertias(robot_id: str) -> Call[Inertias]:
+    """`Inertias` of every body (one per joint): mass (kg), centre of mass (shape (3,), m) and
+    inertia at it and at the joint (shape (3, 3), kg·m²), principal moments and axes, all in
+    the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id."""
+    return _call("inertias", lambda status, body: Inertias.from_json(body), robot_id)

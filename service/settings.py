@@ -41,6 +41,11 @@ class Settings(BaseSettings):
     max_pending_batches: int = Field(
         16, ge=1, description="Large batches computed or queued at once per process; more are "
         "answered 503 overloaded with Retry-After.")
+    max_simulation_steps: int = Field(
+        100_000, ge=1, description="Largest `steps` of one simulate request.")
+    max_simulation_work: int = Field(
+        20_000_000, ge=1, description="Largest work of one simulate request: states × steps × "
+        "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1 µs each.")
     build_timeout_s: float = Field(
         30.0, gt=0, description="Wall-clock limit for building an uploaded model, in seconds."
     )

@@ -17,8 +17,14 @@ from pydantic import BaseModel, ValidationError, create_model
 from starlette.concurrency import run_in_threadpool
 from starlette.routing import Route
 
-from service import dynamics
-from service.api import binary, schemas_dynamics
+from service import dynamics, joint_names
+from service.api import (
+    binary,
+    schemas_derivatives,
+    schemas_dynamics,
+    schemas_options,
+    schemas_simulation,
+)
 from service.api.answers import JSONAnswer
 from service.api.problems import problem
 from service.api.schemas import Problem
@@ -26,8 +32,13 @@ from service.errors import InvalidInput, Overloaded
 from service.states import prepare
 
 PREFIX = "/v1/robots"
-REQUESTS: dict[str, type[BaseModel]] = {**schemas_dynamics.REQUESTS}
-ANSWERS: dict[str, type[BaseModel]] = {**schemas_dynamics.ANSWERS}
+REQUESTS: dict[str, type[BaseModel]] = {
+    path: schemas_options.with_joint_names(model) for path, model in {
+        **schemas_dynamics.REQUESTS, **schemas_options.REQUESTS,
+        **schemas_derivatives.REQUESTS, **schemas_simulation.REQUESTS}.items()}
+ANSWERS: dict[str, type[BaseModel]] = {
+    **schemas_dynamics.ANSWERS, **schemas_options.ANSWERS, **schemas_derivatives.ANSWERS,
+    **schemas_simulation.ANSWERS}
 
 # Batches bigger than this (states × nv) run in a worker thread, not on the event loop.
 INLINE_WORK = 2_000
@@ -114,15 +125,24 @@ class Endpoint:
                            f"the binary form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
         else:
             arrays, options = self._parse_json(body)
+            if joint_names.any_named(arrays):
+                arrays = joint_names.arrays_from_names(robot, arrays)
+        named = options.pop("joint_names", False)
+        for setting in self.quantity.settings:
+            options[setting] = getattr(state.settings, setting)
         states = prepare(robot, arrays, state.settings.max_batch)
         started = time.perf_counter()
-        if states.count * robot.nv <= INLINE_WORK:
+        work = self.quantity.work
+        if (states.count * robot.nv if work is None else work(robot, states, options)
+                ) <= INLINE_WORK:
             result = dynamics.run(robot, self.quantity, states, options)
         else:
             result = await _off_loop(request, robot, self.quantity, states, options)
         request.scope["robodyn"] = {
             "robot": robot.id, "quantity": self.quantity.path, "batch_size": states.count,
             "compute_seconds": time.perf_counter() - started}
+        if named:
+            result = joint_names.by_name(robot, result, self.quantity.joint_answers)
         if binary.BINARY_MEDIA_TYPE in request.headers.get("accept", ""):
             return Response(binary.encode(result), media_type=binary.BINARY_MEDIA_TYPE)
         return JSONAnswer(result)

@@ -13,11 +13,10 @@ friction or limits), under one torque source:
 Integrators (q always moves on the configuration manifold, q ⊕ δ = `pin.integrate`, and unit
 quaternions and (cos, sin) pairs are renormalized after each step):
 - "semi-implicit-euler" (default): v ← v + dt a(q, v), then q ← q ⊕ dt v;
-- "rk4": the classical 4-stage Runge–Kutta scheme, with each stage's configuration
-  q ⊕ (c dt v_stage) and the final step q ⊕ dt (v₁ + 2v₂ + 2v₃ + v₄)/6. It is 4th order for
-  joints whose configuration space is a vector space (revolute, prismatic); for rotations of a
-  free-flyer base, stage velocities are combined in the tangent space at q, without the
-  Lie-group (dexp) correction.
+- "rk4": the classical 4-stage Runge–Kutta scheme in its Lie-group form
+  (Runge–Kutta–Munthe-Kaas): stages at q ⊕ θᵢ, with the stage velocities mapped to the tangent
+  space at q by the inverse right Jacobian of ⊕, so it is 4th order for free-flyer bases too;
+  for revolute and prismatic joints it is exactly classical RK4.
 
 The answer is the trajectory, steps + 1 samples including the initial state: t (s), q, v, and
 the mechanical energy T + U (J), T = ½ vᵀ M v (with the armature) and U the gravity potential.
@@ -135,9 +134,9 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
 
 
 def _mechanical_energy(robot: Robot, data: Any, q: np.ndarray, v: np.ndarray) -> float:
-    """T + U with T = ½ vᵀ M v including the armature (Pinocchio's kinetic energy omits it)."""
-    rotor = 0.5 * float(robot.model.armature @ (v * v))
-    return float(pin.computeMechanicalEnergy(robot.model, data, q, v)) + rotor
+    """T + U with T = ½ vᵀ M v (Pinocchio's kinetic energy includes the armature, as M does;
+    a test checks it) and U the potential energy of gravity."""
+    return float(pin.computeMechanicalEnergy(robot.model, data, q, v))
 
 
 def _diverged(where: str, k: int, dt: float) -> NonFiniteResult:
@@ -165,24 +164,33 @@ def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: 
 
 def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: np.ndarray,
          qs: np.ndarray, vs: np.ndarray, energy: np.ndarray, where: str) -> None:
-    model, world, normalize = robot.model, pin.Convention.WORLD, bool(robot.unit_joints)
+    """Runge–Kutta–Munthe-Kaas RK4: stage configurations q ⊕ θ, and q's stage slopes are the
+    velocities mapped to the tangent space at q by the inverse right Jacobian of ⊕,
+    dθ/dt = Jr(θ)⁻¹ v = ∂ difference(q, q ⊕ θ) / ∂(q ⊕ θ) · v (the identity for
+    vector-space joints, where this is classical RK4)."""
+    model, world = robot.model, pin.Convention.WORLD
+    lie = bool(robot.unit_joints)  # any joint whose configuration space is not a vector space
+    arg1 = pin.ArgumentPosition.ARG1
 
-    def accel(k: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.array(pin.aba(model, data, q, v, torque(k, q, v, data), world))
+    def stage(k: int, theta: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(slope of θ, acceleration) at the stage configuration q ⊕ θ and velocity v."""
+        at = pin.integrate(model, q, theta)
+        a = np.array(pin.aba(model, data, at, v, torque(k, at, v, data), world))
+        return (pin.dDifference(model, q, at, arg1) @ v if lie else v), a
 
     half = 0.5 * dt
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
     for k in range(qs.shape[0] - 1):
-        a1 = accel(k, q, v)
+        a1 = np.array(pin.aba(model, data, q, v, torque(k, q, v, data), world))
         v2 = v + half * a1
-        a2 = accel(k, pin.integrate(model, q, half * v), v2)
+        t2, a2 = stage(k, half * v, v2)
         v3 = v + half * a2
-        a3 = accel(k, pin.integrate(model, q, half * v2), v3)
+        t3, a3 = stage(k, half * t2, v3)
         v4 = v + dt * a3
-        a4 = accel(k, pin.integrate(model, q, dt * v3), v4)
-        q = pin.integrate(model, q, (dt / 6.0) * (v + 2.0 * v2 + 2.0 * v3 + v4))
+        t4, a4 = stage(k, dt * t3, v4)
+        q = pin.integrate(model, q, (dt / 6.0) * (v + 2.0 * t2 + 2.0 * t3 + t4))
         v = v + (dt / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-        if normalize:
+        if lie:
             q = pin.normalize(model, q)
         if not np.isfinite(v).all():
             raise _diverged(where, k, dt)

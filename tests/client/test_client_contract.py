@@ -32,14 +32,23 @@ INFO = {"id": "r", "name": "r", "source": "upload", "nq": 1, "nv": 1, "root_join
         "reference_configurations": {}, "warnings": [], "joints": [], "frames": []}
 ANSWERS = {"mass_matrix": [[1.0]], "gravity": [0.0], "coriolis_matrix": [[0.0]],
            "coriolis_forces": [0.0], "nonlinear_effects": [0.0], "tau": [0.0], "a": [0.0],
-           "robots": [], "unavailable": {}, "status": "ok", **INFO}
+           "robots": [], "unavailable": {}, "status": "ok",
+           "dtau_dq": [[0.0]], "dtau_dv": [[0.0]], "dtau_da": [[1.0]], "da_dq": [[0.0]],
+           "da_dv": [[0.0]], "da_dtau": [[1.0]], "momentum": [0.0] * 6,
+           "momentum_matrix": [[0.0]] * 6, "center_of_mass": [0.0] * 3, "t": [0.0],
+           "q": [[0.0]], "v": [[0.0]], "mechanical_energy": [0.0], **INFO}
 ARGS: dict[str, tuple[Any, ...]] = {
     "health": (), "ready": (), "robots": (), "robot": ("r",), "upload": ("<robot/>",),
     "delete": ("r",), "mass_matrix": ("r", [0.0]), "gravity": ("r", [0.0]),
     "coriolis": ("r", [0.0], [0.0]), "nonlinear_effects": ("r", [0.0], [0.0]),
     "inverse_dynamics": ("r", [0.0], [0.0], [0.0]),
     "forward_dynamics": ("r", [0.0], [0.0], [0.0]),
+    "inverse_dynamics_derivatives": ("r", [0.0], [0.0], [0.0]),
+    "forward_dynamics_derivatives": ("r", [0.0], [0.0], [0.0]),
+    "centroidal": ("r", [0.0], [0.0]),
+    "simulate": ("r", [0.0], [0.0]),
 }
+KWARGS: dict[str, dict[str, Any]] = {"simulate": {"dt": 1e-3, "steps": 1}}
 
 
 def sent_requests() -> dict[str, httpx.Request]:
@@ -54,7 +63,7 @@ def sent_requests() -> dict[str, httpx.Request]:
     http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://mock")
     with robodyn.Client(http_client=http) as client:
         for name in core.METHODS:
-            getattr(client, name)(*ARGS[name])
+            getattr(client, name)(*ARGS[name], **KWARGS.get(name, {}))
             out[name] = seen[-1]
     return out
 

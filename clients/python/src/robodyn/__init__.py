@@ -45,6 +45,12 @@ from robodyn.errors import (
     ValidationError,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
+from robodyn.results import (
+    Centroidal,
+    ForwardDynamicsDerivatives,
+    InverseDynamicsDerivatives,
+    Trajectory,
+)
 from robodyn.transport import DEFAULT_TIMEOUT
 
 __all__ = [
@@ -53,15 +59,18 @@ __all__ = [
     "AsyncClient",
     "BadRequestError",
     "CatalogRobotError",
+    "Centroidal",
     "Client",
     "ConflictError",
     "DimensionMismatchError",
     "Finding",
+    "ForwardDynamicsDerivatives",
     "FrameInfo",
     "InputError",
     "InternalServerError",
     "InvalidConfigurationError",
     "InvalidModelError",
+    "InverseDynamicsDerivatives",
     "JointInfo",
     "MethodNotAllowedError",
     "NonFiniteResultError",
@@ -79,6 +88,7 @@ __all__ = [
     "ServiceUnavailableError",
     "SingularConfigurationError",
     "TimeoutError",
+    "Trajectory",
     "TransportError",
     "UnauthorizedError",
     "UnknownFrameError",

@@ -125,9 +125,11 @@ class Endpoint:
                            f"the binary form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
         else:
             arrays, options = self._parse_json(body)
-            if joint_names.any_named(arrays):
+            # Name-keyed inputs are JSON objects inside the body: look for any before looking
+            # at the inputs (a byte search, so plain-array requests pay nothing measurable).
+            if body.find(b"{", 1) > 0 and joint_names.any_named(arrays):
                 arrays = joint_names.arrays_from_names(robot, arrays)
-        named = options.pop("joint_names", False)
+        named = options.pop("joint_names", False) if options else False
         for setting in self.quantity.settings:
             options[setting] = getattr(state.settings, setting)
         states = prepare(robot, arrays, state.settings.max_batch)

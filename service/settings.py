@@ -42,7 +42,8 @@ class Settings(BaseSettings):
         16, ge=1, description="Large batches computed or queued at once per process; more are "
         "answered 503 overloaded with Retry-After.")
     max_simulation_steps: int = Field(
-        100_000, ge=1, description="Largest `steps` of one simulate request.")
+        100_000, ge=1, description="Largest number of steps of one simulate request, summed "
+        "over the initial states of a batch (this bounds the answer's size).")
     max_simulation_work: int = Field(
         20_000_000, ge=1, description="Largest work of one simulate request: states × steps × "
         "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1 µs each.")

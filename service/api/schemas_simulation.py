@@ -31,8 +31,9 @@ class PDController(StrictRequest):
 class SimulateRequest(QVRequest):
     dt: float = Field(gt=0, allow_inf_nan=False, description="Time step, s.")
     steps: int = Field(ge=1, description="Number of steps; the trajectory has steps + 1 samples. "
-                       "At most ROBODYN_MAX_SIMULATION_STEPS (default 100000), and states × steps "
-                       "× nv × stages at most ROBODYN_MAX_SIMULATION_WORK (default 2e7).")
+                       "States × steps at most ROBODYN_MAX_SIMULATION_STEPS (default 100000), "
+                       "and states × steps × nv × stages at most ROBODYN_MAX_SIMULATION_WORK "
+                       "(default 2e7).")
     tau: list[Number] | list[list[Number]] | JointsByName | list[JointsByName] | None = Field(
         None, description="Applied generalized forces, N·m or N (all nv entries, a free-flyer's "
         "6 included): nv numbers for a constant τ, or [steps][nv] for τ_k held during step k; "

@@ -7,17 +7,8 @@ GET /v1/robots/{id}). The name itself is never echoed back.
 
 from __future__ import annotations
 
-import pinocchio as pin
-
 from service.errors import UnknownFrame
 from service.registry.robot import Robot
-
-# Pinocchio's reference frames by their API names (6-vectors: linear first, then angular).
-REFERENCE_FRAMES = {
-    "world": pin.ReferenceFrame.WORLD,
-    "local": pin.ReferenceFrame.LOCAL,
-    "local_world_aligned": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
-}
 
 
 def frame_id(robot: Robot, name: str, field: str = "frame") -> int:

@@ -95,9 +95,11 @@ def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, A
 
 def check_limits(robot: Robot, s: States, steps: int, integrator: str, max_steps: int,
                  max_work: int) -> None:
-    if steps > max_steps:
-        raise InvalidInput(f"steps = {steps} is over the limit of {max_steps} steps per "
-                           "simulation (ROBODYN_MAX_SIMULATION_STEPS)")
+    if s.count * steps > max_steps:
+        total = f"{s.count} states × {steps} steps = {s.count * steps}" if s.batched else (
+            f"steps = {steps}")
+        raise InvalidInput(f"{total} is over the limit of {max_steps} simulated steps per "
+                           "request (ROBODYN_MAX_SIMULATION_STEPS)")
     work = simulation_work(robot, s, {"steps": steps, "integrator": integrator})
     if work > max_work:
         raise InvalidInput(

@@ -220,8 +220,12 @@ def test_steps_and_work_limits_are_configurable(small_app_factory):
     problem = assert_problem(client.post("/v1/robots/ur5/simulate", json={
         **body, "steps": 50, "integrator": "rk4"}), 422, "validation_error")  # 50×6×4 = 1200
     assert "1000" in problem["detail"] and "ROBODYN_MAX_SIMULATION_WORK" in problem["detail"]
-    batch = {"q": [[0.0] * 6] * 4, "v": [[0.0] * 6] * 4, "dt": 1e-3, "steps": 45}
-    assert_problem(client.post("/v1/robots/ur5/simulate", json=batch), 422, "validation_error")
+    batch = {"q": [[0.0] * 6] * 2, "v": [[0.0] * 6] * 2, "dt": 1e-3, "steps": 26}
+    problem = assert_problem(client.post("/v1/robots/ur5/simulate", json=batch), 422,
+                             "validation_error")  # 2 × 26 = 52 steps in all
+    assert "2 states × 26 steps = 52" in problem["detail"]
+    ok = client.post("/v1/robots/ur5/simulate", json={**batch, "steps": 25})
+    assert ok.status_code == 200 and np.asarray(ok.json()["q"]).shape == (2, 26, 6)
 
 
 Q6, V6 = [0.0] * 6, [0.0] * 6

@@ -236,3 +236,24 @@ async def test_async_client_has_the_same_answers(app: Any, client: Client,
         assert type(got) is type(want)
         for g, w in zip(got, want, strict=True):
             np.testing.assert_array_equal(g, w)
+
+
+def test_end_to_end_against_a_real_server(server: str, reference: Reference) -> None:
+    """Every new method over a real socket to `python -m service`, single state and batch."""
+    s = reference.states("talos", 2, seed=6)
+    with Client(server) as c:
+        for q, v, a in ((s["q"], s["v"], s["a"]), (s["q"][0], s["v"][0], s["a"][0])):
+            dtau = c.inverse_dynamics_derivatives("talos", q, v, a)
+            M = reference.mass_matrix("talos", np.atleast_2d(q))
+            close(dtau.dtau_da, M if q.ndim == 2 else M[0])
+            da = c.forward_dynamics_derivatives("talos", q, v, a)
+            assert da.da_dq.shape == dtau.dtau_dq.shape
+            h = c.centroidal("talos", q, v)
+            assert h.momentum.shape[-1] == 6
+            forces = [{"frame": "imu_link", "wrench": np.ones(6), "reference_frame": "world"}]
+            tau = c.inverse_dynamics("talos", q, v, a, external_forces=forces)
+            close(c.forward_dynamics("talos", q, v, tau, external_forces=forces), a)
+            traj = c.simulate("talos", q, v, dt=1e-3, steps=10, integrator="rk4")
+            assert traj.q.shape[-2:] == (11, reference.model("talos").nq)
+        by_name = {j.name: 0.1 for j in reversed(c.robot("ur5").joints)}
+        np.testing.assert_array_equal(c.gravity("ur5", by_name), c.gravity("ur5", [0.1] * 6))

@@ -46,7 +46,7 @@ class Settings(BaseSettings):
         "over the initial states of a batch (this bounds the answer's size).")
     max_simulation_work: int = Field(
         20_000_000, ge=1, description="Largest work of one simulate request: states × steps × "
-        "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1 µs each.")
+        "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1–2 µs each.")
     build_timeout_s: float = Field(
         30.0, gt=0, description="Wall-clock limit for building an uploaded model, in seconds."
     )

@@ -63,14 +63,19 @@ class ExternalForces:
                 int(frame.parentJoint), frame.placement, values,
                 force.get("reference_frame", DEFAULT_REFERENCE_FRAME)))
         self.needs_kinematics = any(w.reference_frame != "local" for w in self.wrenches)
+        self._joints = sorted({w.joint for w in self.wrenches})
+        self._fext = pin.StdVec_Force()  # reused from state to state (RNEA/ABA only read it)
+        self._fext.extend(pin.Force.Zero() for _ in range(self.model.njoints))
 
     def at(self, data: Any, q: np.ndarray, i: int) -> Any:
         """`fext` (pin.StdVec_Force, one force per joint, in the joint's local frame) for state
-        i at configuration q. Uses (and overwrites) `data`'s placements."""
+        i at configuration q, valid until the next call. Uses (and overwrites) `data`'s
+        placements."""
         if self.needs_kinematics:
             pin.forwardKinematics(self.model, data, q)
-        fext = pin.StdVec_Force()
-        fext.extend(pin.Force.Zero() for _ in range(self.model.njoints))
+        fext = self._fext
+        for joint in self._joints:
+            fext[joint] = pin.Force.Zero()
         for w in self.wrenches:
             values = w.values[i] if w.values.ndim == 2 else w.values
             force = pin.Force(values[:3], values[3:])

@@ -42,6 +42,12 @@ class Settings(BaseSettings):
     max_pending_batches: int = Field(
         16, ge=1, description="Large batches computed or queued at once per process; more are "
         "answered 503 overloaded with Retry-After.")
+    max_simulation_steps: int = Field(
+        100_000, ge=1, description="Largest number of steps of one simulate request, summed "
+        "over the initial states of a batch (this bounds the answer's size).")
+    max_simulation_work: int = Field(
+        20_000_000, ge=1, description="Largest work of one simulate request: states × steps × "
+        "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1–2 µs each.")
     build_timeout_s: float = Field(
         30.0, gt=0, description="Wall-clock limit for building an uploaded model, in seconds."
     )

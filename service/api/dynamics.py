@@ -18,8 +18,15 @@ from starlette.concurrency import run_in_threadpool
 from starlette.requests import HTTPConnection
 from starlette.routing import Route
 
-from service import dynamics
-from service.api import binary, schemas_dynamics, schemas_operational
+from service import dynamics, joint_names
+from service.api import (
+    binary,
+    schemas_derivatives,
+    schemas_dynamics,
+    schemas_operational,
+    schemas_options,
+    schemas_simulation,
+)
 from service.api.answers import JSONAnswer
 from service.api.deps import check_api_key_for_all
 from service.api.problems import problem
@@ -28,10 +35,13 @@ from service.errors import InvalidInput, Overloaded
 from service.states import prepare
 
 PREFIX = "/v1/robots"
-REQUESTS: dict[str, type[BaseModel]] = {**schemas_dynamics.REQUESTS,
-                                        **schemas_operational.REQUESTS}
-ANSWERS: dict[str, type[BaseModel]] = {**schemas_dynamics.ANSWERS,
-                                       **schemas_operational.ANSWERS}
+REQUESTS: dict[str, type[BaseModel]] = {
+    path: schemas_options.with_joint_names(model) for path, model in {
+        **schemas_dynamics.REQUESTS, **schemas_options.REQUESTS, **schemas_operational.REQUESTS,
+        **schemas_derivatives.REQUESTS, **schemas_simulation.REQUESTS}.items()}
+ANSWERS: dict[str, type[BaseModel]] = {
+    **schemas_dynamics.ANSWERS, **schemas_options.ANSWERS, **schemas_operational.ANSWERS,
+    **schemas_derivatives.ANSWERS, **schemas_simulation.ANSWERS}
 
 # Batches bigger than this (states × nv) run in a worker thread, not on the event loop.
 INLINE_WORK = 2_000
@@ -120,17 +130,28 @@ class Endpoint:
     async def compute(self, request: HTTPConnection, robot: Any, arrays: dict[str, Any],
                       options: dict[str, Any]) -> dict[str, Any]:
         """Validate the states and compute: inline when small, in a worker thread when large.
-        Records what was computed in the ASGI scope (`scope["robodyn"]`) for logs and
-        Server-Timing."""
-        states = prepare(robot, arrays, request.app.state.settings.max_batch)
+        Name-keyed inputs become arrays first; with `"joint_names": true` the joint-space
+        answers are keyed by joint name. Records what was computed in the ASGI scope
+        (`scope["robodyn"]`) for logs and Server-Timing."""
+        if joint_names.any_named(arrays):  # a type check: plain arrays pay nothing measurable
+            arrays = joint_names.arrays_from_names(robot, arrays)
+        named = options.pop("joint_names", False) if options else False
+        settings = request.app.state.settings
+        for setting in self.quantity.settings:
+            options[setting] = getattr(settings, setting)
+        states = prepare(robot, arrays, settings.max_batch)
         started = time.perf_counter()
-        if states.count * robot.nv <= INLINE_WORK:
+        work = self.quantity.work
+        if (states.count * robot.nv if work is None else work(robot, states, options)
+                ) <= INLINE_WORK:
             result = dynamics.run(robot, self.quantity, states, options)
         else:
             result = await _off_loop(request, robot, self.quantity, states, options)
         request.scope["robodyn"] = {
             "robot": robot.id, "quantity": self.quantity.path, "batch_size": states.count,
             "compute_seconds": time.perf_counter() - started}
+        if named:
+            result = joint_names.by_name(robot, result, self.quantity.joint_answers)
         return result
 
     async def answer(self, request: Request) -> Response:

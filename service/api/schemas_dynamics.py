@@ -11,12 +11,17 @@ from typing import Annotated, Any
 from pydantic import BaseModel, ConfigDict, Field
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
-JointArray = list[Number] | list[list[Number]]
+# A joint-space vector keyed by joint name (see service.joint_names): a number or a list per joint.
+JointsByName = dict[Annotated[str, Field(max_length=256)], Number | list[Number]]
+JointArray = list[Number] | list[list[Number]] | JointsByName | list[JointsByName]
 
 
 def joint_field(desc: str, default: Any = ...) -> Any:
     return Field(default, description=desc + " A 1-D array is one state; a 2-D array [N][n] is "
-                 "a batch of N states, and every answer then gains a leading axis of length N.")
+                 "a batch of N states, and every answer then gains a leading axis of length N. "
+                 "Instead of an array, an object keyed by joint name (every joint named once; "
+                 "a number or a 1-list for a 1-dof joint, the joint's entries for others), or "
+                 "a list of such objects for a batch.")
 
 
 Q_DESC = ("Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "

@@ -4,13 +4,17 @@ Each topic module contributes a tuple of `Quantity`; `QUANTITIES` maps every end
 its quantity. Only this package and `service.registry` import Pinocchio.
 """
 
+from service.dynamics.centroidal import CENTROIDAL
+from service.dynamics.derivatives import DERIVATIVES
 from service.dynamics.equation_of_motion import EQUATION_OF_MOTION
 from service.dynamics.frames import FRAMES
 from service.dynamics.lagrangian import LAGRANGIAN
 from service.dynamics.operational_space import OPERATIONAL_SPACE
 from service.dynamics.quantity import Quantity, Results, finite, run
+from service.dynamics.simulation import SIMULATION
 
-QUANTITIES: dict[str, Quantity] = {
-    q.path: q for q in (*EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE)}
+QUANTITIES: dict[str, Quantity] = {q.path: q for q in (
+    *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
+    *SIMULATION)}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

@@ -12,11 +12,14 @@ A non-finite result (e.g. forward dynamics of a robot with a massless moving bod
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from service.dynamics import parallel
+from service.dynamics.external_forces import ExternalForces
 from service.dynamics.quantity import Quantity, Results, finite
 from service.registry.robot import Robot
 from service.states import States
@@ -74,37 +77,61 @@ def nonlinear_effects(robot: Robot, s: States) -> Results:
     return finite("nonlinear-effects", nonlinear_effects=out)
 
 
-def inverse_dynamics(robot: Robot, s: States) -> Results:
-    """τ = M(q) a + C(q, v) v + g(q) by the recursive Newton–Euler algorithm, (N, nv)."""
+def inverse_dynamics(robot: Robot, s: States, *,
+                     external_forces: Sequence[Mapping[str, Any]] | None = None) -> Results:
+    """τ = M(q) a + C(q, v) v + g(q) by the recursive Newton–Euler algorithm, (N, nv).
+
+    With `external_forces` (wrenches at named frames, see `service.dynamics.external_forces`)
+    the answer is τ = M a + C v + g − Σ Jᵀ w: the forces the joints must add to the wrenches
+    the environment applies."""
     q, v, a = s["q"], s["v"], s["a"]
     out = np.empty((q.shape[0], robot.nv))
+    forces = ExternalForces(robot, external_forces, s) if external_forces else None
     with robot.data() as data:
-        for i in range(q.shape[0]):
-            out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
+        if forces is None:
+            for i in range(q.shape[0]):
+                out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
+        else:
+            for i in range(q.shape[0]):
+                fext = forces.at(data, q[i], i)
+                out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i], fext)
     return finite("inverse-dynamics", tau=out)
 
 
-def forward_dynamics(robot: Robot, s: States) -> Results:
+def forward_dynamics(robot: Robot, s: States, *,
+                     external_forces: Sequence[Mapping[str, Any]] | None = None) -> Results:
     """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) by the articulated-body algorithm, (N, nv).
 
     ABA in Pinocchio's WORLD convention, the one `abaInParallel` uses, so that a batch gives
-    bit for bit the same answer however it is computed (LOCAL differs by rounding, ~1e-10)."""
+    bit for bit the same answer however it is computed (LOCAL differs by rounding, ~1e-10).
+    With `external_forces` (see `service.dynamics.external_forces`) the answer is
+    a = M⁻¹ (τ − C v − g + Σ Jᵀ w)."""
     q, v, tau = s["q"], s["v"], s["tau"]
     out = np.empty((q.shape[0], robot.nv))
+    forces = ExternalForces(robot, external_forces, s) if external_forces else None
+    world = pin.Convention.WORLD
     with robot.data() as data:
-        for i in range(q.shape[0]):
-            out[i] = pin.aba(robot.model, data, q[i], v[i], tau[i], pin.Convention.WORLD)
+        if forces is None:
+            for i in range(q.shape[0]):
+                out[i] = pin.aba(robot.model, data, q[i], v[i], tau[i], world)
+        else:
+            for i in range(q.shape[0]):
+                fext = forces.at(data, q[i], i)
+                out[i] = pin.aba(robot.model, data, q[i], v[i], tau[i], fext, world)
     return finite("forward-dynamics", a=out)
 
 
 EQUATION_OF_MOTION = (
     Quantity("mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)"),
-    Quantity("gravity", ("q",), gravity, "Gravity vector g(q)"),
-    Quantity("coriolis", ("q", "v"), coriolis, "Coriolis matrix C(q, v) and forces C v"),
+    Quantity("gravity", ("q",), gravity, "Gravity vector g(q)", joint_answers=("gravity",)),
+    Quantity("coriolis", ("q", "v"), coriolis, "Coriolis matrix C(q, v) and forces C v",
+             joint_answers=("coriolis_forces",)),
     Quantity("nonlinear-effects", ("q", "v"), nonlinear_effects,
-             "Nonlinear effects C(q, v) v + g(q)"),
+             "Nonlinear effects C(q, v) v + g(q)", joint_answers=("nonlinear_effects",)),
     Quantity("inverse-dynamics", ("q", "v", "a"), inverse_dynamics,
-             "Inverse dynamics τ = M a + C v + g (RNEA)", parallel=parallel.inverse_dynamics),
+             "Inverse dynamics τ = M a + C v + g (RNEA)", parallel=parallel.inverse_dynamics,
+             joint_answers=("tau",)),
     Quantity("forward-dynamics", ("q", "v", "tau"), forward_dynamics,
-             "Forward dynamics a = M⁻¹ (τ − C v − g) (ABA)", parallel=parallel.forward_dynamics),
+             "Forward dynamics a = M⁻¹ (τ − C v − g) (ABA)", parallel=parallel.forward_dynamics,
+             joint_answers=("a",)),
 )

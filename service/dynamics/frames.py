@@ -40,16 +40,18 @@ REFERENCE_FRAMES: dict[str, Any] = {
 _SHOWN_NAME_LENGTH = 64  # longer (or unprintable) unknown names are not echoed back
 
 
-def frame_id(robot: Robot, name: str) -> int:
+def frame_id(robot: Robot, name: str, field: str = "frame") -> int:
     """The index of the frame called `name`; `UnknownFrame` (saying where the names are) if
-    the model has none."""
+    the model has none. `field` is the request member that gave the name, named in the error
+    when it is not the plain `frame` (e.g. "external_forces[1].frame")."""
     if robot.model.existFrame(name):
         return int(robot.model.getFrameId(name))
     shown = (f"'{name}'" if len(name) <= _SHOWN_NAME_LENGTH and name.isprintable()
              else "of that name")
-    raise UnknownFrame(f"robot '{robot.id}' has no frame {shown}; the valid names are listed "
-                       f"under `frames` of GET /v1/robots/{robot.id} (links, joints and fixed "
-                       "frames)")
+    where = "" if field == "frame" else f" (in {field})"
+    raise UnknownFrame(f"robot '{robot.id}' has no frame {shown}{where}; the valid names are "
+                       f"listed under `frames` of GET /v1/robots/{robot.id} (links, joints and "
+                       "fixed frames)")
 
 
 def frame_jacobian(robot: Robot, data: Any, q: np.ndarray, fid: int, reference: Any,

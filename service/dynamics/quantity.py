@@ -20,6 +20,7 @@ from service.states import States
 
 Results = dict[str, np.ndarray]
 Compute = Callable[..., Results]
+Work = Callable[[Robot, States, dict[str, Any]], int]
 
 
 @dataclass(frozen=True)
@@ -28,7 +29,12 @@ class Quantity:
 
     `inputs` are the required joint-space arrays and `optional` the optional ones (names from
     `service.states.SPACES`: q, v, a, tau); every other request field is passed to `compute`
-    as a keyword option.
+    as a keyword option. `settings` names service settings (`service.settings.Settings`
+    fields, e.g. limits) that are passed to `compute` as keyword options too.
+    `joint_answers` names the answers that are joint-space vectors (last axis nq for an answer
+    named "q", else nv), given keyed by joint name on request (`"joint_names": true`).
+    `work(robot, states, options)` estimates the cost in state×dof units (default: states ×
+    nv); larger work than the inline limit is computed off the event loop.
     """
 
     path: str
@@ -38,6 +44,9 @@ class Quantity:
     optional: tuple[str, ...] = ()
     parallel: Compute | None = None
     parallel_from: int = 64  # smallest batch for which `parallel` is used
+    joint_answers: tuple[str, ...] = ()
+    settings: tuple[str, ...] = ()
+    work: Work | None = None
 
 
 def finite(quantity: str, **results: np.ndarray) -> Results:

@@ -157,3 +157,40 @@ class _StreamAsClient:
     def __getattr__(self, name: str):
         method = getattr(self._stream, name)
         return lambda robot_id, *args, **kwargs: method(*args, **kwargs)
+
+
+PART_7_CALLS = {
+    "inverse_dynamics_derivatives": lambda c, s: tuple(c.inverse_dynamics_derivatives(
+        "talos", s["q"], s["v"], s["a"])),
+    "forward_dynamics_derivatives": lambda c, s: tuple(c.forward_dynamics_derivatives(
+        "talos", s["q"], s["v"], s["tau"])),
+    "centroidal": lambda c, s: tuple(c.centroidal("talos", s["q"], s["v"])),
+    "inverse_dynamics_with_a_wrench": lambda c, s: (c.inverse_dynamics(
+        "talos", s["q"], s["v"], s["a"], external_forces=[
+            {"frame": "gripper_left_joint", "wrench": [1.0, -2.0, 3.0, 0.1, 0.2, -0.3],
+             "reference_frame": "local"}]),),
+}
+
+
+@pytest.mark.parametrize("quantity", list(PART_7_CALLS))
+def test_derivatives_centroidal_and_wrenches_in_binary_and_on_the_stream(
+        server: str, reference: Reference, quantity: str) -> None:
+    states = reference.states("talos", 12, seed=5)
+    call = PART_7_CALLS[quantity]
+    with Client(server, binary=True) as b, Client(server, binary=False) as j:
+        got_binary, got_json = call(b, states), call(j, states)
+        with b.stream("talos") as s:
+            streamed = call(_StreamAsClient(s), {k: x[3] for k, x in states.items()})
+    for gb, gj, s1 in zip(got_binary, got_json, streamed, strict=True):
+        assert gb.shape[0] == 12
+        np.testing.assert_array_equal(gb, gj)
+        np.testing.assert_allclose(s1, gj[3], rtol=1e-12, atol=1e-12)
+
+
+def test_joint_name_inputs_on_the_stream(server: str) -> None:
+    """Inputs keyed by joint name, in any order, are understood on the stream too."""
+    with Client(server) as client, client.stream("ur5") as s:
+        names = [j.name for j in client.robot("ur5").joints if j.nv > 0]
+        q = np.linspace(-1.0, 1.0, len(names))
+        by_name = {name: float(x) for name, x in reversed(list(zip(names, q, strict=True)))}
+        np.testing.assert_array_equal(s.gravity(by_name), client.gravity("ur5", q))

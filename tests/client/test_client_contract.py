@@ -37,7 +37,12 @@ ANSWERS = {"mass_matrix": [[1.0]], "gravity": [0.0], "coriolis_matrix": [[0.0]],
            "mass_matrix_inverse": [[1.0]], "kinetic_energy": 0.5, "potential_energy": 1.0,
            "mechanical_energy": 1.5, "position": [0.0, 0.0, 1.0], "jacobian": [[0.0]],
            "inertia": [[1.0]], "dynamically_consistent_inverse": [[0.0]], "coriolis": [0.0],
-           "bodies": []}
+           "bodies": [],
+           "dtau_dq": [[0.0]], "dtau_dv": [[0.0]], "dtau_da": [[1.0]], "da_dq": [[0.0]],
+           "da_dv": [[0.0]], "da_dtau": [[1.0]], "momentum": [0.0] * 6,
+           "momentum_matrix": [[0.0]] * 6, "center_of_mass": [0.0] * 3}
+# a trajectory's mechanical energy has one value per sample (energy's has one per state)
+TRAJECTORY = {"t": [0.0], "q": [[0.0]], "v": [[0.0]], "mechanical_energy": [0.0]}
 ARGS: dict[str, tuple[Any, ...]] = {
     "health": (), "ready": (), "robots": (), "robot": ("r",), "upload": ("<robot/>",),
     "delete": ("r",), "mass_matrix": ("r", [0.0]), "gravity": ("r", [0.0]),
@@ -47,7 +52,12 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "mass_matrix_inverse": ("r", [0.0]), "energy": ("r", [0.0], [0.0]),
     "center_of_mass": ("r", [0.0]), "jacobian": ("r", [0.0], "f"),
     "operational_space": ("r", [0.0], "f"), "inertias": ("r",),
+    "inverse_dynamics_derivatives": ("r", [0.0], [0.0], [0.0]),
+    "forward_dynamics_derivatives": ("r", [0.0], [0.0], [0.0]),
+    "centroidal": ("r", [0.0], [0.0]),
+    "simulate": ("r", [0.0], [0.0]),
 }
+KWARGS: dict[str, dict[str, Any]] = {"simulate": {"dt": 1e-3, "steps": 1}}
 
 
 def sent_requests() -> dict[str, httpx.Request]:
@@ -56,13 +66,14 @@ def sent_requests() -> dict[str, httpx.Request]:
 
     def handler(request: httpx.Request) -> httpx.Response:
         seen.append(request)
-        return httpx.Response(200, json=ANSWERS)
+        simulate = request.url.path.endswith("/simulate")
+        return httpx.Response(200, json={**ANSWERS, **TRAJECTORY} if simulate else ANSWERS)
 
     out = {}
     http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://mock")
     with robodyn.Client(http_client=http) as client:
         for name in core.METHODS:
-            getattr(client, name)(*ARGS[name])
+            getattr(client, name)(*ARGS[name], **KWARGS.get(name, {}))
             out[name] = seen[-1]
     return out
 

@@ -46,18 +46,57 @@ def joint_array(name: str, value: ArrayLike) -> np.ndarray:
     return arr
 
 
-def joint_states(**inputs: ArrayLike) -> tuple[dict[str, np.ndarray], bool]:
+def is_by_name(value: Any) -> bool:
+    """True for a joint-space input keyed by joint name: a mapping, or a list of mappings."""
+    return isinstance(value, Mapping) or (
+        isinstance(value, list | tuple) and len(value) > 0
+        and all(isinstance(v, Mapping) for v in value))
+
+
+def _by_name_state(name: str, value: Mapping[Any, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for joint, entry in value.items():
+        if not isinstance(joint, str):
+            raise InputError(f"{name} by joint name: keys must be joint names (str), not "
+                             f"{type(joint).__name__}")
+        arr = joint_array(f"{name}[{joint!r}]", np.atleast_1d(np.asarray(entry)))
+        if arr.ndim != 1:
+            raise InputError(f"{name}[{joint!r}] must be a number or a list of numbers")
+        out[joint] = float(arr[0]) if np.ndim(entry) == 0 else arr.tolist()
+    return out
+
+
+def joint_input(name: str, value: Any) -> np.ndarray | dict[str, Any] | list[dict[str, Any]]:
+    """A joint-space input: a checked array (see `joint_array`), or — keyed by joint name — a
+    JSON-ready object (one state) or list of objects (a batch). Names are checked by the
+    server, which knows the robot's joints."""
+    if isinstance(value, Mapping):
+        return _by_name_state(name, value)
+    if is_by_name(value):
+        return [_by_name_state(f"{name}[{i}]", v) for i, v in enumerate(value)]
+    return joint_array(name, value)
+
+
+def _ndim(value: Any) -> int:
+    return value.ndim if isinstance(value, np.ndarray) else (2 if isinstance(value, list) else 1)
+
+
+def _rows(value: Any) -> int:
+    return value.shape[0] if isinstance(value, np.ndarray) else len(value)
+
+
+def joint_states(**inputs: Any) -> tuple[dict[str, Any], bool]:
     """Check the named inputs together: (arrays, batched). Refuses a mix of single states and
-    batches, and batches of different sizes."""
-    arrays = {name: joint_array(name, value) for name, value in inputs.items()}
-    ndims = {arr.ndim for arr in arrays.values()}
+    batches, and batches of different sizes. Inputs keyed by joint name stay JSON objects."""
+    arrays = {name: joint_input(name, value) for name, value in inputs.items()}
+    ndims = {_ndim(arr) for arr in arrays.values()}
     if len(ndims) > 1:
-        shown = ", ".join(f"{n} is {a.ndim}-D" for n, a in arrays.items())
+        shown = ", ".join(f"{n} is {_ndim(a)}-D" for n, a in arrays.items())
         raise InputError(f"inputs mix single states and batches ({shown}); give all as 1-D or "
                          "all as 2-D arrays (np.tile repeats a state N times)")
     batched = ndims == {2}
     if batched:
-        sizes = {n: a.shape[0] for n, a in arrays.items()}
+        sizes = {n: _rows(a) for n, a in arrays.items()}
         if len(set(sizes.values())) > 1:
             shown = ", ".join(f"{n} has {s}" for n, s in sizes.items())
             raise InputError(f"batch sizes differ ({shown} states); every input needs the "
@@ -65,9 +104,16 @@ def joint_states(**inputs: ArrayLike) -> tuple[dict[str, np.ndarray], bool]:
     return arrays, batched
 
 
-def to_json(arrays: Mapping[str, np.ndarray]) -> dict[str, Any]:
-    """Arrays as nested lists of Python floats (JSON numbers round-trip float64 exactly)."""
-    return {name: arr.tolist() for name, arr in arrays.items()}
+def to_json(arrays: Mapping[str, Any]) -> dict[str, Any]:
+    """Arrays as nested lists of Python floats (JSON numbers round-trip float64 exactly);
+    inputs keyed by joint name are JSON already."""
+    return {name: arr.tolist() if isinstance(arr, np.ndarray) else arr
+            for name, arr in arrays.items()}
+
+
+def batch_rows(arrays: Mapping[str, Any], batched: bool) -> int | None:
+    """The number of states of a batch (None for a single state)."""
+    return _rows(next(iter(arrays.values()))) if batched else None
 
 
 def answer_array(body: Mapping[str, Any], key: str, ndim: int, batched: bool,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
@@ -13,7 +13,17 @@ import numpy as np
 from robodyn import core, transport
 from robodyn.arrays import ArrayLike
 from robodyn.models import RobotInfo, RobotList
-from robodyn.results import CenterOfMass, Energy, FrameJacobian, Inertias, OperationalSpace
+from robodyn.results import (
+    CenterOfMass,
+    Centroidal,
+    Energy,
+    ForwardDynamicsDerivatives,
+    FrameJacobian,
+    Inertias,
+    InverseDynamicsDerivatives,
+    OperationalSpace,
+    Trajectory,
+)
 from robodyn.stream import Stream, stream_url
 
 T = TypeVar("T")
@@ -113,13 +123,17 @@ class Client:
     def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike) -> np.ndarray:
         return self._send(core.nonlinear_effects(robot_id, q, v))
 
-    def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike
+    def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
+                         external_forces: Sequence[Mapping[str, Any]] | None = None
                          ) -> np.ndarray:
-        return self._send(core.inverse_dynamics(robot_id, q, v, a))
+        return self._send(core.inverse_dynamics(robot_id, q, v, a,
+                                                external_forces=external_forces))
 
-    def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike
+    def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
+                         external_forces: Sequence[Mapping[str, Any]] | None = None
                          ) -> np.ndarray:
-        return self._send(core.forward_dynamics(robot_id, q, v, tau))
+        return self._send(core.forward_dynamics(robot_id, q, v, tau,
+                                                external_forces=external_forces))
 
     def mass_matrix_inverse(self, robot_id: str, q: ArrayLike) -> np.ndarray:
         return self._send(core.mass_matrix_inverse(robot_id, q))
@@ -147,3 +161,21 @@ class Client:
 
     def inertias(self, robot_id: str) -> Inertias:
         return self._send(core.inertias(robot_id))
+
+    def inverse_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                                     a: ArrayLike) -> InverseDynamicsDerivatives:
+        return self._send(core.inverse_dynamics_derivatives(robot_id, q, v, a))
+
+    def forward_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                                     tau: ArrayLike) -> ForwardDynamicsDerivatives:
+        return self._send(core.forward_dynamics_derivatives(robot_id, q, v, tau))
+
+    def centroidal(self, robot_id: str, q: ArrayLike, v: ArrayLike) -> Centroidal:
+        return self._send(core.centroidal(robot_id, q, v))
+
+    def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
+                 tau: ArrayLike | Mapping[str, Any] | None = None,
+                 controller: Mapping[str, Any] | None = None,
+                 integrator: str | None = None) -> Trajectory:
+        return self._send(core.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
+                                        controller=controller, integrator=integrator))

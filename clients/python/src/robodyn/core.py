@@ -15,19 +15,36 @@ from __future__ import annotations
 import json
 import numbers
 import os
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any, Generic, TypeVar
 from urllib.parse import quote
 
 import httpx
 import numpy as np
 
-from robodyn import binary
-from robodyn.arrays import ArrayLike, answer_array, gravity_vector, joint_states, to_json
+from robodyn import binary, request_options
+from robodyn.arrays import (
+    ArrayLike,
+    answer_array,
+    batch_rows,
+    gravity_vector,
+    joint_states,
+    to_json,
+)
 from robodyn.errors import APIError, InputError, ResponseFormatError, error_class
 from robodyn.models import RobotInfo, RobotList
-from robodyn.results import CenterOfMass, Energy, FrameJacobian, Inertias, OperationalSpace
+from robodyn.results import (
+    CenterOfMass,
+    Centroidal,
+    Energy,
+    ForwardDynamicsDerivatives,
+    FrameJacobian,
+    Inertias,
+    InverseDynamicsDerivatives,
+    OperationalSpace,
+    Trajectory,
+)
 
 T = TypeVar("T")
 
@@ -50,6 +67,10 @@ ROUTES: dict[str, tuple[str, str]] = {
     "jacobian": ("POST", "/v1/robots/{robot_id}/jacobian"),
     "operational_space": ("POST", "/v1/robots/{robot_id}/operational-space"),
     "inertias": ("GET", "/v1/robots/{robot_id}/inertias"),
+    "inverse_dynamics_derivatives": ("POST", "/v1/robots/{robot_id}/inverse-dynamics-derivatives"),
+    "forward_dynamics_derivatives": ("POST", "/v1/robots/{robot_id}/forward-dynamics-derivatives"),
+    "centroidal": ("POST", "/v1/robots/{robot_id}/centroidal"),
+    "simulate": ("POST", "/v1/robots/{robot_id}/simulate"),
 }
 """Client method → (HTTP method, path template) of the server route it calls."""
 
@@ -74,8 +95,9 @@ class Call(Generic[T]):
 
     def binary(self, use_binary: bool | None) -> bool:
         """Whether the joint-space inputs go in the binary form (see `body`)."""
-        if self.arrays is None or use_binary is False:
-            return False
+        if self.arrays is None or use_binary is False or not all(
+                isinstance(a, np.ndarray) for a in self.arrays.values()):
+            return False  # inputs keyed by joint name are JSON objects
         return bool(use_binary) or sum(a.size for a in self.arrays.values()) >= BINARY_FROM
 
     def json_body(self) -> dict[str, Any]:
@@ -222,16 +244,23 @@ def delete(robot_id: str) -> Call[None]:
 # -- dynamics -----------------------------------------------------------------------------
 
 
-def _dynamics(name: str, robot_id: str, outputs: Mapping[str, int], **inputs: ArrayLike
-              ) -> Call[Any]:
+def _dynamics(name: str, robot_id: str, outputs: Mapping[str, int], *,
+              options: Mapping[str, Any] | None = None, result: Callable[..., Any] | None = None,
+              square: bool = True, **inputs: ArrayLike) -> Call[Any]:
+    """A dynamics call: joint-space `inputs` (arrays, or objects keyed by joint name), extra
+    body fields `options`, answers `outputs` (key → dimensions per state) read as arrays and
+    returned alone, as a tuple, or as `result(*arrays)`."""
     arrays, batched = joint_states(**inputs)
-    rows = next(iter(arrays.values())).shape[0] if batched else None
+    rows = batch_rows(arrays, batched)
 
     def read(status: int, body: Any) -> Any:
-        out = tuple(answer_array(body, key, ndim, batched, rows) for key, ndim in outputs.items())
+        out = tuple(answer_array(body, key, ndim, batched, rows, square)
+                    for key, ndim in outputs.items())
+        if result is not None:
+            return result(*out)
         return out[0] if len(out) == 1 else out
 
-    return _call(name, read, robot_id, arrays=arrays)
+    return _call(name, read, robot_id, body=dict(options) if options else None, arrays=arrays)
 
 
 def mass_matrix(robot_id: str, q: ArrayLike) -> Call[np.ndarray]:
@@ -261,18 +290,73 @@ def nonlinear_effects(robot_id: str, q: ArrayLike, v: ArrayLike) -> Call[np.ndar
     return _dynamics("nonlinear_effects", robot_id, {"nonlinear_effects": 1}, q=q, v=v)
 
 
-def inverse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike
+def inverse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
+                     external_forces: Sequence[Mapping[str, Any]] | None = None
                      ) -> Call[np.ndarray]:
     """τ = M(q) a + C(q, v) v + g(q) (RNEA): the generalized forces, N·m or N, that give the
-    accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch."""
-    return _dynamics("inverse_dynamics", robot_id, {"tau": 1}, q=q, v=v, a=a)
+    accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch.
+    `external_forces`: wrenches the environment applies, `[{"frame": "tool0", "wrench":
+    [fx, fy, fz, tx, ty, tz], "reference_frame": "local_world_aligned"}]` (N, N·m; a wrench
+    may be (N, 6), one per state); then τ = M a + C v + g − Σ Jᵀ w."""
+    return _dynamics("inverse_dynamics", robot_id, {"tau": 1}, q=q, v=v, a=a,
+                     options=request_options.external_forces(external_forces))
 
 
-def forward_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike
+def forward_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
+                     external_forces: Sequence[Mapping[str, Any]] | None = None
                      ) -> Call[np.ndarray]:
     """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) (ABA): the accelerations, rad/s² or m/s², that the
-    generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch."""
-    return _dynamics("forward_dynamics", robot_id, {"a": 1}, q=q, v=v, tau=tau)
+    generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch.
+    `external_forces` as for `inverse_dynamics`: then a = M⁻¹ (τ − C v − g + Σ Jᵀ w)."""
+    return _dynamics("forward_dynamics", robot_id, {"a": 1}, q=q, v=v, tau=tau,
+                     options=request_options.external_forces(external_forces))
+
+
+def inverse_dynamics_derivatives(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike
+                                 ) -> Call[InverseDynamicsDerivatives]:
+    """(∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q)) of inverse dynamics (analytical RNEA derivatives), each
+    of shape (nv, nv), or (N, nv, nv) for a batch. ∂/∂q is on the tangent space: nv columns,
+    along q ⊕ δq (for a free-flyer, δq's first 6 entries are a displacement in the base frame)."""
+    return _dynamics("inverse_dynamics_derivatives", robot_id,
+                     {"dtau_dq": 2, "dtau_dv": 2, "dtau_da": 2},
+                     result=InverseDynamicsDerivatives, q=q, v=v, a=a)
+
+
+def forward_dynamics_derivatives(robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike
+                                 ) -> Call[ForwardDynamicsDerivatives]:
+    """(∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹) of forward dynamics (analytical ABA derivatives), each
+    of shape (nv, nv), or (N, nv, nv) for a batch; ∂/∂q on the tangent space (nv columns)."""
+    return _dynamics("forward_dynamics_derivatives", robot_id,
+                     {"da_dq": 2, "da_dv": 2, "da_dtau": 2},
+                     result=ForwardDynamicsDerivatives, q=q, v=v, tau=tau)
+
+
+def centroidal(robot_id: str, q: ArrayLike, v: ArrayLike) -> Call[Centroidal]:
+    """(momentum, momentum_matrix, center_of_mass): the centroidal momentum h = A(q) v, shape
+    (6,), linear (kg·m/s) then angular (kg·m²/s) about the centre of mass in world-aligned axes;
+    the centroidal momentum matrix A(q), shape (6, nv); the centre of mass, shape (3,), m.
+    A leading axis N for a batch."""
+    return _dynamics("centroidal", robot_id,
+                     {"momentum": 1, "momentum_matrix": 2, "center_of_mass": 1},
+                     result=Centroidal, square=False, q=q, v=v)
+
+
+def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
+             tau: ArrayLike | Mapping[str, Any] | None = None,
+             controller: Mapping[str, Any] | None = None, integrator: str | None = None
+             ) -> Call[Trajectory]:
+    """Integrate forward dynamics from (q, v) for `steps` steps of `dt` seconds: a
+    `Trajectory` (t, q, v, mechanical_energy) of steps + 1 samples, q of shape (steps + 1, nq),
+    v (steps + 1, nv); with a leading axis N for initial states of shape (N, nq), (N, nv).
+    `tau`: nv numbers (constant) or (steps, nv) (τ_k during step k); or `controller`:
+    `{"type": "pd", "kp": ..., "kd": ..., "q_target": ..., "gravity_compensation": False}`
+    (gains: a number or nv numbers); neither means τ = 0. `integrator`: "semi-implicit-euler"
+    (default) or "rk4"."""
+    options = request_options.simulation(dt, steps, tau, controller, integrator)
+    call = _dynamics("simulate", robot_id, {"t": 1, "q": 2, "v": 2, "mechanical_energy": 1},
+                     result=Trajectory, square=False, options=options, q=q, v=v)
+    # Always JSON: a torque schedule is a body field, too big for a binary header.
+    return replace(call, json=call.json_body(), arrays=None)
 
 
 def share_docs(cls: type) -> type:
@@ -308,7 +392,7 @@ def _quantity(name: str, robot_id: str, read: Callable[[Any, bool, int | None], 
               options: Mapping[str, Any], **inputs: ArrayLike | None) -> Call[T]:
     """A dynamics call with joint-space `inputs` (None: not sent) and other `options`."""
     arrays, batched = joint_states(**{k: x for k, x in inputs.items() if x is not None})
-    rows = next(iter(arrays.values())).shape[0] if batched else None
+    rows = batch_rows(arrays, batched)
     return _call(name, lambda status, body: read(body, batched, rows), robot_id,
                  body=dict(options) or None, arrays=arrays)
 

@@ -1,5 +1,7 @@
-"""Typed results of the quantities beyond the equation of motion (energy, centre of mass,
-frame Jacobians, operational space, body inertias).
+"""Typed results of the quantities beyond the equation of motion: energy, centre of mass,
+frame Jacobians, operational space and body inertias (frozen dataclasses), and derivatives,
+centroidal momentum and simulated trajectories (named tuples, which also unpack:
+`dtau_dq, dtau_dv, M = client.inverse_dynamics_derivatives(...)`).
 
 Arrays are float64 numpy arrays; for a batch of N states every array gains a leading axis N
 (scalars per state become arrays of shape (N,)). Optional parts the request did not ask for
@@ -13,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -185,3 +187,39 @@ class Inertias(Sequence[BodyInertia]):
     def from_json(cls, data: Mapping[str, Any]) -> Inertias:
         return cls(total_mass=float(data["total_mass"]),
                    bodies=tuple(BodyInertia.from_json(b) for b in data["bodies"]))
+
+
+class InverseDynamicsDerivatives(NamedTuple):
+    """∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q), each (nv, nv) (∂/∂q on the tangent space: nv columns)."""
+
+    dtau_dq: np.ndarray
+    dtau_dv: np.ndarray
+    dtau_da: np.ndarray
+
+
+class ForwardDynamicsDerivatives(NamedTuple):
+    """∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹, each (nv, nv) (∂/∂q on the tangent space)."""
+
+    da_dq: np.ndarray
+    da_dv: np.ndarray
+    da_dtau: np.ndarray
+
+
+class Centroidal(NamedTuple):
+    """Centroidal momentum (6: kg·m/s then kg·m²/s, about the centre of mass, world-aligned),
+    the centroidal momentum matrix (6, nv) and the centre of mass (3, m, world frame)."""
+
+    momentum: np.ndarray
+    momentum_matrix: np.ndarray
+    center_of_mass: np.ndarray
+
+
+class Trajectory(NamedTuple):
+    """A simulated trajectory of steps + 1 samples: times t (s), configurations q
+    (steps + 1, nq), velocities v (steps + 1, nv) and the mechanical energy T + U (J); with a
+    leading axis N for a batch of initial states."""
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    mechanical_energy: np.ndarray

@@ -1,0 +1,208 @@
+"""Forward simulation: integrate M(q) a + C(q, v) v + g(q) = τ from (q, v) for `steps` of `dt`.
+
+The acceleration is forward dynamics (ABA, as the forward-dynamics endpoint: no joint damping,
+friction or limits), under one torque source:
+- no `tau` and no `controller`: τ = 0 (the robot moves under gravity alone);
+- `tau` of nv numbers: constant τ; `tau` of [steps][nv]: τ_k held during step k;
+- `controller` {"type": "pd", "kp", "kd", "q_target", "gravity_compensation"}: at every
+  evaluation τ = kp ⊙ (q_target ⊖ q) − kd ⊙ v (+ g(q) with gravity compensation), where
+  q_target ⊖ q = `pin.difference(q, q_target)` is the tangent vector from q to the target (on the
+  manifold: a free-flyer's or continuous joint's error is a rotation, not a difference of
+  coordinates); kp (N·m/rad) and kd (N·m·s/rad) are scalars or nv-vectors.
+
+Integrators (q always moves on the configuration manifold, q ⊕ δ = `pin.integrate`, and unit
+quaternions and (cos, sin) pairs are renormalized after each step):
+- "semi-implicit-euler" (default): v ← v + dt a(q, v), then q ← q ⊕ dt v;
+- "rk4": the classical 4-stage Runge–Kutta scheme in its Lie-group form
+  (Runge–Kutta–Munthe-Kaas): stages at q ⊕ θᵢ, with the stage velocities mapped to the tangent
+  space at q by the inverse right Jacobian of ⊕, so it is 4th order for free-flyer bases too;
+  for revolute and prismatic joints it is exactly classical RK4.
+
+The answer is the trajectory, steps + 1 samples including the initial state: t (s), q, v, and
+the mechanical energy T + U (J), T = ½ vᵀ M v (with the armature) and U the gravity potential.
+A batch of initial states gives one trajectory per state (same torques or controller).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from service.dynamics.quantity import Quantity, Results, finite
+from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
+from service.joint_names import from_names
+from service.registry.robot import Robot
+from service.states import States, check_configuration
+
+STAGES = {"semi-implicit-euler": 1, "rk4": 4}
+MAX_STEPS = 100_000  # defaults of the settings of the same names
+MAX_WORK = 20_000_000
+
+Torque = Callable[[int, np.ndarray, np.ndarray, Any], np.ndarray]
+
+
+def _vector(robot: Robot, field: str, value: Any, dim: str) -> np.ndarray:
+    arr = np.asarray(from_names(robot, field, value, dim), dtype=np.float64)
+    if arr.shape != (getattr(robot, dim),):
+        raise DimensionMismatch(f"{field} has shape {list(arr.shape)}; robot '{robot.id}' "
+                                f"needs {dim} = {getattr(robot, dim)} numbers")
+    return arr
+
+
+def _gain(robot: Robot, field: str, value: Any) -> np.ndarray | float:
+    if isinstance(value, float | int):
+        return float(value)
+    return _vector(robot, field, value, "nv")
+
+
+def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, Any] | None
+                  ) -> Torque:
+    """τ(k, q, v, data) for step k at state (q, v); `data` is a borrowed pin.Data."""
+    model = robot.model
+    if tau is not None and controller is not None:
+        raise InvalidInput("give either tau (constant or scheduled torques) or a controller, "
+                           "not both")
+    if controller is not None:
+        target = _vector(robot, "controller.q_target", controller["q_target"], "nq")
+        check_configuration(robot, target[np.newaxis])
+        kp = _gain(robot, "controller.kp", controller["kp"])
+        kd = _gain(robot, "controller.kd", controller["kd"])
+        compensate = bool(controller.get("gravity_compensation", False))
+
+        def pd(k: int, q: np.ndarray, v: np.ndarray, data: Any) -> np.ndarray:
+            out = kp * pin.difference(model, q, target) - kd * v
+            if compensate:
+                out = out + pin.computeGeneralizedGravity(model, data, q)
+            return np.asarray(out)
+
+        return pd
+    if tau is None:
+        zero = np.zeros(robot.nv)
+        return lambda k, q, v, data: zero
+    schedule = np.asarray(from_names(robot, "tau", tau, "nv"), dtype=np.float64)
+    if schedule.ndim == 1:
+        constant = _vector(robot, "tau", schedule, "nv")
+        return lambda k, q, v, data: constant
+    if schedule.shape != (steps, robot.nv):
+        raise DimensionMismatch(f"tau has shape {list(schedule.shape)}; a torque schedule is "
+                                f"[steps][nv] = [{steps}][{robot.nv}] (or give nv numbers for "
+                                "a constant torque)")
+    return lambda k, q, v, data: schedule[k]
+
+
+def check_limits(robot: Robot, s: States, steps: int, integrator: str, max_steps: int,
+                 max_work: int) -> None:
+    if s.count * steps > max_steps:
+        total = f"{s.count} states × {steps} steps = {s.count * steps}" if s.batched else (
+            f"steps = {steps}")
+        raise InvalidInput(f"{total} is over the limit of {max_steps} simulated steps per "
+                           "request (ROBODYN_MAX_SIMULATION_STEPS)")
+    work = simulation_work(robot, s, {"steps": steps, "integrator": integrator})
+    if work > max_work:
+        raise InvalidInput(
+            f"this simulation's work, states × steps × nv × stages = {s.count} × {steps} × "
+            f"{robot.nv} × {STAGES[integrator]} = {work}, is over the limit of {max_work} "
+            "(ROBODYN_MAX_SIMULATION_WORK); simulate fewer steps or states")
+
+
+def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
+    """Cost estimate: states × steps × nv × stages of the integrator."""
+    stages = STAGES.get(options.get("integrator", "semi-implicit-euler"), 4)
+    return s.count * int(options.get("steps", 1)) * robot.nv * stages
+
+
+def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
+             controller: Mapping[str, Any] | None = None,
+             integrator: str = "semi-implicit-euler", max_simulation_steps: int = MAX_STEPS,
+             max_simulation_work: int = MAX_WORK) -> Results:
+    """The trajectory from (q, v) over `steps` steps of `dt` s: t (N, steps+1) in s, q
+    (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J."""
+    check_limits(robot, s, steps, integrator, max_simulation_steps, max_simulation_work)
+    torque = torque_source(robot, steps, tau, controller)
+    n = s.count
+    qs, vs = np.empty((n, steps + 1, robot.nq)), np.empty((n, steps + 1, robot.nv))
+    energy = np.empty((n, steps + 1))
+    rollout = _rk4 if integrator == "rk4" else _semi_implicit_euler
+    with robot.data() as data:
+        for i in range(n):
+            where = f"state {i}: " if s.batched else ""
+            rollout(robot, data, torque, dt, s["q"][i], s["v"][i], qs[i], vs[i], energy[i],
+                    where)
+    t = np.broadcast_to(dt * np.arange(steps + 1), (n, steps + 1)).copy()
+    return finite("simulate", t=t, q=qs, v=vs, mechanical_energy=energy)
+
+
+def _mechanical_energy(robot: Robot, data: Any, q: np.ndarray, v: np.ndarray) -> float:
+    """T + U with T = ½ vᵀ M v (Pinocchio's kinetic energy includes the armature, as M does;
+    a test checks it) and U the potential energy of gravity."""
+    return float(pin.computeMechanicalEnergy(robot.model, data, q, v))
+
+
+def _diverged(where: str, k: int, dt: float) -> NonFiniteResult:
+    return NonFiniteResult(f"simulate: {where}the state is not finite after step {k + 1} "
+                           f"(t = {(k + 1) * dt:.6g} s); the simulation diverged — try a "
+                           "smaller dt, smaller gains or the rk4 integrator")
+
+
+def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray,
+                         v: np.ndarray, qs: np.ndarray, vs: np.ndarray, energy: np.ndarray,
+                         where: str) -> None:
+    model, world, normalize = robot.model, pin.Convention.WORLD, bool(robot.unit_joints)
+    qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
+    for k in range(qs.shape[0] - 1):
+        a = pin.aba(model, data, q, v, torque(k, q, v, data), world)
+        v = v + dt * a
+        q = pin.integrate(model, q, dt * v)
+        if normalize:
+            q = pin.normalize(model, q)
+        if not np.isfinite(v).all():
+            raise _diverged(where, k, dt)
+        qs[k + 1], vs[k + 1] = q, v
+        energy[k + 1] = _mechanical_energy(robot, data, q, v)
+
+
+def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: np.ndarray,
+         qs: np.ndarray, vs: np.ndarray, energy: np.ndarray, where: str) -> None:
+    """Runge–Kutta–Munthe-Kaas RK4: stage configurations q ⊕ θ, and q's stage slopes are the
+    velocities mapped to the tangent space at q by the inverse right Jacobian of ⊕,
+    dθ/dt = Jr(θ)⁻¹ v = ∂ difference(q, q ⊕ θ) / ∂(q ⊕ θ) · v (the identity for
+    vector-space joints, where this is classical RK4)."""
+    model, world = robot.model, pin.Convention.WORLD
+    lie = bool(robot.unit_joints)  # any joint whose configuration space is not a vector space
+    arg1 = pin.ArgumentPosition.ARG1
+
+    def stage(k: int, theta: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(slope of θ, acceleration) at the stage configuration q ⊕ θ and velocity v."""
+        at = pin.integrate(model, q, theta)
+        a = np.array(pin.aba(model, data, at, v, torque(k, at, v, data), world))
+        return (pin.dDifference(model, q, at, arg1) @ v if lie else v), a
+
+    half = 0.5 * dt
+    qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
+    for k in range(qs.shape[0] - 1):
+        a1 = np.array(pin.aba(model, data, q, v, torque(k, q, v, data), world))
+        v2 = v + half * a1
+        t2, a2 = stage(k, half * v, v2)
+        v3 = v + half * a2
+        t3, a3 = stage(k, half * t2, v3)
+        v4 = v + dt * a3
+        t4, a4 = stage(k, dt * t3, v4)
+        q = pin.integrate(model, q, (dt / 6.0) * (v + 2.0 * t2 + 2.0 * t3 + t4))
+        v = v + (dt / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        if lie:
+            q = pin.normalize(model, q)
+        if not np.isfinite(v).all():
+            raise _diverged(where, k, dt)
+        qs[k + 1], vs[k + 1] = q, v
+        energy[k + 1] = _mechanical_energy(robot, data, q, v)
+
+
+SIMULATION = (
+    Quantity("simulate", ("q", "v"), simulate,
+             "Simulate: integrate forward dynamics from (q, v) under torques or a PD controller",
+             joint_answers=("q", "v"), settings=("max_simulation_steps", "max_simulation_work"),
+             work=simulation_work),
+)

@@ -1,24 +1,33 @@
 """Building Pinocchio models from description text (the only place the native parsers run).
 
-`build_urdf_model` runs the native URDF parser on text that `urdf_check` has already validated.
-`build_isolated` runs it in a separate short-lived process (forked from a forkserver that has
+`build_urdf_model` runs the native URDF parser on text that `urdf_check` has already validated,
+`build_mjcf_model` the native MJCF parser on text that `mjcf_check` validates (again) first.
+`build_isolated` runs either in a separate short-lived process (forked from a forkserver that has
 Pinocchio imported) under a wall-clock timeout, and brings back the model serialized by Pinocchio
 itself: a crash or a hang of the native parser on an upload never touches the serving process.
 """
 
 from __future__ import annotations
 
+import math
 import multiprocessing as mp
 import pickle
+import tempfile
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from service.errors import InvalidModel
+from service.registry.mjcf_check import check_mjcf
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
+FORMATS = ("urdf", "mjcf")
+_PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned")
+_UNBOUNDED = ("JointModelFreeFlyer", "JointModelSpherical")
+_MAX = float(np.finfo(np.float64).max)
 
 
 def root_joint_model(root_joint: str) -> Any | None:
@@ -36,9 +45,75 @@ def build_urdf_model(text: str, root_joint: str, gravity: Sequence[float] | None
     """Parse validated URDF text into a `pin.Model` (kinematics and inertias; no geometry)."""
     joint = root_joint_model(root_joint)
     model = pin.buildModelFromXML(text) if joint is None else pin.buildModelFromXML(text, joint)
+    _set_gravity(model, gravity)
+    return model
+
+
+def _set_gravity(model: Any, gravity: Sequence[float] | None) -> None:
     if gravity is not None:
         model.gravity = pin.Motion(np.asarray(gravity, dtype=float), np.zeros(3))
+
+
+def _fix_mjcf_limits(model: Any, angle_in_degrees: bool) -> None:
+    """Undo two quirks of Pinocchio's MJCF limits: slide ranges scaled by π/180 in degree mode,
+    and ±1.01 on free and ball joints (served, like URDF root joints, as unbounded)."""
+    lower, upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
+    for jid in range(1, model.njoints):
+        jm = model.joints[jid]
+        parts = jm.extract().joints if jm.shortname() == "JointModelComposite" else [jm]
+        for part in parts:
+            q = slice(part.idx_q, part.idx_q + part.nq)
+            if part.shortname() in _PRISMATIC and angle_in_degrees:
+                lower[q] *= 180.0 / math.pi
+                upper[q] *= 180.0 / math.pi
+            elif part.shortname() in _UNBOUNDED:
+                lower[q], upper[q] = -_MAX, _MAX
+    model.lowerPositionLimit, model.upperPositionLimit = lower, upper
+
+
+def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None = None) -> Any:
+    """Parse MJCF text into a `pin.Model` (kinematics and inertias; meshes are never read).
+
+    The text is validated first (`check_mjcf`, which also decides the root: a free joint on the
+    top body is its own root; otherwise `root_joint` is added above a joint-less top body).
+    Pinocchio's MJCF parser reads files only, so the text goes to a private temporary file.
+    """
+    summary = check_mjcf(text, root_joint)
+    with tempfile.TemporaryDirectory(prefix="robodyn-mjcf-") as tmp:
+        path = Path(tmp) / "model.xml"
+        path.write_text(text, encoding="utf-8")
+        joint = root_joint_model(summary.added_root_joint)
+        model = (pin.buildModelFromMJCF(str(path)) if joint is None
+                 else pin.buildModelFromMJCFAndRootJoint(str(path), joint, "root_joint"))
+    _fix_mjcf_limits(model, summary.angle_in_degrees)
+    _set_gravity(model, gravity)
     return model
+
+
+def build_model(description_format: str, text: str, root_joint: str,
+                gravity: Sequence[float] | None = None) -> Any:
+    """Build a model from validated URDF or MJCF text (`description_format`: "urdf"/"mjcf")."""
+    if description_format == "mjcf":
+        return build_mjcf_model(text, root_joint, gravity)
+    if description_format == "urdf":
+        return build_urdf_model(text, root_joint, gravity)
+    raise ValueError(f"description_format must be one of {FORMATS}")
+
+
+def reference_configurations(model: Any) -> dict[str, np.ndarray]:
+    """The model's named configurations (MJCF keyframes and "qpos0"), normalized."""
+    return {entry.key(): pin.normalize(model, np.array(entry.data(), dtype=float))
+            for entry in model.referenceConfigurations}
+
+
+def check_subtree_masses(model: Any) -> None:
+    """Reject a model with a moving joint whose subtree carries no mass (M singular)."""
+    data = model.createData()
+    pin.computeSubtreeMasses(model, data)
+    for jid in range(1, model.njoints):
+        if model.joints[jid].nv and data.mass[jid] <= 0.0:
+            raise InvalidModel(f"joint '{model.names[jid]}' moves a subtree without mass: the "
+                               "mass matrix is singular")
 
 
 def check_mass_matrix(model: Any) -> None:
@@ -53,9 +128,12 @@ def check_mass_matrix(model: Any) -> None:
                            "definite (a moving body without mass or inertia)")
 
 
-def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None) -> None:
+def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None,
+                 description_format: str) -> None:
     try:
-        model = build_urdf_model(text, root_joint, gravity)
+        model = build_model(description_format, text, root_joint, gravity)
+        if description_format == "mjcf":
+            check_subtree_masses(model)
         check_mass_matrix(model)
         conn.send(("ok", pickle.dumps(model)))
     except InvalidModel as exc:
@@ -78,11 +156,15 @@ def _mp_context() -> Any:
 
 
 def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
-                   timeout_s: float) -> Any:
-    """Build a URDF model in a child process; raise `InvalidModel` on failure, crash or timeout."""
+                   timeout_s: float, *, description_format: str = "urdf") -> Any:
+    """Build a URDF (or, with `description_format="mjcf"`, an MJCF) model in a child process;
+    raise `InvalidModel` on failure, crash or timeout."""
+    if description_format not in FORMATS:
+        raise ValueError(f"description_format must be one of {FORMATS}")
     ctx = _mp_context()
     parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child_build, args=(child, text, root_joint, gravity), daemon=True)
+    proc = ctx.Process(target=_child_build,
+                       args=(child, text, root_joint, gravity, description_format), daemon=True)
     proc.start()
     child.close()
     try:

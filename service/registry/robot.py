@@ -30,6 +30,7 @@ _JOINT_TYPES = {
     "JointModelSpherical": "spherical",
     "JointModelSphericalZYX": "spherical_zyx",
     "JointModelTranslation": "translation",
+    "JointModelComposite": "composite",  # several joints of one MJCF body
 }
 
 # Joint types whose q holds a unit quaternion (x, y, z, w) or unit complex (cos, sin), and where.
@@ -64,6 +65,7 @@ class Robot:
     reference_configurations: dict[str, np.ndarray] = field(default_factory=dict)
     default_configuration: np.ndarray | None = None
     warnings: list[dict[str, str]] = field(default_factory=list)
+    origin: dict[str, Any] | None = None  # a reduced model: {"robot", "locked_joints"}
     _pool: queue.SimpleQueue = field(default_factory=queue.SimpleQueue, repr=False)
 
     def __post_init__(self) -> None:
@@ -143,4 +145,6 @@ class Robot:
                      "parent_joint": m.names[f.parentJoint]}
                     for f in m.frames],
             }
+            if self.origin is not None:
+                self._info["reduced_from"] = self.origin
         return self._info

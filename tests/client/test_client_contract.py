@@ -19,7 +19,7 @@ import robodyn
 from robodyn import core, errors
 
 from service.api.problems import STATUS_BY_CODE
-from service.api.schemas import REQUEST_BY_INPUTS, UploadRequest
+from service.api.schemas import REQUEST_BY_INPUTS, ReduceRequest, UploadRequest
 from service.main import create_app
 from service.settings import Settings
 
@@ -38,6 +38,7 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "coriolis": ("r", [0.0], [0.0]), "nonlinear_effects": ("r", [0.0], [0.0]),
     "inverse_dynamics": ("r", [0.0], [0.0], [0.0]),
     "forward_dynamics": ("r", [0.0], [0.0], [0.0]),
+    "reduce": ("r", {"elbow": 0.5, "base": [0, 0, 1, 0, 0, 0, 1]}),
 }
 
 
@@ -78,6 +79,7 @@ def test_every_request_the_client_sends_is_a_route_of_the_server(openapi: dict) 
 def test_request_bodies_validate_against_the_server_schemas() -> None:
     requests = sent_requests()
     UploadRequest.model_validate_json(requests["upload"].content)
+    ReduceRequest.model_validate_json(requests["reduce"].content)
     inputs = {"mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
               "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
               "forward_dynamics": ("q", "v", "tau")}
@@ -107,7 +109,7 @@ def test_client_and_async_client_mirror_each_other() -> None:
         assert not inspect.iscoroutinefunction(sync[name]), name
         assert sync[name].__doc__ == asynchronous[name].__doc__ == getattr(core, name).__doc__
         assert "shape" in sync[name].__doc__ or name in ("health", "ready", "robots", "robot",
-                                                         "upload", "delete")
+                                                         "upload", "delete", "reduce")
 
 
 def test_package_imports_without_server_dependencies() -> None:

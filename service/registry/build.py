@@ -22,6 +22,7 @@ import pinocchio as pin
 
 from service.errors import InvalidModel
 from service.registry.mjcf_check import check_mjcf
+from service.registry.mjcf_split import pinocchio_text
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
 FORMATS = ("urdf", "mjcf")
@@ -60,14 +61,12 @@ def _fix_mjcf_limits(model: Any, angle_in_degrees: bool) -> None:
     lower, upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
     for jid in range(1, model.njoints):
         jm = model.joints[jid]
-        parts = jm.extract().joints if jm.shortname() == "JointModelComposite" else [jm]
-        for part in parts:
-            q = slice(part.idx_q, part.idx_q + part.nq)
-            if part.shortname() in _PRISMATIC and angle_in_degrees:
-                lower[q] *= 180.0 / math.pi
-                upper[q] *= 180.0 / math.pi
-            elif part.shortname() in _UNBOUNDED:
-                lower[q], upper[q] = -_MAX, _MAX
+        q = slice(jm.idx_q, jm.idx_q + jm.nq)
+        if jm.shortname() in _PRISMATIC and angle_in_degrees:
+            lower[q] *= 180.0 / math.pi
+            upper[q] *= 180.0 / math.pi
+        elif jm.shortname() in _UNBOUNDED:
+            lower[q], upper[q] = -_MAX, _MAX
     model.lowerPositionLimit, model.upperPositionLimit = lower, upper
 
 
@@ -75,13 +74,14 @@ def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None
     """Parse MJCF text into a `pin.Model` (kinematics and inertias; meshes are never read).
 
     The text is validated first (`check_mjcf`, which also decides the root: a free joint on the
-    top body is its own root; otherwise `root_joint` is added above a joint-less top body).
-    Pinocchio's MJCF parser reads files only, so the text goes to a private temporary file.
+    top body is its own root; otherwise `root_joint` is added above a joint-less top body), and
+    bodies with several joints become chains (`mjcf_split`). Pinocchio's MJCF parser reads files
+    only, so the text goes to a private temporary file.
     """
     summary = check_mjcf(text, root_joint)
     with tempfile.TemporaryDirectory(prefix="robodyn-mjcf-") as tmp:
         path = Path(tmp) / "model.xml"
-        path.write_text(text, encoding="utf-8")
+        path.write_text(pinocchio_text(text), encoding="utf-8")
         joint = root_joint_model(summary.added_root_joint)
         model = (pin.buildModelFromMJCF(str(path)) if joint is None
                  else pin.buildModelFromMJCFAndRootJoint(str(path), joint, "root_joint"))

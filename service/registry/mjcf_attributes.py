@@ -98,6 +98,11 @@ INTEGER: dict[str, tuple[str, ...]] = {
 INHERITED = ("joint", "geom", "site")
 
 
+def chain_body_name(body: str, index: int) -> str:
+    """The name of the `index`-th (from 1) massless body split off a multi-joint body."""
+    return f"{body}#{index}"
+
+
 def shown(name: str) -> str:
     """A name from the description as it may appear in a message: printable, at most 64 chars."""
     clean = "".join(c if c.isprintable() else "?" for c in name)
@@ -181,6 +186,9 @@ def default_classes(top: Element | None) -> DefaultClasses:
             if tag in parent:
                 flat[tag] = {**parent[tag], **own.get(tag, {})}
         cls = el.get("class")
+        if set(el.attrib) - {"class"}:
+            raise InvalidModel(f"a <default>{f' class {shown(cls)!r}' if cls else ''} has "
+                               "attributes other than class")
         if cls is None and not is_top:
             raise InvalidModel("a nested <default> has no class attribute")
         if cls is not None:

@@ -11,11 +11,12 @@ Always rejected: malformed XML, a root other than <mujoco>, <include> (no file i
 unknown or repeated top-level sections, nesting deeper than the caps, a <worldbody> without
 exactly one top body, unsupported elements (<frame>, <replicate>, <composite>, ...), numbers that
 are not finite plain decimals or not as many as the attribute takes, duplicate or reserved names,
-unknown joint or geom types, free joints below the top body, ball or free joints sharing a body,
+unknown joint or geom types, free joints below the top body or sharing a body,
 a joint `ref` other than 0, zero axes, negative masses, densities, armatures or sizes, inertials
 without mass or inertia, bodies whose inertia would come from mesh geoms (meshes are not read),
 keyframes whose length is not nq, and compiler options Pinocchio ignores but that change the
-model (`coordinate="global"`, `autolimits="false"`, `settotalmass`, `balanceinertia`).
+model (`coordinate="global"`, `autolimits="false"`, `settotalmass`, `balanceinertia`, fixed-axis
+`eulerseq` letters X, Y, Z).
 
 Physical findings (rejected unless `inertia_check` is "warn"): the same inertia findings as
 URDF uploads (`negative_principal_moment`, `triangle_inequality`), per body. Notes (always only
@@ -89,8 +90,10 @@ def parse_mjcf(text: str, limits: Limits = DEFAULT_LIMITS) -> Element:
     while stack:
         el, depth = stack.pop()
         if depth > limits.max_depth + XML_DEPTH_MARGIN:
-            raise InvalidModel(f"<{shown(str(el.tag))}> is nested deeper than "
-                               f"{limits.max_depth + XML_DEPTH_MARGIN} XML levels")
+            name = el.get("name") or el.get("class")
+            raise InvalidModel(f"<{shown(str(el.tag))}>{f' {shown(name)!r}' if name else ''} "
+                               f"is nested deeper than {limits.max_depth + XML_DEPTH_MARGIN} XML "
+                               "levels")
         stack.extend((child, depth + 1) for child in el)
     return root
 
@@ -126,10 +129,11 @@ def _sections(root: Element) -> dict[str, Element]:
     return out
 
 
-def _compiler(el: Element | None) -> tuple[bool, str]:
-    """(angles in degrees?, inertiafromgeom) from <compiler>; refuse options Pinocchio ignores."""
+def _compiler(el: Element | None) -> tuple[bool, str, bool]:
+    """(angles in degrees?, inertiafromgeom, bounds on mass or inertia?) from <compiler>;
+    refuse options Pinocchio ignores."""
     if el is None:
-        return True, "auto"
+        return True, "auto", False
     angle = el.get("angle", "degree")
     if angle not in ("degree", "radian"):
         raise InvalidModel("<compiler> angle must be 'degree' or 'radian'")
@@ -143,12 +147,13 @@ def _compiler(el: Element | None) -> tuple[bool, str]:
     if el.get("settotalmass") is not None:
         raise InvalidModel("<compiler> settotalmass is not supported: Pinocchio would ignore it")
     seq = el.get("eulerseq", "xyz")
-    if len(seq) != 3 or any(c not in "xyzXYZ" for c in seq):
-        raise InvalidModel("<compiler> eulerseq must be 3 letters among x, y, z, X, Y, Z")
-    for attr in ("boundmass", "boundinertia"):
-        if float(el.get(attr, "0")) < 0:
-            raise InvalidModel(f"<compiler> {attr} must not be negative")
-    return angle == "degree", el.get("inertiafromgeom", "auto")
+    if len(seq) != 3 or any(c not in "xyz" for c in seq):
+        raise InvalidModel("<compiler> eulerseq must be 3 letters among x, y, z (rotating axes; "
+                           "Pinocchio reads the fixed-axis X, Y, Z as rotating ones)")
+    bounds = [float(el.get(attr, "0")) for attr in ("boundmass", "boundinertia")]
+    if min(bounds) < 0:
+        raise InvalidModel("<compiler> boundmass and boundinertia must not be negative")
+    return angle == "degree", el.get("inertiafromgeom", "auto"), max(bounds) > 0
 
 
 
@@ -217,7 +222,7 @@ def check_mjcf(text: str, root_joint: str = "fixed",
     root = parse_mjcf(text, limits)
     _check_all_numbers(root)
     sections = _sections(root)
-    degrees, inertia_from_geom = _compiler(sections.get("compiler"))
+    degrees, inertia_from_geom, bounded = _compiler(sections.get("compiler"))
     classes = default_classes(sections.get("default"))
     world = sections.get("worldbody")
     if world is None:
@@ -234,6 +239,9 @@ def check_mjcf(text: str, root_joint: str = "fixed",
         raise InvalidModel(f"<worldbody> has {len(tops)} top-level bodies; robodyn serves one "
                            "tree (Pinocchio reads only the first): put them under one body")
     tree = walk_bodies(tops[0], classes, limits, inertia_from_geom)
+    if tree.split_bodies and bounded:
+        raise InvalidModel("<compiler> boundmass/boundinertia cannot be combined with bodies "
+                           "that have several joints (served as chains of massless bodies)")
     served, added, notes = _root(tree, root_joint)
     nq = tree.nq + ROOT_NQ[added]
     if tree.moving_joints + (added != "fixed") == 0:

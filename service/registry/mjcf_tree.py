@@ -1,9 +1,9 @@
 """The body tree of an MJCF `<worldbody>`: joints, geoms and inertials, checked body by body.
 
 Names follow Pinocchio's MJCF parser: an unnamed body is called after its parent + "Bis", an
-unnamed joint `<body>Joint_<k>`, an unnamed free joint `<body>_free`, and the joints of a body
-with several joints form one composite joint called "Composite_" + the first one's name. The
-walk is iterative (depth comes from the upload) and bounded by the shared caps (`Limits`).
+unnamed joint `<body>Joint_<k>`, an unnamed free joint `<body>_free`; a body with several joints
+is served as a chain of one-joint bodies `<body>#1`, ... (see `mjcf_split`). The walk is
+iterative (depth comes from the upload) and bounded by the shared caps (`Limits`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,13 @@ from xml.etree.ElementTree import Element
 import numpy as np
 
 from service.errors import InvalidModel
-from service.registry.mjcf_attributes import DefaultClasses, numbers, rotation_given, shown
+from service.registry.mjcf_attributes import (
+    DefaultClasses,
+    chain_body_name,
+    numbers,
+    rotation_given,
+    shown,
+)
 from service.registry.urdf_check import (
     ABS_TOL,
     NEGATIVE_REL_TOL,
@@ -38,6 +44,7 @@ class BodyTree:
     top_joints: list[tuple[str, str]]  # (name, type) of the top body's joints
     top_rotated: bool
     top_translated: bool
+    split_bodies: int = 0  # bodies with several joints, served as chains
     bodies: int = 0
     moving_joints: int = 0
     depth: int = 0
@@ -203,16 +210,21 @@ def walk_bodies(top: Element, classes: DefaultClasses, limits: Limits,
         kinds = [k for _, k in joints]
         if depth > 1 and "free" in kinds:
             raise InvalidModel(f"{label}: only the top body may have a free joint")
-        if len(joints) > 1 and ("free" in kinds or "ball" in kinds):
-            raise InvalidModel(f"{label}: a free or ball joint must be its body's only joint")
-        served = [joints[0][0]] if len(joints) == 1 else (
-            [f"Composite_{joints[0][0]}"] if joints else [])
-        for joint_name in served:
+        if len(joints) > 1 and "free" in kinds:
+            raise InvalidModel(f"{label}: a free joint must be its body's only joint")
+        for joint_name, _ in joints:
             if joint_name in joint_names or joint_name in RESERVED:
                 raise InvalidModel(f"joint '{shown(joint_name)}': the name is used twice or "
                                    "reserved; give joints unique names")
             joint_names.add(joint_name)
-        tree.bodies += 1
+        for index in range(1, len(joints)):  # the chain's extra bodies
+            extra = chain_body_name(name, index)
+            if extra in body_names:
+                raise InvalidModel(f"{label}: its joints are served as a chain with a body "
+                                   f"'{shown(extra)}', a name already used; rename that body")
+            body_names.add(extra)
+        tree.split_bodies += len(joints) > 1
+        tree.bodies += max(1, len(joints))
         tree.moving_joints += len(joints)
         tree.depth = max(tree.depth, depth)
         tree.nq += sum(JOINT_NQ[k] for k in kinds)

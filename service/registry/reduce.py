@@ -13,10 +13,10 @@ Value of a locked joint, by joint type (GET /v1/robots/{id} gives each joint's t
     free_flyer              [x, y, z, qx, qy, qz, qw] (m; unit quaternion, scalar last)
     planar                  [x, y, θ] or [x, y, cos θ, sin θ]
     spherical               [qx, qy, qz, qw]
-    any other (composite)   its nq entries of q
+    any other               its nq entries of q
 
 Unit quaternions and (cos, sin) pairs are normalized once checked. A revolute or prismatic value
-(or a composite entry) outside the joint's finite position limits is rejected (422
+outside the joint's finite position limits is rejected (422
 `invalid_configuration`); free-flyer, planar, spherical and continuous joints have no limits
 checked. The armature of the remaining joints, gravity, frames and limits carry over (Pinocchio);
 reference configurations and the default configuration are restricted to the remaining joints.
@@ -36,7 +36,7 @@ from service.registry.robot import Robot
 
 UNIT_NORM_TOL = 1e-6  # as for q in dynamics requests (service.states)
 LIMIT_TOL = 1e-9  # rad or m beyond a position limit still accepted (rounding)
-CHECKED_LIMITS = ("revolute", "prismatic", "composite")
+CHECKED_LIMITS = ("revolute", "prismatic")
 
 LockedValue = float | Sequence[float]
 

@@ -30,7 +30,6 @@ _JOINT_TYPES = {
     "JointModelSpherical": "spherical",
     "JointModelSphericalZYX": "spherical_zyx",
     "JointModelTranslation": "translation",
-    "JointModelComposite": "composite",  # several joints of one MJCF body
 }
 
 # Joint types whose q holds a unit quaternion (x, y, z, w) or unit complex (cos, sin), and where.

@@ -75,10 +75,10 @@ class Registry:
         if fmt == "reduced":
             base = self._base_robot(record["base"])
             locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
-            return reduced_robot(base, locked, model_id, record["name"],
+            return reduced_robot(base, locked, model_id, record.get("name", model_id),
                                  origin={"robot": base.id, "locked_joints": locked})
         model = build_model(fmt, record["description"], record["root_joint"], record["gravity"])
-        return Robot(id=model_id, name=record["name"], source="upload",
+        return Robot(id=model_id, name=record.get("name", model_id), source="upload",
                      root_joint=record["root_joint"], model=model,
                      reference_configurations=reference_configurations(model),
                      warnings=record.get("warnings", []))
@@ -174,7 +174,8 @@ class Registry:
                       model=model, reference_configurations=reference_configurations(model),
                       warnings=warnings)
         if request is not None:
-            spec = {"source": "upload", "id": model_id, "record": dict(record)}
+            spec = {"source": "upload", "id": model_id,
+                    "record": {**record, "name": robot.name, "warnings": warnings}}
             return self._store_reduced(robot, spec, request, name), True
         record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
                       warnings=warnings, summary=robot.summary(), created_at=time.time())
@@ -200,7 +201,9 @@ class Registry:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
             keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
                     else ("format", "description", "root_joint", "gravity"))
-            spec = {"source": "upload", "id": base.id, "record": {k: record[k] for k in keys}}
+            spec = {"source": "upload", "id": base.id,
+                    "record": {**{k: record[k] for k in keys}, "name": base.name,
+                               "warnings": base.warnings}}
         return self._store_reduced(base, spec, request, name), True
 
     def _store_reduced(self, base: Robot, spec: dict[str, Any],

@@ -187,6 +187,16 @@ def test_multi_joint_body_is_a_chain_with_the_same_dynamics(client: TestClient,
         np.testing.assert_allclose(M_dot, C + C.T, atol=1e-6)
 
 
+def test_asset_files_are_never_read(client: TestClient, tmp_path) -> None:
+    missing = tmp_path / "does-not-exist"
+    text = PLANAR_ARM_MJCF.replace("<worldbody>", f"""<asset>
+      <mesh name="shell" file="{missing}/shell.stl"/><texture name="t" file="{missing}/t.png"/>
+      <material name="paint" texture="t"/></asset><worldbody>""").replace(
+        '<site name="tip"', '<geom type="mesh" mesh="shell" material="paint"/><site name="tip"')
+    info = _upload(client, mjcf=text)  # the mesh and texture files do not exist
+    assert info["total_mass"] == pytest.approx(3.5)  # the <inertial>s, not the mesh
+
+
 def test_equality_constraints_are_noted(client: TestClient) -> None:
     text = PLANAR_ARM_MJCF.replace(
         "</worldbody>", "</worldbody><equality><connect body1='link2' anchor='0 0 0'/></equality>")

@@ -13,7 +13,8 @@ import math
 import multiprocessing as mp
 import pickle
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from service.errors import InvalidModel
-from service.registry.mjcf_check import check_mjcf
+from service.registry.mjcf_check import MJCFSummary, check_mjcf
 from service.registry.mjcf_split import pinocchio_text
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
@@ -70,24 +71,38 @@ def _fix_mjcf_limits(model: Any, angle_in_degrees: bool) -> None:
     model.lowerPositionLimit, model.upperPositionLimit = lower, upper
 
 
-def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None = None) -> Any:
-    """Parse MJCF text into a `pin.Model` (kinematics and inertias; meshes are never read).
+@contextmanager
+def mjcf_source(text: str, root_joint: str) -> Iterator[tuple[Path, MJCFSummary]]:
+    """Validate MJCF text (`check_mjcf`, which also decides the root: a free joint on the top
+    body is its own root; otherwise `root_joint` is added above a joint-less top body) and write
+    the text Pinocchio is given (`mjcf_split`: bodies with several joints become chains) to a
+    private temporary file, removed on exit: Pinocchio's MJCF parser reads files only.
 
-    The text is validated first (`check_mjcf`, which also decides the root: a free joint on the
-    top body is its own root; otherwise `root_joint` is added above a joint-less top body), and
-    bodies with several joints become chains (`mjcf_split`). Pinocchio's MJCF parser reads files
-    only, so the text goes to a private temporary file.
+    In the builder child this runs before any limit on file writes is set.
     """
     summary = check_mjcf(text, root_joint)
     with tempfile.TemporaryDirectory(prefix="robodyn-mjcf-") as tmp:
         path = Path(tmp) / "model.xml"
         path.write_text(pinocchio_text(text), encoding="utf-8")
-        joint = root_joint_model(summary.added_root_joint)
-        model = (pin.buildModelFromMJCF(str(path)) if joint is None
-                 else pin.buildModelFromMJCFAndRootJoint(str(path), joint, "root_joint"))
+        yield path, summary
+
+
+def build_mjcf_file(path: Path, summary: MJCFSummary,
+                    gravity: Sequence[float] | None = None) -> Any:
+    """Parse the file `mjcf_source` wrote into a `pin.Model` (kinematics and inertias; meshes
+    and textures are never read)."""
+    joint = root_joint_model(summary.added_root_joint)
+    model = (pin.buildModelFromMJCF(str(path)) if joint is None
+             else pin.buildModelFromMJCFAndRootJoint(str(path), joint, "root_joint"))
     _fix_mjcf_limits(model, summary.angle_in_degrees)
     _set_gravity(model, gravity)
     return model
+
+
+def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None = None) -> Any:
+    """Validate and parse MJCF text into a `pin.Model` (`mjcf_source`, then `build_mjcf_file`)."""
+    with mjcf_source(text, root_joint) as (path, summary):
+        return build_mjcf_file(path, summary, gravity)
 
 
 def build_model(description_format: str, text: str, root_joint: str,
@@ -131,9 +146,12 @@ def check_mass_matrix(model: Any) -> None:
 def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None,
                  description_format: str) -> None:
     try:
-        model = build_model(description_format, text, root_joint, gravity)
         if description_format == "mjcf":
+            with mjcf_source(text, root_joint) as (path, summary):
+                model = build_mjcf_file(path, summary, gravity)
             check_subtree_masses(model)
+        else:
+            model = build_urdf_model(text, root_joint, gravity)
         check_mass_matrix(model)
         conn.send(("ok", pickle.dumps(model)))
     except InvalidModel as exc:

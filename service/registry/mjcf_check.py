@@ -48,6 +48,7 @@ SECTIONS = ("compiler", "option", "size", "visual", "statistic", "default", "cus
 SINGLE_SECTIONS = ("compiler", "default", "asset", "worldbody", "keyframe", "equality")
 WORLD_CHILDREN = ("body", "geom", "site", "camera", "light")
 ROOT_NQ = {"fixed": 0, "free-flyer": 7, "planar": 4}
+ROOT_NV = {"fixed": 0, "free-flyer": 6, "planar": 3}
 DEFAULT_LIMITS = Limits()
 XML_DEPTH_MARGIN = 8  # <mujoco>, <worldbody>, <default> levels above the body tree
 
@@ -244,6 +245,10 @@ def check_mjcf(text: str, root_joint: str = "fixed",
                            "that have several joints (served as chains of massless bodies)")
     served, added, notes = _root(tree, root_joint)
     nq = tree.nq + ROOT_NQ[added]
+    max_nv = getattr(limits, "max_nv", None)
+    if max_nv is not None and tree.nv + ROOT_NV[added] > max_nv:
+        raise InvalidModel(f"the model has nv = {tree.nv + ROOT_NV[added]} velocity coordinates "
+                           f"(with its root joint); the limit is {max_nv}")
     if tree.moving_joints + (added != "fixed") == 0:
         raise InvalidModel("the description has no joint: nothing can move")
     _keyframes(sections.get("keyframe"), nq, added)

@@ -31,6 +31,7 @@ from service.registry.urdf_check import (
 
 BODY_CHILDREN = ("inertial", "joint", "freejoint", "geom", "site", "camera", "light", "body")
 JOINT_NQ = {"hinge": 1, "slide": 1, "ball": 4, "free": 7}
+JOINT_NV = {"hinge": 1, "slide": 1, "ball": 3, "free": 6}
 GEOM_SIZES = {"sphere": 1, "capsule": 2, "cylinder": 2, "box": 3, "ellipsoid": 3, "plane": 3,
               "mesh": 0}
 RESERVED = ("universe", "root_joint")
@@ -49,6 +50,7 @@ class BodyTree:
     moving_joints: int = 0
     depth: int = 0
     nq: int = 0
+    nv: int = 0
     findings: list[Finding] = field(default_factory=list)
 
 
@@ -228,11 +230,15 @@ def walk_bodies(top: Element, classes: DefaultClasses, limits: Limits,
         tree.moving_joints += len(joints)
         tree.depth = max(tree.depth, depth)
         tree.nq += sum(JOINT_NQ[k] for k in kinds)
+        tree.nv += sum(JOINT_NV[k] for k in kinds)
         if tree.bodies > limits.max_links:
             raise InvalidModel(f"the description has more than {limits.max_links} bodies")
-        if tree.moving_joints > limits.max_moving_joints:
-            raise InvalidModel(f"the description has more than {limits.max_moving_joints} "
-                               "joints")
+        max_joints = getattr(limits, "max_moving_joints", None)  # caps differ between versions
+        if max_joints is not None and tree.moving_joints > max_joints:
+            raise InvalidModel(f"the description has more than {max_joints} joints")
+        max_nv = getattr(limits, "max_nv", None)
+        if max_nv is not None and tree.nv > max_nv:
+            raise InvalidModel(f"the description has more than {max_nv} velocity coordinates")
         stack.extend((child, depth + 1, childclass, name)
                      for child in reversed(el) if child.tag == "body")
     assert tree is not None

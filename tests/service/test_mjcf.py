@@ -241,6 +241,7 @@ HOSTILE = {  # case → (MJCF text, a fragment the detail must contain)
     "overflow": (_body("").replace('diaginertia="1 1 1"', 'diaginertia="1 1 1e400"'),
                  "diaginertia must be finite"),
     "hex number": (_body('<site pos="0x1 0 0"/>'), "pos is not a number"),
+    "non-ASCII digit": (_body('<site pos="0 0 \u0661"/>'), "pos is not a number"),
     "too few numbers": (_body("").replace('diaginertia="1 1 1"', 'diaginertia="1 1"'),
                         "diaginertia must have 3 numbers"),
     "box with one size": (_body('<geom type="box" size="0.1"/>'), "body 'b'"),
@@ -330,3 +331,24 @@ def test_mjcf_uploads_survive_a_restart(registry: Registry, client: TestClient) 
     restarted.load()
     again = restarted.get(info["id"]).info()
     assert again == info
+
+
+def test_caps_follow_the_shared_limits_object() -> None:
+    from types import SimpleNamespace
+
+    from service.errors import InvalidModel
+    from service.registry.mjcf_check import check_mjcf
+
+    text = TWINS["spatial_arm"][0]  # 3 joints, 3 bodies, nv = 3
+    assert check_mjcf(text).nq == 3
+    caps = {"max_links": 1000, "max_depth": 128, "max_elements": 50_000}
+    for extra, fragment in (({"max_nv": 2}, "more than 2 velocity coordinates"),
+                            ({"max_moving_joints": 2}, "more than 2 joints"),
+                            ({"max_links": 2}, "more than 2 bodies"),
+                            ({"max_elements": 5}, "the limit is 5")):
+        with pytest.raises(InvalidModel, match=fragment):
+            check_mjcf(text, "fixed", SimpleNamespace(**{**caps, **extra}))
+    # a free-flyer added above a joint-less top body counts its 6 velocity coordinates
+    floating = floating_mjcf(free_joint=False).split("<keyframe>")[0] + "</mujoco>"
+    with pytest.raises(InvalidModel, match="nv = 7"):
+        check_mjcf(floating, "free-flyer", SimpleNamespace(**caps, max_nv=6))

@@ -1,4 +1,4 @@
-"""Routes of the robot catalog and uploads: list, describe, upload, delete."""
+"""Routes of the robot catalog and uploads: list, describe, upload, reduce, delete."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from starlette.concurrency import run_in_threadpool
 
 from service.api.answers import JSONAnswer
 from service.api.deps import RegistryDep, require_api_key
-from service.api.schemas import Problem, RobotInfo, RobotList, UploadRequest
+from service.api.schemas import Problem, ReduceRequest, RobotInfo, RobotList, UploadRequest
 from service.api.schemas_inertias import Inertias
 from service.dynamics.body_inertias import body_inertias
 
@@ -46,11 +46,30 @@ async def robot_inertias(robot_id: str, registry: RegistryDep) -> Response:
              responses={200: {"model": RobotInfo, "description": "the model was already stored"},
                         401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
              dependencies=[Depends(require_api_key)],
-             summary="Upload a URDF: 201 for a new model, 200 for one already stored")
+             summary="Upload a URDF or MJCF: 201 for a new model, 200 for one already stored")
 async def upload_robot(body: UploadRequest, registry: RegistryDep) -> Response:
     robot, created = await run_in_threadpool(
-        registry.upload, urdf=body.urdf, root_joint=body.root_joint, gravity=body.gravity,
-        name=body.name, inertia_check=body.inertia_check)
+        registry.upload, urdf=body.urdf, mjcf=body.mjcf, root_joint=body.root_joint,
+        gravity=body.gravity, name=body.name, inertia_check=body.inertia_check,
+        locked_joints=body.locked_joints)
+    return JSONAnswer(robot.info(), status_code=201 if created else 200,
+                      headers={"Location": f"/v1/robots/{robot.id}"})
+
+
+@router.post("/{robot_id}/reduce", response_model=RobotInfo, status_code=201,
+             responses={200: {"model": RobotInfo, "description": "the model was already stored"},
+                        401: {"model": Problem},
+                        404: {"model": Problem, "description": "robot_not_found"},
+                        422: {"model": Problem, "description": "validation_error (unknown "
+                              "joint, wrong value size), invalid_configuration (outside limits, "
+                              "non-unit quaternion), invalid_model (nothing left to move)"}},
+             dependencies=[Depends(require_api_key)],
+             summary="Store a reduced model of any robot, some joints locked: 201 new, 200 stored")
+async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep) -> Response:
+    """Lock `locked_joints` of robot `robot_id` (catalog or upload) at the given positions and
+    store the reduced model under a new content-derived id (`r-` + 24 hex digits)."""
+    robot, created = await run_in_threadpool(registry.reduce, robot_id, body.locked_joints,
+                                             body.name)
     return JSONAnswer(robot.info(), status_code=201 if created else 200,
                       headers={"Location": f"/v1/robots/{robot.id}"})
 

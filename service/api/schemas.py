@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
 
@@ -13,19 +13,59 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
 
 
+LockedJointValue = Number | Annotated[list[Number], Field(min_length=1, max_length=64)]
+LOCKED_DESC = (
+    "Joints to lock, by name (GET /v1/robots/{id} lists them), each at a position: a number "
+    "(rad or m) for revolute and prismatic joints; an angle θ (rad) or [cos θ, sin θ] for "
+    "continuous joints; [x, y, z, qx, qy, qz, qw] for a free-flyer; [x, y, θ] or "
+    "[x, y, cos θ, sin θ] for a planar joint; [qx, qy, qz, qw] for a spherical one; the nq "
+    "entries of q for any other. Values outside a revolute or prismatic joint's position limits "
+    "are rejected (422 invalid_configuration). The locked joints leave q, v, a and τ; their "
+    "bodies are welded where these positions put them.")
+DESCRIPTION_LIMIT = 8 * 1024 * 1024
+
+
 class UploadRequest(_Strict):
-    urdf: str = Field(description="The URDF text (XML). Meshes are not read: robodyn needs "
-                      "kinematics and inertias only.", max_length=8 * 1024 * 1024)
+    urdf: str | None = Field(None, description="The URDF text (XML). Meshes are not read: "
+                             "robodyn needs kinematics and inertias only. Give this or `mjcf`.",
+                             max_length=DESCRIPTION_LIMIT)
+    mjcf: str | None = Field(None, description="Instead of `urdf`: MJCF (MuJoCo XML) text, one "
+                             "self-contained file (<include> is refused; meshes are not read). "
+                             "A free joint on its top body is its root (served as "
+                             "\"free-flyer\").", max_length=DESCRIPTION_LIMIT)
     root_joint: Literal["fixed", "free-flyer", "planar"] = Field(
-        "fixed", description="How the root link attaches to the world.")
+        "fixed", description="How the root link attaches to the world. For MJCF, only a top "
+        "body without joints gets a root joint; a top body with a free joint is free-flying.")
     name: str | None = Field(None, max_length=200, description="Optional label; defaults to "
-                             "the URDF's robot name. Not part of the id.")
+                             "the description's robot/model name. Not part of the id.")
     gravity: list[Number] = Field([0.0, 0.0, -9.81], min_length=3, max_length=3,
                                   description="Gravity vector in the world frame, m/s².")
     inertia_check: Literal["reject", "warn"] = Field(
         "reject", description="What to do with physically implausible inertias (negative "
         "principal moment, triangle inequality violated): reject the upload (422) or store it "
         "and list the findings in `warnings`.")
+    locked_joints: dict[str, LockedJointValue] | None = Field(
+        None, max_length=1000, description=LOCKED_DESC + " With this, only the reduced model "
+        "is stored (its id is that of reducing the full upload with POST .../reduce).")
+
+    @model_validator(mode="after")
+    def _one_description(self) -> UploadRequest:
+        if (self.urdf is None) == (self.mjcf is None):
+            raise ValueError("give exactly one of `urdf` and `mjcf`")
+        return self
+
+
+class ReduceRequest(_Strict):
+    locked_joints: dict[str, LockedJointValue] = Field(
+        min_length=1, max_length=1000, description=LOCKED_DESC)
+    name: str | None = Field(None, max_length=200, description="Optional label; defaults to "
+                             "the base robot's name + ' (reduced)'. Not part of the id.")
+
+
+class ReducedFrom(BaseModel):
+    robot: str = Field(description="Id of the robot this one was reduced from.")
+    locked_joints: dict[str, list[float]] = Field(description="Each locked joint's entries of "
+                                                  "the base robot's q.")
 
 
 class Problem(BaseModel):
@@ -92,4 +132,5 @@ class RobotInfo(RobotSummary):
     joints: list[JointInfo]
     frames: list[FrameInfo] = Field(description="Every frame of the model in model order "
                                     "(links, joints, fixed frames): the valid names for "
-                                    "`frame` in jacobian and operational-space requests.")
+                                    "`frame` in jacobian, operational-space and external_forces.")
+    reduced_from: ReducedFrom | None = Field(None, description="Present for a reduced model.")

@@ -1,8 +1,10 @@
 """The registry: catalog robots and uploaded models, looked up by id.
 
-Catalog robots are loaded once at start-up. Uploaded models live in the durable store; any
-process that shares the data directory (a second worker or replica) finds and rebuilds them on
-first use, and a deletion anywhere is seen everywhere on the next lookup.
+Catalog robots are loaded once at start-up. Uploaded models (URDF, MJCF, and reduced models of
+any robot) live in the durable store; any process that shares the data directory (a second worker
+or replica) finds and rebuilds them on first use, and a deletion anywhere is seen everywhere on
+the next lookup. A reduced model's record embeds what rebuilds its base (the base's own record, or
+its catalog name), so it survives the deletion of its base.
 """
 
 from __future__ import annotations
@@ -10,15 +12,18 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from service.errors import CatalogRobot, InvalidModel, NotReady, RobotNotFound
-from service.registry.build import build_isolated, build_urdf_model
+from service.registry.build import build_isolated, build_model, reference_configurations
 from service.registry.catalog import load_catalog
+from service.registry.mjcf_check import check_mjcf
+from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
 from service.registry.robot import Robot
-from service.registry.store import ModelStore, content_id
-from service.registry.urdf_check import Limits, check_urdf
+from service.registry.store import ModelStore, content_id, reduced_id
+from service.registry.urdf_check import Finding, Limits, check_urdf
 
 log = logging.getLogger("robodyn.registry")
 
@@ -39,6 +44,7 @@ class Registry:
         self.catalog: dict[str, Robot] = {}
         self.catalog_failures: dict[str, str] = {}
         self.uploads: dict[str, Robot] = {}
+        self._bases: dict[str, Robot] = {}  # catalog robots not served here, bases of reductions
         self.ready = False
         self._lock = threading.Lock()
 
@@ -48,7 +54,8 @@ class Registry:
         """Load the catalog and every stored upload; then the registry is ready."""
         started = time.perf_counter()
         self.catalog, self.catalog_failures = load_catalog(self.catalog_names)
-        for model_id in self.store.ids():
+        # uploads first, then reduced models ("r-" ids), which may be reductions of them
+        for model_id in sorted(self.store.ids(), key=lambda i: i.startswith("r-")):
             try:
                 self._load_stored(model_id)
             except Exception as exc:  # a bad record must not stop the service
@@ -62,12 +69,42 @@ class Registry:
         record = self.store.read(model_id)
         if record is None:
             return None
-        model = build_urdf_model(record["description"], record["root_joint"], record["gravity"])
-        robot = Robot(id=model_id, name=record["name"], source="upload",
-                      root_joint=record["root_joint"], model=model,
-                      warnings=record.get("warnings", []))
+        robot = self._robot_from_record(model_id, record)
         with self._lock:
             self.uploads[model_id] = robot
+        return robot
+
+    def _robot_from_record(self, model_id: str, record: Mapping[str, Any]) -> Robot:
+        """Rebuild a stored model in process (its description was validated when uploaded)."""
+        fmt = record.get("format", "urdf")
+        if fmt == "reduced":
+            base = self._base_robot(record["base"])
+            locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
+            return reduced_robot(base, locked, model_id, record.get("name", model_id),
+                                 origin={"robot": base.id, "locked_joints": locked})
+        model = build_model(fmt, record["description"], record["root_joint"], record["gravity"])
+        return Robot(id=model_id, name=record.get("name", model_id), source="upload",
+                     root_joint=record["root_joint"], model=model,
+                     reference_configurations=reference_configurations(model),
+                     warnings=record.get("warnings", []))
+
+    def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
+        """The base of a reduced model: a catalog robot (loaded here if this server does not
+        serve it) or an upload (served here, or rebuilt from the record embedded in `spec`)."""
+        base_id = spec["id"]
+        robot = (self.catalog.get(base_id) if spec["source"] == "catalog"
+                 else self.uploads.get(base_id)) or self._bases.get(base_id)
+        if robot is None:
+            if spec["source"] == "catalog":
+                loaded, failures = load_catalog([base_id])
+                if base_id not in loaded:
+                    raise RuntimeError(f"catalog robot {base_id} not loadable: "
+                                       f"{failures.get(base_id)}")
+                robot = loaded[base_id]
+            else:
+                robot = self._robot_from_record(base_id, spec["record"])
+            with self._lock:
+                self._bases[base_id] = robot
         return robot
 
     # -- lookup ---------------------------------------------------------------------------
@@ -88,7 +125,12 @@ class Registry:
             raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
         robot = self.uploads.get(robot_id)
         if robot is None:  # uploaded through another process sharing the store
-            robot = self._load_stored(robot_id)
+            try:
+                robot = self._load_stored(robot_id)
+            except Exception as exc:  # a record this server cannot rebuild: logged, not a 500
+                log.error("stored model %s not loaded: %s", robot_id, exc)
+                raise RobotNotFound(f"stored model '{_shown(robot_id)}' could not be rebuilt on "
+                                    "this server (see its log)") from None
             if robot is None:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
         return robot
@@ -105,30 +147,43 @@ class Registry:
 
     # -- uploads and deletions ------------------------------------------------------------
 
-    def upload(self, *, urdf: str, root_joint: str, gravity: list[float], name: str | None,
-               inertia_check: str) -> tuple[Robot, bool]:
-        """Validate, build (out of process) and store an uploaded URDF: (robot, created)."""
+    def upload(self, *, urdf: str | None = None, mjcf: str | None = None, root_joint: str,
+               gravity: list[float], name: str | None, inertia_check: str,
+               locked_joints: Mapping[str, LockedValue] | None = None) -> tuple[Robot, bool]:
+        """Validate, build (out of process) and store an uploaded URDF or MJCF (with
+        `locked_joints`: its reduced model, stored alone): (robot, created)."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
-        summary = check_urdf(urdf, self.limits)
-        if summary.findings and inertia_check == "reject":
-            listed = "; ".join(f.message for f in summary.findings[:10])
-            more = len(summary.findings) - 10
+        if (urdf is None) == (mjcf is None):
+            raise ValueError("give exactly one of urdf and mjcf")
+        fmt, text = ("urdf", urdf) if urdf is not None else ("mjcf", mjcf)
+        assert text is not None
+        findings, notes, label, root_joint = _validate(fmt, text, root_joint, self.limits)
+        if findings and inertia_check == "reject":
+            listed = "; ".join(f.message for f in findings[:10])
+            more = len(findings) - 10
             raise InvalidModel(
                 f"{listed}{f'; and {more} more' if more > 0 else ''}. Send "
                 '"inertia_check": "warn" to store the model with these findings as warnings')
-        record: dict[str, Any] = {"format": "urdf", "description": urdf,
+        record: dict[str, Any] = {"format": fmt, "description": text,
                                   "root_joint": root_joint, "gravity": list(gravity)}
         model_id = content_id(record)
-        if self.store.exists(model_id):
-            return self.get(model_id), False
-        model = build_isolated(urdf, root_joint, list(gravity), self.build_timeout_s,
-                               **self.build_limits)
-        warnings = [f.as_dict() for f in summary.findings]
-        robot = Robot(id=model_id, name=name or summary.robot_name, source="upload",
-                      root_joint=root_joint, model=model, warnings=warnings)
+        request = None if locked_joints is None else as_lists(locked_joints)
+        target = model_id if request is None else reduced_id(model_id, request)
+        if self.store.exists(target):
+            return self.get(target), False
+        model = build_isolated(text, root_joint, list(gravity), self.build_timeout_s,
+                               description_format=fmt, **self.build_limits)
+        warnings = [f.as_dict() for f in findings + notes]
+        robot = Robot(id=model_id, name=name or label, source="upload", root_joint=root_joint,
+                      model=model, reference_configurations=reference_configurations(model),
+                      warnings=warnings)
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
+        if request is not None:
+            spec = {"source": "upload", "id": model_id,
+                    "record": {**record, "name": robot.name, "warnings": warnings}}
+            return self._store_reduced(robot, spec, request, name), True
         record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
                       warnings=warnings, summary=robot.summary(), created_at=time.time())
         self.store.write(record)
@@ -136,6 +191,43 @@ class Registry:
             self.uploads[model_id] = robot
         log.info("stored upload %s (%s): nq=%d nv=%d", model_id, robot.name, robot.nq, robot.nv)
         return robot, True
+
+    def reduce(self, robot_id: str, locked_joints: Mapping[str, LockedValue],
+               name: str | None = None) -> tuple[Robot, bool]:
+        """Store the reduced model of any robot with `locked_joints` locked: (robot, created)."""
+        base = self.get(robot_id)
+        request = as_lists(locked_joints)
+        target = reduced_id(base.id, request)
+        if self.store.exists(target):
+            return self.get(target), False
+        if base.source == "catalog":
+            spec: dict[str, Any] = {"source": "catalog", "id": base.id}
+        else:
+            record = self.store.read(base.id)
+            if record is None:
+                raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
+            keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
+                    else ("format", "description", "root_joint", "gravity"))
+            spec = {"source": "upload", "id": base.id,
+                    "record": {**{k: record[k] for k in keys}, "name": base.name,
+                               "warnings": base.warnings}}
+        return self._store_reduced(base, spec, request, name), True
+
+    def _store_reduced(self, base: Robot, spec: dict[str, Any],
+                       request: dict[str, list[float]], name: str | None) -> Robot:
+        locked = locked_configuration(base, request)
+        model_id = reduced_id(spec["id"], request)
+        robot = reduced_robot(base, locked, model_id, name or f"{base.name} (reduced)",
+                              origin={"robot": base.id, "locked_joints": locked})
+        self.store.write({
+            "format": "reduced", "base": spec, "locked_joints": locked,
+            "locked_request": request, "id": model_id, "name": robot.name,
+            "warnings": robot.warnings, "summary": robot.summary(), "created_at": time.time()})
+        with self._lock:
+            self.uploads[model_id] = robot
+        log.info("stored reduced model %s of %s: nq=%d nv=%d", model_id, base.id, robot.nq,
+                 robot.nv)
+        return robot
 
     def delete(self, robot_id: str) -> None:
         if robot_id in self.catalog or robot_id in self.catalog_failures:
@@ -145,6 +237,16 @@ class Registry:
         if not self.store.delete(robot_id):
             raise RobotNotFound(f"no uploaded robot has id '{_shown(robot_id)}'; "
                                 f"{NOT_FOUND_HINT}")
+
+
+def _validate(fmt: str, text: str, root_joint: str, limits: Limits
+              ) -> tuple[list[Finding], list[Finding], str, str]:
+    """(physical findings, notes, the description's own name, root joint as served)."""
+    if fmt == "mjcf":
+        mjcf = check_mjcf(text, root_joint, limits)
+        return mjcf.findings, mjcf.notes, mjcf.robot_name, mjcf.root_joint
+    urdf = check_urdf(text, limits)
+    return urdf.findings, [], urdf.robot_name, root_joint
 
 
 def _shown(robot_id: str) -> str:

@@ -70,6 +70,7 @@ class Robot:
     reference_configurations: dict[str, np.ndarray] = field(default_factory=dict)
     default_configuration: np.ndarray | None = None
     warnings: list[dict[str, str]] = field(default_factory=list)
+    origin: dict[str, Any] | None = None  # a reduced model: {"robot", "locked_joints"}
     _pool: queue.SimpleQueue = field(default_factory=queue.SimpleQueue, repr=False)
     _model_pool: Any = field(default=None, repr=False)
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
@@ -161,4 +162,6 @@ class Robot:
                      "parent_joint": m.names[f.parentJoint]}
                     for f in m.frames],
             }
+            if self.origin is not None:
+                self._info["reduced_from"] = self.origin
         return self._info

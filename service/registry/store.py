@@ -1,7 +1,8 @@
 """The durable, content-addressed store of uploaded models.
 
 One JSON record per model at `<data_dir>/models/<id>.json` holding what is needed to rebuild it
-(the description text and the upload options) plus its summary. Writes are atomic: write a
+(the description text and the upload options; for a reduced model its base's record or catalog
+name and the locked joints) plus its summary. Writes are atomic: write a
 temporary file, fsync, rename over the final name, fsync the directory. A record is therefore
 either absent or complete; an unreadable one is skipped with a log line. Temporary files left by
 a process killed in the middle of a write are never read as records (their names start with a
@@ -38,6 +39,17 @@ def content_id(record: dict[str, Any]) -> str:
          "root_joint": record["root_joint"], "gravity": [float(g) for g in record["gravity"]]},
         sort_keys=True, separators=(",", ":"), ensure_ascii=False)
     return "u-" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:24]
+
+
+def reduced_id(base_id: str, locked_joints: dict[str, list[float]]) -> str:
+    """The id of a reduced model: a hash of its base's id and the locked joints as requested
+    (joint name → list of numbers). Base ids are themselves content-derived (or catalog names),
+    so the same reduction gives the same id on any machine."""
+    canonical = json.dumps(
+        {"format": "reduced", "base": base_id,
+         "locked_joints": {k: [float(x) for x in v] for k, v in sorted(locked_joints.items())}},
+        sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    return "r-" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:24]
 
 
 class ModelStore:

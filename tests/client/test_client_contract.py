@@ -19,7 +19,7 @@ import robodyn
 from robodyn import core, errors
 
 from service.api.problems import STATUS_BY_CODE
-from service.api.schemas import UploadRequest
+from service.api.schemas import ReduceRequest, UploadRequest
 from service.api.schemas_dynamics import REQUESTS
 from service.main import create_app
 from service.settings import Settings
@@ -56,6 +56,7 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "forward_dynamics_derivatives": ("r", [0.0], [0.0], [0.0]),
     "centroidal": ("r", [0.0], [0.0]),
     "simulate": ("r", [0.0], [0.0]),
+    "reduce": ("r", {"elbow": 0.5, "base": [0, 0, 1, 0, 0, 0, 1]}),
 }
 KWARGS: dict[str, dict[str, Any]] = {"simulate": {"dt": 1e-3, "steps": 1}}
 
@@ -98,6 +99,7 @@ def test_every_request_the_client_sends_is_a_route_of_the_server(openapi: dict) 
 def test_request_bodies_validate_against_the_server_schemas() -> None:
     requests = sent_requests()
     UploadRequest.model_validate_json(requests["upload"].content)
+    ReduceRequest.model_validate_json(requests["reduce"].content)
     inputs = {"mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
               "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
               "forward_dynamics": ("q", "v", "tau")}
@@ -130,7 +132,7 @@ def test_client_and_async_client_mirror_each_other() -> None:
         assert not inspect.iscoroutinefunction(sync[name]), name
         assert sync[name].__doc__ == asynchronous[name].__doc__ == getattr(core, name).__doc__
         assert "shape" in sync[name].__doc__ or name in ("health", "ready", "robots", "robot",
-                                                         "upload", "delete")
+                                                         "upload", "delete", "reduce")
 
 
 def test_package_imports_without_server_dependencies() -> None:

@@ -101,11 +101,14 @@ class AsyncClient:
     async def robot(self, robot_id: str) -> RobotInfo:
         return await self._send(core.robot(robot_id))
 
-    async def upload(self, urdf: str | bytes | os.PathLike[str], *, root_joint: str = "fixed",
-                     name: str | None = None, gravity: ArrayLike | None = None,
-                     inertia_check: str | None = None) -> RobotInfo:
-        return await self._send(core.upload(urdf, root_joint=root_joint, name=name,
-                                            gravity=gravity, inertia_check=inertia_check))
+    async def upload(self, urdf: str | bytes | os.PathLike[str] | None = None, *,
+                     mjcf: str | bytes | os.PathLike[str] | None = None,
+                     root_joint: str = "fixed", name: str | None = None,
+                     gravity: ArrayLike | None = None, inertia_check: str | None = None,
+                     locked_joints: Mapping[str, ArrayLike] | None = None) -> RobotInfo:
+        return await self._send(core.upload(urdf, mjcf=mjcf, root_joint=root_joint, name=name,
+                                            gravity=gravity, inertia_check=inertia_check,
+                                            locked_joints=locked_joints))
 
     async def delete(self, robot_id: str) -> None:
         return await self._send(core.delete(robot_id))
@@ -179,3 +182,7 @@ class AsyncClient:
                        integrator: str | None = None) -> Trajectory:
         return await self._send(core.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
                                               controller=controller, integrator=integrator))
+
+    async def reduce(self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *,
+                     name: str | None = None) -> RobotInfo:
+        return await self._send(core.reduce(robot_id, locked_joints, name=name))

@@ -71,6 +71,7 @@ ROUTES: dict[str, tuple[str, str]] = {
     "forward_dynamics_derivatives": ("POST", "/v1/robots/{robot_id}/forward-dynamics-derivatives"),
     "centroidal": ("POST", "/v1/robots/{robot_id}/centroidal"),
     "simulate": ("POST", "/v1/robots/{robot_id}/simulate"),
+    "reduce": ("POST", "/v1/robots/{robot_id}/reduce"),
 }
 """Client method → (HTTP method, path template) of the server route it calls."""
 
@@ -208,29 +209,68 @@ def robot(robot_id: str) -> Call[RobotInfo]:
     return _call("robot", lambda status, body: RobotInfo.from_json(body), robot_id)
 
 
-def upload(urdf: str | bytes | os.PathLike[str], *, root_joint: str = "fixed",
+def _description(value: str | bytes | os.PathLike[str], what: str) -> str:
+    """Description text from a str, UTF-8 bytes or a path to a file."""
+    if isinstance(value, os.PathLike):
+        with open(value, encoding="utf-8") as f:
+            return f.read()
+    if isinstance(value, bytes):
+        return value.decode("utf-8")
+    if not isinstance(value, str):
+        raise TypeError(f"{what} must be the {what.upper()} text or a path, "
+                        f"not {type(value).__name__}")
+    return value
+
+
+def _locked_joints(locked: Mapping[str, ArrayLike]) -> dict[str, Any]:
+    """Locked joint positions as JSON: joint name → a number or a list of numbers (finite)."""
+    if not isinstance(locked, Mapping) or not locked:
+        raise InputError("locked_joints must be a non-empty mapping of joint name to position")
+    out: dict[str, Any] = {}
+    for name, value in locked.items():
+        if not isinstance(name, str):
+            raise InputError(f"locked_joints keys must be joint names (str), not "
+                             f"{type(name).__name__}")
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (ValueError, TypeError):
+            raise InputError(f"locked_joints['{name}'] must be a number or a list of numbers"
+                             ) from None
+        if arr.ndim > 1 or arr.size == 0:
+            raise InputError(f"locked_joints['{name}'] must be a number or a non-empty 1-D "
+                             "list of numbers")
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"locked_joints['{name}'] must be finite")
+        out[name] = float(arr) if arr.ndim == 0 else arr.tolist()
+    return out
+
+
+def upload(urdf: str | bytes | os.PathLike[str] | None = None, *,
+           mjcf: str | bytes | os.PathLike[str] | None = None, root_joint: str = "fixed",
            name: str | None = None, gravity: ArrayLike | None = None,
-           inertia_check: str | None = None) -> Call[RobotInfo]:
-    """Store a URDF model on the server and return its `RobotInfo` (`created` tells whether it
-    is new). The id is derived from the content and options, so the same upload gives the same
-    id. `urdf` is the XML text (str or UTF-8 bytes) or a path to a file; `root_joint` is "fixed",
-    "free-flyer" or "planar"; `gravity` is 3 numbers in m/s² (default [0, 0, -9.81]);
-    `inertia_check` "reject" (default) or "warn" for implausible inertias.
-    Raises `InvalidModelError` for a description that is not a usable model."""
-    if isinstance(urdf, os.PathLike):
-        with open(urdf, encoding="utf-8") as f:
-            urdf = f.read()
-    elif isinstance(urdf, bytes):
-        urdf = urdf.decode("utf-8")
-    elif not isinstance(urdf, str):
-        raise TypeError(f"urdf must be the URDF text or a path, not {type(urdf).__name__}")
-    body: dict[str, Any] = {"urdf": urdf, "root_joint": root_joint}
+           inertia_check: str | None = None,
+           locked_joints: Mapping[str, ArrayLike] | None = None) -> Call[RobotInfo]:
+    """Store a URDF (or, with `mjcf=`, an MJCF) model on the server and return its `RobotInfo`
+    (`created` tells whether it is new). The id is derived from the content and options, so the
+    same upload gives the same id. `urdf`/`mjcf` is the XML text (str or UTF-8 bytes) or a path
+    to a file (give exactly one); `root_joint` is "fixed", "free-flyer" or "planar" (an MJCF
+    whose top body has a free joint is free-flying by itself); `gravity` is 3 numbers in m/s²
+    (default [0, 0, -9.81]); `inertia_check` "reject" (default) or "warn" for implausible
+    inertias. `locked_joints` (joint name → position, see `reduce`) stores only the reduced
+    model. Raises `InvalidModelError` for a description that is not a usable model."""
+    if (urdf is None) == (mjcf is None):
+        raise InputError("give exactly one of urdf and mjcf")
+    body: dict[str, Any] = ({"urdf": _description(urdf, "urdf")} if urdf is not None
+                            else {"mjcf": _description(mjcf, "mjcf")})  # type: ignore[arg-type]
+    body["root_joint"] = root_joint
     if name is not None:
         body["name"] = name
     if gravity is not None:
         body["gravity"] = gravity_vector(gravity)
     if inertia_check is not None:
         body["inertia_check"] = inertia_check
+    if locked_joints is not None:
+        body["locked_joints"] = _locked_joints(locked_joints)
     return _call("upload", lambda status, data: RobotInfo.from_json(data, created=status == 201),
                  body=body)
 
@@ -357,6 +397,24 @@ def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int
                      result=Trajectory, square=False, options=options, q=q, v=v)
     # Always JSON: a torque schedule is a body field, too big for a binary header.
     return replace(call, json=call.json_body(), arrays=None)
+
+
+def reduce(robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str | None = None
+           ) -> Call[RobotInfo]:
+    """Store the reduced model of any robot (catalog or upload) with `locked_joints` locked and
+    return its `RobotInfo` (a new durable id; `created` tells whether it is new, and
+    `raw["reduced_from"]` names the base robot and each locked joint's q entries).
+    `locked_joints` maps joint names to positions: a number (rad or m) for revolute and
+    prismatic joints, an angle or [cos θ, sin θ] for continuous ones, [x, y, z, qx, qy, qz, qw]
+    for a free-flyer, [x, y, θ] or [x, y, cos θ, sin θ] for a planar joint, [qx, qy, qz, qw]
+    for a spherical one. Raises `ValidationError` for an unknown joint (all listed) or a value
+    of the wrong size, `InvalidConfigurationError` for a value outside the joint's limits, and
+    `InvalidModelError` when every moving joint would be locked."""
+    body: dict[str, Any] = {"locked_joints": _locked_joints(locked_joints)}
+    if name is not None:
+        body["name"] = name
+    return _call("reduce", lambda status, data: RobotInfo.from_json(data, created=status == 201),
+                 robot_id, body)
 
 
 def share_docs(cls: type) -> type:

@@ -19,7 +19,7 @@ from service.api.observability import BodyLimitMiddleware, Metrics, Observabilit
 from service.api.openapi_problems import problem_openapi
 from service.api.problems import install_problem_handlers
 from service.logs import configure_logging
-from service.registry import Registry
+from service.registry import Registry, data_pool
 from service.registry.urdf_check import Limits
 from service.settings import Settings
 
@@ -35,6 +35,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     otherwise the lifespan loads the catalog in the background and /health/ready turns 200."""
     settings = settings or Settings()
     injected = registry is not None
+    data_pool.BUDGET.limit_bytes = settings.data_pool_mb * 1024 * 1024
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),
                                     settings.build_timeout_s,
                                     limits=Limits(**settings.model_limits()),

@@ -48,6 +48,10 @@ class Settings(BaseSettings):
     max_simulation_work: int = Field(
         20_000_000, ge=1, description="Largest work of one simulate request: states × steps × "
         "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1–2 µs each.")
+    data_pool_mb: int = Field(
+        1024, ge=0, description="Memory kept for idle Pinocchio Data between computations, "
+        "over all robots, in MB (a Data takes about 80·nv³ bytes; the whole catalog needs "
+        "about 220 MB). Beyond it, the least recently used robots create theirs anew.")
     build_timeout_s: float = Field(
         30.0, gt=0, description="Wall-clock limit for building an uploaded model, in seconds."
     )

@@ -106,8 +106,19 @@ def problem_body(code: str, title: str, detail: str, **extra: Any) -> dict[str, 
             "detail": detail, "code": code, **extra}
 
 
+_BODY_PARSE_FAILURE = "There was an error parsing the body"  # FastAPI's 400 for a JSON body
+_UNPARSABLE = {RecursionError: "the JSON body is nested too deeply to be read",
+               UnicodeDecodeError: "the JSON body is not UTF-8 text"}
+
+
 async def _on_http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, StarletteHTTPException)
+    if exc.status_code == 400 and exc.detail == _BODY_PARSE_FAILURE:
+        # A body FastAPI could not read as JSON (too deeply nested, not UTF-8, ...) is a
+        # request the schema refuses, like any other malformed JSON: 422, not 400.
+        reason = next((text for kind, text in _UNPARSABLE.items()
+                       if isinstance(exc.__cause__, kind)), "the body is not valid JSON")
+        return problem("validation_error", "Invalid request", f"body: {reason}")
     fallback = ("bad_request", "Bad request") if exc.status_code < 500 else (
         "internal_error", "Internal error")
     code, title = _HTTP_CODES.get(exc.status_code, fallback)

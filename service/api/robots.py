@@ -23,7 +23,8 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 
 @router.get("", response_model=RobotList, summary="List catalog robots and uploaded models")
 async def list_robots(registry: RegistryDep) -> Response:
-    return JSONAnswer({"robots": registry.summaries(),
+    summaries = await run_in_threadpool(registry.summaries)  # reads the store's directory
+    return JSONAnswer({"robots": summaries,
                        "unavailable": registry.catalog_failures})
 
 

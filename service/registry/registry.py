@@ -47,6 +47,8 @@ class Registry:
         self._bases: dict[str, Robot] = {}  # catalog robots not served here, bases of reductions
         self.ready = False
         self._lock = threading.Lock()
+        self._summaries: dict[str, dict[str, Any]] = {}  # stored id → summary (read once)
+        self._summaries_lock = threading.Lock()
 
     # -- start-up -------------------------------------------------------------------------
 
@@ -136,13 +138,26 @@ class Registry:
         return robot
 
     def summaries(self) -> list[dict[str, Any]]:
+        """Every served robot's summary: catalog first, then stored models by id. Blocking
+        (it lists the store's directory): call it off the event loop."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
         out = [r.summary() for r in self.catalog.values()]
-        for model_id in self.store.ids():
-            record = self.store.read(model_id)
-            if record is not None:
-                out.append(record["summary"])
+        ids = self.store.ids()
+        with self._summaries_lock:
+            for model_id in ids:
+                # Records never change under their id (it is derived from their content), so
+                # each is read once; the listing still sees other replicas' uploads and
+                # deletions.
+                summary = self._summaries.get(model_id)
+                if summary is None:
+                    record = self.store.read(model_id)
+                    if record is None:
+                        continue
+                    summary = self._summaries[model_id] = record["summary"]
+                out.append(summary)
+            for gone in set(self._summaries).difference(ids):
+                del self._summaries[gone]
         return out
 
     # -- uploads and deletions ------------------------------------------------------------

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 import os
-import queue
 import threading
+import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
+
+from service.registry import data_pool
 
 # Pinocchio joint model short names → the joint type robodyn reports.
 _JOINT_TYPES = {
@@ -71,8 +73,6 @@ class Robot:
     default_configuration: np.ndarray | None = None
     warnings: list[dict[str, str]] = field(default_factory=list)
     origin: dict[str, Any] | None = None  # a reduced model: {"robot", "locked_joints"}
-    _pool: queue.SimpleQueue = field(default_factory=queue.SimpleQueue, repr=False)
-    _model_pool: Any = field(default=None, repr=False)
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
@@ -87,6 +87,9 @@ class Robot:
                     (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
         self.total_mass = float(pin.computeTotalMass(self.model))
         self._info: dict[str, Any] | None = None
+        self._pool = data_pool.Pool(data_pool.BUDGET, self.nv)
+        # a robot that is gone (deleted upload) gives its idle Datas back to the budget
+        weakref.finalize(self, self._pool.close)
 
     @property
     def nq(self) -> int:
@@ -98,25 +101,31 @@ class Robot:
 
     @contextmanager
     def data(self) -> Iterator[Any]:
-        """Borrow a `pin.Data` for the duration of one computation (thread-safe)."""
-        try:
-            data = self._pool.get_nowait()
-        except queue.Empty:
+        """Borrow a `pin.Data` for the duration of one computation (thread-safe). Idle Datas
+        are kept within the process's budget (`service.registry.data_pool`)."""
+        data = self._pool.take()
+        if data is None:
             data = self.model.createData()
         try:
             yield data
         finally:
-            self._pool.put(data)
+            self._pool.give(data)
 
     @contextmanager
     def model_pool(self) -> Iterator[tuple[Any, int]]:
         """Borrow this robot's `pin.ModelPool` (one Data per OpenMP thread) and the thread
         count, for Pinocchio's parallel batch algorithms. One batch at a time per robot: a
-        batch already uses every core, and a pool's Datas must not be shared."""
+        batch already uses every core, and a pool's Datas must not be shared. The ModelPool is
+        kept for the next batch within the Data budget."""
         with self._model_pool_lock:
-            if self._model_pool is None:
-                self._model_pool = pin.ModelPool(self.model, PARALLEL_THREADS)
-            yield self._model_pool, PARALLEL_THREADS
+            pool = self._pool.model_pool
+            if pool is None:
+                pool = pin.ModelPool(self.model, PARALLEL_THREADS)
+            try:
+                yield pool, PARALLEL_THREADS
+            finally:
+                data_pool.BUDGET.keep_model_pool(self._pool, pool,
+                                                 PARALLEL_THREADS * self._pool.size)
 
     def summary(self) -> dict[str, Any]:
         return {"id": self.id, "name": self.name, "source": self.source, "nq": self.nq,

@@ -252,7 +252,9 @@ CASES: list[Case] = [
          "is used twice"),
     Case("body-over-the-upload-limit", "huge", _u(arm(link_extra=" " * (4 * 1024 * 1024))),
          413, "payload_too_large", "ROBODYN_MAX_UPLOAD_BYTES"),
-    Case("json-nesting-bomb", "huge", b"[" * 200_000, 400, "bad_request"),
+    Case("json-nesting-bomb", "huge", b"[" * 200_000, 422, "validation_error", "nested too deeply"),
+    Case("json-body-not-utf8", "unicode", b'{"urdf": "\xff\xfe"}', 422, "validation_error",
+         "not UTF-8"),
     # -- unicode and odd encodings ---------------------------------------------------------------
     Case("unicode-names", "unicode",
          _u(robot("<link name='基座'/>", body_link("腕 💪"), joint("関節 ✓", "基座", "腕 💪"),

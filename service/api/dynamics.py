@@ -9,8 +9,10 @@ the very same models (`openapi_routes`), and failures are the same problem+json 
 
 # No `from __future__ import annotations`: FastAPI must see the closures' request models.
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
+import numpy as np
 from fastapi import APIRouter, Request, Response
 from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ValidationError, create_model
@@ -27,13 +29,14 @@ from service.api import (
     schemas_options,
     schemas_simulation,
 )
-from service.api.answers import JSONAnswer
+from service.api.answers import JSONAnswer, json_bytes
 from service.api.deps import check_api_key_for_all
 from service.api.problems import problem
 from service.api.schemas import Problem
 from service.errors import InvalidInput, Overloaded
 from service.states import prepare
 
+T = TypeVar("T")
 PREFIX = "/v1/robots"
 REQUESTS: dict[str, type[BaseModel]] = {
     path: schemas_options.with_joint_names(model) for path, model in {
@@ -43,8 +46,11 @@ ANSWERS: dict[str, type[BaseModel]] = {
     **schemas_dynamics.ANSWERS, **schemas_options.ANSWERS, **schemas_operational.ANSWERS,
     **schemas_derivatives.ANSWERS, **schemas_simulation.ANSWERS}
 
-# Batches bigger than this (states × nv) run in a worker thread, not on the event loop.
+# Batches bigger than this (states × nv) are validated, computed and encoded in a worker thread,
+# and JSON bodies bigger than INLINE_BODY_BYTES parsed there: on the event loop they would
+# stall every other request (a 10,000-state Talos JSON body takes ~0.25 s to parse).
 INLINE_WORK = 2_000
+INLINE_BODY_BYTES = 64 * 1024
 
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
     404: {"model": Problem, "description": "robot_not_found"},
@@ -55,18 +61,26 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 }
 
 
-async def _off_loop(request: HTTPConnection, robot: Any, quantity: dynamics.Quantity, states: Any,
-                    options: dict[str, Any]) -> Any:
-    """Run a large batch in a worker thread; shed load (503 overloaded) past the queue limit."""
+async def _off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) -> T:
+    """Run `fn(*args)` (a large batch's work) in a worker thread; shed load (503 overloaded)
+    past `max_pending_batches` in flight."""
     state = request.app.state
     if state.batches_in_flight >= state.settings.max_pending_batches:
         raise Overloaded(f"{state.batches_in_flight} large batches are already being computed; "
                          "retry shortly")
     state.batches_in_flight += 1  # only touched on the event loop: no lock needed
     try:
-        return await run_in_threadpool(dynamics.run, robot, quantity, states, options)
+        return await run_in_threadpool(fn, *args)
     finally:
         state.batches_in_flight -= 1
+
+
+def _rows(arrays: dict[str, Any]) -> int:
+    """The number of states of the inputs, cheaply (before validation; 1 when unsure)."""
+    q = arrays.get("q")
+    if isinstance(q, np.ndarray):
+        return q.shape[0] if q.ndim == 2 else 1
+    return len(q) if isinstance(q, list) and q and isinstance(q[0], list) else 1
 
 
 def _invalid(exc: ValidationError) -> RequestValidationError:
@@ -139,20 +153,32 @@ class Endpoint:
         settings = request.app.state.settings
         for setting in self.quantity.settings:
             options[setting] = getattr(settings, setting)
-        states = prepare(robot, arrays, settings.max_batch)
         started = time.perf_counter()
         work = self.quantity.work
-        if (states.count * robot.nv if work is None else work(robot, states, options)
-                ) <= INLINE_WORK:
-            result = dynamics.run(robot, self.quantity, states, options)
+        large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
+        if large:
+            states, result = await _off_loop(request, self._prepare_and_run, robot, arrays,
+                                             options, settings.max_batch)
         else:
-            result = await _off_loop(request, robot, self.quantity, states, options)
+            states = prepare(robot, arrays, settings.max_batch)
+            large = (states.count * robot.nv if work is None else work(robot, states, options)
+                     ) > INLINE_WORK
+            if large:
+                result = await _off_loop(request, dynamics.run, robot, self.quantity, states,
+                                         options)
+            else:
+                result = dynamics.run(robot, self.quantity, states, options)
         request.scope["robodyn"] = {
             "robot": robot.id, "quantity": self.quantity.path, "batch_size": states.count,
-            "compute_seconds": time.perf_counter() - started}
+            "compute_seconds": time.perf_counter() - started, "large": large}
         if named:
             result = joint_names.by_name(robot, result, self.quantity.joint_answers)
         return result
+
+    def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
+                         max_batch: int) -> tuple[Any, dict[str, Any]]:
+        states = prepare(robot, arrays, max_batch)
+        return states, dynamics.run(robot, self.quantity, states, options)
 
     async def answer(self, request: Request) -> Response:
         request.scope["route"] = self.route  # FastAPI's router records only its own routes
@@ -166,12 +192,19 @@ class Endpoint:
             return problem("unsupported_media_type", "Unsupported media type",
                            "send the body as JSON ('Content-Type: application/json') or in "
                            f"the binary form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+        elif len(body) > INLINE_BODY_BYTES:
+            arrays, options = await _off_loop(request, self.parse_json, body)
         else:
             arrays, options = self.parse_json(body)
         result = await self.compute(request, robot, arrays, options)
-        if binary.BINARY_MEDIA_TYPE in request.headers.get("accept", ""):
-            return Response(binary.encode(result), media_type=binary.BINARY_MEDIA_TYPE)
-        return JSONAnswer(result)
+        as_binary = binary.BINARY_MEDIA_TYPE in request.headers.get("accept", "")
+        encode = binary.encode if as_binary else json_bytes
+        media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
+        if request.scope["robodyn"]["large"]:
+            content = await _off_loop(request, encode, result)  # ~0.1 s for 10k mass matrices
+        else:
+            content = encode(result)
+        return Response(content, media_type=media_type)
 
 
 # Built once: an endpoint holds no per-app state (it reads the app from each request).

@@ -4,7 +4,7 @@ body-size limit.
 
 What a route tells the middleware: a dynamics route puts
 `scope["robodyn"] = {"robot": id, "quantity": path name, "batch_size": N (1 for one state),
-"compute_seconds": float}` into the ASGI scope before it answers. The middleware reads it when
+"compute_seconds": float, "large": computed in a worker thread}` into the ASGI scope before it answers. The middleware reads it when
 the response starts (for `Server-Timing: compute;dur=<ms>`) and when the request ends (for the
 log line and the compute-time histogram).
 

@@ -60,3 +60,30 @@ def test_large_batch_runs_off_the_event_loop_and_matches(api, catalog_registry):
     data = model.createData()
     expected = np.stack([pin.rnea(model, data, *s) for s in states])
     np.testing.assert_array_equal(tau, expected)
+
+
+def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api, monkeypatch):
+    """A 10,000-state JSON body takes a quarter of a second to parse: parsing, validation,
+    computation and encoding of large batches run in worker threads (bounded by
+    max_pending_batches), small ones inline; the answers are the same."""
+    from service.api import answers
+    from service.api import dynamics as routes
+
+    calls: list[str] = []
+    original = routes._off_loop
+
+    async def recording(request, fn, *args):
+        calls.append(getattr(fn, "__name__", str(fn)))
+        return await original(request, fn, *args)
+
+    monkeypatch.setattr(routes, "_off_loop", recording)
+    rng = np.random.default_rng(4)
+    q = rng.uniform(-1, 1, (800, 6))
+    big = api.post("/v1/robots/ur5/mass-matrix", json={"q": q.tolist()})
+    assert big.status_code == 200 and len(big.request.content) > routes.INLINE_BODY_BYTES
+    assert calls == ["parse_json", "_prepare_and_run", answers.json_bytes.__name__]
+    calls.clear()
+    small = api.post("/v1/robots/ur5/mass-matrix", json={"q": q[:3].tolist()})
+    assert calls == [] and small.status_code == 200
+    np.testing.assert_array_equal(np.array(small.json()["mass_matrix"]),
+                                  np.array(big.json()["mass_matrix"])[:3])

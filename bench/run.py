@@ -10,6 +10,7 @@ comparison of issue 4 several times, alternating the two sides, and prints one t
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import platform
 import re
@@ -19,7 +20,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import multiprocessing
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager

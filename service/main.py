@@ -50,6 +50,11 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     options: dict[str, Any] = {}
     if "strict_content_type" in inspect.signature(FastAPI.__init__).parameters:
         options["strict_content_type"] = False  # a JSON body is read as JSON whatever its label
+    if "telemetry" in inspect.signature(FastAPI.__init__).parameters:
+        # FastAPI's OpenTelemetry layer asked the environment and the global providers on
+        # every request (~20 µs, a tenth of a single-state answer); robodyn exports its own
+        # Prometheus metrics (service/api/observability.py).
+        options["telemetry"] = {"tracing": False, "metrics": False, "logs": False}
     # /docs is served by service.api.pages from local assets (FastAPI's default loads a CDN);
     # ReDoc is off, as its page would load its script and fonts from the internet.
     app = FastAPI(title="robodyn", version=__version__, description=DESCRIPTION,

@@ -4,9 +4,9 @@ body-size limit.
 
 What a route tells the middleware: a dynamics route puts
 `scope["robodyn"] = {"robot": id, "quantity": path name, "batch_size": N (1 for one state),
-"compute_seconds": float, "large": computed in a worker thread}` into the ASGI scope before it answers. The middleware reads it when
-the response starts (for `Server-Timing: compute;dur=<ms>`) and when the request ends (for the
-log line and the compute-time histogram).
+"compute_seconds": float, "large": computed in a worker thread}` into the ASGI scope before it
+answers. The middleware reads it when the response starts (for `Server-Timing:
+compute;dur=<ms>`) and when the request ends (for the log line and the compute-time histogram).
 
 Kept cheap, since a single-state answer takes tens of microseconds: metric children are cached
 per label set, the log line is built only when the `robodyn.access` logger is enabled and is

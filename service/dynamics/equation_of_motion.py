@@ -26,8 +26,11 @@ from service.states import States
 
 
 @functools.cache
-def _lower_triangle(n: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.tril_indices(n, -1)
+def _strict_lower_triangle(n: int) -> np.ndarray:
+    """The boolean mask of the entries below the diagonal of an n×n matrix."""
+    mask = np.tril(np.ones((n, n), dtype=bool), -1)
+    mask.flags.writeable = False
+    return mask
 
 
 def mass_matrix(robot: Robot, s: States) -> Results:
@@ -39,8 +42,7 @@ def mass_matrix(robot: Robot, s: States) -> Results:
         for i in range(q.shape[0]):
             out[i] = pin.crba(robot.model, data, q[i])
     # CRBA fills the upper triangle; the lower one is not guaranteed to be up to date.
-    rows, cols = _lower_triangle(robot.nv)
-    out[:, rows, cols] = out[:, cols, rows]
+    np.copyto(out, out.transpose(0, 2, 1), where=_strict_lower_triangle(robot.nv))
     return finite("mass-matrix", mass_matrix=out)
 
 

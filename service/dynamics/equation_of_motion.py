@@ -70,12 +70,16 @@ def coriolis(robot: Robot, s: States) -> Results:
 
 
 def nonlinear_effects(robot: Robot, s: States) -> Results:
-    """h(q, v) = C(q, v) v + g(q) (Pinocchio's nonlinear effects include gravity), (N, nv)."""
+    """h(q, v) = C(q, v) v + g(q) (Pinocchio's nonlinear effects include gravity), (N, nv).
+
+    Computed as RNEA with a = 0 (Pinocchio's `nonLinearEffects` up to rounding), the
+    algorithm `rneaInParallel` runs on large batches: a state gives the same bits either way."""
     q, v = s["q"], s["v"]
     out = np.empty((q.shape[0], robot.nv))
+    zero = np.zeros(robot.nv)
     with robot.data() as data:
         for i in range(q.shape[0]):
-            out[i] = pin.nonLinearEffects(robot.model, data, q[i], v[i])
+            out[i] = pin.rnea(robot.model, data, q[i], v[i], zero)
     return finite("nonlinear-effects", nonlinear_effects=out)
 
 
@@ -125,11 +129,13 @@ def forward_dynamics(robot: Robot, s: States, *,
 
 EQUATION_OF_MOTION = (
     Quantity("mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)"),
-    Quantity("gravity", ("q",), gravity, "Gravity vector g(q)", joint_answers=("gravity",)),
+    Quantity("gravity", ("q",), gravity, "Gravity vector g(q)", parallel=parallel.gravity,
+             joint_answers=("gravity",)),
     Quantity("coriolis", ("q", "v"), coriolis, "Coriolis matrix C(q, v) and forces C v",
              joint_answers=("coriolis_forces",)),
     Quantity("nonlinear-effects", ("q", "v"), nonlinear_effects,
-             "Nonlinear effects C(q, v) v + g(q)", joint_answers=("nonlinear_effects",)),
+             "Nonlinear effects C(q, v) v + g(q)", parallel=parallel.nonlinear_effects,
+             joint_answers=("nonlinear_effects",)),
     Quantity("inverse-dynamics", ("q", "v", "a"), inverse_dynamics,
              "Inverse dynamics τ = M a + C v + g (RNEA)", parallel=parallel.inverse_dynamics,
              joint_answers=("tau",)),

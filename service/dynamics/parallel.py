@@ -1,4 +1,5 @@
-"""Large batches of inverse and forward dynamics on every core (Pinocchio's OpenMP algorithms).
+"""Large batches on every core (Pinocchio's OpenMP algorithms): inverse and forward dynamics,
+and gravity and nonlinear effects as RNEA with zero accelerations (and velocities).
 
 `rneaInParallel` and `abaInParallel` take states as columns (nq × N, nv × N); the (N, n)
 row-major arrays of `States` are exactly that layout transposed, so no copy is made. They hold
@@ -7,7 +8,9 @@ milliseconds): between chunks the event loop gets the interpreter back and singl
 requests stay responsive. OpenMP threads wait passively between calls (`OMP_WAIT_POLICY`, set
 in `service/__init__.py`), so they do not spin on the cores the event loop needs.
 Each state is computed by the same algorithm as the serial path, so the answers are bit for
-bit the same as `pin.rnea` / `pin.aba` state by state.
+bit the same as `pin.rnea` / `pin.aba` state by state (the serial gravity, Pinocchio's
+`computeGeneralizedGravity`, equals `rnea(q, 0, 0)` bit for bit: checked on every catalog
+robot by the tests; the serial nonlinear effects are `rnea(q, v, 0)`).
 """
 
 from __future__ import annotations
@@ -51,3 +54,18 @@ def forward_dynamics(robot: Robot, s: States) -> Results:
     a = _in_chunks(robot, pin.abaInParallel, s["q"], s["v"], s["tau"])
     return finite("forward-dynamics", a=a)
 
+
+
+def gravity(robot: Robot, s: States) -> Results:
+    """g(q) = RNEA(q, 0, 0) for N states on every core, (N, nv)."""
+    q = s["q"]
+    zeros = np.zeros((q.shape[0], robot.nv))
+    return finite("gravity", gravity=_in_chunks(robot, pin.rneaInParallel, q, zeros, zeros))
+
+
+def nonlinear_effects(robot: Robot, s: States) -> Results:
+    """h(q, v) = RNEA(q, v, 0) for N states on every core, (N, nv)."""
+    q, v = s["q"], s["v"]
+    zeros = np.zeros((q.shape[0], robot.nv))
+    return finite("nonlinear-effects",
+                  nonlinear_effects=_in_chunks(robot, pin.rneaInParallel, q, v, zeros))

@@ -87,3 +87,43 @@ def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api
     assert calls == [] and small.status_code == 200
     np.testing.assert_array_equal(np.array(small.json()["mass_matrix"]),
                                   np.array(big.json()["mass_matrix"])[:3])
+
+
+@pytest.mark.parametrize("quantity", ["gravity", "nonlinear-effects", "inverse-dynamics",
+                                      "forward-dynamics"])
+@pytest.mark.parametrize("robot", ["talos", "solo12", "double_pendulum_continuous"])
+def test_parallel_batches_give_the_bits_of_single_states(api, catalog_registry, robot,
+                                                         quantity):
+    """Batches of 64 states or more run on every core (rneaInParallel / abaInParallel); each
+    state of such a batch is bit for bit its single-state answer."""
+    from service.dynamics import QUANTITIES
+
+    assert QUANTITIES[quantity].parallel is not None
+    model = catalog_registry.catalog[robot].model
+    rng = np.random.default_rng(11)
+    states = [random_state(model, rng) for _ in range(QUANTITIES[quantity].parallel_from + 6)]
+    qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
+    batch = api.post(f"/v1/robots/{robot}/{quantity}",
+                     json=_body(INPUTS[quantity], qs, vs, as_)).json()
+    (key,) = batch
+    for i in (0, 17, len(states) - 1):
+        single = api.post(f"/v1/robots/{robot}/{quantity}",
+                          json=_body(INPUTS[quantity], qs[i], vs[i], as_[i])).json()
+        np.testing.assert_array_equal(np.asarray(batch[key])[i], np.asarray(single[key]))
+
+
+def test_generalized_gravity_is_rnea_at_rest_bit_for_bit_on_every_catalog_robot(
+        catalog_registry):
+    """Why gravity batches may use rneaInParallel(q, 0, 0): Pinocchio's
+    computeGeneralizedGravity gives exactly the same bits as rnea(q, 0, 0)."""
+    import pinocchio as pin
+
+    rng = np.random.default_rng(5)
+    for name, robot in catalog_registry.catalog.items():
+        model = robot.model
+        data, zero = model.createData(), np.zeros(model.nv)
+        for _ in range(3):
+            q, _, _ = random_state(model, rng)
+            np.testing.assert_array_equal(pin.computeGeneralizedGravity(model, data, q).copy(),
+                                          pin.rnea(model, data, q, zero, zero).copy(),
+                                          err_msg=name)

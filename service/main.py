@@ -15,6 +15,7 @@ from service import __version__
 from service.api import dynamics as dynamics_routes
 from service.api import health, pages, robots, stream
 from service.api.deps import require_api_key_for_all
+from service.api.fast_path import DynamicsFastPath
 from service.api.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
 from service.api.openapi_problems import problem_openapi
 from service.api.problems import install_problem_handlers
@@ -75,6 +76,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     # The dynamics routes are the hot path: they are matched first.
     app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
     app.include_router(pages.router)
+    app.add_middleware(DynamicsFastPath)  # innermost: after the body limit and observability
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
                        upload_limit=settings.max_upload_bytes)
     app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,

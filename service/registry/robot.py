@@ -76,6 +76,8 @@ class Robot:
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
+        self.nq: int = int(self.model.nq)  # plain attributes: read on every request
+        self.nv: int = int(self.model.nv)
         self.unit_joints: list[tuple[str, int, int]] = []  # (joint name, q start, q end)
         self.joint_types: dict[str, str] = {}
         for jid in range(1, self.model.njoints):
@@ -91,25 +93,12 @@ class Robot:
         # a robot that is gone (deleted upload) gives its idle Datas back to the budget
         weakref.finalize(self, self._pool.close)
 
-    @property
-    def nq(self) -> int:
-        return int(self.model.nq)
 
-    @property
-    def nv(self) -> int:
-        return int(self.model.nv)
-
-    @contextmanager
-    def data(self) -> Iterator[Any]:
-        """Borrow a `pin.Data` for the duration of one computation (thread-safe). Idle Datas
-        are kept within the process's budget (`service.registry.data_pool`)."""
-        data = self._pool.take()
-        if data is None:
-            data = self.model.createData()
-        try:
-            yield data
-        finally:
-            self._pool.give(data)
+    def data(self) -> _BorrowedData:
+        """Borrow a `pin.Data` for the duration of one computation (thread-safe):
+        `with robot.data() as data: ...`. Idle Datas are kept within the process's budget
+        (`service.registry.data_pool`)."""
+        return _BorrowedData(self)
 
     @contextmanager
     def model_pool(self) -> Iterator[tuple[Any, int]]:
@@ -174,3 +163,21 @@ class Robot:
             if self.origin is not None:
                 self._info["reduced_from"] = self.origin
         return self._info
+
+
+class _BorrowedData:
+    """The context manager of `Robot.data` (a class: cheaper than a generator per request)."""
+
+    __slots__ = ("data", "robot")
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot = robot
+        self.data: Any = None
+
+    def __enter__(self) -> Any:
+        data = self.robot._pool.take()
+        self.data = self.robot.model.createData() if data is None else data
+        return self.data
+
+    def __exit__(self, *exc: object) -> None:
+        self.robot._pool.give(self.data)

@@ -80,7 +80,14 @@ def _rows(arrays: dict[str, Any]) -> int:
     q = arrays.get("q")
     if isinstance(q, np.ndarray):
         return q.shape[0] if q.ndim == 2 else 1
-    return len(q) if isinstance(q, list) and q and isinstance(q[0], list) else 1
+    return len(q) if isinstance(q, list) and q and isinstance(q[0], list | dict) else 1
+
+
+def _prepare(robot: Any, arrays: dict[str, Any], max_batch: int) -> Any:
+    """The validated `States` of the inputs; name-keyed ones become arrays first."""
+    if joint_names.any_named(arrays):  # a type check: plain arrays pay nothing measurable
+        arrays = joint_names.arrays_from_names(robot, arrays)
+    return prepare(robot, arrays, max_batch)
 
 
 def _invalid(exc: ValidationError) -> RequestValidationError:
@@ -147,8 +154,6 @@ class Endpoint:
         Name-keyed inputs become arrays first; with `"joint_names": true` the joint-space
         answers are keyed by joint name. Records what was computed in the ASGI scope
         (`scope["robodyn"]`) for logs and Server-Timing."""
-        if joint_names.any_named(arrays):  # a type check: plain arrays pay nothing measurable
-            arrays = joint_names.arrays_from_names(robot, arrays)
         named = options.pop("joint_names", False) if options else False
         settings = request.app.state.settings
         for setting in self.quantity.settings:
@@ -160,7 +165,7 @@ class Endpoint:
             states, result = await _off_loop(request, self._prepare_and_run, robot, arrays,
                                              options, settings.max_batch)
         else:
-            states = prepare(robot, arrays, settings.max_batch)
+            states = _prepare(robot, arrays, settings.max_batch)
             large = (states.count * robot.nv if work is None else work(robot, states, options)
                      ) > INLINE_WORK
             if large:
@@ -177,7 +182,7 @@ class Endpoint:
 
     def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
                          max_batch: int) -> tuple[Any, dict[str, Any]]:
-        states = prepare(robot, arrays, max_batch)
+        states = _prepare(robot, arrays, max_batch)
         return states, dynamics.run(robot, self.quantity, states, options)
 
     async def answer(self, request: Request) -> Response:

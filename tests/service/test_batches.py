@@ -127,3 +127,24 @@ def test_generalized_gravity_is_rnea_at_rest_bit_for_bit_on_every_catalog_robot(
             np.testing.assert_array_equal(pin.computeGeneralizedGravity(model, data, q).copy(),
                                           pin.rnea(model, data, q, zero, zero).copy(),
                                           err_msg=name)
+
+
+def test_large_name_keyed_batches_are_converted_off_the_event_loop(api, catalog_registry,
+                                                                   monkeypatch):
+    from service.api import dynamics as routes
+
+    calls: list[str] = []
+    original = routes._off_loop
+
+    async def recording(request, fn, *args):
+        calls.append(getattr(fn, "__name__", str(fn)))
+        return await original(request, fn, *args)
+
+    monkeypatch.setattr(routes, "_off_loop", recording)
+    names = [j["name"] for j in api.get("/v1/robots/ur5").json()["joints"] if j["nv"]]
+    q = np.random.default_rng(2).uniform(-1, 1, (400, 6))
+    named = [dict(zip(reversed(names), reversed(row.tolist()), strict=True)) for row in q]
+    r = api.post("/v1/robots/ur5/gravity", json={"q": named})
+    assert r.status_code == 200 and "_prepare_and_run" in calls
+    want = api.post("/v1/robots/ur5/gravity", json={"q": q.tolist()}).json()["gravity"]
+    np.testing.assert_array_equal(np.array(r.json()["gravity"]), np.array(want))

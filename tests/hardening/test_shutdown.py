@@ -3,6 +3,7 @@ finish with their full answers, refuses new connections, and the process exits c
 
 from __future__ import annotations
 
+import json
 import signal
 import threading
 import time
@@ -24,10 +25,13 @@ def test_sigterm_lets_in_flight_requests_finish(server_factory, tmp_path):
         results["upload"] = httpx.post(f"{server.base}/v1/robots",
                                        json={"urdf": chain(128, flat=True)}, timeout=60)
 
+    # the body is made before the clock starts: encoding it takes longer than the wait below
+    q = np.random.default_rng(1).uniform(-1, 1, (80_000, 6))  # about a second in flight
+    body = json.dumps({"q": q.tolist()}).encode()
+
     def batch() -> None:
-        q = np.random.default_rng(1).uniform(-1, 1, (20_000, 6)).tolist()
-        results["batch"] = httpx.post(f"{server.base}/v1/robots/ur5/mass-matrix",
-                                      json={"q": q}, timeout=60)
+        results["batch"] = httpx.post(f"{server.base}/v1/robots/ur5/mass-matrix", content=body,
+                                      headers={"content-type": "application/json"}, timeout=60)
 
     threads = [threading.Thread(target=upload), threading.Thread(target=batch)]
     for t in threads:
@@ -47,7 +51,7 @@ def test_sigterm_lets_in_flight_requests_finish(server_factory, tmp_path):
     robot_id = results["upload"].json()["id"]
     assert results["upload"].json()["nv"] == 128
     assert results["batch"].status_code == 200
-    assert np.asarray(results["batch"].json()["mass_matrix"]).shape == (20_000, 6, 6)
+    assert np.asarray(results["batch"].json()["mass_matrix"]).shape == (80_000, 6, 6)
     # the acknowledged upload is durable: a new server serves it
     again = server_factory(catalog="ur5").start()
     assert httpx.get(f"{again.base}/v1/robots/{robot_id}").status_code == 200

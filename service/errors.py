@@ -17,7 +17,8 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── PayloadTooLarge               payload_too_large
     ├── Unauthorized                  unauthorized
     ├── NotReady                      not_ready
-    └── Overloaded                    overloaded
+    ├── Overloaded                    overloaded
+    └── UnsupportedMediaType          unsupported_media_type
 """
 
 from __future__ import annotations
@@ -102,6 +103,11 @@ class Overloaded(RobodynError):
     title = "Overloaded"
 
 
+class UnsupportedMediaType(RobodynError):
+    code = "unsupported_media_type"
+    title = "Unsupported media type"
+
+
 ALL_ERRORS: tuple[type[RobodynError], ...] = (
     RobotNotFound,
     CatalogRobot,
@@ -116,4 +122,5 @@ ALL_ERRORS: tuple[type[RobodynError], ...] = (
     Unauthorized,
     NotReady,
     Overloaded,
+    UnsupportedMediaType,
 )

@@ -31,9 +31,8 @@ from service.api import (
 )
 from service.api.answers import JSONAnswer, json_bytes
 from service.api.deps import check_api_key_for_all
-from service.api.problems import problem
 from service.api.schemas import Problem
-from service.errors import InvalidInput, Overloaded
+from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
 from service.states import prepare
 
 T = TypeVar("T")
@@ -185,30 +184,37 @@ class Endpoint:
         states = _prepare(robot, arrays, max_batch)
         return states, dynamics.run(robot, self.quantity, states, options)
 
-    async def answer(self, request: Request) -> Response:
-        request.scope["route"] = self.route  # FastAPI's router records only its own routes
+    async def handle(self, request: HTTPConnection, body: bytes) -> tuple[bytes, str]:
+        """The answer to `body` (JSON or binary) as (content, media type); domain errors and
+        validation errors are raised for the app's exception handlers."""
         check_api_key_for_all(request)
         robot = request.app.state.registry.get(request.path_params["robot_id"])
-        content_type = request.headers.get("content-type", "")
-        body = await request.body()
+        headers = request.headers
+        content_type = headers.get("content-type", "")
         if content_type.startswith(binary.BINARY_MEDIA_TYPE):
             arrays, options = self.parse_binary(*binary.decode(body))
         elif content_type and "json" not in content_type.split(";")[0]:
-            return problem("unsupported_media_type", "Unsupported media type",
-                           "send the body as JSON ('Content-Type: application/json') or in "
-                           f"the binary form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+            raise UnsupportedMediaType(
+                "send the body as JSON ('Content-Type: application/json') or in the binary "
+                f"form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
         elif len(body) > INLINE_BODY_BYTES:
             arrays, options = await _off_loop(request, self.parse_json, body)
         else:
             arrays, options = self.parse_json(body)
         result = await self.compute(request, robot, arrays, options)
-        as_binary = binary.BINARY_MEDIA_TYPE in request.headers.get("accept", "")
+        as_binary = binary.BINARY_MEDIA_TYPE in headers.get("accept", "")
         encode = binary.encode if as_binary else json_bytes
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
         if request.scope["robodyn"]["large"]:
             content = await _off_loop(request, encode, result)  # ~0.1 s for 10k mass matrices
         else:
             content = encode(result)
+        return content, media_type
+
+    async def answer(self, request: Request) -> Response:
+        """The Starlette endpoint (`service.api.fast_path` calls `handle` directly)."""
+        request.scope["route"] = self.route  # FastAPI's router records only its own routes
+        content, media_type = await self.handle(request, await request.body())
         return Response(content, media_type=media_type)
 
 

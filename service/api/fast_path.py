@@ -11,12 +11,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from starlette.requests import Request
+from starlette.requests import ClientDisconnect, HTTPConnection, Request
 from starlette.types import Receive, Scope, Send
 
 from service.api.dynamics import ENDPOINTS, PREFIX
 
 _START = PREFIX + "/"
+_MEDIA_TYPES = {"application/json": b"application/json"}
 
 
 class DynamicsFastPath:
@@ -33,17 +34,35 @@ class DynamicsFastPath:
                 endpoint = ENDPOINTS.get(quantity)
                 if endpoint is not None and robot_id:
                     scope["path_params"] = {"robot_id": robot_id}
-                    request = Request(scope, receive)
+                    scope["route"] = endpoint.route  # for the metrics and the access log
                     try:
-                        response = await endpoint.answer(request)
+                        content, media_type = await endpoint.handle(
+                            HTTPConnection(scope), await _body(receive))
                     except Exception as exc:
                         handler = _handler(scope["app"].exception_handlers, exc)
                         if handler is None:
                             raise  # the server-error middleware answers 500, as for any route
-                        response = await handler(request, exc)
-                    await response(scope, receive, send)
+                        response = await handler(Request(scope, receive), exc)
+                        await response(scope, receive, send)
+                        return
+                    await send({"type": "http.response.start", "status": 200, "headers": [
+                        (b"content-length", str(len(content)).encode()),
+                        (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode())]})
+                    await send({"type": "http.response.body", "body": content})
                     return
         await self.app(scope, receive, send)
+
+
+async def _body(receive: Receive) -> bytes:
+    """The whole request body (the body-limit middleware outside bounds its size)."""
+    chunks = []
+    while True:
+        message = await receive()
+        if message["type"] == "http.disconnect":
+            raise ClientDisconnect()
+        chunks.append(message.get("body", b""))
+        if not message.get("more_body", False):
+            return chunks[0] if len(chunks) == 1 else b"".join(chunks)
 
 
 def _handler(handlers: dict[Any, Any], exc: Exception) -> Any:

@@ -60,7 +60,7 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 }
 
 
-async def _off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) -> T:
+async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) -> T:
     """Run `fn(*args)` (a large batch's work) in a worker thread; shed load (503 overloaded)
     past `max_pending_batches` in flight."""
     state = request.app.state
@@ -161,14 +161,14 @@ class Endpoint:
         work = self.quantity.work
         large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
         if large:
-            states, result = await _off_loop(request, self._prepare_and_run, robot, arrays,
+            states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
                                              options, settings.max_batch)
         else:
             states = _prepare(robot, arrays, settings.max_batch)
             large = (states.count * robot.nv if work is None else work(robot, states, options)
                      ) > INLINE_WORK
             if large:
-                result = await _off_loop(request, dynamics.run, robot, self.quantity, states,
+                result = await off_loop(request, dynamics.run, robot, self.quantity, states,
                                          options)
             else:
                 result = dynamics.run(robot, self.quantity, states, options)
@@ -198,7 +198,7 @@ class Endpoint:
                 "send the body as JSON ('Content-Type: application/json') or in the binary "
                 f"form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
         elif len(body) > INLINE_BODY_BYTES:
-            arrays, options = await _off_loop(request, self.parse_json, body)
+            arrays, options = await off_loop(request, self.parse_json, body)
         else:
             arrays, options = self.parse_json(body)
         result = await self.compute(request, robot, arrays, options)
@@ -206,7 +206,7 @@ class Endpoint:
         encode = binary.encode if as_binary else json_bytes
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
         if request.scope["robodyn"]["large"]:
-            content = await _off_loop(request, encode, result)  # ~0.1 s for 10k mass matrices
+            content = await off_loop(request, encode, result)  # ~0.1 s for 10k mass matrices
         else:
             content = encode(result)
         return content, media_type

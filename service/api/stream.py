@@ -22,8 +22,9 @@ from starlette.routing import WebSocketRoute
 from starlette.websockets import WebSocket
 
 from service.api import binary
+from service.api.answers import json_bytes
 from service.api.deps import check_api_key_for_all
-from service.api.dynamics import ENDPOINTS, PREFIX, Endpoint
+from service.api.dynamics import ENDPOINTS, INLINE_BODY_BYTES, PREFIX, Endpoint, off_loop
 from service.api.problems import error_response, problem_body, validation_details
 from service.errors import InvalidInput, RobodynError
 
@@ -40,25 +41,40 @@ def _endpoint(quantity: Any) -> Endpoint:
     return endpoint
 
 
+def _parse_text(text: str) -> tuple[Endpoint, dict[str, Any], dict[str, Any]]:
+    """(endpoint, joint-space arrays, options) of a JSON text message."""
+    try:
+        body = orjson.loads(text)
+    except orjson.JSONDecodeError:
+        raise InvalidInput("the message is not valid JSON") from None
+    if not isinstance(body, dict):
+        raise InvalidInput("the message must be a JSON object with a 'quantity' member")
+    endpoint = _endpoint(body.pop("quantity", None))
+    return (endpoint, *endpoint.parse_object(body))
+
+
 async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) -> None:
+    """Answer one message. As on the HTTP routes, a large message is parsed, and a large
+    batch computed and encoded, in a worker thread: the event loop serves everyone."""
     data = message.get("bytes")
     if data is not None:
         fields, arrays = binary.decode(data)
         endpoint = _endpoint(fields.pop("quantity", None))
         arrays, options = endpoint.parse_binary(fields, arrays)
         result = await endpoint.compute(websocket, robot, arrays, options)
-        await websocket.send_bytes(binary.encode(result))
+        large = websocket.scope["robodyn"]["large"]
+        await websocket.send_bytes(await off_loop(websocket, binary.encode, result) if large
+                                   else binary.encode(result))
         return
-    try:
-        body = orjson.loads(message.get("text") or "")
-    except orjson.JSONDecodeError:
-        raise InvalidInput("the message is not valid JSON") from None
-    if not isinstance(body, dict):
-        raise InvalidInput("the message must be a JSON object with a 'quantity' member")
-    endpoint = _endpoint(body.pop("quantity", None))
-    arrays, options = endpoint.parse_object(body)
+    text = message.get("text") or ""
+    if len(text) > INLINE_BODY_BYTES:
+        endpoint, arrays, options = await off_loop(websocket, _parse_text, text)
+    else:
+        endpoint, arrays, options = _parse_text(text)
     result = await endpoint.compute(websocket, robot, arrays, options)
-    await websocket.send_text(orjson.dumps(result, option=orjson.OPT_SERIALIZE_NUMPY).decode())
+    large = websocket.scope["robodyn"]["large"]
+    answer = await off_loop(websocket, json_bytes, result) if large else json_bytes(result)
+    await websocket.send_text(answer.decode())
 
 
 async def stream(websocket: WebSocket) -> None:

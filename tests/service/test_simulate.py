@@ -195,14 +195,14 @@ def test_batch_of_initial_states_equals_single_rollouts(api, catalog_registry):
 def test_long_simulations_run_off_the_event_loop(api, monkeypatch):
     """The off-loop decision counts steps × nv (× 4 stages for rk4), not states × nv."""
     calls: list[str] = []
-    original = routes._off_loop
+    original = routes.off_loop
 
     async def recording(request, fn, *args):
         if fn is dynamics.run:  # not the answer's encoding, which follows a large computation
             calls.append(args[1].path)
         return await original(request, fn, *args)
 
-    monkeypatch.setattr(routes, "_off_loop", recording)
+    monkeypatch.setattr(routes, "off_loop", recording)
     body = {"q": [0.0] * 6, "v": [0.0] * 6, "dt": 1e-3}
     _simulate(api, "ur5", **body, steps=300)  # 300 × 6 = 1800 ≤ 2000: inline
     assert calls == []

@@ -73,3 +73,25 @@ def test_stream_of_an_unknown_robot_is_refused_with_a_404_problem(api):
     assert refused.value.status_code == 404
     assert refused.value.headers["content-type"].startswith("application/problem+json")
     assert refused.value.json()["code"] == "robot_not_found"
+
+
+def test_large_stream_messages_are_parsed_and_computed_off_the_event_loop(api, monkeypatch):
+    """A big JSON message on the stream is parsed, computed and encoded in worker threads, like
+    a big HTTP body; the answer equals the HTTP one."""
+    from service.api import stream as stream_module
+
+    calls: list[str] = []
+    original = stream_module.off_loop
+
+    async def recording(connection, fn, *args):
+        calls.append(getattr(fn, "__name__", str(fn)))
+        return await original(connection, fn, *args)
+
+    monkeypatch.setattr(stream_module, "off_loop", recording)
+    q = np.random.default_rng(9).uniform(-1, 1, (900, 6))
+    with api.websocket_connect("/v1/robots/ur5/stream") as ws:
+        ws.send_text(orjson.dumps({"quantity": "gravity", "q": q.tolist()}).decode())
+        answer = orjson.loads(ws.receive_text())
+    assert calls == ["_parse_text", "json_bytes"]
+    want = api.post("/v1/robots/ur5/gravity", json={"q": q.tolist()}).json()
+    np.testing.assert_array_equal(np.array(answer["gravity"]), np.array(want["gravity"]))

@@ -51,7 +51,7 @@ def decode(content: bytes) -> dict[str, Any]:
         raise ValueError("not a robodyn binary answer")
     header = json.loads(content[_PREFIX.size:_PREFIX.size + size])
     start = _PREFIX.size + size + (-(_PREFIX.size + size) % 8)
-    data = bytearray(content[start:])  # one copy: the answer's arrays are writable
+    data = bytearray(memoryview(content)[start:])  # one copy: the answer's arrays are writable
     out: dict[str, Any] = dict(header["fields"])
     for name, d in header["arrays"].items():
         count = math.prod(d["shape"])

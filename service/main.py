@@ -49,9 +49,10 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         yield
 
     options: dict[str, Any] = {}
-    if "strict_content_type" in inspect.signature(FastAPI.__init__).parameters:
+    accepted = inspect.signature(FastAPI.__init__).parameters  # options of newer FastAPI only
+    if "strict_content_type" in accepted:
         options["strict_content_type"] = False  # a JSON body is read as JSON whatever its label
-    if "telemetry" in inspect.signature(FastAPI.__init__).parameters:
+    if "telemetry" in accepted:
         # FastAPI's OpenTelemetry layer asked the environment and the global providers on
         # every request (~20 µs, a tenth of a single-state answer); robodyn exports its own
         # Prometheus metrics (service/api/observability.py).

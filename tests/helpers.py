@@ -82,3 +82,17 @@ def planar_arm_closed_form(l1, l2, m1, m2, q, v, g0=9.81):
     C = np.array([[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0]])
     g = np.array([(m1 + m2) * g0 * l1 * c1 + m2 * g0 * l2 * c12, m2 * g0 * l2 * c12])
     return M, C, g
+
+
+def record_off_loop(monkeypatch, module) -> list[str]:
+    """Wrap `module.off_loop` (what runs work in a worker thread) so that the names of the
+    functions sent there are recorded, in order, in the returned list."""
+    calls: list[str] = []
+    original = module.off_loop
+
+    async def recording(connection, fn, *args):
+        calls.append(getattr(fn, "__name__", str(fn)))
+        return await original(connection, fn, *args)
+
+    monkeypatch.setattr(module, "off_loop", recording)
+    return calls

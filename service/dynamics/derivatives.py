@@ -16,16 +16,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.quantity import Quantity, Results, finite, mirror_upper
 from service.registry.robot import Robot
 from service.states import States
-
-
-def _symmetric_from_upper(out: np.ndarray) -> None:
-    """Copy the upper triangle of each (nv, nv) matrix into its lower one, in place (Pinocchio
-    guarantees only the upper triangle of M and M⁻¹)."""
-    rows, cols = np.tril_indices(out.shape[-1], -1)
-    out[:, rows, cols] = out[:, cols, rows]
 
 
 def inverse_dynamics_derivatives(robot: Robot, s: States) -> Results:
@@ -37,7 +30,7 @@ def inverse_dynamics_derivatives(robot: Robot, s: States) -> Results:
     with robot.data() as data:
         for i in range(n):
             dq[i], dv[i], da[i] = pin.computeRNEADerivatives(robot.model, data, q[i], v[i], a[i])
-    _symmetric_from_upper(da)
+    mirror_upper(da)
     return finite("inverse-dynamics-derivatives", dtau_dq=dq, dtau_dv=dv, dtau_da=da)
 
 
@@ -51,7 +44,7 @@ def forward_dynamics_derivatives(robot: Robot, s: States) -> Results:
         for i in range(n):
             dq[i], dv[i], dtau[i] = pin.computeABADerivatives(robot.model, data, q[i], v[i],
                                                               tau[i])
-    _symmetric_from_upper(dtau)
+    mirror_upper(dtau)
     return finite("forward-dynamics-derivatives", da_dq=dq, da_dv=dv, da_dtau=dtau)
 
 

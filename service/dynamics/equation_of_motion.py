@@ -11,7 +11,6 @@ A non-finite result (e.g. forward dynamics of a robot with a massless moving bod
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -20,17 +19,9 @@ import pinocchio as pin
 
 from service.dynamics import parallel
 from service.dynamics.external_forces import ExternalForces
-from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.quantity import Quantity, Results, finite, mirror_upper
 from service.registry.robot import Robot
 from service.states import States
-
-
-@functools.cache
-def _strict_lower_triangle(n: int) -> np.ndarray:
-    """The boolean mask of the entries below the diagonal of an n×n matrix."""
-    mask = np.tril(np.ones((n, n), dtype=bool), -1)
-    mask.flags.writeable = False
-    return mask
 
 
 def mass_matrix(robot: Robot, s: States) -> Results:
@@ -42,7 +33,7 @@ def mass_matrix(robot: Robot, s: States) -> Results:
         for i in range(q.shape[0]):
             out[i] = pin.crba(robot.model, data, q[i])
     # CRBA fills the upper triangle; the lower one is not guaranteed to be up to date.
-    np.copyto(out, out.transpose(0, 2, 1), where=_strict_lower_triangle(robot.nv))
+    mirror_upper(out)
     return finite("mass-matrix", mass_matrix=out)
 
 

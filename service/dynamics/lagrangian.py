@@ -11,23 +11,17 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.quantity import Quantity, Results, finite, mirror_upper
 from service.registry.robot import Robot
 from service.states import States
 
 
-def symmetric_from_upper(A: np.ndarray) -> np.ndarray:
-    """A symmetric matrix from the upper triangle of A. Pinocchio's C++ CRBA and
-    computeMinverse fill only that triangle (the Python binding of computeMinverse in pin 4
-    returns it already mirrored; this keeps the answer symmetric whichever binding runs)."""
-    upper = np.triu(A)
-    return upper + np.triu(A, 1).T
-
-
 def minverse(robot: Robot, data: object, q: np.ndarray) -> np.ndarray:
     """M(q)⁻¹ at one configuration (nv×nv, symmetric) by Pinocchio's computeMinverse, an
-    extension of the articulated-body algorithm: M is never formed nor inverted numerically."""
-    return symmetric_from_upper(np.array(pin.computeMinverse(robot.model, data, q)))
+    extension of the articulated-body algorithm: M is never formed nor inverted numerically.
+    (The pin 4 binding returns it already mirrored; `mirror_upper` keeps the answer symmetric
+    whichever binding runs.)"""
+    return mirror_upper(np.array(pin.computeMinverse(robot.model, data, q)))
 
 
 def mass_matrix_inverse(robot: Robot, s: States) -> Results:

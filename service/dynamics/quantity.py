@@ -8,6 +8,7 @@ bit for bit, faster for large N (Pinocchio's OpenMP batch algorithms).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -47,6 +48,22 @@ class Quantity:
     joint_answers: tuple[str, ...] = ()
     settings: tuple[str, ...] = ()
     work: Work | None = None
+
+
+@functools.cache
+def _strictly_lower(n: int) -> np.ndarray:
+    """The boolean mask of the entries below the diagonal of an n×n matrix (read-only)."""
+    mask = np.tril(np.ones((n, n), dtype=bool), -1)
+    mask.flags.writeable = False
+    return mask
+
+
+def mirror_upper(out: np.ndarray) -> np.ndarray:
+    """Make every n×n matrix of `out` (shape (..., n, n)) symmetric from its upper triangle,
+    in place, and return it. Pinocchio's CRBA (M), computeMinverse (M⁻¹) and the derivative
+    algorithms (∂τ/∂a = M, ∂a/∂τ = M⁻¹) guarantee only that triangle."""
+    np.copyto(out, np.swapaxes(out, -1, -2), where=_strictly_lower(out.shape[-1]))
+    return out
 
 
 def finite(quantity: str, **results: np.ndarray) -> Results:

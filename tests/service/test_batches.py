@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.helpers import random_state
+from tests.helpers import random_state, record_off_loop
 
 INPUTS = {"mass-matrix": "q", "gravity": "q", "coriolis": "qv", "nonlinear-effects": "qv",
           "inverse-dynamics": "qva", "forward-dynamics": "qvt"}
@@ -69,14 +69,7 @@ def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api
     from service.api import answers
     from service.api import dynamics as routes
 
-    calls: list[str] = []
-    original = routes.off_loop
-
-    async def recording(request, fn, *args):
-        calls.append(getattr(fn, "__name__", str(fn)))
-        return await original(request, fn, *args)
-
-    monkeypatch.setattr(routes, "off_loop", recording)
+    calls = record_off_loop(monkeypatch, routes)
     rng = np.random.default_rng(4)
     q = rng.uniform(-1, 1, (800, 6))
     big = api.post("/v1/robots/ur5/mass-matrix", json={"q": q.tolist()})
@@ -133,14 +126,7 @@ def test_large_name_keyed_batches_are_converted_off_the_event_loop(api, catalog_
                                                                    monkeypatch):
     from service.api import dynamics as routes
 
-    calls: list[str] = []
-    original = routes.off_loop
-
-    async def recording(request, fn, *args):
-        calls.append(getattr(fn, "__name__", str(fn)))
-        return await original(request, fn, *args)
-
-    monkeypatch.setattr(routes, "off_loop", recording)
+    calls = record_off_loop(monkeypatch, routes)
     names = [j["name"] for j in api.get("/v1/robots/ur5").json()["joints"] if j["nv"]]
     q = np.random.default_rng(2).uniform(-1, 1, (400, 6))
     named = [dict(zip(reversed(names), reversed(row.tolist()), strict=True)) for row in q]

@@ -7,7 +7,7 @@ import orjson
 import pytest
 from starlette.testclient import WebSocketDenialResponse
 
-from tests.helpers import random_state
+from tests.helpers import random_state, record_off_loop
 from tests.service.test_binary import decode_answer, encode_request
 
 
@@ -80,14 +80,7 @@ def test_large_stream_messages_are_parsed_and_computed_off_the_event_loop(api, m
     a big HTTP body; the answer equals the HTTP one."""
     from service.api import stream as stream_module
 
-    calls: list[str] = []
-    original = stream_module.off_loop
-
-    async def recording(connection, fn, *args):
-        calls.append(getattr(fn, "__name__", str(fn)))
-        return await original(connection, fn, *args)
-
-    monkeypatch.setattr(stream_module, "off_loop", recording)
+    calls = record_off_loop(monkeypatch, stream_module)
     q = np.random.default_rng(9).uniform(-1, 1, (900, 6))
     with api.websocket_connect("/v1/robots/ur5/stream") as ws:
         ws.send_text(orjson.dumps({"quantity": "gravity", "q": q.tolist()}).decode())

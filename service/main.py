@@ -11,7 +11,7 @@ from typing import Any
 
 from fastapi import Depends, FastAPI
 
-from service import __version__
+from service import __version__, heap
 from service.api import dynamics as dynamics_routes
 from service.api import health, pages, robots, stream
 from service.api.deps import require_api_key_for_all
@@ -37,6 +37,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     settings = settings or Settings()
     injected = registry is not None
     data_pool.BUDGET.limit_bytes = settings.data_pool_mb * 1024 * 1024
+    heap.pad_heap_top(settings.heap_top_pad_mb)  # process-wide, like the Data budget
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),
                                     settings.build_timeout_s,
                                     limits=Limits(**settings.model_limits()),

@@ -61,8 +61,18 @@ class AsyncClient:
     async def _send(self, call: core.Call[T]) -> T:
         url, headers, content = self._settings.prepare(call)
         with transport.wrapped(call.method, url):
-            response = await self._http.request(call.method, url, content=content, headers=headers)
-        return core.read_response(call, response)
+            async with self._http.stream(call.method, url, content=content,
+                                        headers=headers) as response:
+                length = core.binary_length(response)
+                if length is None:
+                    await response.aread()
+                    received = None
+                else:  # a large binary answer: straight into one buffer
+                    receiver = core.Receiver(response, length)
+                    async for chunk in response.aiter_raw():
+                        receiver.add(chunk)
+                    received = receiver.finish()
+        return core.read_response(call, response, received)
 
     async def aclose(self) -> None:
         """Close the connection pool (not an injected `http_client`)."""

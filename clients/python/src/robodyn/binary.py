@@ -41,9 +41,10 @@ def encode(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = 
     return b"".join([_PREFIX.pack(_MAGIC, len(header)), header, padding, *chunks])
 
 
-def decode(content: bytes) -> dict[str, Any]:
-    """An answer as one mapping: its fields, and its arrays as writable float64 arrays.
-    Raises ValueError when the content is not in the binary form."""
+def decode(content: bytes | bytearray) -> dict[str, Any]:
+    """An answer as one mapping: its fields, and its arrays as writable float64 arrays (views
+    of `content` when it is a bytearray, else of one copy). Raises ValueError when the content
+    is not in the binary form."""
     if len(content) < _PREFIX.size:
         raise ValueError("binary answer shorter than its prefix")
     magic, size = _PREFIX.unpack_from(content)
@@ -51,7 +52,9 @@ def decode(content: bytes) -> dict[str, Any]:
         raise ValueError("not a robodyn binary answer")
     header = json.loads(content[_PREFIX.size:_PREFIX.size + size])
     start = _PREFIX.size + size + (-(_PREFIX.size + size) % 8)
-    data = bytearray(memoryview(content)[start:])  # one copy: the answer's arrays are writable
+    data: Any = memoryview(content)[start:]
+    if not isinstance(content, bytearray):
+        data = bytearray(data)  # one copy: the answer's arrays are writable
     out: dict[str, Any] = dict(header["fields"])
     for name, d in header["arrays"].items():
         count = math.prod(d["shape"])
@@ -60,3 +63,4 @@ def decode(content: bytes) -> dict[str, Any]:
         out[name] = np.frombuffer(data, dtype="<f8", count=count,
                                   offset=d["offset"]).reshape(d["shape"])
     return out
+

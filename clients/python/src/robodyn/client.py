@@ -60,9 +60,18 @@ class Client:
 
     def _send(self, call: core.Call[T]) -> T:
         url, headers, content = self._settings.prepare(call)
-        with transport.wrapped(call.method, url):
-            response = self._http.request(call.method, url, content=content, headers=headers)
-        return core.read_response(call, response)
+        with transport.wrapped(call.method, url), self._http.stream(
+                call.method, url, content=content, headers=headers) as response:
+            length = core.binary_length(response)
+            if length is None:
+                response.read()
+                received = None
+            else:  # a large binary answer: straight into one buffer
+                receiver = core.Receiver(response, length)
+                for chunk in response.iter_raw():
+                    receiver.add(chunk)
+                received = receiver.finish()
+        return core.read_response(call, response, received)
 
     def close(self) -> None:
         """Close the connection pool (not an injected `http_client`)."""

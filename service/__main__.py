@@ -27,10 +27,12 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as exc:
         parser.error(f"ROBODYN_LOG_LEVEL: {exc}")
     # log_config=None: uvicorn keeps our handlers; access_log=False: our middleware writes one
-    # structured line per request instead (service/api/observability.py).
+    # structured line per request instead (service/api/observability.py). The HTTP protocol is
+    # uvicorn's httptools one, sending each answer in one system call (service/http_protocol.py).
     uvicorn.run("service.main:app_from_environment", factory=True, host=args.host,
                 port=args.port, workers=args.workers, log_level=settings.log_level.lower(),
-                log_config=None, access_log=False, timeout_graceful_shutdown=30)
+                log_config=None, access_log=False, timeout_graceful_shutdown=30,
+                http="service.http_protocol:CoalescingHttpToolsProtocol")
 
 
 if __name__ == "__main__":

@@ -7,6 +7,8 @@ what was expected ("q has 5 entries; robot 'ur5' has nq = 6").
 
 from __future__ import annotations
 
+import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -44,6 +46,26 @@ class States:
         return value if self.batched else value[0]
 
 
+_SMALL = 4096
+# A NaN from all_finite's dot product is its answer, not a mishap worth a warning.
+warnings.filterwarnings("ignore", "invalid value encountered in dot", RuntimeWarning,
+                        module=__name__)
+_ZEROS = np.zeros(_SMALL)
+_ZEROS.flags.writeable = False
+
+
+def all_finite(values: np.ndarray) -> bool:
+    """Whether every entry of a float64 array is finite (no NaN, no ±inf).
+
+    Small arrays (single states, one matrix) take the dot product with zeros, which is NaN
+    exactly when an entry is NaN or infinite (x·0 = 0 for every finite x, so no overflow):
+    one call of about 0.5 µs instead of `np.isfinite(values).all()`'s 1.8 µs."""
+    if values.size <= _SMALL:
+        flat = values.reshape(-1)
+        return math.isfinite(flat.dot(_ZEROS[:flat.size]))
+    return bool(np.isfinite(values).all())
+
+
 def _as_array(name: str, value: Any) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=np.float64)
@@ -53,7 +75,7 @@ def _as_array(name: str, value: Any) -> np.ndarray:
     if arr.ndim not in (1, 2):
         raise InvalidInput(f"{name} must be 1-D (one state) or 2-D (a batch), "
                            f"not {arr.ndim}-D")
-    if not np.isfinite(arr).all():
+    if not all_finite(arr):
         raise InvalidInput(f"{name} contains a non-finite number (NaN or infinity)")
     return arr
 

@@ -89,6 +89,18 @@ def _prepare(robot: Any, arrays: dict[str, Any], max_batch: int) -> Any:
     return prepare(robot, arrays, max_batch)
 
 
+def _media_types(headers: list[tuple[bytes, bytes]]) -> tuple[str, str]:
+    """(Content-Type, Accept) of raw ASGI headers, "" where absent: one pass over the list
+    (Starlette's `Headers.get` scans it once per name)."""
+    content_type = accept = None
+    for name, value in headers:
+        if name == b"content-type" and content_type is None:  # the first one, as Starlette
+            content_type = value.decode("latin-1").lower()  # media types ignore case
+        elif name == b"accept" and accept is None:
+            accept = value.decode("latin-1").lower()
+    return content_type or "", accept or ""
+
+
 def _invalid(exc: ValidationError) -> RequestValidationError:
     return RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in exc.errors()])
 
@@ -189,8 +201,7 @@ class Endpoint:
         validation errors are raised for the app's exception handlers."""
         check_api_key_for_all(request)
         robot = request.app.state.registry.get(request.path_params["robot_id"])
-        headers = request.headers
-        content_type = headers.get("content-type", "")
+        content_type, accept = _media_types(request.scope["headers"])
         if content_type.startswith(binary.BINARY_MEDIA_TYPE):
             arrays, options = self.parse_binary(*binary.decode(body))
         elif content_type and "json" not in content_type.split(";")[0]:
@@ -202,7 +213,7 @@ class Endpoint:
         else:
             arrays, options = self.parse_json(body)
         result = await self.compute(request, robot, arrays, options)
-        as_binary = binary.BINARY_MEDIA_TYPE in headers.get("accept", "")
+        as_binary = binary.BINARY_MEDIA_TYPE in accept
         encode = binary.encode if as_binary else json_bytes
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
         if request.scope["robodyn"]["large"]:

@@ -17,7 +17,7 @@ import numpy as np
 
 from service.errors import NonFiniteResult
 from service.registry.robot import Robot
-from service.states import States
+from service.states import States, all_finite
 
 Results = dict[str, np.ndarray]
 Compute = Callable[..., Results]
@@ -69,7 +69,7 @@ def mirror_upper(out: np.ndarray) -> np.ndarray:
 def finite(quantity: str, **results: np.ndarray) -> Results:
     """Return `results`, or raise NonFiniteResult naming the first non-finite one."""
     for name, value in results.items():
-        if not np.isfinite(value).all():
+        if not all_finite(value):
             raise NonFiniteResult(f"{quantity}: the computed {name} is not finite for these "
                                   "inputs (is a moving body massless, or an input extreme?)")
     return results

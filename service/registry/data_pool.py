@@ -93,6 +93,8 @@ class Budget:
     def _make_room(self, size: int, keep: Pool) -> bool:
         """Drop idle Datas and ModelPools of other robots, least recently used first, until
         `size` more bytes fit. Called with the lock held."""
+        if self.idle_bytes + size <= self.limit_bytes:
+            return True  # the usual case: no list of robots to walk
         if size > self.limit_bytes:
             return False  # would never fit: leave the others alone
         for other in list(self._recent):

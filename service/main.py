@@ -37,7 +37,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     settings = settings or Settings()
     injected = registry is not None
     data_pool.BUDGET.limit_bytes = settings.data_pool_mb * 1024 * 1024
-    heap.pad_heap_top(settings.heap_top_pad_mb)  # process-wide, like the Data budget
+    heap.retain_freed_memory(settings.heap_retain_mb)  # process-wide, like the Data budget
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),
                                     settings.build_timeout_s,
                                     limits=Limits(**settings.model_limits()),

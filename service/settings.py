@@ -52,10 +52,11 @@ class Settings(BaseSettings):
         1024, ge=0, description="Memory kept for idle Pinocchio Data between computations, "
         "over all robots, in MB (a Data takes about 80·nv³ bytes; the whole catalog needs "
         "about 220 MB). Beyond it, the least recently used robots create theirs anew.")
-    heap_top_pad_mb: int = Field(
-        16, ge=0, le=1024, description="Free memory each process keeps at the top of its C heap "
-        "(glibc M_TOP_PAD), in MB: large request bodies then arrive about 4x faster (no page "
-        "faults from trimming and regrowing the heap). 0 keeps the C library's default.")
+    heap_retain_mb: int = Field(
+        64, ge=0, le=4096, description="Freed memory each process keeps in its C heap for the "
+        "next large request, in MB (glibc only): large batches then skip re-faulting fresh "
+        "pages (10,000 Talos states about 10% faster end to end). 0 keeps the C library's "
+        "defaults (memory handed back sooner).")
     build_timeout_s: float = Field(
         30.0, gt=0, description="Wall-clock limit for building an uploaded model, in seconds."
     )

@@ -30,6 +30,9 @@ class FakeTransport:
     def is_closing(self) -> bool:
         return self.closed
 
+    def writelines(self, chunks: list[bytes]) -> None:
+        self.write(b"".join(chunks))  # as asyncio's default: one write
+
     def get_extra_info(self, name: str) -> Any:
         return f"info:{name}"
 

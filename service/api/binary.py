@@ -38,8 +38,8 @@ def _bad(detail: str) -> InvalidInput:
     return InvalidInput(f"binary body: {detail} (format: docs/binary-format.md)")
 
 
-def decode(body: bytes) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Split a binary body into its JSON `fields` and its arrays (read-only views, no copy)."""
+def decode(body: bytes | bytearray) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Split a binary body into its JSON `fields` and its arrays (views of the body, no copy)."""
     if len(body) < _PREFIX.size:
         raise _bad("shorter than its 8-byte prefix")
     magic, header_size = _PREFIX.unpack_from(body)

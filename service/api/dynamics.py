@@ -120,7 +120,8 @@ class Endpoint:
         self.options_model = create_model(  # the non-array fields, for binary bodies
             f"{self.model.__name__}Options", __config__=self.model.model_config, **fields)
 
-    def parse_json(self, body: bytes | str) -> tuple[dict[str, Any], dict[str, Any]]:
+    def parse_json(self, body: bytes | bytearray | str
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
         """(joint-space arrays, options) of a JSON body."""
         try:
             parsed = self.model.model_validate_json(body)
@@ -196,7 +197,8 @@ class Endpoint:
         states = _prepare(robot, arrays, max_batch)
         return states, dynamics.run(robot, self.quantity, states, options)
 
-    async def handle(self, request: HTTPConnection, body: bytes) -> tuple[bytes, str]:
+    async def handle(self, request: HTTPConnection, body: bytes | bytearray
+                     ) -> tuple[bytes, str]:
         """The answer to `body` (JSON or binary) as (content, media type); domain errors and
         validation errors are raised for the app's exception handlers."""
         check_api_key_for_all(request)

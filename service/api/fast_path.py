@@ -12,9 +12,10 @@ from __future__ import annotations
 from typing import Any
 
 from starlette.requests import ClientDisconnect, HTTPConnection, Request
-from starlette.types import Receive, Scope, Send
+from starlette.types import Message, Receive, Scope, Send
 
 from service.api.dynamics import ENDPOINTS, PREFIX
+from service.errors import InvalidInput
 
 _START = PREFIX + "/"
 _MEDIA_TYPES = {"application/json": b"application/json"}
@@ -37,7 +38,7 @@ class DynamicsFastPath:
                     scope["route"] = endpoint.route  # for the metrics and the access log
                     try:
                         content, media_type = await endpoint.handle(
-                            HTTPConnection(scope), await _body(receive))
+                            HTTPConnection(scope), await _body(scope, receive))
                     except Exception as exc:
                         handler = _handler(scope["app"].exception_handlers, exc)
                         if handler is None:
@@ -53,16 +54,47 @@ class DynamicsFastPath:
         await self.app(scope, receive, send)
 
 
-async def _body(receive: Receive) -> bytes:
-    """The whole request body (the body-limit middleware outside bounds its size)."""
-    chunks = []
+async def _body(scope: Scope, receive: Receive) -> bytes | bytearray:
+    """The whole request body (the body-limit middleware outside bounds its size). A body that
+    comes in several messages is copied, as it arrives, into one buffer of its Content-Length:
+    no join of megabytes at the end, while the client waits."""
+    message = await receive()
+    chunk = _chunk(message)
+    if not message.get("more_body", False):
+        return chunk
+    length = _content_length(scope)
+    if length is None or length < len(chunk):
+        chunks = [chunk]
+        while message.get("more_body", False):
+            message = await receive()
+            chunks.append(_chunk(message))
+        return b"".join(chunks)
+    body = bytearray(length)
+    filled = 0
     while True:
-        message = await receive()
-        if message["type"] == "http.disconnect":
-            raise ClientDisconnect()
-        chunks.append(message.get("body", b""))
+        end = filled + len(chunk)
+        if end > length:  # more than announced: the server's framing forbids it
+            raise InvalidInput(f"the body is longer than its Content-Length {length}")
+        body[filled:end] = chunk
+        filled = end
         if not message.get("more_body", False):
-            return chunks[0] if len(chunks) == 1 else b"".join(chunks)
+            return body if filled == length else body[:filled]
+        message = await receive()
+        chunk = _chunk(message)
+
+
+def _chunk(message: Message) -> bytes:
+    if message["type"] == "http.disconnect":
+        raise ClientDisconnect()
+    body: bytes = message.get("body", b"")
+    return body
+
+
+def _content_length(scope: Scope) -> int | None:
+    for name, value in scope["headers"]:
+        if name == b"content-length":
+            return int(value) if value.isdigit() else None
+    return None
 
 
 def _handler(handlers: dict[Any, Any], exc: Exception) -> Any:

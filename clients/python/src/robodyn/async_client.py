@@ -59,7 +59,8 @@ class AsyncClient:
         return self._settings.base_url
 
     async def _send(self, call: core.Call[T]) -> T:
-        url, headers, content = self._settings.prepare(call)
+        url, headers, body = self._settings.prepare(call)
+        content = transport.parts_async(body) if isinstance(body, list) else body
         with transport.wrapped(call.method, url):
             async with self._http.stream(call.method, url, content=content,
                                         headers=headers) as response:

@@ -23,22 +23,36 @@ _PREFIX = struct.Struct("<4sI")
 _MAGIC = b"RDY1"
 
 
-def encode(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = None) -> bytes:
-    """A request body: `arrays` (float64, any shape) in the data section, `fields` as JSON."""
+CHUNK_BYTES = 256 * 1024  # the data section is sent in views of at most this size
+
+
+def encode_parts(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = None
+                 ) -> tuple[list[bytes | memoryview], int]:
+    """A request body as a list of parts and its total length in bytes: the prefix and header,
+    then views of the arrays' own memory (no copy), at most `CHUNK_BYTES` each. Sent part by
+    part, a 9.2 MB body is not first joined into one new buffer (about 6 ms)."""
     descriptors: dict[str, Any] = {}
-    chunks: list[Any] = []
+    views: list[memoryview] = []
     offset = 0
     for name, value in arrays.items():
         array = np.asarray(value, dtype="<f8")
         if not array.flags.c_contiguous:  # (not np.ascontiguousarray: it makes 0-d 1-d)
             array = array.copy(order="C")
         descriptors[name] = {"shape": list(array.shape), "offset": offset}
-        chunks.append(array.data.cast("B"))
+        view = array.data.cast("B")
+        views += [view[i:i + CHUNK_BYTES] for i in range(0, len(view), CHUNK_BYTES)]
         offset += array.nbytes
     header = json.dumps({"fields": dict(fields or {}), "arrays": descriptors},
                         separators=(",", ":"), allow_nan=False).encode()
     padding = b"\0" * (-(_PREFIX.size + len(header)) % 8)
-    return b"".join([_PREFIX.pack(_MAGIC, len(header)), header, padding, *chunks])
+    start = _PREFIX.pack(_MAGIC, len(header)) + header + padding
+    return [start, *views], len(start) + offset
+
+
+def encode(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = None) -> bytes:
+    """A request body in one piece: `arrays` (float64, any shape) in the data section,
+    `fields` as JSON."""
+    return b"".join(encode_parts(arrays, fields)[0])
 
 
 def decode(content: bytes | bytearray) -> dict[str, Any]:

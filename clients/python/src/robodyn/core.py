@@ -78,6 +78,7 @@ ROUTES: dict[str, tuple[str, str]] = {
 METHODS: tuple[str, ...] = tuple(ROUTES)
 
 BINARY_FROM = 4096
+Body = bytes | list[bytes | memoryview]  # a request body: whole, or in parts
 MAX_BINARY_ANSWER = 1 << 32  # bytes; a larger Content-Length is not preallocated
 """Requests with this many input numbers or more are sent, and answered, in the binary form
 (raw float64 instead of JSON text: see docs/binary-format.md), unless the client says otherwise
@@ -106,12 +107,13 @@ class Call(Generic[T]):
         """The JSON object of the request (inputs as nested lists, then the other fields)."""
         return {**to_json(self.arrays or {}), **(self.json or {})}
 
-    def body(self, use_binary: bool | None) -> tuple[bytes | None, str | None]:
-        """The body bytes and their media type. Joint-space inputs go in the binary form when
-        `use_binary` is True, or when it is None and they hold `BINARY_FROM` numbers or more."""
+    def body(self, use_binary: bool | None) -> tuple[Body | None, str | None]:
+        """The body and its media type: bytes, or for the binary form a list of parts
+        (`binary.encode_parts`). Joint-space inputs go in the binary form when `use_binary` is
+        True, or when it is None and they hold `BINARY_FROM` numbers or more."""
         if self.arrays is not None:
             if self.binary(use_binary):
-                return binary.encode(self.arrays, self.json), binary.MEDIA_TYPE
+                return binary.encode_parts(self.arrays, self.json)[0], binary.MEDIA_TYPE
             return encode(self.json_body()), "application/json"
         if self.json is not None:
             return encode(self.json), "application/json"

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import AsyncIterator, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -11,7 +11,7 @@ from typing import Any
 import httpx
 
 from robodyn import __version__, binary
-from robodyn.core import Call
+from robodyn.core import Body, Call
 from robodyn.errors import TimeoutError, TransportError
 
 DEFAULT_URL = "http://127.0.0.1:8000"
@@ -34,10 +34,13 @@ class Settings:
     headers: Mapping[str, str]
     use_binary: bool | None = None  # None: the binary form for large batches only
 
-    def prepare(self, call: Call[Any]) -> tuple[str, dict[str, str], bytes | None]:
-        """The absolute URL, headers and body bytes of `call`."""
+    def prepare(self, call: Call[Any]) -> tuple[str, dict[str, str], Body | None]:
+        """The absolute URL, headers and body of `call` (bytes, or a list of parts sent one
+        after the other under one Content-Length)."""
         headers = dict(self.headers)
         content, media_type = call.body(self.use_binary)
+        if isinstance(content, list):
+            headers["Content-Length"] = str(sum(len(part) for part in content))
         if media_type is not None:
             headers["Content-Type"] = media_type
             if media_type == binary.MEDIA_TYPE:
@@ -65,6 +68,12 @@ def settings(base_url: str | None, api_key: str | None, http_client: httpx.Clien
             raise ValueError("api_key must be a non-empty single-line string")
         sent["Authorization"] = f"Bearer {api_key}"
     return Settings(base_url=str(url).rstrip("/"), headers=sent, use_binary=use_binary)
+
+
+async def parts_async(parts: list[bytes | memoryview]) -> AsyncIterator[bytes | memoryview]:
+    """A body in parts as the AsyncClient sends it (httpx takes only async iterables there)."""
+    for part in parts:
+        yield part
 
 
 def timeout_of(timeout: TimeoutLike) -> httpx.Timeout:

@@ -60,8 +60,8 @@ def _strictly_lower(n: int) -> np.ndarray:
 
 def mirror_upper(out: np.ndarray) -> np.ndarray:
     """Make every n×n matrix of `out` (shape (..., n, n)) symmetric from its upper triangle,
-    in place, and return it. Pinocchio's CRBA (M), computeMinverse (M⁻¹) and the derivative
-    algorithms (∂τ/∂a = M, ∂a/∂τ = M⁻¹) guarantee only that triangle."""
+    in place, and return it. Pinocchio's algorithms for M⁻¹ and the derivatives (∂τ/∂a = M,
+    ∂a/∂τ = M⁻¹) guarantee only that triangle. (Its Python `crba` returns M symmetric.)"""
     np.copyto(out, np.swapaxes(out, -1, -2), where=_strictly_lower(out.shape[-1]))
     return out
 

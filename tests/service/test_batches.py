@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from tests.helpers import random_state, record_off_loop
@@ -134,3 +135,19 @@ def test_large_name_keyed_batches_are_converted_off_the_event_loop(api, catalog_
     assert r.status_code == 200 and "_prepare_and_run" in calls
     want = api.post("/v1/robots/ur5/gravity", json={"q": q.tolist()}).json()["gravity"]
     np.testing.assert_array_equal(np.array(r.json()["gravity"]), np.array(want))
+
+
+@pytest.mark.parametrize("robot", ["talos", "solo12", "ur5"])
+def test_batched_mass_matrices_are_exactly_symmetric_and_equal_single_states(
+        api, catalog_registry, robot):
+    """Every mass matrix of a batch is symmetric to the bit (Pinocchio's Python `crba` copies
+    its upper triangle down; the service relies on that) and equals its single-state answer."""
+    model = catalog_registry.catalog[robot].model
+    rng = np.random.default_rng(7)
+    q = np.stack([pin.integrate(model, pin.neutral(model), rng.normal(0, 0.5, model.nv))
+                  for _ in range(40)])
+    M = np.asarray(api.post(f"/v1/robots/{robot}/mass-matrix",
+                            json={"q": q.tolist()}).json()["mass_matrix"])
+    np.testing.assert_array_equal(M, np.swapaxes(M, 1, 2))
+    single = api.post(f"/v1/robots/{robot}/mass-matrix", json={"q": q[17].tolist()}).json()
+    np.testing.assert_array_equal(np.asarray(single["mass_matrix"]), M[17])

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from service.api import binary
 from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
@@ -278,6 +279,20 @@ def test_a_body_not_labelled_json_is_415(api):
     assert "application/json" in body["detail"]
     r = api.post("/v1/robots/ur5/gravity", content=b'{"q": [0, 0, 0, 0, 0, 0]}')
     assert r.status_code == 200  # no Content-Type at all: read as JSON
+
+
+def test_media_types_are_read_regardless_of_case(api):
+    """RFC 9110: type and subtype names are case-insensitive (and the first header counts)."""
+    json_body = b'{"q": [0, 0, 0, 0, 0, 0]}'
+    r = api.post("/v1/robots/ur5/gravity", content=json_body,
+                 headers={"content-type": "Application/JSON; charset=UTF-8"})
+    assert r.status_code == 200 and r.headers["content-type"] == "application/json"
+    binary_body = binary.encode({"q": np.zeros((1, 6))})
+    r = api.post("/v1/robots/ur5/gravity", content=binary_body,
+                 headers={"content-type": "Application/VND.Robodyn.Binary",
+                          "accept": "APPLICATION/VND.ROBODYN.BINARY"})
+    assert r.status_code == 200 and r.headers["content-type"] == binary.BINARY_MEDIA_TYPE
+    assert binary.decode(r.content)[1]["gravity"].shape == (1, 6)
 
 
 def test_other_framework_4xx_are_bad_requests(api):

@@ -11,7 +11,7 @@ from typing import Any
 
 from fastapi import Depends, FastAPI
 
-from service import __version__, heap
+from service import __version__, heap, unpin_this_thread
 from service.api import dynamics as dynamics_routes
 from service.api import health, pages, robots, stream
 from service.api.deps import require_api_key_for_all
@@ -36,6 +36,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     otherwise the lifespan loads the catalog in the background and /health/ready turns 200."""
     settings = settings or Settings()
     injected = registry is not None
+    unpin_this_thread()  # the event loop's thread, bound by libgomp when pinocchio loaded
     data_pool.BUDGET.limit_bytes = settings.data_pool_mb * 1024 * 1024
     heap.retain_freed_memory(settings.heap_retain_mb)  # process-wide, like the Data budget
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),

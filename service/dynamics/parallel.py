@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pinocchio as pin
@@ -28,9 +29,21 @@ from service.states import States
 CHUNK_WORK = 10_000  # states × nv per GIL-holding native call: about 1 ms (Talos, 2 cores)
 
 
+# Every OpenMP batch of the process runs in this one thread: where teams are bound
+# (OMP_PROC_BIND, set by `python -m service`), libgomp binds a team's master to the first core,
+# and that must be neither the event loop's thread nor a pool thread that serves other work.
+_MASTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="openmp-master")
+
+
 def _in_chunks(robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: np.ndarray,
                y: np.ndarray) -> np.ndarray:
-    """Run `algorithm(threads, pool, q, x, y, out)` over the batch in GIL-friendly chunks."""
+    """Run `algorithm(threads, pool, q, x, y, out)` over the batch in GIL-friendly chunks, in
+    the process's OpenMP master thread."""
+    return _MASTER.submit(_run_chunks, robot, algorithm, q, x, y).result()
+
+
+def _run_chunks(robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: np.ndarray,
+                y: np.ndarray) -> np.ndarray:
     n = q.shape[0]
     out = np.empty((n, robot.nv))
     size = max(256, CHUNK_WORK // robot.nv)

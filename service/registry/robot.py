@@ -8,7 +8,6 @@ silently wrong answers).
 from __future__ import annotations
 
 import math
-import os
 import threading
 import weakref
 from collections.abc import Iterator
@@ -19,6 +18,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from service import CPUS
 from service.registry import data_pool
 
 # Pinocchio joint model short names → the joint type robodyn reports.
@@ -46,7 +46,8 @@ UNIT_PARTS: dict[str, tuple[int, int]] = {
 
 
 # Threads for Pinocchio's OpenMP batch algorithms: the cores this process may run on.
-PARALLEL_THREADS = max(1, len(os.sched_getaffinity(0)))
+# The process's CPUs, not this thread's: libgomp may have bound the importing thread to one.
+PARALLEL_THREADS = max(1, len(CPUS))
 
 
 def joint_type(joint: Any) -> str:

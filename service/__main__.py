@@ -22,8 +22,8 @@ def main(argv: list[str] | None = None) -> None:
     # Passive OpenMP threads are woken for each chunk of a batch, and the scheduler came to put
     # the woken worker on its master's core: both shared one core and batches took twice as
     # long (2,000 Talos gravity states 12 ms instead of 6.7, measured). Bound (OMP_PROC_BIND),
-    # a team keeps one core per thread. libgomp binds the thread that loads it too: create_app
-    # gives the event loop's thread every CPU back, and batches run in one dedicated thread
+    # a team keeps one core per thread. libgomp binds the thread that loads it too: the app
+    # factory gives the event loop's thread every CPU back, and batches run in one dedicated thread
     # (service.dynamics.parallel). Set before pinocchio loads; an explicit setting wins.
     os.environ.setdefault("OMP_PROC_BIND", "true")
     # Workers build their settings from the environment: pass the flags on through it.

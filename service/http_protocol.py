@@ -28,9 +28,8 @@ class CoalescedWrites:
         self._pending: list[bytes] = []
 
     def write(self, data: bytes) -> None:
-        if not self._pending:
+        if not self._pending:  # an answer is a few writes (its body one), so nothing piles up
             self._loop.call_soon(self.flush)
-        # (An answer is a few writes, so nothing large piles up: the body is one.)
         self._pending.append(data)
 
     def flush(self) -> None:

@@ -36,7 +36,6 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     otherwise the lifespan loads the catalog in the background and /health/ready turns 200."""
     settings = settings or Settings()
     injected = registry is not None
-    unpin_this_thread()  # the event loop's thread, bound by libgomp when pinocchio loaded
     data_pool.BUDGET.limit_bytes = settings.data_pool_mb * 1024 * 1024
     heap.retain_freed_memory(settings.heap_retain_mb)  # process-wide, like the Data budget
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),
@@ -92,4 +91,7 @@ def app_from_environment() -> FastAPI:
     logging is configured here too)."""
     settings = Settings()
     configure_logging(settings.log_level)
+    # `python -m service` binds OpenMP teams (OMP_PROC_BIND), and libgomp bound this thread,
+    # the event loop's, when pinocchio loaded: give it every CPU back before it starts others.
+    unpin_this_thread()
     return create_app(settings)

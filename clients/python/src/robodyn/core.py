@@ -78,11 +78,11 @@ ROUTES: dict[str, tuple[str, str]] = {
 METHODS: tuple[str, ...] = tuple(ROUTES)
 
 BINARY_FROM = 4096
-Body = bytes | list[bytes | memoryview]  # a request body: whole, or in parts
-MAX_BINARY_ANSWER = 1 << 32  # bytes; a larger Content-Length is not preallocated
 """Requests with this many input numbers or more are sent, and answered, in the binary form
 (raw float64 instead of JSON text: see docs/binary-format.md), unless the client says otherwise
 (`Client(binary=...)`)."""
+MAX_BINARY_ANSWER = 1 << 32  # bytes; a larger Content-Length is not preallocated
+Body = bytes | list[bytes | memoryview]  # a request body: whole, or in parts
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ class Call(Generic[T]):
         True, or when it is None and they hold `BINARY_FROM` numbers or more."""
         if self.arrays is not None:
             if self.binary(use_binary):
-                return binary.encode_parts(self.arrays, self.json)[0], binary.MEDIA_TYPE
+                return binary.encode_parts(self.arrays, self.json), binary.MEDIA_TYPE
             return encode(self.json_body()), "application/json"
         if self.json is not None:
             return encode(self.json), "application/json"

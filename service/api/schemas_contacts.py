@@ -12,9 +12,9 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
+from service.api import schemas_simulation as plain
 from service.api.schemas_dynamics import QVARequest, QVRequest, QVTauRequest, StrictRequest
 from service.api.schemas_options import JointVector
-from service.api import schemas_simulation as plain
 
 FORCES_LAYOUT = (
     "expressed at each contact frame's origin with the world's axes (local_world_aligned): 3 "

@@ -518,8 +518,9 @@ def contact_inverse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, a: Array
     """`ContactInverseDynamics` (tau, contact_forces, residual): the joint torques τ (zero on
     a floating base's root rows) and the minimum-norm contact forces λ with
     M a + h = τ + Jcᵀ λ; `residual` is the 2-norm of the root wrench no contact force can
-    produce (0 when the contacts can hold the motion). No friction cone: λ may pull. For a
-    fixed-base robot λ = 0 and τ = M a + h. Errors as `contact_dynamics`."""
+    produce (0 when the contacts can hold the motion). The shapes: τ (nv,), λ (m,), laid out as
+    in `contact_dynamics`, residual a float; a leading axis N for a batch. No friction cone:
+    λ may pull. For a fixed-base robot λ = 0 and τ = M a + h. Errors as `contact_dynamics`."""
     return _quantity("contact_inverse_dynamics", robot_id, ContactInverseDynamics.from_json,
                      _contact_options(contacts, damping), q=q, v=v, a=a)
 
@@ -529,8 +530,8 @@ def impulse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, contacts: Contac
                      ) -> Call[ImpulseDynamics]:
     """`ImpulseDynamics` (v, contact_impulses): the velocity just after a rigid impact at
     `contacts`, M (v⁺ − v⁻) = Jcᵀ Λ with Jc v⁺ = −e Jc v⁻ (`restitution` e in [0, 1]), and
-    the impulses Λ in N·s (N·m·s), laid out like contact forces. Errors as
-    `contact_dynamics`."""
+    the impulses Λ in N·s (N·m·s), laid out like contact forces. The shapes: v (nv,), Λ (m,); a
+    leading axis N for a batch. Errors as `contact_dynamics`."""
     options = _contact_options(contacts, damping)
     options["restitution"] = nonnegative("restitution", restitution, upper=1.0)
     return _quantity("impulse_dynamics", robot_id, ImpulseDynamics.from_json, options,

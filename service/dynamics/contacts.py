@@ -46,16 +46,6 @@ def root_rows(robot: Robot) -> int:
     return 0
 
 
-def constrained_acceleration(work: ContactWorkspace, q: np.ndarray, v: np.ndarray,
-                             tau: np.ndarray, settings: Any, state: int | None,
-                             damping: float, robot: Robot) -> tuple[np.ndarray, np.ndarray]:
-    """(a, λ) of one state by Pinocchio's constraintDynamics; raises on a singular set."""
-    a = pin.constraintDynamics(work.model, work.data, q, v, tau, work.set.models, work.datas,
-                               settings)
-    work.set.check(robot, work.data, state, damping)
-    return a, work.data.lambda_c
-
-
 def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
                      damping: float = 0.0) -> Results:
     """Constrained forward dynamics M a + h = τ + Jcᵀ λ, Jc a + γ = 0: a (N, nv) in rad/s²
@@ -66,12 +56,17 @@ def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
     q, v, tau = s["q"], s["v"], s["tau"]
     n = q.shape[0]
     a, forces = np.empty((n, robot.nv)), np.empty((n, cs.size))
+    pivots = np.empty((n, cs.size))
     settings = ContactWorkspace.settings(damping)
+    model, models = robot.model, cs.models
     with robot.data() as data:
-        work = cs.workspace(robot, data)
+        datas = cs.workspace(robot, data).datas
         for i in range(n):
-            a[i], forces[i] = constrained_acceleration(
-                work, q[i], v[i], tau[i], settings, i if s.batched else None, damping, robot)
+            a[i] = pin.constraintDynamics(model, data, q[i], v[i], tau[i], models, datas,
+                                          settings)
+            forces[i] = data.lambda_c
+            pivots[i] = data.constraint_chol.D[: cs.size]
+    cs.check_all(robot, pivots, s.batched, damping)
     return finite("contact-dynamics", a=a, contact_forces=forces)
 
 
@@ -125,14 +120,16 @@ def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution
     q, v = s["q"], s["v"]
     n = q.shape[0]
     after, impulses = np.empty((n, robot.nv)), np.empty((n, cs.size))
+    pivots = np.empty((n, cs.size))
     settings = ContactWorkspace.settings(damping)
     with robot.data() as data:
         work = cs.workspace(robot, data)
         for i in range(n):
             after[i] = pin.impulseDynamics(robot.model, data, q[i], v[i], cs.models,
                                            work.datas, restitution, settings)
-            cs.check(robot, data, i if s.batched else None, damping)
             impulses[i] = data.impulse_c
+            pivots[i] = data.constraint_chol.D[: cs.size]
+    cs.check_all(robot, pivots, s.batched, damping)
     return finite("impulse-dynamics", v=after, contact_impulses=impulses)
 
 

@@ -102,14 +102,28 @@ class ContactSet:
     def workspace(self, robot: Robot, data: Any) -> ContactWorkspace:
         return ContactWorkspace(self, robot, data)
 
+    def pivots(self, data: Any) -> np.ndarray:
+        """The m constraint pivots of the factorization just computed in `data` (by
+        constraintDynamics or impulseDynamics)."""
+        return np.asarray(data.constraint_chol.D)[: self.size]
+
     def check(self, robot: Robot, data: Any, state: int | None, damping: float) -> None:
-        """Raise `SingularConfiguration` if the factorization just computed in `data` (by
-        constraintDynamics or impulseDynamics) shows a rank-deficient Jc (see the module)."""
-        pivots = np.abs(np.asarray(data.constraint_chol.D)[: self.size])
-        largest, smallest = float(pivots.max()), float(pivots.min())
-        if np.isfinite(pivots).all() and smallest > SINGULAR_PIVOT * largest:
+        """Raise `SingularConfiguration` if the factorization just computed in `data` shows a
+        rank-deficient Jc (see the module)."""
+        self.check_all(robot, self.pivots(data)[np.newaxis], state is not None, damping,
+                       0 if state is None else state)
+
+    def check_all(self, robot: Robot, pivots: np.ndarray, batched: bool, damping: float,
+                  first: int = 0) -> None:
+        """The test of `check` for the pivots (N, m) of N states at once; the error names
+        the first singular state (numbered from `first`) when `batched`."""
+        p = np.abs(pivots)
+        with np.errstate(invalid="ignore"):
+            ok = p.min(axis=1) > SINGULAR_PIVOT * p.max(axis=1)  # False for NaN
+        if ok.all():
             return
-        raise singular(self.key, robot, pivots, state, damping)
+        i = int(np.flatnonzero(~ok)[0])
+        raise singular(self.key, robot, p[i], first + i if batched else None, damping)
 
 
 def singular(key: ContactKey, robot: Robot, pivots: np.ndarray, state: int | None,

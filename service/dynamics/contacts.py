@@ -32,17 +32,20 @@ import pinocchio as pin
 
 from service.dynamics.contacts_model import ContactWorkspace, constraint_models
 from service.dynamics.quantity import Quantity, Results, finite
-from service.registry.robot import Robot
+from service.registry.robot import Robot, joint_type
 from service.states import States
 
 Contacts = Sequence[Mapping[str, Any]]
 
 
 def root_rows(robot: Robot) -> int:
-    """The number of unactuated root rows of v: 6 for a free-flyer, 3 for a planar root, 0
-    for a fixed base."""
-    if robot.root_joint in ("free-flyer", "planar") and robot.model.njoints > 1:
-        return int(robot.model.joints[1].nv)
+    """The number of unactuated root rows of v: 6 for a free-flyer root, 3 for a planar one
+    (the model's first joint, on the world: a catalog robot's or an upload's `root_joint`,
+    or an MJCF free joint), 0 for a fixed base."""
+    model = robot.model
+    if model.njoints > 1 and model.parents[1] == 0 and joint_type(model.joints[1]) in (
+            "free_flyer", "planar"):
+        return int(model.joints[1].nv)
     return 0
 
 

@@ -265,3 +265,19 @@ def test_missing_contacts_and_dimension_errors(api):
     assert_problem(api.post("/v1/robots/solo12/contact-dynamics", json={
         "q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12, "v": _zero(17), "tau": _zero(18),
         "contacts": FEET}), 422, "dimension_mismatch")
+
+
+def test_constraint_models_are_cached_per_robot_and_contact_set(catalog_registry):
+    """The same (robot, contact set) gives the same cached models; another order, kind or
+    robot gives others; no pin.Data is kept with them."""
+    from service.dynamics.contacts_model import constraint_models
+
+    solo, anymal = catalog_registry.catalog["solo12"], catalog_registry.catalog["anymal"]
+    first = constraint_models(solo, FEET)
+    assert constraint_models(solo, [dict(c) for c in FEET]) is first
+    assert constraint_models(solo, FEET[::-1]) is not first
+    assert constraint_models(solo, [{**c, "type": "6d"} for c in FEET]).size == 24
+    assert first.size == 12 and [r.start for r in first.rows] == [0, 3, 6, 9]
+    other = constraint_models(anymal, contacts_of("anymal"))
+    assert other is not first
+    assert not any("Data" in type(value).__name__ for value in vars(first).values())

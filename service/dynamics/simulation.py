@@ -21,6 +21,11 @@ quaternions and (cos, sin) pairs are renormalized after each step):
 The answer is the trajectory, steps + 1 samples including the initial state: t (s), q, v, and
 the mechanical energy T + U (J), T = ½ vᵀ M v (with the armature) and U the gravity potential.
 A batch of initial states gives one trajectory per state (same torques or controller).
+
+With `contacts` (a fixed contact set) the acceleration is constrained forward dynamics with
+Baumgarte-stabilised contacts, a PD controller acts on the actuated joints only and its gravity
+compensation is contact-consistent; the answer adds `constraint_drift` (m). All of it lives in
+`service.dynamics.contacts_simulation`.
 """
 
 from __future__ import annotations

@@ -293,13 +293,73 @@ def workers(seconds: int, rounds: int, env: dict[str, str]) -> None:
         "≥ 1.5 with the load generator elsewhere")
 
 
+TALOS_SOLES = [{"frame": "left_sole_link", "type": "6d"},
+               {"frame": "right_sole_link", "type": "6d"}]
+
+
+def contacts(url: str, rounds: int) -> None:
+    """A contact-dynamics batch (Talos on both soles, 6d contacts) through the client, and the
+    service's own compute time, against a Python loop over Pinocchio's constraintDynamics
+    (constraint models and data built once, as the service caches them)."""
+    import httpx
+    import pinocchio as pin
+    import robodyn
+    from robodyn import binary
+
+    print("6. contact-dynamics batch (Talos, both soles 6d)", flush=True)
+    model, s = talos_states(2000, seed=2)
+    n = 2000
+    data = model.createData()
+    models, datas = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
+    for c in TALOS_SOLES:
+        f = model.frames[model.getFrameId(c["frame"])]
+        cm = pin.RigidConstraintModel(pin.ContactType.CONTACT_6D, model, f.parentJoint,
+                                      f.placement, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        models.append(cm)
+        datas.append(cm.createData())
+    pin.initConstraintDynamics(model, data, models, datas)
+    settings = pin.ProximalSettings(1e-12, 1e-12, 0.0, 1)
+    args = {k: s[k][:n] for k in ("q", "v", "tau")}
+
+    def loop() -> float:
+        t = time.perf_counter()
+        a, lam = np.empty((n, model.nv)), np.empty((n, 12))
+        for i in range(n):
+            a[i] = pin.constraintDynamics(model, data, args["q"][i], args["v"][i],
+                                          args["tau"][i], models, datas, settings)
+            lam[i] = data.lambda_c
+        return time.perf_counter() - t
+
+    with robodyn.Client(url, timeout=300) as client:
+        def served() -> float:
+            t = time.perf_counter()
+            client.contact_dynamics("talos", args["q"], args["v"], args["tau"], TALOS_SOLES)
+            return time.perf_counter() - t
+
+        def compute() -> float:
+            response = httpx.post(f"{url}/v1/robots/talos/contact-dynamics",
+                                  content=binary.encode(args, {"contacts": TALOS_SOLES}),
+                                  timeout=300, headers={"content-type": binary.MEDIA_TYPE,
+                                                        "accept": binary.MEDIA_TYPE})
+            response.raise_for_status()
+            timing = re.search(r"compute;dur=([\d.]+)", response.headers["server-timing"])
+            return float(timing.group(1)) / 1e3  # type: ignore[union-attr]
+
+        loop_seconds = median_of(rounds, loop)
+        row(f"contact-dynamics batch of {n} (Talos, 2 soles 6d) via client vs in-process "
+            "Python loop over constraintDynamics", n / median_of(rounds, served),
+            n / loop_seconds, "states/s", "info")
+        row(f"contact-dynamics batch of {n}: the service's compute (Server-Timing) vs the same "
+            "loop", n / median_of(rounds, compute), n / loop_seconds, "states/s", "info")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="shorter runs")
-    parser.add_argument("--only", default="12345", help="which comparisons, e.g. 13")
+    parser.add_argument("--only", default="123456", help="which comparisons, e.g. 13")
     opts = parser.parse_args()
-    if shutil.which("wrk") is None:
+    if shutil.which("wrk") is None and set(opts.only) & {"1", "5"}:
         sys.exit("wrk is needed: apt-get install wrk")
     seconds, rounds = (2, 3) if opts.quick else (5, 5)
     env = {"ROBODYN_CATALOG": "ur5,talos", "ROBODYN_DATA_DIR": tempfile.mkdtemp(),
@@ -317,6 +377,8 @@ def main() -> None:
             latency_under_load(url, seconds * 2)
         if "4" in opts.only:
             streams(url, seconds * 2)
+        if "6" in opts.only:
+            contacts(url, rounds)
     if "5" in opts.only:
         workers(seconds, rounds, env)
     print("\n| comparison | figures (medians) | ratio | target |\n|---|---|---|---|")

@@ -23,6 +23,7 @@ from starlette.routing import Route
 from service import dynamics, joint_names
 from service.api import (
     binary,
+    schemas_contacts,
     schemas_derivatives,
     schemas_dynamics,
     schemas_operational,
@@ -40,10 +41,12 @@ PREFIX = "/v1/robots"
 REQUESTS: dict[str, type[BaseModel]] = {
     path: schemas_options.with_joint_names(model) for path, model in {
         **schemas_dynamics.REQUESTS, **schemas_options.REQUESTS, **schemas_operational.REQUESTS,
-        **schemas_derivatives.REQUESTS, **schemas_simulation.REQUESTS}.items()}
+        **schemas_derivatives.REQUESTS, **schemas_simulation.REQUESTS,
+        **schemas_contacts.REQUESTS}.items()}
 ANSWERS: dict[str, type[BaseModel]] = {
     **schemas_dynamics.ANSWERS, **schemas_options.ANSWERS, **schemas_operational.ANSWERS,
-    **schemas_derivatives.ANSWERS, **schemas_simulation.ANSWERS}
+    **schemas_derivatives.ANSWERS, **schemas_simulation.ANSWERS,
+    **schemas_contacts.ANSWERS}
 
 # Batches bigger than this (states × nv) are validated, computed and encoded in a worker thread,
 # and JSON bodies bigger than INLINE_BODY_BYTES parsed there: on the event loop they would

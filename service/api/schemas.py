@@ -95,6 +95,11 @@ class JointInfo(BaseModel):
                                   "entries), added to M's diagonal.")
 
 
+class ContactFrame(BaseModel):
+    frame: str = Field(description="A frame the robot stands on (a foot or a sole).")
+    type: str = Field(description="`point` (a point foot) or `6d` (a flat sole).")
+
+
 class FrameInfo(BaseModel):
     name: str = Field(description="What `frame` takes in jacobian and operational-space "
                       "requests. Where a link and a joint share a name, the first frame of "
@@ -129,6 +134,10 @@ class RobotInfo(RobotSummary):
     reference_configurations: dict[str, list[float]]
     warnings: list[dict[str, str]] = Field(description="Physical findings in the description, "
                                            "each with code, element (link/joint), name, message.")
+    contact_frames: list[ContactFrame] = Field(
+        default_factory=list, description="Suggested contacts for contact-dynamics, "
+        "contact-inverse-dynamics, impulse-dynamics and simulate: the robot's feet (a list to "
+        "pass as `contacts` as is); empty when not known (uploads, robots without feet).")
     joints: list[JointInfo]
     frames: list[FrameInfo] = Field(description="Every frame of the model in model order "
                                     "(links, joints, fixed frames): the valid names for "

@@ -5,6 +5,7 @@ its quantity. Only this package and `service.registry` import Pinocchio.
 """
 
 from service.dynamics.centroidal import CENTROIDAL
+from service.dynamics.contacts import CONTACTS
 from service.dynamics.derivatives import DERIVATIVES
 from service.dynamics.equation_of_motion import EQUATION_OF_MOTION
 from service.dynamics.frames import FRAMES
@@ -15,6 +16,6 @@ from service.dynamics.simulation import SIMULATION
 
 QUANTITIES: dict[str, Quantity] = {q.path: q for q in (
     *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
-    *SIMULATION)}
+    *SIMULATION, *CONTACTS)}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

@@ -21,16 +21,22 @@ quaternions and (cos, sin) pairs are renormalized after each step):
 The answer is the trajectory, steps + 1 samples including the initial state: t (s), q, v, and
 the mechanical energy T + U (J), T = ½ vᵀ M v (with the armature) and U the gravity potential.
 A batch of initial states gives one trajectory per state (same torques or controller).
+
+With `contacts` (a fixed contact set) the acceleration is constrained forward dynamics with
+Baumgarte-stabilised contacts, a PD controller acts on the actuated joints only and its gravity
+compensation is contact-consistent; the answer adds `constraint_drift` (m). All of it lives in
+`service.dynamics.contacts_simulation`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
+from service.dynamics.contacts_simulation import ContactRollout, pd_with_contacts
 from service.dynamics.quantity import Quantity, Results, finite
 from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
 from service.joint_names import from_names
@@ -42,6 +48,7 @@ MAX_STEPS = 100_000  # defaults of the settings of the same names
 MAX_WORK = 20_000_000
 
 Torque = Callable[[int, np.ndarray, np.ndarray, Any], np.ndarray]
+Acceleration = Callable[..., np.ndarray]  # (robot, q, v, tau, data) -> a
 
 
 def _vector(robot: Robot, field: str, value: Any, dim: str) -> np.ndarray:
@@ -117,22 +124,49 @@ def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
 def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
              controller: Mapping[str, Any] | None = None,
              integrator: str = "semi-implicit-euler", max_simulation_steps: int = MAX_STEPS,
-             max_simulation_work: int = MAX_WORK) -> Results:
+             max_simulation_work: int = MAX_WORK, contacts: Sequence[Mapping[str, Any]] | None
+             = None, damping: float = 0.0) -> Results:
     """The trajectory from (q, v) over `steps` steps of `dt` s: t (N, steps+1) in s, q
-    (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J."""
+    (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J; with
+    `contacts` (a fixed contact set, `service.dynamics.contacts_simulation`) also
+    constraint_drift (N, steps+1) in m."""
     check_limits(robot, s, steps, integrator, max_simulation_steps, max_simulation_work)
-    torque = torque_source(robot, steps, tau, controller)
+    # contacts: the PD's gravity compensation is replaced by a contact-consistent one
+    contact = (ContactRollout(robot, contacts, dt, damping) if contacts is not None else None)
+    plain_controller = (controller if contact is None or controller is None
+                        else {**controller, "gravity_compensation": False})
+    torque = torque_source(robot, steps, tau, plain_controller)
+    accel: Acceleration = _aba
+    if contact is not None:
+        accel = contact.acceleration
+        if controller is not None:
+            torque = pd_with_contacts(contact, torque,
+                                      bool(controller.get("gravity_compensation", False)))
     n = s.count
     qs, vs = np.empty((n, steps + 1, robot.nq)), np.empty((n, steps + 1, robot.nv))
     energy = np.empty((n, steps + 1))
+    drift = np.empty((n, steps + 1)) if contact is not None else None
     rollout = _rk4 if integrator == "rk4" else _semi_implicit_euler
     with robot.data() as data:
         for i in range(n):
             where = f"state {i}: " if s.batched else ""
+            if contact is not None:
+                contact.start(data, s["q"][i], i if s.batched else None)
             rollout(robot, data, torque, dt, s["q"][i], s["v"][i], qs[i], vs[i], energy[i],
-                    where)
+                    where, accel)
+            if contact is not None and drift is not None:
+                drift[i] = contact.drift(qs[i], data)
     t = np.broadcast_to(dt * np.arange(steps + 1), (n, steps + 1)).copy()
+    if drift is not None:
+        return finite("simulate", t=t, q=qs, v=vs, mechanical_energy=energy,
+                      constraint_drift=drift)
     return finite("simulate", t=t, q=qs, v=vs, mechanical_energy=energy)
+
+
+def _aba(robot: Robot, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: Any
+         ) -> np.ndarray:
+    """Unconstrained forward dynamics (ABA)."""
+    return np.asarray(pin.aba(robot.model, data, q, v, tau, pin.Convention.WORLD))
 
 
 def _mechanical_energy(robot: Robot, data: Any, q: np.ndarray, v: np.ndarray) -> float:
@@ -149,11 +183,11 @@ def _diverged(where: str, k: int, dt: float) -> NonFiniteResult:
 
 def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray,
                          v: np.ndarray, qs: np.ndarray, vs: np.ndarray, energy: np.ndarray,
-                         where: str) -> None:
-    model, world, normalize = robot.model, pin.Convention.WORLD, bool(robot.unit_joints)
+                         where: str, accel: Acceleration = _aba) -> None:
+    model, normalize = robot.model, bool(robot.unit_joints)
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
     for k in range(qs.shape[0] - 1):
-        a = pin.aba(model, data, q, v, torque(k, q, v, data), world)
+        a = accel(robot, q, v, torque(k, q, v, data), data)
         v = v + dt * a
         q = pin.integrate(model, q, dt * v)
         if normalize:
@@ -165,25 +199,26 @@ def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: 
 
 
 def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: np.ndarray,
-         qs: np.ndarray, vs: np.ndarray, energy: np.ndarray, where: str) -> None:
+         qs: np.ndarray, vs: np.ndarray, energy: np.ndarray, where: str,
+         accel: Acceleration = _aba) -> None:
     """Runge–Kutta–Munthe-Kaas RK4: stage configurations q ⊕ θ, and q's stage slopes are the
     velocities mapped to the tangent space at q by the inverse right Jacobian of ⊕,
     dθ/dt = Jr(θ)⁻¹ v = ∂ difference(q, q ⊕ θ) / ∂(q ⊕ θ) · v (the identity for
     vector-space joints, where this is classical RK4)."""
-    model, world = robot.model, pin.Convention.WORLD
+    model = robot.model
     lie = bool(robot.unit_joints)  # any joint whose configuration space is not a vector space
     arg1 = pin.ArgumentPosition.ARG1
 
     def stage(k: int, theta: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(slope of θ, acceleration) at the stage configuration q ⊕ θ and velocity v."""
         at = pin.integrate(model, q, theta)
-        a = np.array(pin.aba(model, data, at, v, torque(k, at, v, data), world))
+        a = np.array(accel(robot, at, v, torque(k, at, v, data), data))
         return (pin.dDifference(model, q, at, arg1) @ v if lie else v), a
 
     half = 0.5 * dt
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
     for k in range(qs.shape[0] - 1):
-        a1 = np.array(pin.aba(model, data, q, v, torque(k, q, v, data), world))
+        a1 = np.array(accel(robot, q, v, torque(k, q, v, data), data))
         v2 = v + half * a1
         t2, a2 = stage(k, half * v, v2)
         v3 = v + half * a2

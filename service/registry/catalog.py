@@ -111,9 +111,12 @@ def load_entry(entry: CatalogEntry) -> Robot:
         upper, lower = model.upperPositionLimit, model.lowerPositionLimit
         upper[:7], lower[:7] = 1.0, -1.0
         model.upperPositionLimit, model.lowerPositionLimit = upper, lower
+    contact_type = spec.get("contact_type", "point")
+    contacts = [{"frame": frame, "type": contact_type} for frame in spec.get("contact_frames", [])]
     return Robot(id=entry.name, name=entry.name, source="catalog", root_joint=root_joint,
                  model=model, reference_configurations=references,
-                 default_configuration=default, warnings=[f.as_dict() for f in findings])
+                 default_configuration=default, warnings=[f.as_dict() for f in findings],
+                 contact_frames=contacts)
 
 
 def load_catalog(names: list[str] | None = None) -> tuple[dict[str, Robot], dict[str, str]]:

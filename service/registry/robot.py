@@ -72,6 +72,7 @@ class Robot:
     model: Any  # pin.Model
     reference_configurations: dict[str, np.ndarray] = field(default_factory=dict)
     default_configuration: np.ndarray | None = None
+    contact_frames: list[dict[str, str]] = field(default_factory=list)  # suggested contacts
     warnings: list[dict[str, str]] = field(default_factory=list)
     origin: dict[str, Any] | None = None  # a reduced model: {"robot", "locked_joints"}
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
@@ -155,6 +156,7 @@ class Robot:
                 "reference_configurations": {
                     k: [float(x) for x in v] for k, v in self.reference_configurations.items()},
                 "warnings": list(self.warnings),
+                "contact_frames": [dict(c) for c in self.contact_frames],
                 "joints": joints,
                 "frames": [
                     {"name": f.name, "type": str(f.type).rsplit(".", 1)[-1].lower(),

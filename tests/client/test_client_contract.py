@@ -59,6 +59,12 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "reduce": ("r", {"elbow": 0.5, "base": [0, 0, 1, 0, 0, 0, 1]}),
 }
 KWARGS: dict[str, dict[str, Any]] = {"simulate": {"dt": 1e-3, "steps": 1}}
+# contacts (issue 19)
+ANSWERS.update({"contact_forces": [0.0], "residual": 0.0, "contact_impulses": [0.0],
+                "v": [0.0]})
+ARGS.update({"contact_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
+             "contact_inverse_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
+             "impulse_dynamics": ("r", [0.0], [0.0], ["f"])})
 
 
 def sent_requests() -> dict[str, httpx.Request]:

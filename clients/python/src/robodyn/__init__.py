@@ -112,3 +112,15 @@ __all__ = [
     "ValidationError",
     "__version__",
 ]
+
+# contacts (issue 19)
+from robodyn.contacts import (
+    Contact,
+    ContactDynamics,
+    ContactInverseDynamics,
+    ContactTrajectory,
+    ImpulseDynamics,
+)
+
+__all__ += ["Contact", "ContactDynamics", "ContactInverseDynamics", "ContactTrajectory",
+            "ImpulseDynamics"]

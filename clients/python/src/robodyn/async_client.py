@@ -12,6 +12,13 @@ import numpy as np
 
 from robodyn import core, transport
 from robodyn.arrays import ArrayLike
+from robodyn.contacts import (
+    ContactDynamics,
+    ContactInverseDynamics,
+    ContactsLike,
+    ContactTrajectory,
+    ImpulseDynamics,
+)
 from robodyn.models import RobotInfo, RobotList
 from robodyn.results import (
     CenterOfMass,
@@ -190,9 +197,33 @@ class AsyncClient:
     async def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float,
                        steps: int, tau: ArrayLike | Mapping[str, Any] | None = None,
                        controller: Mapping[str, Any] | None = None,
-                       integrator: str | None = None) -> Trajectory:
+                       integrator: str | None = None, contacts: ContactsLike | None = None,
+                       damping: float = 0.0) -> Trajectory | ContactTrajectory:
         return await self._send(core.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
-                                              controller=controller, integrator=integrator))
+                                        controller=controller, integrator=integrator,
+                                        contacts=contacts, damping=damping))
+
+    # -- contacts ---------------------------------------------------------------------
+
+    async def contact_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
+                         contacts: ContactsLike, *, damping: float = 0.0
+                         ) -> ContactDynamics:
+        return await self._send(core.contact_dynamics(robot_id, q, v, tau, contacts,
+                                                damping=damping))
+
+    async def contact_inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                                 a: ArrayLike, contacts: ContactsLike, *,
+                                 damping: float = 0.0) -> ContactInverseDynamics:
+        return await self._send(core.contact_inverse_dynamics(robot_id, q, v, a, contacts,
+                                                        damping=damping))
+
+    async def impulse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                         contacts: ContactsLike, *, restitution: float = 0.0,
+                         damping: float = 0.0) -> ImpulseDynamics:
+        return await self._send(core.impulse_dynamics(robot_id, q, v, contacts,
+                                                restitution=restitution, damping=damping))
+
+    # -- end of contacts --------------------------------------------------------------
 
     async def reduce(self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *,
                      name: str | None = None) -> RobotInfo:

@@ -12,6 +12,13 @@ import numpy as np
 
 from robodyn import core, transport
 from robodyn.arrays import ArrayLike
+from robodyn.contacts import (
+    ContactDynamics,
+    ContactInverseDynamics,
+    ContactsLike,
+    ContactTrajectory,
+    ImpulseDynamics,
+)
 from robodyn.models import RobotInfo, RobotList
 from robodyn.results import (
     CenterOfMass,
@@ -185,12 +192,36 @@ class Client:
     def centroidal(self, robot_id: str, q: ArrayLike, v: ArrayLike) -> Centroidal:
         return self._send(core.centroidal(robot_id, q, v))
 
-    def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
-                 tau: ArrayLike | Mapping[str, Any] | None = None,
+    def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float,
+                 steps: int, tau: ArrayLike | Mapping[str, Any] | None = None,
                  controller: Mapping[str, Any] | None = None,
-                 integrator: str | None = None) -> Trajectory:
+                 integrator: str | None = None, contacts: ContactsLike | None = None,
+                 damping: float = 0.0) -> Trajectory | ContactTrajectory:
         return self._send(core.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
-                                        controller=controller, integrator=integrator))
+                                        controller=controller, integrator=integrator,
+                                        contacts=contacts, damping=damping))
+
+    # -- contacts ---------------------------------------------------------------------
+
+    def contact_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
+                         contacts: ContactsLike, *, damping: float = 0.0
+                         ) -> ContactDynamics:
+        return self._send(core.contact_dynamics(robot_id, q, v, tau, contacts,
+                                                damping=damping))
+
+    def contact_inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                                 a: ArrayLike, contacts: ContactsLike, *,
+                                 damping: float = 0.0) -> ContactInverseDynamics:
+        return self._send(core.contact_inverse_dynamics(robot_id, q, v, a, contacts,
+                                                        damping=damping))
+
+    def impulse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                         contacts: ContactsLike, *, restitution: float = 0.0,
+                         damping: float = 0.0) -> ImpulseDynamics:
+        return self._send(core.impulse_dynamics(robot_id, q, v, contacts,
+                                                restitution=restitution, damping=damping))
+
+    # -- end of contacts --------------------------------------------------------------
 
     def reduce(self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *,
                name: str | None = None) -> RobotInfo:

@@ -32,6 +32,15 @@ from robodyn.arrays import (
     joint_states,
     to_json,
 )
+from robodyn.contacts import (
+    ContactDynamics,
+    ContactInverseDynamics,
+    ContactsLike,
+    ContactTrajectory,
+    ImpulseDynamics,
+    contacts_body,
+    nonnegative,
+)
 from robodyn.errors import APIError, InputError, ResponseFormatError, error_class
 from robodyn.models import RobotInfo, RobotList
 from robodyn.results import (
@@ -72,6 +81,10 @@ ROUTES: dict[str, tuple[str, str]] = {
     "centroidal": ("POST", "/v1/robots/{robot_id}/centroidal"),
     "simulate": ("POST", "/v1/robots/{robot_id}/simulate"),
     "reduce": ("POST", "/v1/robots/{robot_id}/reduce"),
+    # contacts (see the block "contacts" below)
+    "contact_dynamics": ("POST", "/v1/robots/{robot_id}/contact-dynamics"),
+    "contact_inverse_dynamics": ("POST", "/v1/robots/{robot_id}/contact-inverse-dynamics"),
+    "impulse_dynamics": ("POST", "/v1/robots/{robot_id}/impulse-dynamics"),
 }
 """Client method → (HTTP method, path template) of the server route it calls."""
 
@@ -436,16 +449,21 @@ def centroidal(robot_id: str, q: ArrayLike, v: ArrayLike) -> Call[Centroidal]:
 
 def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
              tau: ArrayLike | Mapping[str, Any] | None = None,
-             controller: Mapping[str, Any] | None = None, integrator: str | None = None
-             ) -> Call[Trajectory]:
+             controller: Mapping[str, Any] | None = None, integrator: str | None = None,
+             contacts: ContactsLike | None = None, damping: float = 0.0
+             ) -> Call[Trajectory | ContactTrajectory]:
     """Integrate forward dynamics from (q, v) for `steps` steps of `dt` seconds: a
     `Trajectory` (t, q, v, mechanical_energy) of steps + 1 samples, q of shape (steps + 1, nq),
     v (steps + 1, nv); with a leading axis N for initial states of shape (N, nq), (N, nv).
     `tau`: nv numbers (constant) or (steps, nv) (τ_k during step k); or `controller`:
     `{"type": "pd", "kp": ..., "kd": ..., "q_target": ..., "gravity_compensation": False}`
     (gains: a number or nv numbers); neither means τ = 0. `integrator`: "semi-implicit-euler"
-    (default) or "rk4"."""
+    (default) or "rk4". `contacts` (a fixed contact set, e.g. `RobotInfo.contact_frames`)
+    gives a `ContactTrajectory` (with `constraint_drift`, m): the contacts hold their frames
+    where they start, and a PD controller acts on the actuated joints only."""
     options = request_options.simulation(dt, steps, tau, controller, integrator)
+    if contacts is not None:  # contacts (issue 19)
+        return _simulate_with_contacts(robot_id, q, v, options, contacts, damping)
     call = _dynamics("simulate", robot_id, {"t": 1, "q": 2, "v": 2, "mechanical_energy": 1},
                      result=Trajectory, square=False, options=options, q=q, v=v)
     # Always JSON: a torque schedule is a body field, too big for a binary header.
@@ -468,6 +486,66 @@ def reduce(robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str |
         body["name"] = name
     return _call("reduce", lambda status, data: RobotInfo.from_json(data, created=status == 201),
                  robot_id, body)
+
+
+# -- contacts -----------------------------------------------------------------------------
+
+
+def _contact_options(contacts: ContactsLike, damping: float) -> dict[str, Any]:
+    options: dict[str, Any] = {"contacts": contacts_body(contacts)}
+    if nonnegative("damping", damping):
+        options["damping"] = float(damping)
+    return options
+
+
+def contact_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
+                     contacts: ContactsLike, *, damping: float = 0.0
+                     ) -> Call[ContactDynamics]:
+    """`ContactDynamics` (a, contact_forces): constrained forward dynamics with rigid
+    contacts, M a + h = τ + Jcᵀ λ with Jc a + γ = 0. `contacts`: a list of
+    `{"frame": name, "type": "point" | "6d"}` (a robot's feet: `RobotInfo.contact_frames`).
+    `a` has shape (nv,) and `contact_forces` (m,) — N (and N·m for 6d contacts), at each
+    frame's origin with the world's axes, in the order of `contacts`; a leading axis N for a
+    batch. Raises `UnknownFrameError` for an unknown frame and `SingularConfigurationError`
+    for a rank-deficient contact set unless `damping` μ > 0 (the regularized solution)."""
+    return _quantity("contact_dynamics", robot_id, ContactDynamics.from_json,
+                     _contact_options(contacts, damping), q=q, v=v, tau=tau)
+
+
+def contact_inverse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike,
+                             contacts: ContactsLike, *, damping: float = 0.0
+                             ) -> Call[ContactInverseDynamics]:
+    """`ContactInverseDynamics` (tau, contact_forces, residual): the joint torques τ (zero on
+    a floating base's root rows) and the minimum-norm contact forces λ with
+    M a + h = τ + Jcᵀ λ; `residual` is the 2-norm of the root wrench no contact force can
+    produce (0 when the contacts can hold the motion). The shapes: τ (nv,), λ (m,), laid out as
+    in `contact_dynamics`, residual a float; a leading axis N for a batch. No friction cone:
+    λ may pull. For a fixed-base robot λ = 0 and τ = M a + h. Errors as `contact_dynamics`."""
+    return _quantity("contact_inverse_dynamics", robot_id, ContactInverseDynamics.from_json,
+                     _contact_options(contacts, damping), q=q, v=v, a=a)
+
+
+def impulse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, contacts: ContactsLike, *,
+                     restitution: float = 0.0, damping: float = 0.0
+                     ) -> Call[ImpulseDynamics]:
+    """`ImpulseDynamics` (v, contact_impulses): the velocity just after a rigid impact at
+    `contacts`, M (v⁺ − v⁻) = Jcᵀ Λ with Jc v⁺ = −e Jc v⁻ (`restitution` e in [0, 1]), and
+    the impulses Λ in N·s (N·m·s), laid out like contact forces. The shapes: v (nv,), Λ (m,); a
+    leading axis N for a batch. Errors as `contact_dynamics`."""
+    options = _contact_options(contacts, damping)
+    options["restitution"] = nonnegative("restitution", restitution, upper=1.0)
+    return _quantity("impulse_dynamics", robot_id, ImpulseDynamics.from_json, options,
+                     q=q, v=v)
+
+
+def _simulate_with_contacts(robot_id: str, q: ArrayLike, v: ArrayLike,
+                            options: dict[str, Any], contacts: ContactsLike, damping: float
+                            ) -> Call[Any]:
+    options = {**options, **_contact_options(contacts, damping)}
+    call = _dynamics("simulate", robot_id, {"t": 1, "q": 2, "v": 2, "mechanical_energy": 1,
+                                            "constraint_drift": 1},
+                     result=ContactTrajectory, square=False, options=options, q=q, v=v)
+    return replace(call, json=call.json_body(), arrays=None)
 
 
 def share_docs(cls: type) -> type:

@@ -197,6 +197,12 @@ class RobotInfo:
     def frame_names(self) -> list[str]:
         return [f.name for f in self.frames]
 
+    @property
+    def contact_frames(self) -> list[dict[str, str]]:
+        """Suggested contacts (the robot's feet), ready to pass as `contacts`:
+        `[{"frame": "FL_FOOT", "type": "point"}, ...]`; empty when the server knows none."""
+        return [dict(c) for c in self.raw.get("contact_frames", [])]
+
     def joint(self, name: str) -> JointInfo:
         """The joint called `name`; KeyError (listing the names) if there is none."""
         for j in self.joints:

@@ -1,0 +1,129 @@
+"""Request and answer schemas of the contact endpoints: contact-dynamics,
+contact-inverse-dynamics and impulse-dynamics (`service.dynamics.contacts`), and the `contacts`
+option of simulate.
+
+`REQUESTS` and `ANSWERS` map each endpoint path to its models (merged into the tables of
+`service.api.dynamics`). Option defaults equal the keyword defaults of the computing functions.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+from service.api import schemas_simulation as plain
+from service.api.schemas_dynamics import QVARequest, QVRequest, QVTauRequest, StrictRequest
+from service.api.schemas_options import JointVector
+
+FORCES_LAYOUT = (
+    "expressed at each contact frame's origin with the world's axes (local_world_aligned): 3 "
+    "numbers per `point` contact, 6 per `6d` contact (force first, then torque), "
+    "concatenated in the order of `contacts` (m numbers in all)")
+
+
+class Contact(StrictRequest):
+    """A rigid contact at a frame of the model."""
+
+    frame: str = Field(min_length=1, max_length=256, description=(
+        "A frame of the robot (link, joint or fixed frame); the names are under `frames` and "
+        "suggested feet under `contact_frames` in GET /v1/robots/{id}. An unknown name is a "
+        "422 `unknown_frame`; a frame attached to the world is a 422 "
+        "`singular_configuration`."))
+    type: Literal["point", "6d"] = Field("point", description=(
+        "`point`: the frame's origin does not move (its classical linear acceleration is "
+        "zero), 3 force components; `6d`: the frame neither moves nor turns (its spatial "
+        "acceleration in its LOCAL frame is zero), 3 force and 3 torque components."))
+
+
+def _contacts_field() -> list[Contact]:
+    return Field(min_length=1, max_length=64, description=(
+        "The contact set, the same for every state of a batch. Contact forces are "
+        + FORCES_LAYOUT + "."))
+
+
+def _damping_field() -> float:
+    return Field(0.0, ge=0.0, allow_inf_nan=False, description=(
+        "Damping μ ≥ 0 for a rank-deficient contact Jacobian Jc (e.g. two contacts at one "
+        "point). With 0 (default) a contact set whose Delassus matrix Jc M⁻¹ Jcᵀ has a pivot "
+        "at most 1e-8 times its largest is a 422 `singular_configuration`; with μ > 0 the "
+        "regularized (proximal) solution is answered: see docs/contacts.md."))
+
+
+class ContactDynamicsRequest(QVTauRequest):
+    contacts: list[Contact] = _contacts_field()
+    damping: float = _damping_field()
+
+
+class ContactInverseDynamicsRequest(QVARequest):
+    contacts: list[Contact] = _contacts_field()
+    damping: float = _damping_field()
+
+
+class ImpulseDynamicsRequest(QVRequest):
+    contacts: list[Contact] = _contacts_field()
+    restitution: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False, description=(
+        "Coefficient of restitution e in [0, 1]: Jc v⁺ = −e Jc v⁻ (0: the contacts stop, "
+        "perfectly inelastic; 1: they bounce back, elastic)."))
+    damping: float = _damping_field()
+
+
+class ContactDynamicsAnswer(BaseModel):
+    a: JointVector = Field(description="Joint acceleration a, length nv (rad/s², m/s²), "
+                           "solving M a + h = τ + Jcᵀ λ with Jc a + γ = 0; (N, nv) for a batch.")
+    contact_forces: list[float] | list[list[float]] = Field(
+        description="Contact forces λ, N and N·m, " + FORCES_LAYOUT + "; (N, m) for a batch.")
+
+
+class ContactInverseDynamicsAnswer(BaseModel):
+    tau: JointVector = Field(description=(
+        "Joint torques τ, length nv (N·m, N): zero on a floating base's root rows (6 for a "
+        "free-flyer, 3 for a planar root); τ = M a + h − Jcᵀ λ on the other rows. For a "
+        "fixed-base robot τ = M a + h and λ = 0."))
+    contact_forces: list[float] | list[list[float]] = Field(description=(
+        "Contact forces λ, N and N·m, " + FORCES_LAYOUT + ": the minimum-Euclidean-norm "
+        "solution of the root rows (M a + h)_root = (Jcᵀ λ)_root (no friction cone, no "
+        "unilaterality); (N, m) for a batch."))
+    residual: float | list[float] = Field(description=(
+        "2-norm of (Jcᵀ λ − M a − h) on the root rows: the part of the motion no contact "
+        "force can produce (0 when the contacts can hold the motion); N and N·m mixed."))
+
+
+class ImpulseDynamicsAnswer(BaseModel):
+    v: JointVector = Field(description="Velocity just after the impact, length nv: "
+                           "M (v⁺ − v⁻) = Jcᵀ Λ with Jc v⁺ = −e Jc v⁻; (N, nv) for a batch.")
+    contact_impulses: list[float] | list[list[float]] = Field(
+        description="Contact impulses Λ, N·s and N·m·s, laid out like contact forces: "
+        + FORCES_LAYOUT + "; (N, m) for a batch.")
+
+
+class SimulateRequest(plain.SimulateRequest):
+    contacts: list[Contact] | None = Field(None, max_length=64, description=(
+        "Optional fixed contact set for the whole rollout (e.g. all feet on the ground): the "
+        "contacts hold their frames at their initial placement, with Baumgarte stabilisation "
+        "of the drift (see docs/contacts.md); a PD controller then acts on the actuated "
+        "joints only (nothing on a floating root), and its gravity compensation is "
+        "contact-consistent (contact-inverse-dynamics at v = a = 0). Forces are not bounded "
+        "by friction: the contacts never slip or lift off."))
+    damping: float = _damping_field()
+
+
+class SimulateAnswer(plain.SimulateAnswer):
+    constraint_drift: list[float] | list[list[float]] | None = Field(None, description=(
+        "Only with contacts: at each sample, the largest distance (m) of a contact frame's "
+        "origin from where it started; (N, steps + 1) for a batch."))
+
+
+REQUESTS: dict[str, type[BaseModel]] = {
+    "contact-dynamics": ContactDynamicsRequest,
+    "contact-inverse-dynamics": ContactInverseDynamicsRequest,
+    "impulse-dynamics": ImpulseDynamicsRequest,
+    "simulate": SimulateRequest,
+}
+
+ANSWERS: dict[str, type[BaseModel]] = {
+    "contact-dynamics": ContactDynamicsAnswer,
+    "contact-inverse-dynamics": ContactInverseDynamicsAnswer,
+    "impulse-dynamics": ImpulseDynamicsAnswer,
+    "simulate": SimulateAnswer,
+}

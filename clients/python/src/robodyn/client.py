@@ -40,7 +40,7 @@ class Client:
     instead of creating one (e.g. with a custom transport); its own timeouts apply, and
     `close()` leaves it open.
     `headers`: extra headers for every request.
-    `binary`: send dynamics inputs and read answers in the binary form (raw float64, see the
+    `binary`: send dynamics inputs and read answers in the binary form (a safetensors file of raw float64, see the
     server's docs/binary-format.md): None (default) for requests of `core.BINARY_FROM` numbers
     or more, True always, False never. Answers are bit for bit the same either way.
     """

@@ -79,8 +79,8 @@ METHODS: tuple[str, ...] = tuple(ROUTES)
 
 BINARY_FROM = 4096
 """Requests with this many input numbers or more are sent, and answered, in the binary form
-(raw float64 instead of JSON text: see docs/binary-format.md), unless the client says otherwise
-(`Client(binary=...)`)."""
+(a safetensors file of raw float64 instead of JSON text: see docs/binary-format.md), unless
+the client says otherwise (`Client(binary=...)`)."""
 MAX_BINARY_ANSWER = 1 << 32  # bytes; a larger Content-Length is not preallocated
 Body = bytes | list[bytes | memoryview]  # a request body: whole, or in parts
 

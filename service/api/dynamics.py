@@ -168,8 +168,8 @@ class Endpoint:
                       options: dict[str, Any]) -> dict[str, Any]:
         """Validate the states and compute: inline when small, in a worker thread when large.
         Name-keyed inputs become arrays first (`fill` fills missing joints); with
-        `"joint_names": true` the joint-space answers are keyed by joint name. Records what was computed in the ASGI scope
-        (`scope["robodyn"]`) for logs and Server-Timing."""
+        `"joint_names": true` the joint-space answers are keyed by joint name. Records what
+        was computed in the ASGI scope (`scope["robodyn"]`) for logs and Server-Timing."""
         named = options.pop("joint_names", False) if options else False
         fill = options.pop("fill", None) if options else None
         settings = request.app.state.settings

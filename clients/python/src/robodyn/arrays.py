@@ -15,16 +15,31 @@ float64. Inputs may also be keyed by joint name: a mapping, or a ROS `sensor_msg
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any, TypeAlias
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from robodyn.errors import InputError
 
-ArrayLike: TypeAlias = npt.ArrayLike
-"""Anything numpy reads as a 1-D or 2-D array of real numbers (list, tuple, ndarray)."""
+
+class JointStateLike(Protocol):
+    """A ROS `sensor_msgs/JointState`-like object: joint `name`s and, in the same order, their
+    `position`, `velocity` and `effort` (the last two may be missing or empty)."""
+
+    @property
+    def name(self) -> Any: ...
+
+    @property
+    def position(self) -> Any: ...
+
+
+ArrayLike: TypeAlias = (npt.ArrayLike | Mapping[str, Any] | Sequence[Mapping[str, Any]]
+                        | JointStateLike | Sequence[JointStateLike])
+"""A joint-space input: anything numpy reads as a 1-D or 2-D array of real numbers (list,
+tuple, ndarray, torch tensor, JAX array), or an input keyed by joint name (a mapping, a
+JointState-like object, or a list of them for a batch)."""
 
 
 def host_array(value: Any) -> Any:

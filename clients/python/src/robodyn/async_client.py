@@ -94,8 +94,17 @@ class AsyncClient:
                     return end.value  # type: ignore[no-any-return]
 
     async def _fetch(self, call: core.Call[T]) -> T:
+        try:  # the first attempt outside stamina: ~30 µs less per call that succeeds
+            return await self._fetch_once(call)
+        except transport.RETRIED as exc:
+            failure: Exception | None = exc
+            if self._retry is None:
+                raise
         async for attempt in transport.retry_context(call, self._retry):
             with attempt:
+                if failure is not None:  # stamina decides on the first failure, and waits
+                    first, failure = failure, None
+                    raise first
                 return await self._fetch_once(call)
         raise AssertionError("unreachable: the last attempt returns or raises")
 

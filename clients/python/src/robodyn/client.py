@@ -103,8 +103,17 @@ class Client:
                     return end.value  # type: ignore[no-any-return]
 
     def _fetch(self, call: core.Call[T]) -> T:
+        try:  # the first attempt outside stamina: ~30 µs less per call that succeeds
+            return self._fetch_once(call)
+        except transport.RETRIED as exc:
+            failure: Exception | None = exc
+            if self._retry is None:
+                raise
         for attempt in transport.retry_context(call, self._retry):
             with attempt:
+                if failure is not None:  # stamina decides on the first failure, and waits
+                    first, failure = failure, None
+                    raise first
                 return self._fetch_once(call)
         raise AssertionError("unreachable: the last attempt returns or raises")
 

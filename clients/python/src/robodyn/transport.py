@@ -37,7 +37,8 @@ class Retry:
     `delete`, which is retried only when it surely did not reach the server (503, refused
     connection). Timeouts while waiting for an answer are not retried.
 
-    At most `attempts` tries within `timeout` seconds in all. The wait before the next try is
+    At most `attempts` tries (the first included) within `timeout` seconds from the first
+    failure. The wait before the next try is
     the server's `Retry-After` when it gives one (never past the budget: a longer one ends the
     retries at once), else exponential from `wait_initial` up to `wait_max` seconds, with up
     to `wait_jitter` seconds of random jitter (stamina's backoff). The last error is raised.
@@ -51,6 +52,8 @@ class Retry:
 
 
 DEFAULT_RETRY: Retry = Retry()
+RETRIED = (ServiceUnavailableError, TransportError)
+"""The failures `retry_context` may retry (it decides which by their cause)."""
 _SENT_FAILURES = (httpx.RemoteProtocolError, httpx.ReadError, httpx.WriteError)
 _UNSENT_FAILURES = (httpx.ConnectError, httpx.ConnectTimeout, httpx.PoolTimeout)
 

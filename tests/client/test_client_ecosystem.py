@@ -5,7 +5,9 @@ a user script that type-checks under `mypy --strict`."""
 from __future__ import annotations
 
 import asyncio
+import importlib.util
 import itertools
+import re
 import subprocess
 import sys
 import time
@@ -319,3 +321,21 @@ def test_a_script_using_every_method_passes_mypy_strict_and_runs(server: str,
     assert out["chunks"] == 0.0 and out["mass"] > 0
     assert out["g_ros"] != 0.0
     assert asyncio.run(typed_usage.main_async(server)) != 0.0
+
+
+# -- the guide ----------------------------------------------------------------------------
+
+
+def test_the_examples_of_the_client_guide_run(server: str,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """docs/python-client.md: every `<!-- example -->` block (the torch one with torch)."""
+    text = (HERE.parents[1] / "docs" / "python-client.md").read_text()
+    examples = re.findall(r"<!-- example(: torch)? -->\n```python\n(.*?)```", text, re.S)
+    assert len(examples) >= 5
+    for torch_only, code in examples:
+        if torch_only and importlib.util.find_spec("torch") is None:
+            continue
+        exec(compile(code.replace("http://127.0.0.1:8000", server), "python-client.md",
+                     "exec"), {})
+    out = capsys.readouterr().out
+    assert "6000/6000 steps" in out and "422 dimension_mismatch ['panda_joint2'" in out

@@ -271,6 +271,12 @@ def test_the_javascript_reader_gives_the_json_answer_bit_for_bit(api, catalog_re
         assert got.tobytes() == np.asarray(value, dtype=np.float64).tobytes()
 
 
+def test_the_former_media_type_is_unsupported(api):
+    r = api.post("/v1/robots/ur5/gravity", content=b"RDY1" + bytes(60),
+                 headers={"content-type": "application/vnd.robodyn.binary"})
+    assert r.status_code == 415 and BIN in r.json()["detail"]
+
+
 def test_openapi_documents_the_dynamics_routes_and_the_binary_form(api):
     doc = api.get("/openapi.json").json()
     for quantity in INPUTS:

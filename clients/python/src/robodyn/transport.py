@@ -38,10 +38,10 @@ class Retry:
     connection). Timeouts while waiting for an answer are not retried.
 
     At most `attempts` tries (the first included) within `timeout` seconds from the first
-    failure. The wait before the next try is
-    the server's `Retry-After` when it gives one (never past the budget: a longer one ends the
-    retries at once), else exponential from `wait_initial` up to `wait_max` seconds, with up
-    to `wait_jitter` seconds of random jitter (stamina's backoff). The last error is raised.
+    failure. The wait before the next try is the server's `Retry-After` when it gives one
+    (never past the budget: a longer one ends the retries at once), else exponential from
+    `wait_initial` up to `wait_max` seconds, with up to `wait_jitter` seconds of random jitter
+    (stamina's backoff). The last error is raised.
     """
 
     attempts: int = 5

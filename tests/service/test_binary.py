@@ -194,6 +194,31 @@ def test_decoder_refuses_arbitrary_bytes_cleanly(content):
         assert isinstance(fields, dict) and all(a.dtype == np.float64 for a in arrays.values())
 
 
+@settings(max_examples=400, deadline=None)
+@given(shape=st.lists(st.integers(-2, 2**70), max_size=4),
+       offsets=st.lists(st.integers(-8, 2**70), max_size=3),
+       dtype=st.sampled_from(["F64", "F32", "I64", 3]), data=st.integers(0, 80),
+       metadata=st.dictionaries(st.text(max_size=3), st.text(max_size=5) | st.integers(),
+                                max_size=2))
+def test_decoder_refuses_hostile_headers_cleanly(shape, offsets, dtype, data, metadata):
+    """Any header: a `binary body` InvalidInput, or float64 arrays that fit the body."""
+    import json
+
+    header = {"__metadata__": metadata,
+              "q": {"dtype": dtype, "shape": shape, "data_offsets": offsets}}
+    content = raw_json(json.dumps(header).encode(), bytes(data))
+    try:
+        _, arrays = binary.decode(content)
+    except InvalidInput as exc:
+        assert "binary body" in exc.detail
+    else:
+        assert arrays["q"].dtype == np.float64 and arrays["q"].nbytes == data
+
+
+def raw_json(text: bytes, data: bytes) -> bytes:
+    return struct.pack("<Q", len(text)) + text + data
+
+
 def test_encoder_round_trips_through_the_reference_decoder():
     values = {"m": np.arange(24.0).reshape(2, 3, 4), "s": np.float64(2.5) * np.ones(()),
               "label": "x"}

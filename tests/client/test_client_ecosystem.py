@@ -119,9 +119,13 @@ def test_jax_inputs(server: str) -> None:
                                       client.gravity("ur5", np.float32(q)))
 
 
-def test_array_type_is_checked() -> None:
+def test_array_type_is_checked(monkeypatch: pytest.MonkeyPatch) -> None:
     with pytest.raises(robodyn.InputError, match="array_type"):
         Client("http://127.0.0.1:9", array_type="jax")  # type: ignore[arg-type]
+    monkeypatch.setitem(sys.modules, "torch", None)  # as if PyTorch were not installed
+    with pytest.raises(robodyn.InputError, match="pip install torch"):
+        Client("http://127.0.0.1:9", array_type="torch")
+    assert Client("http://127.0.0.1:9").base_url  # numpy needs nothing more
 
 
 # -- progress -----------------------------------------------------------------------------

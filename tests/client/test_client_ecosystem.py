@@ -151,6 +151,19 @@ def test_progress_of_a_batch_in_chunks_is_reported_in_order(server: str,
         assert seen == []
 
 
+def test_the_async_client_reports_progress_too(server: str, reference: Reference) -> None:
+    s = reference.states("ur5", 2500, seed=6)
+    seen: list[tuple[int, int]] = []
+
+    async def run() -> tuple[np.ndarray, np.ndarray]:
+        async with AsyncClient(server) as whole, \
+                AsyncClient(server, progress=lambda *a: seen.append(a)) as chunked:
+            return (await chunked.gravity("ur5", s["q"]), await whole.gravity("ur5", s["q"]))
+
+    parts, expected = asyncio.run(run())
+    assert seen == [(2000, 2500), (2500, 2500)] and np.array_equal(parts, expected)
+
+
 @pytest.mark.parametrize("batched", [False, True])
 def test_a_long_simulation_in_chunks_is_the_one_request_trajectory(server: str,
                                                                    batched: bool) -> None:

@@ -262,6 +262,12 @@ def test_answers_read_by_safetensors_torch_are_bit_for_bit_the_json_answers(api,
     for key, value in expected.items():
         assert got[key].dtype == torch.float64
         np.testing.assert_array_equal(got[key].numpy(), np.asarray(value))
+    written = safetensors.torch.save({k: torch.from_numpy(v) for k, v in body.items()})
+    r = api.post("/v1/robots/talos/inverse-dynamics-derivatives", content=written,
+                 headers={"content-type": BIN, "accept": BIN})
+    assert r.status_code == 200, r.text  # a request written by safetensors.torch
+    for key, value in safetensors.torch.load(r.content).items():
+        np.testing.assert_array_equal(value.numpy(), np.asarray(expected[key]))
 
 
 def test_a_zero_size_dimension_with_a_huge_one_is_refused_before_any_allocation(api):

@@ -134,6 +134,15 @@ def test_binary_answers_can_be_keyed_by_name(api):
     assert set(r.json()["gravity"]) == {"shoulder_pan_joint", "shoulder_lift_joint",
                                         "elbow_joint", "wrist_1_joint", "wrist_2_joint",
                                         "wrist_3_joint"}
+    r = api.post("/v1/robots/ur5/gravity", content=body,
+                 headers={"content-type": binary.BINARY_MEDIA_TYPE,
+                          "accept": binary.BINARY_MEDIA_TYPE})
+    fields, arrays = binary.decode(r.content)  # keyed answers: JSON in __metadata__
+    assert arrays == {} and fields["gravity"] == {
+        name: value for name, value in zip(
+            ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+             "wrist_2_joint", "wrist_3_joint"], api.post("/v1/robots/ur5/gravity", json={
+                "q": [0.0] * 6}).json()["gravity"], strict=True)}
 
 
 def _ur5(api, **change) -> dict:

@@ -269,3 +269,24 @@ def test_fill_in_the_binary_form_and_unknown_fill_names(api):
         assert "'standing'" in problem["detail"] and "neutral" in problem["detail"]
     assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": q, "fill": 3}), 422,
                    "validation_error")
+
+
+def test_a_planar_root_takes_x_y_and_its_angle(api):
+    from tests.helpers import planar_arm_urdf
+
+    r = api.post("/v1/robots", json={"urdf": planar_arm_urdf(0.5, 0.4, 2.0, 1.0),
+                                     "root_joint": "planar", "name": "planar_root_names"})
+    assert r.status_code in (200, 201), r.text
+    info = r.json()
+    robot = info["id"]
+    root = next(j for j in info["joints"] if j["type"] == "planar")
+    others = [j["name"] for j in info["joints"] if j["type"] != "planar"]
+    x, y, theta = 0.3, -0.2, 2.5
+    full = {root["name"]: [x, y, np.cos(theta), np.sin(theta)], **dict.fromkeys(others, 0.4)}
+    short = {root["name"]: [x, y, theta], **dict.fromkeys(others, 0.4)}
+    v = {root["name"]: [0.1, 0.2, -0.3], **dict.fromkeys(others, 1.0)}
+    got = _post(api, robot, "nonlinear-effects", {"q": short, "v": v})
+    want = _post(api, robot, "nonlinear-effects", {"q": full, "v": v})
+    np.testing.assert_allclose(got["nonlinear_effects"], want["nonlinear_effects"],
+                               rtol=1e-13, atol=1e-13)
+    assert api.delete(f"/v1/robots/{robot}").status_code in (200, 204)

@@ -359,7 +359,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="shorter runs")
     parser.add_argument("--only", default="123456", help="which comparisons, e.g. 13")
     opts = parser.parse_args()
-    if shutil.which("wrk") is None and set(opts.only) & {"1", "5"}:
+    if shutil.which("wrk") is None and set(opts.only) & set("15"):
         sys.exit("wrk is needed: apt-get install wrk")
     seconds, rounds = (2, 3) if opts.quick else (5, 5)
     env = {"ROBODYN_CATALOG": "ur5,talos", "ROBODYN_DATA_DIR": tempfile.mkdtemp(),

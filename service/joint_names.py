@@ -1,11 +1,18 @@
 """Joint-space vectors keyed by joint name, in requests and (on request) in answers.
 
-Instead of an array, a joint-space input may be an object keyed by joint name, in any order:
-every joint of the robot must be named once, and each takes its entries of that space — a
-number (or a 1-list) for a 1-dof joint, `[cos θ, sin θ]` for a continuous joint's q, the
-7-vector `[x, y, z, qx, qy, qz, qw]` for a free-flyer's q and its 6-vector in v, a and τ. A batch
-is a list of such objects, one per state. `by_name` turns answers the other way round:
-`{"joint": value}` for one state and a list of objects for a batch (or a trajectory).
+Instead of an array, a joint-space input may be an object keyed by joint name, in any order,
+as a ROS `sensor_msgs/JointState` holds it: each joint takes its entries of that space — a
+number (or a 1-list) for a 1-dof joint; for a continuous joint's q its angle θ (rad) or
+`[cos θ, sin θ]`; for a planar joint's q `[x, y, θ]` or `[x, y, cos θ, sin θ]`; the 7-vector
+`[x, y, z, qx, qy, qz, qw]` for a free-flyer's q and its 6-vector in v, a and τ. A batch is a
+list of such objects, one per state.
+
+Every joint must be named once, unless the request says how to fill the others (`"fill"`):
+`"neutral"` or the name of one of the robot's reference configurations (e.g. `"standing"`)
+gives a missing joint's q from that configuration; a missing joint's v, a and τ are zero.
+
+`by_name` turns answers the other way round: `{"joint": value}` for one state and a list of
+objects for a batch (or a trajectory).
 
 Conversion is done here once, in the layer that parses requests; the rest of the service only
 sees arrays. Plain-array requests never reach this module (`any_named` is a type check).
@@ -13,12 +20,13 @@ sees arrays. Plain-array requests never reach this module (`any_named` is a type
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
 
-from service.errors import DimensionMismatch
+from service.errors import DimensionMismatch, InvalidInput
 from service.registry.robot import Robot
 from service.states import SPACES
 
@@ -48,9 +56,42 @@ def _names(names: Iterable[str]) -> list[str]:
     return shown[:_SHOWN] + ([f"… {len(shown) - _SHOWN} more"] if len(shown) > _SHOWN else [])
 
 
+NEUTRAL = "neutral"
+
+
+def fill_values(robot: Robot, fill: str | None, dim: str) -> np.ndarray | None:
+    """The vector missing joints take their entries from: the configuration named `fill` for
+    q ("neutral" or a reference configuration), zeros for v, a and τ; None without `fill`."""
+    if fill is None:
+        return None
+    if fill == NEUTRAL:
+        base = np.asarray(robot.info()["neutral_configuration"], dtype=np.float64)
+    elif fill in robot.reference_configurations:
+        base = np.asarray(robot.reference_configurations[fill], dtype=np.float64)
+    else:
+        choices = [NEUTRAL, *robot.reference_configurations]
+        raise InvalidInput(f"fill {fill[:_NAME_CHARS]!r} is not a configuration of robot "
+                           f"'{robot.id}'; it takes one of {', '.join(_names(choices))}")
+    return base if dim == "nq" else np.zeros(robot.nv)
+
+
+# A scalar angle θ (rad) stands for the (cos θ, sin θ) part of these joints' q entries.
+_ANGLE_PART = {"continuous": 0, "planar": 2}
+
+
+def _entry(kind: str, size: int, value: Any, dim: str) -> np.ndarray:
+    entry = np.asarray(value, dtype=np.float64)
+    if dim == "nq" and kind in _ANGLE_PART and entry.size == size - 1 and entry.ndim <= 1:
+        at = _ANGLE_PART[kind]
+        angle = entry.reshape(-1)[at]
+        return np.concatenate([entry.reshape(-1)[:at], [math.cos(angle), math.sin(angle)]])
+    return entry
+
+
 def _state(robot: Robot, field: str, value: Mapping[str, Any], dim: str,
-           layout: dict[str, tuple[int, int, str]]) -> np.ndarray:
-    missing = [name for name in layout if name not in value]
+           layout: dict[str, tuple[int, int, str]], fill: np.ndarray | None = None
+           ) -> np.ndarray:
+    missing = [name for name in layout if name not in value] if fill is None else []
     unknown = [name for name in value if name not in layout]
     if missing or unknown:
         parts = []
@@ -60,38 +101,52 @@ def _state(robot: Robot, field: str, value: Mapping[str, Any], dim: str,
             parts.append(f"unknown names: {', '.join(_names(unknown))}")
         raise DimensionMismatch(
             f"{field} by joint name must name every joint of robot '{robot.id}' once "
-            f"({'; '.join(parts)}); the joints are listed under `joints` in "
-            f"GET /v1/robots/{robot.id}", missing=_names(missing), unknown=_names(unknown))
-    out = np.empty(getattr(robot, dim))
+            f"({'; '.join(parts)}), or the request must say how to fill the missing ones "
+            '("fill": "neutral" or a reference configuration\'s name); the joints are listed '
+            f"under `joints` in GET /v1/robots/{robot.id}", missing=_names(missing),
+            unknown=_names(unknown))
+    out = np.empty(getattr(robot, dim)) if fill is None else fill.copy()
     for name, (start, size, kind) in layout.items():
-        entry = np.asarray(value[name], dtype=np.float64)
+        if name not in value:
+            continue  # filled
+        entry = _entry(kind, size, value[name], dim)
         if entry.size != size or entry.ndim > 1:
             has = "a number" if entry.ndim == 0 else f"{entry.size} entries"
             takes = "a number" if size == 1 else f"{size} numbers"
+            if dim == "nq" and kind == "continuous":
+                takes = "an angle or [cos θ, sin θ]"
+            elif dim == "nq" and kind == "planar":
+                takes = "[x, y, θ] or [x, y, cos θ, sin θ]"
             raise DimensionMismatch(f"{field}['{name}'] has {has}; joint '{name}' ({kind}) "
                                     f"takes {takes} in {field}")
         out[start:start + size] = entry
     return out
 
 
-def from_names(robot: Robot, field: str, value: Any, dim: str) -> Any:
+def from_names(robot: Robot, field: str, value: Any, dim: str, fill: str | None = None
+               ) -> Any:
     """The array form of `value` for the space of dimension `dim` ("nq" or "nv"): (n,) for an
-    object, (N, n) for a list of objects; any other value is returned unchanged."""
+    object, (N, n) for a list of objects; any other value is returned unchanged. `fill`: how
+    missing joints are filled (see the module's docstring); None: every joint must be named."""
     if not is_named(value):
         return value
     layout = _layout(robot, dim)
+    base = fill_values(robot, fill, dim)
     if type(value) is dict:
-        return _state(robot, field, value, dim, layout)
+        return _state(robot, field, value, dim, layout, base)
     if not all(type(v) is dict for v in value):
         raise DimensionMismatch(f"{field} mixes joint-name objects and arrays; a batch is a "
                                 "list of objects or a list of arrays")
-    return np.stack([_state(robot, f"{field}[{i}]", v, dim, layout)
+    return np.stack([_state(robot, f"{field}[{i}]", v, dim, layout, base)
                      for i, v in enumerate(value)])
 
 
-def arrays_from_names(robot: Robot, arrays: Mapping[str, Any]) -> dict[str, Any]:
-    """The joint-space inputs (keys of `service.states.SPACES`) with name-keyed ones as arrays."""
-    return {name: from_names(robot, name, value, SPACES[name]) for name, value in arrays.items()}
+def arrays_from_names(robot: Robot, arrays: Mapping[str, Any], fill: str | None = None
+                      ) -> dict[str, Any]:
+    """The joint-space inputs (keys of `service.states.SPACES`) with name-keyed ones as arrays;
+    `fill` as for `from_names`."""
+    return {name: from_names(robot, name, value, SPACES[name], fill)
+            for name, value in arrays.items()}
 
 
 def by_name(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]) -> dict[str, Any]:

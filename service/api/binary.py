@@ -1,19 +1,26 @@
-"""The binary encoding of dynamics requests and answers (media type `BINARY_MEDIA_TYPE`).
+"""The binary encoding of dynamics requests and answers: a safetensors file (`BINARY_MEDIA_TYPE`).
 
 Large batches as JSON text cost more to format and parse than to compute. The binary form has
-the same field names and shapes as the JSON form, with arrays as raw little-endian float64, and
-is readable from any language with a standard library (a JSON parser and byte access):
+the same field names and shapes as the JSON form and is a valid safetensors file, so
+`safetensors.numpy.load(body)`, `safetensors.torch.load(body)` and the safetensors readers of
+other languages read it with no robodyn code:
 
-    bytes 0–3    b"RDY1"                     magic and format version
-    bytes 4–7    H, uint32 little-endian     length of the header
-    bytes 8…8+H  header, UTF-8 JSON          {"fields": {...}, "arrays": {name: {"shape": [...],
-                                              "offset": o}}}
-    padding      0–7 zero bytes, so that the data section starts at a multiple of 8
-    data         each array's float64 values, row-major, at data start + its offset (a
-                 multiple of 8)
+    bytes 0–7    N, uint64 little-endian      length of the header
+    bytes 8…8+N  header, UTF-8 JSON object    {"__metadata__": {name: JSON text}, name:
+                                               {"dtype": "F64", "shape": [...],
+                                                "data_offsets": [begin, end]}, ...}
+                 (padded with spaces so that the data starts at a multiple of 8)
+    data         the tensors' float64 values, little-endian, row-major, back to back: each at
+                 data start + begin, end − begin = 8 × the product of its shape
 
-`fields` holds every non-array member (e.g. `"frame": "tool0"`) exactly as in JSON. The full
-description with examples is docs/binary-format.md.
+Every non-array member (e.g. `"frame": "tool0"`) is in `__metadata__` under its name, as its
+JSON text (safetensors metadata maps strings to strings): `{"frame": "\\"tool0\\""}`.
+
+The decoder reads the header itself (no dependency, no copy of the data): the arrays are
+numpy views of the body. Everything in the header is checked before it is used — dtype,
+shapes (non-negative integers, each dimension and their product bounded by the body's size),
+offsets (contiguous from 0 and ending exactly at the end of the body) — so a hostile header
+is a 422 naming the fault and never an allocation. docs/binary-format.md describes the format.
 """
 
 from __future__ import annotations
@@ -28,78 +35,127 @@ import orjson
 
 from service.errors import InvalidInput
 
-BINARY_MEDIA_TYPE = "application/vnd.robodyn.binary"
-MAGIC = b"RDY1"
+BINARY_MEDIA_TYPE = "application/vnd.robodyn.safetensors"
 MAX_HEADER_BYTES = 1 << 20
-_PREFIX = struct.Struct("<4sI")
+MAX_NDIM = 3
+METADATA = "__metadata__"
+DTYPE = "F64"
+_LENGTH = struct.Struct("<Q")
+_TENSOR_KEYS = frozenset(("dtype", "shape", "data_offsets"))
 
 
 def _bad(detail: str) -> InvalidInput:
-    return InvalidInput(f"binary body: {detail} (format: docs/binary-format.md)")
+    return InvalidInput(f"binary body: {detail} (a safetensors file of F64 tensors; format: "
+                        "docs/binary-format.md)")
 
 
 def decode(body: bytes | bytearray) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Split a binary body into its JSON `fields` and its arrays (views of the body, no copy)."""
-    if len(body) < _PREFIX.size:
-        raise _bad("shorter than its 8-byte prefix")
-    magic, header_size = _PREFIX.unpack_from(body)
-    if magic != MAGIC:
-        raise _bad("it does not start with b'RDY1'")
-    if header_size > min(MAX_HEADER_BYTES, len(body) - _PREFIX.size):
+    """Split a binary body into its fields (decoded from `__metadata__`) and its arrays (float64
+    views of the body, no copy unless the data section is not 8-byte aligned)."""
+    if len(body) < _LENGTH.size:
+        raise _bad("shorter than its 8-byte header length")
+    (header_size,) = _LENGTH.unpack_from(body)
+    if header_size > min(MAX_HEADER_BYTES, len(body) - _LENGTH.size):
         raise _bad(f"the header length {header_size} runs past the body")
+    raw = bytes(body[_LENGTH.size:_LENGTH.size + header_size])
+    if not raw.startswith(b"{"):
+        raise _bad("the header must be a JSON object")
     try:
-        header = orjson.loads(body[_PREFIX.size:_PREFIX.size + header_size])
+        header = orjson.loads(raw)
     except orjson.JSONDecodeError:
         raise _bad("the header is not valid JSON") from None
-    if not isinstance(header, dict) or set(header) - {"fields", "arrays"}:
-        raise _bad('the header must be an object with "fields" and "arrays"')
-    fields, descriptors = header.get("fields", {}), header.get("arrays", {})
-    if not isinstance(fields, dict) or not isinstance(descriptors, dict):
-        raise _bad('"fields" and "arrays" must be objects')
-    start = _aligned(_PREFIX.size + header_size)
-    data = memoryview(body)[start:] if start <= len(body) else memoryview(b"")
-    arrays = {name: _array(name, d, data) for name, d in descriptors.items()}
+    if not isinstance(header, dict):
+        raise _bad("the header must be a JSON object")
+    fields = _fields(header.pop(METADATA, {}))
+    start = _LENGTH.size + header_size
+    data = memoryview(body)[start:]
+    if start % 8 and header:  # unaligned float64 would be copied by every consumer anyway
+        data = memoryview(bytearray(data))
+    arrays = _arrays(header, data)
     overlap = set(arrays) & set(fields)
     if overlap:
-        raise _bad(f"{sorted(overlap)[0]} is both a field and an array")
+        raise _bad(f"{sorted(overlap)[0]} is both in __metadata__ and a tensor")
     return fields, arrays
 
 
-def _array(name: str, descriptor: Any, data: memoryview) -> np.ndarray:
-    if not isinstance(descriptor, dict) or set(descriptor) != {"shape", "offset"}:
-        raise _bad(f'array {name} needs exactly "shape" and "offset"')
-    shape, offset = descriptor["shape"], descriptor["offset"]
-    if (not isinstance(shape, list) or len(shape) > 3
-            or not all(type(n) is int and n >= 0 for n in shape)):
-        raise _bad(f"array {name}: shape must be a list of at most 3 non-negative integers")
-    if type(offset) is not int or offset < 0 or offset % 8:
-        raise _bad(f"array {name}: offset must be a non-negative multiple of 8")
-    count = math.prod(shape)
-    if offset + 8 * count > len(data):
-        raise _bad(f"array {name} ({count} numbers at offset {offset}) runs past the body")
-    return np.frombuffer(data, dtype="<f8", count=count, offset=offset).reshape(shape)
+def _fields(metadata: Any) -> dict[str, Any]:
+    if not isinstance(metadata, dict) or not all(isinstance(v, str) for v in metadata.values()):
+        raise _bad("__metadata__ must map names to strings (each a JSON text)")
+    fields = {}
+    for name, text in metadata.items():
+        try:
+            fields[name] = orjson.loads(text)
+        except orjson.JSONDecodeError:
+            raise _bad(f"__metadata__[{name!r}] is not a JSON text") from None
+    return fields
 
 
-def _aligned(n: int) -> int:
-    return (n + 7) & ~7
+def _arrays(header: dict[str, Any], data: memoryview) -> dict[str, np.ndarray]:
+    """The tensors of `header` as views of `data`, checked in order of their offsets."""
+    limit = len(data) // 8  # no tensor can hold more numbers than the body carries
+    spans = []
+    for name, descriptor in header.items():
+        if not isinstance(descriptor, dict) or set(descriptor) != _TENSOR_KEYS:
+            raise _bad(f'tensor {name} needs exactly "dtype", "shape" and "data_offsets"')
+        if descriptor["dtype"] != DTYPE:
+            raise _bad(f"tensor {name} has dtype {str(descriptor['dtype'])[:20]!r}; "
+                       f"every tensor is {DTYPE} (float64)")
+        shape, offsets = descriptor["shape"], descriptor["data_offsets"]
+        if (not isinstance(shape, list) or len(shape) > MAX_NDIM
+                or not all(type(n) is int and 0 <= n <= max(limit, 1) for n in shape)):
+            raise _bad(f"tensor {name}: shape must be a list of at most {MAX_NDIM} "
+                       f"non-negative integers, none over the body's {limit} numbers")
+        count = math.prod(shape)  # each factor bounded: a small integer
+        if count > limit:
+            raise _bad(f"tensor {name} has {count} numbers; the body carries {limit}")
+        if (not isinstance(offsets, list) or len(offsets) != 2
+                or not all(type(n) is int for n in offsets)):
+            raise _bad(f"tensor {name}: data_offsets must be [begin, end], two integers")
+        spans.append((offsets[0], offsets[1], name, shape, count))
+    spans.sort(key=lambda span: (span[0], span[1]))
+    arrays = {}
+    position = 0
+    for begin, end, name, shape, count in spans:
+        if begin != position or end - begin != 8 * count:
+            raise _bad(f"tensor {name}: data_offsets [{begin}, {end}] must start where the "
+                       f"previous tensor ends ({position}) and span 8 × {count} bytes")
+        arrays[name] = np.frombuffer(data, dtype="<f8", count=count, offset=begin
+                                     ).reshape(shape)
+        position = end
+    if position != len(data):
+        raise _bad(f"the tensors end at byte {position} of the data, which has {len(data)}")
+    return arrays
+
+
+def header_bytes(fields: Mapping[str, Any], shapes: Mapping[str, tuple[int, ...]]) -> bytes:
+    """The 8-byte length and the header (padded with spaces to a multiple of 8) for `shapes`
+    stored back to back in this order, and `fields` in `__metadata__`."""
+    header: dict[str, Any] = {}
+    if fields:
+        header[METADATA] = {name: orjson.dumps(value).decode() for name, value in fields.items()}
+    offset = 0
+    for name, shape in shapes.items():
+        size = 8 * math.prod(shape)
+        header[name] = {"dtype": DTYPE, "shape": list(shape),
+                        "data_offsets": [offset, offset + size]}
+        offset += size
+    text = orjson.dumps(header)
+    text += b" " * (-len(text) % 8)
+    return _LENGTH.pack(len(text)) + text
 
 
 def encode(values: Mapping[str, Any]) -> bytes:
-    """Encode an answer: numpy arrays go to the data section, everything else to `fields`."""
+    """Encode an answer: numpy arrays (and numpy scalars) become F64 tensors, everything else
+    goes to `__metadata__`."""
     fields: dict[str, Any] = {}
-    descriptors: dict[str, dict[str, Any]] = {}
-    chunks: list[Any] = []
-    offset = 0
+    arrays: dict[str, np.ndarray] = {}
     for name, value in values.items():
         if isinstance(value, np.ndarray | np.generic):
             array = np.asarray(value, dtype="<f8")
             if not array.flags.c_contiguous:  # (not np.ascontiguousarray: it makes 0-d 1-d)
                 array = array.copy(order="C")
-            descriptors[name] = {"shape": list(array.shape), "offset": offset}
-            chunks.append(array.data.cast("B"))
-            offset += array.nbytes
+            arrays[name] = array
         else:
             fields[name] = value
-    header = orjson.dumps({"fields": fields, "arrays": descriptors})
-    padding = b"\0" * (_aligned(_PREFIX.size + len(header)) - _PREFIX.size - len(header))
-    return b"".join([_PREFIX.pack(MAGIC, len(header)), header, padding, *chunks])
+    head = header_bytes(fields, {name: a.shape for name, a in arrays.items()})
+    return b"".join([head, *(a.data.cast("B") for a in arrays.values())])

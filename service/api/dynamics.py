@@ -85,10 +85,14 @@ def _rows(arrays: dict[str, Any]) -> int:
     return len(q) if isinstance(q, list) and q and isinstance(q[0], list | dict) else 1
 
 
-def _prepare(robot: Any, arrays: dict[str, Any], max_batch: int) -> Any:
-    """The validated `States` of the inputs; name-keyed ones become arrays first."""
+def _prepare(robot: Any, arrays: dict[str, Any], max_batch: int, fill: str | None = None
+             ) -> Any:
+    """The validated `States` of the inputs; name-keyed ones become arrays first (missing
+    joints filled from the configuration named `fill`, if given)."""
     if joint_names.any_named(arrays):  # a type check: plain arrays pay nothing measurable
-        arrays = joint_names.arrays_from_names(robot, arrays)
+        arrays = joint_names.arrays_from_names(robot, arrays, fill)
+    elif fill is not None:
+        joint_names.fill_values(robot, fill, "nq")  # an unknown name is an error all the same
     return prepare(robot, arrays, max_batch)
 
 
@@ -166,10 +170,11 @@ class Endpoint:
     async def compute(self, request: HTTPConnection, robot: Any, arrays: dict[str, Any],
                       options: dict[str, Any]) -> dict[str, Any]:
         """Validate the states and compute: inline when small, in a worker thread when large.
-        Name-keyed inputs become arrays first; with `"joint_names": true` the joint-space
-        answers are keyed by joint name. Records what was computed in the ASGI scope
-        (`scope["robodyn"]`) for logs and Server-Timing."""
+        Name-keyed inputs become arrays first (`fill` fills missing joints); with
+        `"joint_names": true` the joint-space answers are keyed by joint name. Records what
+        was computed in the ASGI scope (`scope["robodyn"]`) for logs and Server-Timing."""
         named = options.pop("joint_names", False) if options else False
+        fill = options.pop("fill", None) if options else None
         settings = request.app.state.settings
         for setting in self.quantity.settings:
             options[setting] = getattr(settings, setting)
@@ -178,9 +183,9 @@ class Endpoint:
         large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
         if large:
             states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
-                                             options, settings.max_batch)
+                                             options, settings.max_batch, fill)
         else:
-            states = _prepare(robot, arrays, settings.max_batch)
+            states = _prepare(robot, arrays, settings.max_batch, fill)
             large = (states.count * robot.nv if work is None else work(robot, states, options)
                      ) > INLINE_WORK
             if large:
@@ -196,8 +201,8 @@ class Endpoint:
         return result
 
     def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
-                         max_batch: int) -> tuple[Any, dict[str, Any]]:
-        states = _prepare(robot, arrays, max_batch)
+                         max_batch: int, fill: str | None = None) -> tuple[Any, dict[str, Any]]:
+        states = _prepare(robot, arrays, max_batch, fill)
         return states, dynamics.run(robot, self.quantity, states, options)
 
     async def handle(self, request: HTTPConnection, body: bytes | bytearray

@@ -14,11 +14,13 @@ from typing import Any
 from starlette.requests import ClientDisconnect, HTTPConnection, Request
 from starlette.types import Message, Receive, Scope, Send
 
+from service.api.binary import BINARY_MEDIA_TYPE
 from service.api.dynamics import ENDPOINTS, PREFIX
 from service.errors import InvalidInput
 
 _START = PREFIX + "/"
-_MEDIA_TYPES = {"application/json": b"application/json"}
+_MEDIA_TYPES = {"application/json": b"application/json",
+                BINARY_MEDIA_TYPE: BINARY_MEDIA_TYPE.encode()}
 
 
 class DynamicsFastPath:

@@ -19,9 +19,10 @@ JointArray = list[Number] | list[list[Number]] | JointsByName | list[JointsByNam
 def joint_field(desc: str, default: Any = ...) -> Any:
     return Field(default, description=desc + " A 1-D array is one state; a 2-D array [N][n] is "
                  "a batch of N states, and every answer then gains a leading axis of length N. "
-                 "Instead of an array, an object keyed by joint name (every joint named once; "
-                 "a number or a 1-list for a 1-dof joint, the joint's entries for others), or "
-                 "a list of such objects for a batch.")
+                 "Instead of an array, an object keyed by joint name (every joint named once, "
+                 "or some left out with `fill`; a number or a 1-list for a 1-dof joint, the "
+                 "angle θ or [cos θ, sin θ] for a continuous joint's q, the joint's entries "
+                 "for others), or a list of such objects for a batch.")
 
 
 Q_DESC = ("Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "

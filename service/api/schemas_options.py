@@ -3,7 +3,8 @@
 - `external_forces` on inverse-dynamics and forward-dynamics (`ExternalForce`), by subclassing
   their request models;
 - `joint_names` on every dynamics request (`with_joint_names`), which makes the joint-space
-  vector answers (τ, a, g, ...) objects keyed by joint name (see `service.joint_names`).
+  vector answers (τ, a, g, ...) objects keyed by joint name (see `service.joint_names`), and
+  `fill`, which lets name-keyed inputs leave joints out.
 """
 
 from __future__ import annotations
@@ -69,7 +70,13 @@ def with_joint_names(model: type[BaseModel]) -> type[BaseModel]:
         joint_names=(bool, Field(False, description="Answer joint-space vectors (τ, a, g, "
                                  "C v, h; simulate's q and v) as objects keyed by joint name: "
                                  "a number for a 1-dof joint, a list for others; a list of "
-                                 "objects for a batch or trajectory. Matrices stay arrays.")))
+                                 "objects for a batch or trajectory. Matrices stay arrays.")),
+        fill=(str | None, Field(None, max_length=256, description="For joint-space inputs "
+                                "keyed by joint name: joints left out take their q from this "
+                                "configuration — \"neutral\" or one of the robot's "
+                                "reference_configurations — and zero v, a and τ. Without it "
+                                "every joint must be named (a ROS JointState without its "
+                                "gripper is then a 422 listing the missing joints).")))
 
 
 REQUESTS: dict[str, type[BaseModel]] = {

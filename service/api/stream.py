@@ -4,7 +4,7 @@ One connection serves one robot. Each message is a request object with a `quanti
 e.g. `{"quantity": "inverse-dynamics", "q": [...], "v": [...], "a": [...]}`, and is answered,
 in order, by the object the HTTP endpoint of that quantity gives. A text message is JSON and
 is answered in JSON; a binary message is the binary form (`service.api.binary`, `quantity` in
-its `fields`) and is answered in the binary form. An error is answered by a problem object
+its `__metadata__`) and is answered in the binary form. An error is answered by a problem object
 (JSON text) and the stream stays open. An unknown robot refuses the handshake with a 404
 problem+json answer (on servers without the ASGI denial-response extension: the problem object
 as the first message, then close code 4404).

@@ -38,3 +38,13 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     with running_server(tmp_path_factory.mktemp("server-data"), catalog=",".join(CATALOG),
                         api_keys=API_KEY) as url:
         yield url
+
+
+@pytest.fixture(autouse=True)
+def _no_retries() -> Iterator[None]:
+    """Errors at once in the client tests (stamina's test mode: one attempt, no waits); the
+    retry tests (test_client_ecosystem.py) turn real retries back on."""
+    import stamina
+
+    with stamina.set_testing(True, attempts=1):
+        yield

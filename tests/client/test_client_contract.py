@@ -169,11 +169,12 @@ print(robodyn.__file__)
     assert Path(done.stdout.strip()).is_relative_to(CLIENT_DIR / "src" / "robodyn")
 
 
-def test_distribution_depends_on_httpx_and_numpy_only() -> None:
+def test_distribution_depends_on_httpx_numpy_and_stamina_only() -> None:
+    """No Pinocchio, FastAPI or torch: httpx, numpy and stamina (retries) only."""
     project = tomllib.loads((CLIENT_DIR / "pyproject.toml").read_text())["project"]
     names = {re.split(r"[<>=!~\[; ]", dep, maxsplit=1)[0].lower()
              for dep in project["dependencies"]}
-    assert project["name"] == "robodyn" and names == {"httpx", "numpy"}
+    assert project["name"] == "robodyn" and names == {"httpx", "numpy", "stamina"}
     assert project["version"] == robodyn.__version__
     assert (CLIENT_DIR / "src" / "robodyn" / "py.typed").exists()
 

@@ -289,8 +289,8 @@ def test_media_types_are_read_regardless_of_case(api):
     assert r.status_code == 200 and r.headers["content-type"] == "application/json"
     binary_body = binary.encode({"q": np.zeros((1, 6))})
     r = api.post("/v1/robots/ur5/gravity", content=binary_body,
-                 headers={"content-type": "Application/VND.Robodyn.Binary",
-                          "accept": "APPLICATION/VND.ROBODYN.BINARY"})
+                 headers={"content-type": "Application/VND.Robodyn.SafeTensors",
+                          "accept": "APPLICATION/VND.ROBODYN.SAFETENSORS"})
     assert r.status_code == 200 and r.headers["content-type"] == binary.BINARY_MEDIA_TYPE
     assert binary.decode(r.content)[1]["gravity"].shape == (1, 6)
 

@@ -134,6 +134,15 @@ def test_binary_answers_can_be_keyed_by_name(api):
     assert set(r.json()["gravity"]) == {"shoulder_pan_joint", "shoulder_lift_joint",
                                         "elbow_joint", "wrist_1_joint", "wrist_2_joint",
                                         "wrist_3_joint"}
+    r = api.post("/v1/robots/ur5/gravity", content=body,
+                 headers={"content-type": binary.BINARY_MEDIA_TYPE,
+                          "accept": binary.BINARY_MEDIA_TYPE})
+    fields, arrays = binary.decode(r.content)  # keyed answers: JSON in __metadata__
+    assert arrays == {} and fields["gravity"] == {
+        name: value for name, value in zip(
+            ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+             "wrist_2_joint", "wrist_3_joint"], api.post("/v1/robots/ur5/gravity", json={
+                "q": [0.0] * 6}).json()["gravity"], strict=True)}
 
 
 def _ur5(api, **change) -> dict:
@@ -186,3 +195,98 @@ def test_malformed_name_keyed_inputs_are_validation_errors(api, q):
     assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": q}), 422, "validation_error")
     assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6, "joint_names": 1}),
                    422, "validation_error")
+
+
+# -- ROS-style inputs: angles for continuous joints, joints left out with "fill" -------------
+
+
+def test_continuous_joints_take_their_angle(api, catalog_registry):
+    """A JointState gives a continuous joint's angle θ; it stands for [cos θ, sin θ]."""
+    theta = np.array([0.7, -2.9])
+    arrays = {"q": np.concatenate([[np.cos(t), np.sin(t)] for t in theta]).tolist(),
+              "v": [0.3, -1.1], "a": [2.0, 0.5]}
+    plain = _post(api, "double_pendulum_continuous", "inverse-dynamics", arrays)
+    for q in ({"joint1": theta[0], "joint2": theta[1]},
+              {"joint1": [theta[0]], "joint2": [np.cos(theta[1]), np.sin(theta[1])]}):
+        named = _post(api, "double_pendulum_continuous", "inverse-dynamics",
+                      {**arrays, "q": {k: np.asarray(x).tolist() for k, x in q.items()}})
+        np.testing.assert_allclose(named["tau"], plain["tau"], rtol=1e-12, atol=1e-12)
+    exact = _post(api, "double_pendulum_continuous", "gravity", {
+        "q": {"joint1": float(theta[0]), "joint2": float(theta[1])}})
+    assert exact == _post(api, "double_pendulum_continuous", "gravity", {
+        "q": [np.cos(theta[0]), np.sin(theta[0]), np.cos(theta[1]), np.sin(theta[1])]})
+    body = assert_problem(api.post("/v1/robots/double_pendulum_continuous/gravity", json={
+        "q": {"joint1": [1.0, 0.0, 0.0], "joint2": 0.0}}), 422, "dimension_mismatch")
+    assert "an angle or [cos θ, sin θ]" in body["detail"]
+
+
+@pytest.mark.parametrize(("robot", "fill", "left_out"), [
+    ("panda", "neutral", ["panda_finger_joint1", "panda_finger_joint2"]),
+    ("panda", "default", ["panda_finger_joint2", "panda_joint3"]),
+    ("talos", "half_sitting", ["gripper_left_joint", "gripper_right_joint", "head_1_joint"]),
+])
+def test_joints_left_out_are_filled_from_the_named_configuration(api, catalog_registry, robot,
+                                                                  fill, left_out):
+    """A JointState without the gripper: its q from the configuration `fill`, v and a zero."""
+    r = catalog_registry.catalog[robot]
+    info, rng = r.info(), np.random.default_rng(7)
+    q, v, a = random_state(r.model, rng)
+    base = (np.asarray(info["neutral_configuration"]) if fill == "neutral"
+            else r.reference_configurations[fill])
+    full_q, full_v, full_a = q.copy(), v.copy(), a.copy()
+    for j in info["joints"]:
+        if j["name"] in left_out:
+            qs = slice(j["idx_q"], j["idx_q"] + j["nq"])
+            vs = slice(j["idx_v"], j["idx_v"] + j["nv"])
+            full_q[qs], full_v[vs], full_a[vs] = base[qs], 0.0, 0.0
+    named = {k: {n: x for n, x in keyed(info, arr, k, rng).items() if n not in left_out}
+             for k, arr in (("q", q), ("v", v), ("a", a))}
+    got = _post(api, robot, "inverse-dynamics", {**named, "fill": fill})
+    want = _post(api, robot, "inverse-dynamics", {"q": full_q.tolist(), "v": full_v.tolist(),
+                                                   "a": full_a.tolist()})
+    assert got == want
+    batch = _post(api, robot, "inverse-dynamics", {
+        **{k: [x, x] for k, x in named.items()}, "fill": fill})
+    assert batch["tau"] == [want["tau"], want["tau"]]
+    problem = assert_problem(api.post(f"/v1/robots/{robot}/inverse-dynamics", json=named),
+                             422, "dimension_mismatch")
+    assert problem["missing"] == [j["name"] for j in info["joints"] if j["name"] in left_out]
+    assert '"fill"' in problem["detail"]
+
+
+def test_fill_in_the_binary_form_and_unknown_fill_names(api):
+    q = {"shoulder_pan_joint": 0.3, "elbow_joint": -1.0}
+    full = [0.3, 0.0, -1.0, 0.0, 0.0, 0.0]
+    want = _post(api, "ur5", "gravity", {"q": full})
+    assert _post(api, "ur5", "gravity", {"q": q, "fill": "neutral"}) == want
+    r = api.post("/v1/robots/ur5/gravity", content=binary.encode({"q": np.array(full),
+                                                                  "fill": "neutral"}),
+                 headers={"content-type": binary.BINARY_MEDIA_TYPE})
+    assert r.json() == want  # an option in __metadata__, ignored for arrays
+    for body in ({"q": q, "fill": "standing"}, {"q": full, "fill": "standing"}):
+        problem = assert_problem(api.post("/v1/robots/ur5/gravity", json=body), 422,
+                                 "validation_error")
+        assert "'standing'" in problem["detail"] and "neutral" in problem["detail"]
+    assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": q, "fill": 3}), 422,
+                   "validation_error")
+
+
+def test_a_planar_root_takes_x_y_and_its_angle(api):
+    from tests.helpers import planar_arm_urdf
+
+    r = api.post("/v1/robots", json={"urdf": planar_arm_urdf(0.5, 0.4, 2.0, 1.0),
+                                     "root_joint": "planar", "name": "planar_root_names"})
+    assert r.status_code in (200, 201), r.text
+    info = r.json()
+    robot = info["id"]
+    root = next(j for j in info["joints"] if j["type"] == "planar")
+    others = [j["name"] for j in info["joints"] if j["type"] != "planar"]
+    x, y, theta = 0.3, -0.2, 2.5
+    full = {root["name"]: [x, y, np.cos(theta), np.sin(theta)], **dict.fromkeys(others, 0.4)}
+    short = {root["name"]: [x, y, theta], **dict.fromkeys(others, 0.4)}
+    v = {root["name"]: [0.1, 0.2, -0.3], **dict.fromkeys(others, 1.0)}
+    got = _post(api, robot, "nonlinear-effects", {"q": short, "v": v})
+    want = _post(api, robot, "nonlinear-effects", {"q": full, "v": v})
+    np.testing.assert_allclose(got["nonlinear_effects"], want["nonlinear_effects"],
+                               rtol=1e-13, atol=1e-13)
+    assert api.delete(f"/v1/robots/{robot}").status_code in (200, 204)

@@ -60,7 +60,7 @@ def test_stream_binary_messages(api, catalog_registry):
         ws.send_bytes(encode_request({"q": q, "v": v, "a": a}, {"quantity": "inverse-dynamics"}))
         got = decode_answer(ws.receive_bytes())["tau"]
         np.testing.assert_array_equal(got, expected)
-        ws.send_bytes(b"RDY1junk")
+        ws.send_bytes(b"\x10\0\0\0\0\0\0\0junk")
         assert ws.receive_json()["code"] == "validation_error"
         ws.send_bytes(encode_request({"q": q}, {"quantity": "mass-matrix", "frame": "x"}))
         assert ws.receive_json()["code"] == "validation_error"

@@ -6,8 +6,11 @@
         M = client.mass_matrix("ur5", q)        # numpy (nv, nv); (N, nv, nv) for q of shape (N, nq)
 
 `Client` blocks, `AsyncClient` has the same methods as coroutines. Server errors raise the
-subclass of `APIError` named after their `code` (see `robodyn.errors` for the tree).
-Depends on httpx and numpy only.
+subclass of `APIError` named after their `code` (see `robodyn.errors` for the tree); requests
+a busy server could not answer are retried (`Retry`). Inputs are any array-like (numpy,
+torch, JAX, lists) or keyed by joint name (mappings, ROS JointState-like objects); answers are
+numpy arrays, or torch tensors with `Client(array_type="torch")`. Depends on httpx, numpy and
+stamina.
 """
 
 __version__ = "0.1.0"
@@ -45,6 +48,16 @@ from robodyn.errors import (
     ValidationError,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
+from robodyn.outputs import ArrayType
+from robodyn.progress import Progress, ProgressCallback
+from robodyn.request_options import (
+    Fill,
+    InertiaCheck,
+    Integrator,
+    ReferenceFrame,
+    RootJoint,
+    Task,
+)
 from robodyn.results import (
     BodyInertia,
     CenterOfMass,
@@ -58,11 +71,13 @@ from robodyn.results import (
     Trajectory,
 )
 from robodyn.stream import AsyncStream, Stream
-from robodyn.transport import DEFAULT_TIMEOUT
+from robodyn.transport import DEFAULT_RETRY, DEFAULT_TIMEOUT, Retry
 
 __all__ = [
+    "DEFAULT_RETRY",
     "DEFAULT_TIMEOUT",
     "APIError",
+    "ArrayType",
     "AsyncClient",
     "AsyncStream",
     "BadRequestError",
@@ -74,12 +89,15 @@ __all__ = [
     "ConflictError",
     "DimensionMismatchError",
     "Energy",
+    "Fill",
     "Finding",
     "ForwardDynamicsDerivatives",
     "FrameInfo",
     "FrameJacobian",
+    "InertiaCheck",
     "Inertias",
     "InputError",
+    "Integrator",
     "InternalServerError",
     "InvalidConfigurationError",
     "InvalidModelError",
@@ -92,16 +110,22 @@ __all__ = [
     "OperationalSpace",
     "OverloadedError",
     "PayloadTooLargeError",
+    "Progress",
+    "ProgressCallback",
+    "ReferenceFrame",
     "ResponseFormatError",
+    "Retry",
     "RobodynError",
     "RobotInfo",
     "RobotList",
     "RobotNotFoundError",
     "RobotSummary",
+    "RootJoint",
     "ServerError",
     "ServiceUnavailableError",
     "SingularConfigurationError",
     "Stream",
+    "Task",
     "TimeoutError",
     "Trajectory",
     "TransportError",

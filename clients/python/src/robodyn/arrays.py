@@ -4,26 +4,57 @@ A 1-D array is one state; a 2-D array of shape (N, n) is a batch of N states, an
 answer gains a leading axis of length N. All inputs of one request are 1-D, or all are 2-D with
 the same N. Inputs must be real numbers (bool, complex, text and objects are refused) and
 finite. Lengths against the robot's nq and nv are checked by the server, which knows them.
+
+Any array-like is accepted: lists, numpy arrays, torch tensors (on any device; detached and
+copied to the CPU), JAX arrays and anything with `__array__`. The dtype rule: every input is
+converted to float64 before it is sent, which is exact for float16, float32 and integers up
+to 2**53 (a float32 0.1 is sent as 0.100000001490116…, the value it holds); answers are always
+float64. Inputs may also be keyed by joint name: a mapping, or a ROS `sensor_msgs/JointState`
+-like object (see `joint_state`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any, TypeAlias
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from robodyn.errors import InputError
 
-ArrayLike: TypeAlias = npt.ArrayLike
-"""Anything numpy reads as a 1-D or 2-D array of real numbers (list, tuple, ndarray)."""
+
+class JointStateLike(Protocol):
+    """A ROS `sensor_msgs/JointState`-like object: joint `name`s and, in the same order, their
+    `position`, `velocity` and `effort` (the last two may be missing or empty)."""
+
+    @property
+    def name(self) -> Any: ...
+
+    @property
+    def position(self) -> Any: ...
+
+
+ArrayLike: TypeAlias = (npt.ArrayLike | Mapping[str, Any] | Sequence[Mapping[str, Any]]
+                        | JointStateLike | Sequence[JointStateLike])
+"""A joint-space input: anything numpy reads as a 1-D or 2-D array of real numbers (list,
+tuple, ndarray, torch tensor, JAX array), or an input keyed by joint name (a mapping, a
+JointState-like object, or a list of them for a batch)."""
+
+
+def host_array(value: Any) -> Any:
+    """`value` made readable by numpy without importing its library: a torch tensor detached
+    and moved to the CPU (`Tensor.numpy()` refuses tensors that need grad or live on a GPU);
+    everything else as is (numpy reads JAX arrays and others through `__array__`)."""
+    if type(value).__module__.startswith("torch") and hasattr(value, "detach"):
+        return value.detach().cpu().numpy()
+    return value
 
 
 def joint_array(name: str, value: ArrayLike) -> np.ndarray:
     """`value` as a finite float64 array of 1 or 2 dimensions; `InputError` naming `name`."""
     try:
-        arr = np.asarray(value)
+        arr = np.asarray(host_array(value))
     except (ValueError, TypeError):  # ragged nested lists
         raise InputError(f"{name} must be a 1-D array (one state) or a 2-D array of equal-length "
                          "rows (a batch); it is ragged or not an array") from None
@@ -59,6 +90,7 @@ def _by_name_state(name: str, value: Mapping[Any, Any]) -> dict[str, Any]:
         if not isinstance(joint, str):
             raise InputError(f"{name} by joint name: keys must be joint names (str), not "
                              f"{type(joint).__name__}")
+        entry = host_array(entry)
         arr = joint_array(f"{name}[{joint!r}]", np.atleast_1d(np.asarray(entry)))
         if arr.ndim != 1:
             raise InputError(f"{name}[{joint!r}] must be a number or a list of numbers")
@@ -66,10 +98,40 @@ def _by_name_state(name: str, value: Mapping[Any, Any]) -> dict[str, Any]:
     return out
 
 
+JOINT_STATE_FIELDS = {"q": "position", "v": "velocity", "tau": "effort"}
+"""Which member of a JointState-like object each input takes (there is none for `a`)."""
+
+
+def is_joint_state(value: Any) -> bool:
+    """True for a ROS `sensor_msgs/JointState`-like object: `name` and `position` members."""
+    return (not isinstance(value, Mapping | np.ndarray) and hasattr(value, "name")
+            and hasattr(value, "position"))
+
+
+def joint_state(name: str, value: Any) -> dict[str, Any]:
+    """The mapping joint name → entry of a JointState-like object (`name`, `position`,
+    `velocity`, `effort`, as in ROS) for input `name`: q takes `position`, v `velocity`, τ
+    `effort`. A continuous joint's position is its angle (the server takes it as such)."""
+    member = JOINT_STATE_FIELDS.get(name.split("[", 1)[0])
+    if member is None:
+        raise InputError(f"{name} cannot come from a JointState (it has positions, velocities "
+                         "and efforts, no accelerations): give an array or a mapping")
+    raw = getattr(value, member, None)
+    names, values = list(value.name), ([] if raw is None else list(raw))
+    if len(values) != len(names):
+        raise InputError(f"{name} from a JointState: {member} has {len(values)} entries for "
+                         f"{len(names)} names (ROS leaves it empty when unknown)")
+    return dict(zip(names, values, strict=True))
+
+
 def joint_input(name: str, value: Any) -> np.ndarray | dict[str, Any] | list[dict[str, Any]]:
     """A joint-space input: a checked array (see `joint_array`), or — keyed by joint name — a
-    JSON-ready object (one state) or list of objects (a batch). Names are checked by the
-    server, which knows the robot's joints."""
+    JSON-ready object (one state) or list of objects (a batch), from mappings or JointState-like
+    objects. Names are checked by the server, which knows the robot's joints."""
+    if is_joint_state(value):
+        value = joint_state(name, value)
+    elif isinstance(value, list | tuple) and value and all(map(is_joint_state, value)):
+        value = [joint_state(name, v) for v in value]
     if isinstance(value, Mapping):
         return _by_name_state(name, value)
     if is_by_name(value):

@@ -10,7 +10,8 @@ from typing import Any, TypeVar
 import httpx
 import numpy as np
 
-from robodyn import core, transport
+from robodyn import core, outputs, transport
+from robodyn import progress as _progress
 from robodyn.arrays import ArrayLike
 from robodyn.contacts import (
     ContactDynamics,
@@ -20,6 +21,7 @@ from robodyn.contacts import (
     ImpulseDynamics,
 )
 from robodyn.models import RobotInfo, RobotList
+from robodyn.request_options import Fill, InertiaCheck, Integrator, ReferenceFrame, RootJoint, Task
 from robodyn.results import (
     CenterOfMass,
     Centroidal,
@@ -47,16 +49,35 @@ class Client:
     instead of creating one (e.g. with a custom transport); its own timeouts apply, and
     `close()` leaves it open.
     `headers`: extra headers for every request.
-    `binary`: send dynamics inputs and read answers in the binary form (raw float64, see the
-    server's docs/binary-format.md): None (default) for requests of `core.BINARY_FROM` numbers
-    or more, True always, False never. Answers are bit for bit the same either way.
+    `binary`: send dynamics inputs and read answers in the binary form (a safetensors file of
+    raw float64, see the server's docs/binary-format.md): None (default) for requests of
+    `core.BINARY_FROM` numbers or more, True always, False never. Answers are bit for bit the
+    same either way.
+    `retry`: how requests the server could not answer (503, failed connections) are retried
+    (`transport.Retry`: by default 5 attempts within 30 s, honouring `Retry-After`); None
+    never retries.
+    `array_type`: "numpy" (default) or "torch" for answers as float64 torch tensors (PyTorch
+    is imported only then).
+    `progress`: a callable `(done, total)` or True (a tqdm bar) to send large batches in chunks
+    of `progress.CHUNK_STATES` states and simulations in chunks of `progress.CHUNK_STEPS`
+    steps, reporting after each; None (default) sends each call as one request.
+    `fill`: for inputs keyed by joint name (mappings, ROS JointState-like objects), how the
+    server fills the joints they leave out: "neutral" or a reference configuration's name for
+    q, zero for v, a and τ. None (default): every joint must be named.
     """
 
     def __init__(self, base_url: str | None = None, *, api_key: str | None = None,
                  timeout: transport.TimeoutLike = transport.DEFAULT_TIMEOUT,
                  http_client: httpx.Client | None = None,
-                 headers: Mapping[str, str] | None = None, binary: bool | None = None) -> None:
-        self._settings = transport.settings(base_url, api_key, http_client, headers, binary)
+                 headers: Mapping[str, str] | None = None, binary: bool | None = None,
+                 retry: transport.Retry | None = transport.DEFAULT_RETRY,
+                 array_type: outputs.ArrayType = "numpy",
+                 progress: _progress.Progress = None, fill: Fill | None = None) -> None:
+        self._settings = transport.settings(base_url, api_key, http_client, headers, binary,
+                                            fill)
+        self._retry = retry
+        self._array_type = outputs.check_array_type(array_type)
+        self._progress = _progress.check(progress)
         self._owns_http = http_client is None
         self._http = http_client or httpx.Client(timeout=transport.timeout_of(timeout),
                                                  limits=transport.DEFAULT_LIMITS)
@@ -66,7 +87,46 @@ class Client:
         return self._settings.base_url
 
     def _send(self, call: core.Call[T]) -> T:
-        url, headers, content = self._settings.prepare(call)
+        """Send `call` (in chunks with progress, retried as `retry` says); its answer in the
+        client's array type."""
+        if (self._progress is not None and call.split is not None and call.rows is not None
+                and call.rows > _progress.CHUNK_STATES):
+            result = self._run(core.batch_chunks(call), call.rows, "states", self._progress)
+        else:
+            result = self._fetch(call)
+        return outputs.convert(result, self._array_type)
+
+    def _run(self, plan: _progress.Plan[T], total: int, unit: str,
+             report: _progress.Progress) -> T:
+        """Send the calls of `plan` one after the other, reporting progress after each."""
+        with _progress.Reporter(report, total, unit) as reporter:
+            call, done = next(plan)
+            while True:
+                answer = self._fetch(call)
+                reporter(done)
+                try:
+                    call, done = plan.send(answer)
+                except StopIteration as end:
+                    return end.value  # type: ignore[no-any-return]
+
+    def _fetch(self, call: core.Call[T]) -> T:
+        try:  # the first attempt outside stamina: ~30 µs less per call that succeeds
+            return self._fetch_once(call)
+        except transport.RETRIED as exc:
+            failure: Exception | None = exc
+            if self._retry is None:
+                raise
+        for attempt in transport.retry_context(call, self._retry):
+            with attempt:
+                if failure is not None:  # stamina decides on the first failure, and waits
+                    first, failure = failure, None
+                    raise first
+                return self._fetch_once(call)
+        raise AssertionError("unreachable: the last attempt returns or raises")
+
+    def _fetch_once(self, call: core.Call[T]) -> T:
+        url, headers, body = self._settings.prepare(call)
+        content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
         with transport.wrapped(call.method, url), self._http.stream(
                 call.method, url, content=content, headers=headers) as response:
             length = core.binary_length(response)
@@ -118,9 +178,9 @@ class Client:
         return self._send(core.robot(robot_id))
 
     def upload(self, urdf: str | bytes | os.PathLike[str] | None = None, *,
-               mjcf: str | bytes | os.PathLike[str] | None = None, root_joint: str = "fixed",
-               name: str | None = None, gravity: ArrayLike | None = None,
-               inertia_check: str | None = None,
+               mjcf: str | bytes | os.PathLike[str] | None = None,
+               root_joint: RootJoint = "fixed", name: str | None = None,
+               gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
                locked_joints: Mapping[str, ArrayLike] | None = None) -> RobotInfo:
         return self._send(core.upload(urdf, mjcf=mjcf, root_joint=root_joint, name=name,
                                       gravity=gravity, inertia_check=inertia_check,
@@ -165,15 +225,15 @@ class Client:
         return self._send(core.center_of_mass(robot_id, q, v))
 
     def jacobian(self, robot_id: str, q: ArrayLike, frame: str, *,
-                 reference_frame: str = "local_world_aligned", v: ArrayLike | None = None
-                 ) -> FrameJacobian:
+                 reference_frame: ReferenceFrame = "local_world_aligned",
+                 v: ArrayLike | None = None) -> FrameJacobian:
         return self._send(core.jacobian(robot_id, q, frame, reference_frame=reference_frame,
                                         v=v))
 
     def operational_space(self, robot_id: str, q: ArrayLike, frame: str, *,
                           v: ArrayLike | None = None,
-                          reference_frame: str = "local_world_aligned", task: str = "full",
-                          damping: float = 0.0) -> OperationalSpace:
+                          reference_frame: ReferenceFrame = "local_world_aligned",
+                          task: Task = "full", damping: float = 0.0) -> OperationalSpace:
         return self._send(core.operational_space(robot_id, q, frame, v=v,
                                                  reference_frame=reference_frame, task=task,
                                                  damping=damping))
@@ -195,11 +255,18 @@ class Client:
     def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float,
                  steps: int, tau: ArrayLike | Mapping[str, Any] | None = None,
                  controller: Mapping[str, Any] | None = None,
-                 integrator: str | None = None, contacts: ContactsLike | None = None,
-                 damping: float = 0.0) -> Trajectory | ContactTrajectory:
-        return self._send(core.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
-                                        controller=controller, integrator=integrator,
-                                        contacts=contacts, damping=damping))
+                 integrator: Integrator | None = None, contacts: ContactsLike | None = None,
+                 damping: float = 0.0, progress: _progress.Progress = None
+                 ) -> Trajectory | ContactTrajectory:
+        report = _progress.check(progress) if progress is not None else self._progress
+        if contacts is not None or report is None or steps <= _progress.CHUNK_STEPS:
+            # A contact set holds its frames where the rollout starts: never chunked.
+            return self._send(core.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
+                                            controller=controller, integrator=integrator,
+                                            contacts=contacts, damping=damping))
+        plan = core.simulate_chunks(robot_id, q, v, dt=dt, steps=steps, tau=tau,
+                                    controller=controller, integrator=integrator)
+        return outputs.convert(self._run(plan, steps, "steps", report), self._array_type)
 
     # -- contacts ---------------------------------------------------------------------
 

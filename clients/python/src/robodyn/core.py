@@ -23,12 +23,13 @@ from urllib.parse import quote
 import httpx
 import numpy as np
 
-from robodyn import binary, request_options
+from robodyn import binary, outputs, progress, request_options
 from robodyn.arrays import (
     ArrayLike,
     answer_array,
     batch_rows,
     gravity_vector,
+    joint_input,
     joint_states,
     to_json,
 )
@@ -43,6 +44,15 @@ from robodyn.contacts import (
 )
 from robodyn.errors import APIError, InputError, ResponseFormatError, error_class
 from robodyn.models import RobotInfo, RobotList
+from robodyn.request_options import (
+    REFERENCE_FRAMES,
+    TASKS,
+    InertiaCheck,
+    Integrator,
+    ReferenceFrame,
+    RootJoint,
+    Task,
+)
 from robodyn.results import (
     CenterOfMass,
     Centroidal,
@@ -92,8 +102,8 @@ METHODS: tuple[str, ...] = tuple(ROUTES)
 
 BINARY_FROM = 4096
 """Requests with this many input numbers or more are sent, and answered, in the binary form
-(raw float64 instead of JSON text: see docs/binary-format.md), unless the client says otherwise
-(`Client(binary=...)`)."""
+(a safetensors file of raw float64 instead of JSON text: see docs/binary-format.md), unless
+the client says otherwise (`Client(binary=...)`)."""
 MAX_BINARY_ANSWER = 1 << 32  # bytes; a larger Content-Length is not preallocated
 Body = bytes | list[bytes | memoryview]  # a request body: whole, or in parts
 
@@ -108,6 +118,9 @@ class Call(Generic[T]):
     json: Any = None
     accept: frozenset[int] = frozenset()  # statuses handed to `read` (body None), not raised
     arrays: Mapping[str, np.ndarray] | None = None  # joint-space inputs (JSON or binary form)
+    idempotent: bool = True  # may be sent again after a failure that may follow its sending
+    rows: int | None = None  # states of a batch
+    split: Callable[[int, int], Call[T]] | None = None  # the same call for states [i, j)
 
     def binary(self, use_binary: bool | None) -> bool:
         """Whether the joint-space inputs go in the binary form (see `body`)."""
@@ -116,18 +129,25 @@ class Call(Generic[T]):
             return False  # inputs keyed by joint name are JSON objects
         return bool(use_binary) or sum(a.size for a in self.arrays.values()) >= BINARY_FROM
 
-    def json_body(self) -> dict[str, Any]:
-        """The JSON object of the request (inputs as nested lists, then the other fields)."""
-        return {**to_json(self.arrays or {}), **(self.json or {})}
+    def json_body(self, fill: str | None = None) -> dict[str, Any]:
+        """The JSON object of the request (inputs as nested lists, then the other fields);
+        with `fill` when an input is keyed by joint name."""
+        body = {**to_json(self.arrays or {}), **(self.json or {})}
+        if fill is not None and self.arrays is not None and not all(
+                isinstance(a, np.ndarray) for a in self.arrays.values()):
+            body.setdefault("fill", fill)
+        return body
 
-    def body(self, use_binary: bool | None) -> tuple[Body | None, str | None]:
+    def body(self, use_binary: bool | None, fill: str | None = None
+             ) -> tuple[Body | None, str | None]:
         """The body and its media type: bytes, or for the binary form a list of parts
         (`binary.encode_parts`). Joint-space inputs go in the binary form when `use_binary` is
-        True, or when it is None and they hold `BINARY_FROM` numbers or more."""
+        True, or when it is None and they hold `BINARY_FROM` numbers or more. `fill`: sent
+        with inputs keyed by joint name (how the server fills the joints they leave out)."""
         if self.arrays is not None:
             if self.binary(use_binary):
                 return binary.encode_parts(self.arrays, self.json), binary.MEDIA_TYPE
-            return encode(self.json_body()), "application/json"
+            return encode(self.json_body(fill)), "application/json"
         if self.json is not None:
             return encode(self.json), "application/json"
         return None, None
@@ -135,7 +155,7 @@ class Call(Generic[T]):
 
 def _call(name: str, read: Callable[[int, Any], T], robot_id: str | None = None,
           body: Any = None, accept: frozenset[int] = frozenset(),
-          arrays: Mapping[str, np.ndarray] | None = None) -> Call[T]:
+          arrays: Mapping[str, np.ndarray] | None = None, idempotent: bool = True) -> Call[T]:
     method, template = ROUTES[name]
     path = template
     if robot_id is not None:
@@ -144,7 +164,7 @@ def _call(name: str, read: Callable[[int, Any], T], robot_id: str | None = None,
         if not robot_id:
             raise InputError("robot_id is empty; robots() lists the valid ids")
         path = template.format(robot_id=quote(robot_id, safe=""))
-    return Call(method, path, read, body, accept, arrays)
+    return Call(method, path, read, body, accept, arrays, idempotent)
 
 
 def binary_length(response: httpx.Response) -> int | None:
@@ -312,9 +332,9 @@ def _locked_joints(locked: Mapping[str, ArrayLike]) -> dict[str, Any]:
 
 
 def upload(urdf: str | bytes | os.PathLike[str] | None = None, *,
-           mjcf: str | bytes | os.PathLike[str] | None = None, root_joint: str = "fixed",
+           mjcf: str | bytes | os.PathLike[str] | None = None, root_joint: RootJoint = "fixed",
            name: str | None = None, gravity: ArrayLike | None = None,
-           inertia_check: str | None = None,
+           inertia_check: InertiaCheck | None = None,
            locked_joints: Mapping[str, ArrayLike] | None = None) -> Call[RobotInfo]:
     """Store a URDF (or, with `mjcf=`, an MJCF) model on the server and return its `RobotInfo`
     (`created` tells whether it is new). The id is derived from the content and options, so the
@@ -344,7 +364,7 @@ def upload(urdf: str | bytes | os.PathLike[str] | None = None, *,
 def delete(robot_id: str) -> Call[None]:
     """Delete an uploaded model. Raises `CatalogRobotError` for a catalog robot and
     `RobotNotFoundError` for an unknown id."""
-    return _call("delete", lambda status, body: None, robot_id)
+    return _call("delete", lambda status, body: None, robot_id, idempotent=False)
 
 
 # -- dynamics -----------------------------------------------------------------------------
@@ -366,7 +386,31 @@ def _dynamics(name: str, robot_id: str, outputs: Mapping[str, int], *,
             return result(*out)
         return out[0] if len(out) == 1 else out
 
-    return _call(name, read, robot_id, body=dict(options) if options else None, arrays=arrays)
+    call = _call(name, read, robot_id, body=dict(options) if options else None, arrays=arrays)
+    if _splittable(arrays, rows, options):
+        def split(i: int, j: int) -> Call[Any]:
+            return _dynamics(name, robot_id, outputs, options=options, result=result,
+                             square=square, **{k: a[i:j] for k, a in arrays.items()})
+        return replace(call, rows=rows, split=split)
+    return call
+
+
+def _splittable(arrays: Mapping[str, Any], rows: int | None,
+                options: Mapping[str, Any] | None) -> bool:
+    """Whether a call can be sent in chunks of states: a batch of arrays whose options do not
+    depend on the state (per-state external wrenches do)."""
+    return (rows is not None and all(isinstance(a, np.ndarray) for a in arrays.values())
+            and not (options or {}).get("external_forces"))
+
+
+def batch_chunks(call: Call[T], chunk: int = progress.CHUNK_STATES) -> progress.Plan[T]:
+    """`call` as consecutive calls of at most `chunk` states (see `robodyn.progress.Plan`)."""
+    assert call.split is not None and call.rows is not None
+    parts: list[T] = []
+    for i in range(0, call.rows, chunk):
+        j = min(i + chunk, call.rows)
+        parts.append((yield (call.split(i, j), j)))
+    return outputs.join(parts)
 
 
 def mass_matrix(robot_id: str, q: ArrayLike) -> Call[np.ndarray]:
@@ -449,7 +493,7 @@ def centroidal(robot_id: str, q: ArrayLike, v: ArrayLike) -> Call[Centroidal]:
 
 def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
              tau: ArrayLike | Mapping[str, Any] | None = None,
-             controller: Mapping[str, Any] | None = None, integrator: str | None = None,
+             controller: Mapping[str, Any] | None = None, integrator: Integrator | None = None,
              contacts: ContactsLike | None = None, damping: float = 0.0
              ) -> Call[Trajectory | ContactTrajectory]:
     """Integrate forward dynamics from (q, v) for `steps` steps of `dt` seconds: a
@@ -460,7 +504,11 @@ def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int
     (gains: a number or nv numbers); neither means τ = 0. `integrator`: "semi-implicit-euler"
     (default) or "rk4". `contacts` (a fixed contact set, e.g. `RobotInfo.contact_frames`)
     gives a `ContactTrajectory` (with `constraint_drift`, m): the contacts hold their frames
-    where they start, and a PD controller acts on the actuated joints only."""
+    where they start, and a PD controller acts on the actuated joints only. `progress` (the
+    client's by default): a callable `(done, total)` or True (a tqdm bar) runs more than
+    `progress.CHUNK_STEPS` steps in chunks, each from the last state of the one before,
+    reporting the steps done after each; the trajectory is bit for bit that of one request.
+    A rollout with `contacts` is never chunked."""
     options = request_options.simulation(dt, steps, tau, controller, integrator)
     if contacts is not None:  # contacts (issue 19)
         return _simulate_with_contacts(robot_id, q, v, options, contacts, damping)
@@ -468,6 +516,39 @@ def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int
                      result=Trajectory, square=False, options=options, q=q, v=v)
     # Always JSON: a torque schedule is a body field, too big for a binary header.
     return replace(call, json=call.json_body(), arrays=None)
+
+
+def simulate_chunks(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
+                    tau: ArrayLike | Mapping[str, Any] | None = None,
+                    controller: Mapping[str, Any] | None = None,
+                    integrator: Integrator | None = None, chunk: int = progress.CHUNK_STEPS
+                    ) -> progress.Plan[Trajectory]:
+    """`simulate` as consecutive simulations of at most `chunk` steps, each starting from the
+    last state of the one before (see `robodyn.progress.Plan`): the same trajectory, bit for
+    bit, as one request (t is dt × step index in both)."""
+    simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau, controller=controller,
+             integrator=integrator)  # checks every argument before the first chunk
+    schedule = None
+    if tau is not None and not isinstance(tau, Mapping):
+        torques = joint_input("tau", tau)
+        if isinstance(torques, np.ndarray) and torques.ndim == 2:
+            schedule = torques  # (steps, nv): τ_k during step k
+    parts: list[Trajectory] = []
+    done = 0
+    while done < steps:
+        n = min(chunk, steps - done)
+        part_tau = schedule[done:done + n] if schedule is not None else tau
+        part: Trajectory = yield (simulate(robot_id, q, v, dt=dt, steps=n, tau=part_tau,
+                                           controller=controller, integrator=integrator),
+                                  done + n)
+        parts.append(part if not parts else Trajectory(*(x[..., 1:, :] if x.ndim > part.t.ndim
+                                                          else x[..., 1:] for x in part)))
+        q, v = part.q[..., -1, :], part.v[..., -1, :]
+        done += n
+    joined = Trajectory(*(np.concatenate(xs, axis=-2 if xs[0].ndim > parts[0].t.ndim else -1)
+                          for xs in zip(*parts, strict=True)))
+    t = np.broadcast_to(dt * np.arange(steps + 1), joined.t.shape).copy()
+    return joined._replace(t=t)
 
 
 def reduce(robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str | None = None
@@ -557,10 +638,6 @@ def share_docs(cls: type) -> type:
 
 # -- beyond the equation of motion --------------------------------------------------------
 
-REFERENCE_FRAMES = ("local_world_aligned", "local", "world")
-TASKS = ("full", "linear", "angular")
-
-
 def _choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
     if not isinstance(value, str) or value not in allowed:
         raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}, "
@@ -582,8 +659,14 @@ def _quantity(name: str, robot_id: str, read: Callable[[Any, bool, int | None], 
     """A dynamics call with joint-space `inputs` (None: not sent) and other `options`."""
     arrays, batched = joint_states(**{k: x for k, x in inputs.items() if x is not None})
     rows = batch_rows(arrays, batched)
-    return _call(name, lambda status, body: read(body, batched, rows), robot_id,
+    call = _call(name, lambda status, body: read(body, batched, rows), robot_id,
                  body=dict(options) or None, arrays=arrays)
+    if _splittable(arrays, rows, options):
+        def split(i: int, j: int) -> Call[T]:
+            return _quantity(name, robot_id, read, options,
+                             **{k: a[i:j] for k, a in arrays.items()})
+        return replace(call, rows=rows, split=split)
+    return call
 
 
 def mass_matrix_inverse(robot_id: str, q: ArrayLike) -> Call[np.ndarray]:
@@ -609,8 +692,8 @@ def center_of_mass(robot_id: str, q: ArrayLike, v: ArrayLike | None = None
 
 
 def jacobian(robot_id: str, q: ArrayLike, frame: str, *,
-             reference_frame: str = "local_world_aligned", v: ArrayLike | None = None
-             ) -> Call[FrameJacobian]:
+             reference_frame: ReferenceFrame = "local_world_aligned",
+             v: ArrayLike | None = None) -> Call[FrameJacobian]:
     """`FrameJacobian` of the frame named `frame` (a link, joint or fixed frame:
     `robot(id).frame_names`): `jacobian` J, shape (6, nv), rows [vx, vy, vz, ωx, ωy, ωz] in
     `reference_frame` ("local_world_aligned", "local" or "world"), so the frame's velocity is
@@ -623,8 +706,8 @@ def jacobian(robot_id: str, q: ArrayLike, frame: str, *,
 
 
 def operational_space(robot_id: str, q: ArrayLike, frame: str, *, v: ArrayLike | None = None,
-                      reference_frame: str = "local_world_aligned", task: str = "full",
-                      damping: float = 0.0) -> Call[OperationalSpace]:
+                      reference_frame: ReferenceFrame = "local_world_aligned",
+                      task: Task = "full", damping: float = 0.0) -> Call[OperationalSpace]:
     """`OperationalSpace` of `frame` (Khatib): `inertia` Λ = (J M⁻¹ Jᵀ)⁻¹ shape (k, k),
     `jacobian` J shape (k, nv), `dynamically_consistent_inverse` J̄ = M⁻¹ Jᵀ Λ shape (nv, k),
     `gravity` p = J̄ᵀ g shape (k,) and with v `coriolis` μ = J̄ᵀ C v − Λ J̇ v shape (k,);

@@ -3,15 +3,34 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
 from robodyn.arrays import joint_array, joint_input
 from robodyn.errors import InputError
 
-REFERENCE_FRAMES = ("world", "local", "local_world_aligned")
-INTEGRATORS = ("semi-implicit-euler", "rk4")
+ReferenceFrame = Literal["local_world_aligned", "local", "world"]
+"""Axes and origin of 6-vectors and Jacobians (Pinocchio's): the frame's origin with world
+axes (default), the frame's origin and axes, or the world origin and axes."""
+Task = Literal["full", "linear", "angular"]
+"""Rows of an operational-space task: all 6, the 3 linear ones or the 3 angular ones."""
+Integrator = Literal["semi-implicit-euler", "rk4"]
+"""Integrator of `simulate`."""
+RootJoint = Literal["fixed", "free-flyer", "planar"]
+"""How an uploaded model's root link is attached to the world."""
+InertiaCheck = Literal["reject", "warn"]
+"""What an upload does with implausible inertias."""
+Fill = Literal["neutral"] | str
+"""How name-keyed inputs fill the joints they leave out: "neutral" or the name of one of the
+robot's reference configurations (`RobotInfo.raw["reference_configurations"]`) for q; v, a
+and τ of missing joints are zero."""
+
+REFERENCE_FRAMES: tuple[str, ...] = get_args(ReferenceFrame)
+TASKS: tuple[str, ...] = get_args(Task)
+INTEGRATORS: tuple[str, ...] = get_args(Integrator)
+ROOT_JOINTS: tuple[str, ...] = get_args(RootJoint)
+INERTIA_CHECKS: tuple[str, ...] = get_args(InertiaCheck)
 
 
 def _json(value: Any) -> Any:
@@ -60,7 +79,7 @@ def _gain(name: str, value: Any) -> Any:
 
 
 def simulation(dt: float, steps: int, tau: Any, controller: Mapping[str, Any] | None,
-               integrator: str | None) -> dict[str, Any]:
+               integrator: Integrator | None) -> dict[str, Any]:
     """The non-state members of a simulate body, checked."""
     if isinstance(dt, bool) or not isinstance(dt, int | float) or not np.isfinite(dt) or dt <= 0:
         raise InputError("dt must be a positive number of seconds")

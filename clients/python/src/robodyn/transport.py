@@ -1,18 +1,21 @@
-"""Connection settings shared by both clients: base URL, headers, timeouts, error wrapping."""
+"""Connection settings shared by both clients: base URL, headers, timeouts, error wrapping,
+and retries of requests a busy or restarting server could not answer."""
 
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import AsyncIterator, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
 import httpx
+import stamina
 
 from robodyn import __version__, binary
 from robodyn.core import Body, Call
-from robodyn.errors import TimeoutError, TransportError
+from robodyn.errors import ServiceUnavailableError, TimeoutError, TransportError
 
 DEFAULT_URL = "http://127.0.0.1:8000"
 URL_ENV = "ROBODYN_URL"
@@ -27,18 +30,73 @@ TimeoutLike = float | httpx.Timeout | None
 
 
 @dataclass(frozen=True)
+class Retry:
+    """How a client retries a request the server could not answer: a 503 (`not_ready`,
+    `overloaded`: nothing was computed) or a failed connection. Every robodyn request may be
+    sent again — dynamics are computations, uploads are keyed by their content — except
+    `delete`, which is retried only when it surely did not reach the server (503, refused
+    connection). Timeouts while waiting for an answer are not retried.
+
+    At most `attempts` tries (the first included) within `timeout` seconds from the first
+    failure. The wait before the next try is the server's `Retry-After` when it gives one
+    (never past the budget: a longer one ends the retries at once), else exponential from
+    `wait_initial` up to `wait_max` seconds, with up to `wait_jitter` seconds of random jitter
+    (stamina's backoff). The last error is raised.
+    """
+
+    attempts: int = 5
+    timeout: float = 30.0
+    wait_initial: float = 0.1
+    wait_max: float = 5.0
+    wait_jitter: float = 0.5
+
+
+DEFAULT_RETRY: Retry = Retry()
+RETRIED = (ServiceUnavailableError, TransportError)
+"""The failures `retry_context` may retry (it decides which by their cause)."""
+_SENT_FAILURES = (httpx.RemoteProtocolError, httpx.ReadError, httpx.WriteError)
+_UNSENT_FAILURES = (httpx.ConnectError, httpx.ConnectTimeout, httpx.PoolTimeout)
+
+
+def retry_context(call: Call[Any], retry: Retry | None) -> Any:
+    """The `stamina.retry_context` of `call` under `retry` (one attempt for None):
+    `for attempt in retry_context(...): with attempt: ...` (or `async for`)."""
+    if retry is None:
+        return stamina.retry_context(on=(), attempts=1, timeout=None)
+    deadline = time.monotonic() + retry.timeout
+
+    def backoff(exc: Exception) -> bool | float:
+        """False: raise `exc`; True: stamina's backoff; a number: wait that long."""
+        if isinstance(exc, ServiceUnavailableError):
+            if exc.retry_after is None:
+                return True
+            wait = max(exc.retry_after, 0.0)
+            return wait if time.monotonic() + wait < deadline else False
+        if isinstance(exc, TransportError):
+            cause = exc.__cause__
+            return isinstance(cause, _UNSENT_FAILURES) or (
+                call.idempotent and isinstance(cause, _SENT_FAILURES))
+        return False
+
+    return stamina.retry_context(on=backoff, attempts=retry.attempts, timeout=retry.timeout,
+                                 wait_initial=retry.wait_initial, wait_max=retry.wait_max,
+                                 wait_jitter=retry.wait_jitter)
+
+
+@dataclass(frozen=True)
 class Settings:
     """What every request of one client carries: its absolute base URL and headers."""
 
     base_url: str
     headers: Mapping[str, str]
     use_binary: bool | None = None  # None: the binary form for large batches only
+    fill: str | None = None  # sent with inputs keyed by joint name
 
     def prepare(self, call: Call[Any]) -> tuple[str, dict[str, str], Body | None]:
         """The absolute URL, headers and body of `call` (bytes, or a list of parts sent one
         after the other under one Content-Length)."""
         headers = dict(self.headers)
-        content, media_type = call.body(self.use_binary)
+        content, media_type = call.body(self.use_binary, self.fill)
         if isinstance(content, list):
             headers["Content-Length"] = str(sum(len(part) for part in content))
         if media_type is not None:
@@ -50,7 +108,7 @@ class Settings:
 
 def settings(base_url: str | None, api_key: str | None, http_client: httpx.Client |
              httpx.AsyncClient | None, headers: Mapping[str, str] | None,
-             use_binary: bool | None = None) -> Settings:
+             use_binary: bool | None = None, fill: str | None = None) -> Settings:
     """Resolve the base URL (argument, else the injected client's, else $ROBODYN_URL, else
     http://127.0.0.1:8000) and the headers sent with each request."""
     if base_url is None and http_client is not None and str(http_client.base_url):
@@ -67,7 +125,10 @@ def settings(base_url: str | None, api_key: str | None, http_client: httpx.Clien
         if not api_key or any(c in api_key for c in "\r\n"):
             raise ValueError("api_key must be a non-empty single-line string")
         sent["Authorization"] = f"Bearer {api_key}"
-    return Settings(base_url=str(url).rstrip("/"), headers=sent, use_binary=use_binary)
+    if fill is not None and (not isinstance(fill, str) or not fill):
+        raise ValueError('fill must be "neutral" or the name of a reference configuration')
+    return Settings(base_url=str(url).rstrip("/"), headers=sent, use_binary=use_binary,
+                    fill=fill)
 
 
 async def parts_async(parts: list[bytes | memoryview]) -> AsyncIterator[bytes | memoryview]:

@@ -1,0 +1,72 @@
+"""Progress of long work: batches sent in chunks of states, simulations in chunks of steps.
+
+`progress` is a callable `(done, total)`, called after each chunk with the states (or steps)
+done so far — in order, the last call with done == total — or True for a `tqdm` bar
+(`pip install tqdm`). Long work is only split into chunks when progress is asked for, and the
+answer is the same, bit for bit, as in one request.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Generator
+from typing import Any, TypeVar, Union
+
+from robodyn.errors import InputError
+
+ProgressCallback = Callable[[int, int], object]
+"""Called as `callback(done, total)` after each chunk."""
+Progress = Union[ProgressCallback, bool, None]  # noqa: UP007 (a runtime alias on Python 3.10)
+
+CHUNK_STATES = 2000
+"""States per request of a batch sent in chunks (with progress)."""
+CHUNK_STEPS = 2000
+"""Steps per request of a simulation run in chunks (with progress)."""
+
+T = TypeVar("T")
+Plan = Generator[tuple[Any, int], Any, T]
+"""Yields (call, done after it) and receives each call's answer; returns the joined answer."""
+
+
+def check(progress: Any) -> Progress:
+    if progress is None or progress is False:
+        return None
+    if progress is True:
+        _tqdm()
+        return True
+    if not callable(progress):
+        raise InputError("progress must be a callable (done, total), True for a tqdm bar, or "
+                         f"None; not {type(progress).__name__}")
+    callback: ProgressCallback = progress
+    return callback
+
+
+def _tqdm() -> Any:
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        raise InputError("progress=True shows a tqdm bar: pip install tqdm (or pass a "
+                         "callable (done, total))") from None
+    return tqdm
+
+
+class Reporter:
+    """Reports `done` out of `total` to a callback or a tqdm bar; a context manager."""
+
+    def __init__(self, progress: Progress, total: int, unit: str) -> None:
+        self.total, self._done = total, 0
+        self._bar = _tqdm()(total=total, unit=unit) if progress is True else None
+        self._callback = progress if callable(progress) else None
+
+    def __call__(self, done: int) -> None:
+        if self._bar is not None:
+            self._bar.update(done - self._done)
+        if self._callback is not None:
+            self._callback(done, self.total)
+        self._done = done
+
+    def __enter__(self) -> Reporter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.close()

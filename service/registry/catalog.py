@@ -21,6 +21,7 @@ from robots import CATALOG_DIR, CATALOG_FILE
 from service.registry.build import build_urdf_model
 from service.registry.robot import Robot
 from service.registry.urdf_check import check_urdf
+from service.registry.visuals import on_model, resolve_assets, urdf_visuals
 
 log = logging.getLogger("robodyn.catalog")
 
@@ -111,9 +112,14 @@ def load_entry(entry: CatalogEntry) -> Robot:
         upper, lower = model.upperPositionLimit, model.lowerPositionLimit
         upper[:7], lower[:7] = 1.0, -1.0
         model.upperPositionLimit, model.lowerPositionLimit = upper, lower
+    body_frames = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
+    visuals, asset_paths = resolve_assets(
+        on_model(urdf_visuals(text), body_frames.__contains__),
+        package_root=erd_robots_dir().parent.parent, description_dir=entry.path("urdf").parent)
     return Robot(id=entry.name, name=entry.name, source="catalog", root_joint=root_joint,
                  model=model, reference_configurations=references,
-                 default_configuration=default, warnings=[f.as_dict() for f in findings])
+                 default_configuration=default, warnings=[f.as_dict() for f in findings],
+                 visuals=visuals, asset_paths=asset_paths)
 
 
 def load_catalog(names: list[str] | None = None) -> tuple[dict[str, Robot], dict[str, str]]:

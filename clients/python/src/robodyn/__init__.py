@@ -16,6 +16,7 @@ from robodyn.async_client import AsyncClient
 from robodyn.client import Client
 from robodyn.errors import (
     APIError,
+    AssetNotFoundError,
     BadRequestError,
     CatalogRobotError,
     ConflictError,
@@ -63,6 +64,7 @@ from robodyn.transport import DEFAULT_TIMEOUT
 __all__ = [
     "DEFAULT_TIMEOUT",
     "APIError",
+    "AssetNotFoundError",
     "AsyncClient",
     "AsyncStream",
     "BadRequestError",

@@ -348,6 +348,7 @@ function colourLinks() {
 function startView() {
   try {
     state.view = new RobotView(el("view3d"), { onProgress: showProgress });
+    el("view3d").robotView = state.view; // for the browser tests and the devtools console
   } catch (err) { // no WebGL: the numbers still work
     el("view-progress").textContent = `No 3-D view in this browser (${err.message}).`;
     return;

@@ -134,7 +134,9 @@ export class RobotView {
     this.root.clear();
     this.frames.clear();
     this.info = info;
-    this.fitted = false;
+    this.fitted = false; // the camera was aimed at this robot
+    this.placed = false; // its frames have been placed
+    this.meshesDone = false;
     this.moved = false;
     this.sticks = null;
     const mine = this.generation = (this.generation || 0) + 1;
@@ -145,6 +147,7 @@ export class RobotView {
     const meshes = drawable.filter((v) => v.geometry.type === "mesh");
     let done = 0;
     const report = () => this.onProgress(done, meshes.length);
+    this.meshesDone = meshes.length === 0;
     report();
     for (const visual of drawable) {
       const holder = new THREE.Group();
@@ -178,7 +181,10 @@ export class RobotView {
           if (mine !== this.generation) return;
           done += 1;
           report();
-          if (done === meshes.length) this.fit();
+          if (done === meshes.length) {
+            this.meshesDone = true;
+            if (this.placed) this.fit(); // aim at the whole robot, meshes included
+          }
           this.requestRender();
         });
     }
@@ -254,7 +260,8 @@ export class RobotView {
       attr.needsUpdate = true;
     }
     this.container.dataset.q = JSON.stringify(q);
-    if (!this.fitted) this.fit(positions);
+    this.placed = true;
+    if (!this.fitted) this.fit(this.meshesDone && !this.stick ? null : positions);
     this.requestRender();
   }
 

@@ -12,7 +12,9 @@ import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 
 const BACKGROUND = 0xf7f8fa;
 const DEFAULT_COLOUR = [0.72, 0.74, 0.78, 1];
-const NEUTRAL = new THREE.Color(0.8, 0.8, 0.8); // links without a value in colour-by mode
+// Colours are given as CSS gives them (sRGB, 0–1); three.js works in linear light.
+const srgb = (r, g, b) => new THREE.Color().setRGB(r, g, b, THREE.SRGBColorSpace);
+const NEUTRAL = srgb(0.8, 0.8, 0.8); // links without a value in colour-by mode
 
 // url → Promise of a template Object3D; templates are cloned (sharing geometry) per visual.
 const meshCache = new Map();
@@ -73,7 +75,7 @@ const placementMatrix = (R, p) => new THREE.Matrix4().set(
 
 function material(rgba) {
   const [r, g, b, a] = rgba || DEFAULT_COLOUR;
-  return new THREE.MeshStandardMaterial({ color: new THREE.Color(r, g, b), roughness: 0.6,
+  return new THREE.MeshStandardMaterial({ color: srgb(r, g, b), roughness: 0.6,
                                           metalness: 0.1, transparent: a < 1, opacity: a });
 }
 
@@ -241,6 +243,7 @@ export class RobotView {
 
   /** World placements of frames (names, F×3 positions, F×3×3 rotations) for configuration q. */
   setPlacements(frames, positions, rotations, q) {
+    const started = performance.now();
     const where = new Map();
     frames.forEach((name, k) => {
       where.set(name, positions[k]);
@@ -260,6 +263,7 @@ export class RobotView {
       attr.needsUpdate = true;
     }
     this.container.dataset.q = JSON.stringify(q);
+    this.container.dataset.placeMs = (performance.now() - started).toFixed(3);
     this.placed = true;
     if (!this.fitted) this.fit(this.meshesDone && !this.stick ? null : positions);
     this.requestRender();
@@ -307,7 +311,7 @@ export class RobotView {
       if (by) {
         const rgb = by(name);
         tint = g.userData.tint ||= new THREE.MeshStandardMaterial({ roughness: 0.7 });
-        tint.color.copy(rgb ? new THREE.Color(...rgb) : NEUTRAL);
+        tint.color.copy(rgb ? srgb(...rgb) : NEUTRAL);
       }
       g.traverse((o) => {
         if (o.isMesh && o.userData.own) o.material = tint || o.userData.own;

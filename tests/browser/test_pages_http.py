@@ -109,7 +109,8 @@ def test_docs_page_loads_swagger_ui_from_the_installed_package(client) -> None:
     "/static/__init__.py", "/static/index.html", "/static/..%2f..%2fmain.py",
     "/static/../api/pages.py", "/static/vendor/three/package.json",
     "/static/vendor/three/README.md", "/static/vendor%2F..%2Fpages.py",
-    "/static/vendor/three/build/../../../__init__.py", "/docs/assets/index.html", "/docs/assets/swagger-initializer.js",
+    "/static/vendor/three/build/../../../__init__.py", "/docs/assets/index.html",
+    "/docs/assets/swagger-initializer.js",
     "/docs/assets/..%2f..%2f__init__.py", "/redoc", "/docs/oauth2-redirect"])
 def test_nothing_else_is_served(client, path: str) -> None:
     answer = client.get(path)

@@ -329,7 +329,7 @@ export class RobotView {
     const centre = box.getCenter(new THREE.Vector3());
     const radius = Math.max(0.25, box.getSize(new THREE.Vector3()).length() / 2 + 0.1);
     const distance = radius / Math.sin((this.camera.fov * Math.PI) / 360);
-    const dir = new THREE.Vector3(1, -1.1, 0.6).normalize();
+    const dir = new THREE.Vector3(0.75, -1, 0.45).normalize(); // front right, a little above
     this.camera.position.copy(centre).addScaledVector(dir, distance);
     this.controls.target.copy(centre);
     this.controls.update();

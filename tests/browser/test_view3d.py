@@ -137,10 +137,10 @@ def test_talos_bends_its_knee(page, server, api) -> None:
     wait_drawn(page, "talos")
     assert page.evaluate(ROBOT_PIXELS_JS) > 5000
     before = page.evaluate(CANVAS_JS)
-    shin = frame_matrix(page, "leg_left_5_link")
-    q = move_joint(page, api, "talos", "leg_left_4_joint", 1.5)  # the left knee
+    shin = frame_matrix(page, "leg_right_5_link")
+    q = move_joint(page, api, "talos", "leg_right_4_joint", 1.5)  # the right knee
     assert changed_pixels(page, before) > 500
-    assert not np.allclose(frame_matrix(page, "leg_left_5_link"), shin)
+    assert not np.allclose(frame_matrix(page, "leg_right_5_link"), shin)
     assert_placed_as_the_service_says(page, api, "talos", q)
     # Redrawn on the next animation frame: placing ~100 frames costs well under a frame.
     place_ms = float(page.locator("#view3d").get_attribute("data-place-ms"))

@@ -253,3 +253,32 @@ def test_unreadable_visuals_are_left_out() -> None:
     text = UPLOAD.replace('size="0.4 0.3 0.1"', 'size="0.4 nan"')
     names = [v["name"] for v in urdf_visuals(text)]
     assert names == ["arm_0", "arm_1"]
+
+
+def test_placements_in_binary_by_joint_name_and_on_the_stream(client) -> None:
+    """frame-placements is a dynamics quantity like the others: binary bodies and answers,
+    name-keyed q, and the WebSocket stream give the same answer as plain JSON."""
+    import orjson
+
+    from service.api import binary
+
+    model = _model(client, "ur5")
+    q = random_configuration(model, np.random.default_rng(5))
+    url = "/v1/robots/ur5/frame-placements"
+    expected = client.post(url, json={"q": q.tolist(), "frames": ["tool0"]}).json()
+    answer = client.post(url, content=binary.encode({"q": q, "frames": ["tool0"]}),
+                         headers={"Content-Type": binary.BINARY_MEDIA_TYPE,
+                                  "Accept": binary.BINARY_MEDIA_TYPE})
+    assert answer.status_code == 200, answer.text
+    fields, arrays = binary.decode(answer.content)
+    assert fields["frames"] == ["tool0"]
+    np.testing.assert_array_equal(arrays["positions"], expected["positions"])
+    np.testing.assert_array_equal(arrays["rotations"], expected["rotations"])
+    names = [model.names[j] for j in range(1, model.njoints)]
+    named = client.post(url, json={"q": dict(zip(names, q.tolist(), strict=True)),
+                                   "frames": ["tool0"]}).json()
+    assert named == expected
+    with client.websocket_connect("/v1/robots/ur5/stream") as ws:
+        ws.send_text(orjson.dumps({"quantity": "frame-placements", "q": q.tolist(),
+                                   "frames": ["tool0"]}).decode())
+        assert ws.receive_json() == expected

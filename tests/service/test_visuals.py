@@ -282,3 +282,21 @@ def test_placements_in_binary_by_joint_name_and_on_the_stream(client) -> None:
         ws.send_text(orjson.dumps({"quantity": "frame-placements", "q": q.tolist(),
                                    "frames": ["tool0"]}).decode())
         assert ws.receive_json() == expected
+
+
+def test_a_reduced_model_shows_its_bases_visuals_and_meshes(client) -> None:
+    reduced = client.post("/v1/robots/ur5/reduce",
+                          json={"locked_joints": {"wrist_1_joint": 0.3, "wrist_2_joint": -0.2}})
+    assert reduced.status_code in (200, 201), reduced.text
+    robot_id = reduced.json()["id"]
+    base = client.get("/v1/robots/ur5/visuals").json()["visuals"]
+    visuals = client.get(f"/v1/robots/{robot_id}/visuals").json()["visuals"]
+    assert visuals == base  # locking joints keeps every link as a body frame
+    model = client.registry.get(robot_id).model
+    q = random_configuration(model, np.random.default_rng(2))
+    answer = client.post(f"/v1/robots/{robot_id}/frame-placements", json={"q": q.tolist()})
+    assert {v["frame"] for v in visuals} <= set(answer.json()["frames"])
+    asset = visuals[-1]["geometry"]["asset"]
+    served = client.get(f"/v1/robots/{robot_id}/assets/{asset}")
+    assert served.status_code == 200
+    assert served.content == client.get(f"/v1/robots/ur5/assets/{asset}").content

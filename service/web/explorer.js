@@ -274,7 +274,8 @@ function showProgress(done, total) {
   p.dataset.done = String(done);
   p.dataset.total = String(total);
   const text = total === 0 ? (state.view && state.view.stick
-    ? "No visuals in this description: drawn as a stick figure (joints as balls)." : "")
+    ? "No visuals in this description: drawn as a stick figure (joints blue, each body's " +
+      "centre of mass orange)." : "")
     : done < total ? `Loading meshes: ${done} of ${total}…` : `${total} meshes loaded.`;
   if (p.textContent !== text) p.textContent = text;
 }
@@ -520,8 +521,7 @@ function renderLegend(maxAbs, normalised) {
   // Ticks at −1, −½, 0, ½, 1 of the scale: on the log scale ½ is 10^(−decades/2) of the max.
   const log = el("log-scale").checked;
   const half = log ? maxAbs * 10 ** (-LOG_DECADES / 2) : maxAbs / 2;
-  const what = normalised ? "|Mij| ÷ √(Mii Mjj)" : "|M|";
-  const floor = `${what} < ${fmt(maxAbs * 10 ** -LOG_DECADES, 2)}`;
+  const floor = `${normalised ? "" : "|M| "}< ${fmt(maxAbs * 10 ** -LOG_DECADES, 2)}`;
   for (const x of [-maxAbs, -half, 0, half, maxAbs]) {
     const s = document.createElement("span");
     s.textContent = x === 0 && log ? floor : fmt(x, 3);
@@ -681,8 +681,10 @@ async function selectRobot(id) {
   state.dynamics = null;
   if (state.view) {
     const { visuals } = await api(robotPath(id, "visuals"));
+    // a stick figure also shows each body's centre of mass (in its joint's frame)
+    const bodies = visuals.length ? [] : (await api(robotPath(id, "inertias"))).bodies;
     if (mine !== state.robotSeq) return;
-    state.view.setRobot(info, visuals, assetUrl(id));
+    state.view.setRobot(info, visuals, assetUrl(id), bodies);
     place();
   }
   await compute();

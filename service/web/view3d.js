@@ -131,8 +131,9 @@ export class RobotView {
     });
   }
 
-  /** A new robot: `info` (GET robots/{id}), its `visuals` and the URL of an asset path. */
-  setRobot(info, visuals, assetUrl) {
+  /** A new robot: `info` (GET robots/{id}), its `visuals`, the URL of an asset path, and
+   * (for a stick figure) the `bodies` of GET robots/{id}/inertias. */
+  setRobot(info, visuals, assetUrl, inertias = []) {
     this.root.clear();
     this.frames.clear();
     this.info = info;
@@ -190,7 +191,7 @@ export class RobotView {
           this.requestRender();
         });
     }
-    if (this.stick) this.buildStickFigure();
+    if (this.stick) this.buildStickFigure(inertias);
     this.container.dataset.mode = this.stick ? "stick" : "visuals";
     this.container.dataset.robot = info.id;
     this.setTriads(this.triads);
@@ -209,9 +210,10 @@ export class RobotView {
     return g;
   }
 
-  buildStickFigure() {
+  buildStickFigure(inertias) {
     // One segment from each joint's origin to its parent joint's origin (the world origin for
-    // a root joint), and to every other body frame of the joint (fixed links, tool frames).
+    // a root joint), and to every other body frame of the joint (fixed links, tool frames);
+    // each body's centre of mass as a small ball joined to its joint (the last link shows).
     const joints = this.info.joints;
     const bodies = this.info.frames.filter((f) => f.type === "body");
     const origin = new Map(); // joint name → name of its first body frame (at the joint)
@@ -239,6 +241,18 @@ export class RobotView {
       return m;
     });
     this.root.add(this.stickLines);
+    const comBall = new THREE.SphereGeometry(0.012, 12, 8);
+    for (const b of inertias) {
+      const frame = origin.get(b.joint);
+      if (!frame || !(b.mass > 0)) continue;
+      const c = new THREE.Vector3(...b.center_of_mass);
+      const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(
+        [new THREE.Vector3(), c]), new THREE.LineBasicMaterial({ color: 0x6b6b6b }));
+      const ball = new THREE.Mesh(comBall, material([0.9, 0.55, 0.1, 1]));
+      ball.position.copy(c);
+      ball.userData.own = ball.material;
+      this.group(frame).add(line, ball); // both move with the joint's frame
+    }
   }
 
   /** World placements of frames (names, F×3 positions, F×3×3 rotations) for configuration q. */
@@ -261,11 +275,13 @@ export class RobotView {
         attr.setXYZ(2 * k + 1, ...pb);
       });
       attr.needsUpdate = true;
+      this.stickLines.geometry.computeBoundingBox();
     }
     this.container.dataset.q = JSON.stringify(q);
     this.container.dataset.placeMs = (performance.now() - started).toFixed(3);
     this.placed = true;
-    if (!this.fitted) this.fit(this.meshesDone && !this.stick ? null : positions);
+    // aim at what is drawn: a stick figure or loaded meshes, else the frames' origins
+    if (!this.fitted) this.fit(this.meshesDone ? null : positions);
     this.requestRender();
   }
 

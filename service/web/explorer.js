@@ -1,7 +1,7 @@
 // robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
-import { RobotView } from "./view3d.js";
+import { ViewPanel } from "./view_panel.js";
 
 const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
 const DEFAULT_VELOCITY = 0.5; // rad/s or m/s in every coordinate when a robot is chosen
@@ -21,10 +21,7 @@ const state = {
   timer: 0,
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
-  view: null, // the 3-D view (null where WebGL is unavailable)
-  placing: false, // a frame-placements request is in flight
-  placeAgain: false, // ... and the sliders moved since it was sent
-  dynamics: null, // the last g(q) and C(q, v) v, to colour the links
+  view: null, // the 3-D view panel (view_panel.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -235,128 +232,7 @@ const currentV = () => state.rows.map((r) => Number(r.vel.value));
 function schedule() {
   clearTimeout(state.timer);
   state.timer = setTimeout(compute, 40);
-  place(); // the 3-D view follows the sliders at once, without the debounce
-}
-
-// ---- 3-D view -----------------------------------------------------------------------------
-
-async function place() {
-  // One frame-placements request at a time; while it is out, moves only mark the view stale,
-  // and the newest configuration is sent when it answers (so a drag never queues requests).
-  if (!state.view || !state.info) return;
-  if (state.placing) { state.placeAgain = true; return; }
-  state.placing = true;
-  try {
-    do {
-      state.placeAgain = false;
-      const id = state.info.id, q = currentQ();
-      const [p, com] = await Promise.all([api(robotPath(id, "frame-placements"), { q }),
-                                          api(robotPath(id, "center-of-mass"), { q })]);
-      if (state.info.id === id) {
-        state.view.setPlacements(p.frames, p.positions, p.rotations, q);
-        state.view.setCenterOfMass(com.position);
-      }
-    } while (state.placeAgain);
-  } catch (err) {
-    setStatus(err.message, true);
-  } finally {
-    state.placing = false;
-  }
-}
-
-function assetUrl(id) {
-  const base = robotPath(id, "assets");
-  return (asset) => `${base}/${asset.split("/").map(encodeURIComponent).join("/")}`;
-}
-
-function showProgress(done, total) {
-  const p = el("view-progress");
-  p.dataset.done = String(done);
-  p.dataset.total = String(total);
-  const text = total === 0 ? (state.view && state.view.stick
-    ? "No visuals in this description: drawn as a stick figure (joints blue, each body's " +
-      "centre of mass orange)." : "")
-    : done < total ? `Loading meshes: ${done} of ${total}…` : `${total} meshes loaded.`;
-  if (p.textContent !== text) p.textContent = text;
-}
-
-// Sequential colour scale for link values in [0, 1]: pale yellow → orange → dark red.
-const HEAT = [[255, 255, 204], [253, 141, 60], [189, 0, 38]];
-function heat(t) {
-  const x = Math.max(0, Math.min(1, t)) * (HEAT.length - 1);
-  const k = Math.min(HEAT.length - 2, Math.floor(x)), f = x - k;
-  return HEAT[k].map((a, i) => (a + (HEAT[k + 1][i] - a) * f) / 255);
-}
-
-function jointValues(mode) {
-  // One number per joint for the chosen quantity (null where it has none): the largest
-  // |value| ÷ effort limit over the joint's coordinates, or the norm of its |g| entries.
-  if (!state.dynamics) return null;
-  const { g, cv } = state.dynamics;
-  const values = new Map();
-  for (const j of state.info.joints) {
-    const rows = [...Array(j.nv).keys()].map((k) => j.idx_v + k);
-    if (mode === "gravity") {
-      values.set(j.name, Math.hypot(...rows.map((r) => g[r])));
-      continue;
-    }
-    const ratios = rows.map((r, k) => {
-      const limit = j.effort_limit[k];
-      const tau = mode === "torque-effort" ? g[r] + cv[r] : g[r];
-      return finite(limit) && limit > 0 ? Math.abs(tau) / limit : null;
-    }).filter((x) => x !== null);
-    values.set(j.name, ratios.length ? Math.max(...ratios) : null);
-  }
-  return values;
-}
-
-function colourLinks() {
-  if (!state.view) return;
-  const mode = el("link-colour").value;
-  const values = mode === "own" ? null : jointValues(mode);
-  const legend = el("link-legend");
-  if (!values) {
-    state.view.setLinkColours(null);
-    legend.replaceChildren();
-    return;
-  }
-  const ratio = mode !== "gravity";
-  const top = ratio ? 1 : Math.max(1e-12, ...[...values.values()].filter((x) => x !== null));
-  const parentJoint = new Map(state.info.frames.map((f) => [f.name, f.parent_joint]));
-  state.view.setLinkColours((frame) => {
-    const x = values.get(parentJoint.get(frame));
-    return x === undefined || x === null ? null : heat(x / top);
-  });
-  const bar = document.createElement("div");
-  bar.className = "legend-bar heat";
-  const ticks = document.createElement("div");
-  ticks.className = "legend-ticks";
-  const unit = ratio ? "" : " N·m or N";
-  const labels = ratio ? ["0", "25 %", "50 %", "75 %", "≥ 100 % of the limit"]
-    : [0, 0.25, 0.5, 0.75, 1].map((f) => `${fmt(f * top, 3)}${f === 1 ? unit : ""}`);
-  for (const t of labels) {
-    const span = document.createElement("span");
-    span.textContent = t;
-    ticks.append(span);
-  }
-  const note = document.createElement("p");
-  note.className = "legend-note";
-  note.textContent = "Grey: a link whose joint has no value (the fixed base" +
-    (ratio ? ", or no effort limit)." : ").");
-  legend.replaceChildren(bar, ticks, note);
-}
-
-function startView() {
-  try {
-    state.view = new RobotView(el("view3d"), { onProgress: showProgress });
-    el("view3d").robotView = state.view; // for the browser tests and the devtools console
-  } catch (err) { // no WebGL: the numbers still work
-    el("view-progress").textContent = `No 3-D view in this browser (${err.message}).`;
-    return;
-  }
-  el("show-com").addEventListener("change", (ev) => state.view.setShowCom(ev.target.checked));
-  el("show-triads").addEventListener("change", (ev) => state.view.setTriads(ev.target.checked));
-  el("link-colour").addEventListener("change", colourLinks);
+  state.view.place(); // the 3-D view follows the sliders at once, without the debounce
 }
 
 // ---- Computation and rendering ------------------------------------------------------------
@@ -394,8 +270,7 @@ async function compute() {
     renderNumbers(mm.mass_matrix, labels);
     renderBars(el("gravity-chart"), g.gravity, "f");
     renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
-    state.dynamics = { g: g.gravity, cv: c.coriolis_forces };
-    colourLinks();
+    state.view.colour(g.gravity, c.coriolis_forces);
     renderEnergy(mm.mass_matrix, v);
     setStatus("Computed by the service for the state set on the left.");
   } catch (err) {
@@ -678,15 +553,7 @@ async function selectRobot(id) {
   renderFacts(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
-  state.dynamics = null;
-  if (state.view) {
-    const { visuals } = await api(robotPath(id, "visuals"));
-    // a stick figure also shows each body's centre of mass (in its joint's frame)
-    const bodies = visuals.length ? [] : (await api(robotPath(id, "inertias"))).bodies;
-    if (mine !== state.robotSeq) return;
-    state.view.setRobot(info, visuals, assetUrl(id), bodies);
-    place();
-  }
+  if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
   await compute();
 }
 
@@ -766,7 +633,8 @@ async function upload(ev) {
 // ---- Start --------------------------------------------------------------------------------
 
 async function start() {
-  startView();
+  state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
+                               onError: (err) => setStatus(err.message, true) });
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });

@@ -69,6 +69,8 @@ function primitive(geometry) {
   }
 }
 
+const meshCount = (visuals) => visuals.filter((v) => v.geometry.type === "mesh").length;
+
 const placementMatrix = (R, p) => new THREE.Matrix4().set(
   R[0][0], R[0][1], R[0][2], p[0], R[1][0], R[1][1], R[1][2], p[1],
   R[2][0], R[2][1], R[2][2], p[2], 0, 0, 0, 1);
@@ -146,6 +148,7 @@ export class RobotView {
     const drawable = visuals.filter((v) => v.geometry.type !== "mesh" ||
       /\.(stl|dae|obj|glb|gltf)$/i.test(v.geometry.asset));
     this.stick = drawable.length === 0;
+    let drawn = drawable.length - meshCount(drawable); // primitives; meshes once loaded
     for (const f of info.frames.filter((x) => x.type === "body")) this.group(f.name);
     const meshes = drawable.filter((v) => v.geometry.type === "mesh");
     let done = 0;
@@ -178,6 +181,7 @@ export class RobotView {
           o.userData.own = o.material;
         });
         holder.add(object);
+        drawn += 1;
         this.applyColours();
       }).catch((err) => console.warn(`mesh ${asset} not drawn: ${err.message}`))
         .finally(() => {
@@ -186,6 +190,8 @@ export class RobotView {
           report();
           if (done === meshes.length) {
             this.meshesDone = true;
+            // not one mesh could be had (an upload without its mesh files): a stick figure
+            if (drawn === 0) this.becomeStickFigure(inertias);
             if (this.placed) this.fit(); // aim at the whole robot, meshes included
           }
           this.requestRender();
@@ -193,6 +199,7 @@ export class RobotView {
     }
     if (this.stick) this.buildStickFigure(inertias);
     this.container.dataset.mode = this.stick ? "stick" : "visuals";
+    this.lastPlacements = null;
     this.container.dataset.robot = info.id;
     this.setTriads(this.triads);
     this.requestRender();
@@ -208,6 +215,14 @@ export class RobotView {
       this.root.add(g);
     }
     return g;
+  }
+
+  becomeStickFigure(inertias) {
+    this.stick = true;
+    this.buildStickFigure(inertias);
+    this.container.dataset.mode = "stick";
+    if (this.lastPlacements) this.setPlacements(...this.lastPlacements);
+    this.onProgress(0, 0);
   }
 
   buildStickFigure(inertias) {
@@ -258,6 +273,7 @@ export class RobotView {
   /** World placements of frames (names, F×3 positions, F×3×3 rotations) for configuration q. */
   setPlacements(frames, positions, rotations, q) {
     const started = performance.now();
+    this.lastPlacements = [frames, positions, rotations, q];
     const where = new Map();
     frames.forEach((name, k) => {
       where.set(name, positions[k]);

@@ -41,8 +41,9 @@ export class ViewPanel {
     if (!this.view) return true;
     const { api, robotPath } = this.ctx;
     const { visuals } = await api(robotPath(info.id, "visuals"));
-    // a stick figure also shows each body's centre of mass (in its joint's frame)
-    const bodies = visuals.length ? [] : (await api(robotPath(info.id, "inertias"))).bodies;
+    // a stick figure (no visuals, or no mesh to be had) also shows each body's centre of
+    // mass, in its joint's frame
+    const { bodies } = await api(robotPath(info.id, "inertias"));
     if (!current()) return false;
     const assets = robotPath(info.id, "assets");
     this.view.setRobot(info, visuals,
@@ -83,8 +84,8 @@ export class ViewPanel {
     p.dataset.done = String(done);
     p.dataset.total = String(total);
     const text = total === 0 ? (this.view && this.view.stick
-      ? "No visuals in this description: drawn as a stick figure (joints blue, each body's " +
-        "centre of mass orange)." : "")
+      ? "Nothing to draw from this description's visuals: drawn as a stick figure (joints " +
+        "blue, each body's centre of mass orange)." : "")
       : done < total ? `Loading meshes: ${done} of ${total}…` : `${total} meshes loaded.`;
     if (p.textContent !== text) p.textContent = text;
   }

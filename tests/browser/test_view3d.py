@@ -251,3 +251,21 @@ def test_talos_heat_map_and_bars_are_readable(page, server, api) -> None:
                                        "bs => bs.map(b => parseFloat(b.style.width))")
     assert max(widths[:6]) == 50 and max(widths[6:]) == 50
     page.locator("#mass-matrix-figure").screenshot(path=str(ARTIFACTS / "heatmap-talos.png"))
+
+
+def test_an_upload_whose_meshes_were_not_uploaded_is_a_stick_figure(page, server, api) -> None:
+    """Its visuals name meshes the service does not have (404 asset_not_found): once every
+    load has failed, the view draws the stick figure instead of nothing."""
+    urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text().replace(
+        '<link name="link1">', '<link name="link1"><visual><geometry>'
+        '<mesh filename="package://arm/meshes/link1.stl"/></geometry></visual>', 1)
+    stored = api.post("/v1/robots", json={"urdf": urdf, "name": "arm without its meshes"})
+    robot = stored.json()["id"]
+    visuals = api.get(f"/v1/robots/{robot}/visuals").json()["visuals"]
+    assert [v["geometry"].get("asset") for v in visuals] == ["arm/meshes/link1.stl"]
+    open_explorer(page, server, robot)
+    wait_drawn(page, robot)
+    page.wait_for_function("() => document.querySelector('#view3d').dataset.mode === 'stick'")
+    assert page.evaluate(ROBOT_PIXELS_JS) > 100
+    assert "stick figure" in page.locator("#view-progress").inner_text()
+    assert page.log.page_errors == [] and page.log.foreign_requests(server) == []

@@ -42,8 +42,8 @@ Geometry = MeshGeometry | BoxGeometry | SphereGeometry | CylinderGeometry
 
 
 class Visual(BaseModel):
-    name: str = Field(description="The visual's name (the description's, else "
-                      "`<link>_<index>`).")
+    name: str = Field(description="`<link>_<index>`: the link's name and the visual's index "
+                      "among that link's visuals (as Pinocchio names its geometries; unique).")
     frame: str = Field(description="The body frame of the visual's link, as in `frames` of "
                        "GET /v1/robots/{id} and in frame-placements.")
     placement: Placement = Field(description="The visual's placement relative to `frame`.")

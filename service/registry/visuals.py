@@ -2,7 +2,7 @@
 
 A visual entry (the shape of `GET /v1/robots/{id}/visuals`) is
 
-    {"name": str, "frame": link's body frame (as Pinocchio names it: the URDF link name),
+    {"name": "<link>_<index>", "frame": the link's body frame (Pinocchio: the URDF link name),
      "placement": {"translation": [x, y, z] in m, "rotation": 3×3 row-major},  # in that frame
      "geometry": {"type": "mesh", "asset": key, "scale": [3]}
                | {"type": "box", "size": [3]} | {"type": "sphere", "radius": r}
@@ -43,7 +43,7 @@ def asset_key(filename: str) -> str | None:
     normalized (no `./`); None for an absolute path, a URL or a path that leaves its root."""
     name = filename.strip()
     if name.startswith("package://"):
-        name = name[len("package://"):]
+        name = name[len("package://"):].lstrip("/")  # (some write package:///pkg/x)
     elif "://" in name or name.startswith("/") or "\\" in name:
         return None
     key = posixpath.normpath(name)
@@ -104,7 +104,8 @@ def _visual(link: str, index: int, visual: Element, named: Mapping[str, list[flo
     origin = visual.find("origin")
     xyz = read_numbers(None if origin is None else origin.get("xyz"), 3, "origin xyz", "0 0 0")
     rpy = read_numbers(None if origin is None else origin.get("rpy"), 3, "origin rpy", "0 0 0")
-    return {"name": visual.get("name") or f"{link}_{index}", "frame": link,
+    # named as Pinocchio names its geometries: unique, where descriptions reuse visual names
+    return {"name": f"{link}_{index}", "frame": link,
             "placement": {"translation": xyz, "rotation": rpy_matrix(*rpy)},
             "geometry": geometry, "color": _color(visual.find("material"), named)}
 

@@ -112,14 +112,25 @@ def load_entry(entry: CatalogEntry) -> Robot:
         upper, lower = model.upperPositionLimit, model.lowerPositionLimit
         upper[:7], lower[:7] = 1.0, -1.0
         model.upperPositionLimit, model.lowerPositionLimit = upper, lower
-    body_frames = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
-    visuals, asset_paths = resolve_assets(
-        on_model(urdf_visuals(text), body_frames.__contains__),
-        package_root=erd_robots_dir().parent.parent, description_dir=entry.path("urdf").parent)
+    visuals, asset_paths = _visuals(entry, text, model)
     return Robot(id=entry.name, name=entry.name, source="catalog", root_joint=root_joint,
                  model=model, reference_configurations=references,
                  default_configuration=default, warnings=[f.as_dict() for f in findings],
                  visuals=visuals, asset_paths=asset_paths)
+
+
+def _visuals(entry: CatalogEntry, text: str, model: Any) -> tuple[list[dict[str, Any]],
+                                                                  dict[str, Path]]:
+    """The robot's visuals and the mesh files they name (inside example-robot-data); none,
+    logged, if the description's visuals cannot be read: the dynamics still serve."""
+    body_frames = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
+    try:
+        return resolve_assets(on_model(urdf_visuals(text), body_frames.__contains__),
+                              package_root=erd_robots_dir().parent.parent,
+                              description_dir=entry.path("urdf").parent)
+    except Exception as exc:
+        log.warning("catalog robot %r: visuals not read (%s)", entry.name, exc)
+        return [], {}
 
 
 def load_catalog(names: list[str] | None = None) -> tuple[dict[str, Robot], dict[str, str]]:

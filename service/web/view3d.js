@@ -50,7 +50,19 @@ function loadMesh(url) {
     meshCache.set(url, fetch(url).then((res) => {
       if (!res.ok) throw new Error(`${res.status} for ${url}`);
       return res.arrayBuffer();
-    }).then((buffer) => parseMesh(url, buffer)));
+    }).then((buffer) => parseMesh(url, buffer)).then((template) => {
+      // the template's geometries and materials are shared by its clones: never disposed
+      if (template) {
+        template.traverse((o) => {
+          if (o.geometry) o.userData.cachedGeometry = true;
+          for (const m of [o.material].flat()) if (m) m.userData.cached = true;
+        });
+      }
+      return template;
+    }).catch((err) => {
+      meshCache.delete(url); // a failed fetch is tried again when the robot is chosen again
+      throw err;
+    }));
   }
   return meshCache.get(url);
 }
@@ -136,7 +148,7 @@ export class RobotView {
   /** A new robot: `info` (GET robots/{id}), its `visuals`, the URL of an asset path, and
    * (for a stick figure) the `bodies` of GET robots/{id}/inertias. */
   setRobot(info, visuals, assetUrl, inertias = []) {
-    this.root.clear();
+    this.dispose();
     this.frames.clear();
     this.info = info;
     this.fitted = false; // the camera was aimed at this robot
@@ -160,7 +172,6 @@ export class RobotView {
       holder.matrixAutoUpdate = false;
       holder.matrix.copy(placementMatrix(visual.placement.rotation,
                                          visual.placement.translation));
-      holder.userData.colour = visual.color;
       this.group(visual.frame).add(holder);
       if (visual.geometry.type !== "mesh") {
         const mesh = new THREE.Mesh(primitive(visual.geometry), material(visual.color));
@@ -203,6 +214,18 @@ export class RobotView {
     this.container.dataset.robot = info.id;
     this.setTriads(this.triads);
     this.requestRender();
+  }
+
+  dispose() {
+    // Free the GPU buffers of the robot shown, except the cached meshes' geometries (shared
+    // by every clone of a mesh, and kept for when the robot is chosen again).
+    this.root.traverse((o) => {
+      if (o.geometry && !o.userData.cachedGeometry) o.geometry.dispose();
+      for (const m of [o.material, o.userData.own, o.userData.tint].flat()) {
+        if (m && m.dispose && !m.userData.cached) m.dispose();
+      }
+    });
+    this.root.clear();
   }
 
   group(name) {
@@ -248,13 +271,11 @@ export class RobotView {
       geometry, new THREE.LineBasicMaterial({ color: 0x1b1b1b }));
     this.stickLines.frustumCulled = false;
     const ball = new THREE.SphereGeometry(0.02, 16, 10);
-    this.stickBalls = [...origin.entries()].map(([joint, frame]) => {
+    for (const frame of origin.values()) {
       const m = new THREE.Mesh(ball, material([0.05, 0.36, 0.68, 1]));
       m.userData.own = m.material;
-      m.userData.joint = joint;
       this.group(frame).add(m);
-      return m;
-    });
+    }
     this.root.add(this.stickLines);
     const comBall = new THREE.SphereGeometry(0.012, 12, 8);
     for (const b of inertias) {

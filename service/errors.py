@@ -6,6 +6,7 @@ that could be huge or non-finite, and never carries a backend path or C++ source
 
     RobodynError                      code
     ├── RobotNotFound                 robot_not_found
+    ├── AssetNotFound                 asset_not_found
     ├── CatalogRobot                  catalog_robot
     ├── InvalidInput                  validation_error
     ├── DimensionMismatch             dimension_mismatch
@@ -41,6 +42,13 @@ class RobodynError(Exception):
 class RobotNotFound(RobodynError):
     code = "robot_not_found"
     title = "Robot not found"
+
+
+class AssetNotFound(RobodynError):
+    """A path that is not one of the mesh files a robot's visuals reference."""
+
+    code = "asset_not_found"
+    title = "Asset not found"
 
 
 class CatalogRobot(RobodynError):
@@ -110,6 +118,7 @@ class UnsupportedMediaType(RobodynError):
 
 ALL_ERRORS: tuple[type[RobodynError], ...] = (
     RobotNotFound,
+    AssetNotFound,
     CatalogRobot,
     InvalidInput,
     DimensionMismatch,

@@ -13,7 +13,7 @@ from fastapi import Depends, FastAPI
 
 from service import __version__, heap, unpin_this_thread
 from service.api import dynamics as dynamics_routes
-from service.api import health, pages, robots, stream
+from service.api import health, pages, robots, stream, visuals
 from service.api.deps import require_api_key_for_all
 from service.api.fast_path import DynamicsFastPath
 from service.api.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
@@ -75,6 +75,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     # lean dynamics and stream routes check it themselves (deps.check_api_key_for_all).
     private = [Depends(require_api_key_for_all)]
     app.include_router(robots.router, dependencies=private)
+    app.include_router(visuals.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
     app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
     app.include_router(pages.router)

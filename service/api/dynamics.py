@@ -28,6 +28,7 @@ from service.api import (
     schemas_dynamics,
     schemas_operational,
     schemas_options,
+    schemas_placements,
     schemas_simulation,
 )
 from service.api.answers import JSONAnswer, json_bytes
@@ -42,11 +43,11 @@ REQUESTS: dict[str, type[BaseModel]] = {
     path: schemas_options.with_joint_names(model) for path, model in {
         **schemas_dynamics.REQUESTS, **schemas_options.REQUESTS, **schemas_operational.REQUESTS,
         **schemas_derivatives.REQUESTS, **schemas_simulation.REQUESTS,
-        **schemas_contacts.REQUESTS}.items()}
+        **schemas_contacts.REQUESTS, **schemas_placements.REQUESTS}.items()}
 ANSWERS: dict[str, type[BaseModel]] = {
     **schemas_dynamics.ANSWERS, **schemas_options.ANSWERS, **schemas_operational.ANSWERS,
     **schemas_derivatives.ANSWERS, **schemas_simulation.ANSWERS,
-    **schemas_contacts.ANSWERS}
+    **schemas_contacts.ANSWERS, **schemas_placements.ANSWERS}
 
 # Batches bigger than this (states × nv) are validated, computed and encoded in a worker thread,
 # and JSON bodies bigger than INLINE_BODY_BYTES parsed there: on the event loop they would

@@ -7,10 +7,18 @@ under `/docs/assets/`. Only the files the pages reference are served (an allow-l
 the Python sources next to them nor Swagger UI's demo `index.html` (which points at a remote
 example API) is reachable. A Content-Security-Policy of `'self'` makes the browser itself refuse
 any other origin.
+
+The explorer's 3-D view uses three.js, vendored under `service/web/vendor/three/` (version and
+origin in its README) and loaded as ES modules through an import map inline in `index.html`;
+the policy admits that one inline script by its SHA-256 hash, computed here from the file, and
+no other.
 """
 
 from __future__ import annotations
 
+import base64
+import hashlib
+import re
 from importlib.resources import files
 from pathlib import Path
 
@@ -24,17 +32,45 @@ router = APIRouter(include_in_schema=False)
 WEB_DIR = Path(str(files("service.web")))
 SWAGGER_DIR = Path(str(swagger_ui_path))
 
+_JS = "text/javascript; charset=utf-8"
 # name → media type of every file the pages may load; anything else is a 404.
-EXPLORER_FILES = {"explorer.js": "text/javascript; charset=utf-8",
+EXPLORER_FILES = {"explorer.js": _JS,
                   "explorer.css": "text/css; charset=utf-8",
                   "favicon.svg": "image/svg+xml"}
+# ES modules the explorer imports (not named by index.html itself): its 3-D view and the
+# vendored three.js files it uses (each module's own relative imports included).
+THREE_DIR = "vendor/three/"
+MODULE_FILES = {name: _JS for name in [
+    "view3d.js", "view_panel.js",
+    THREE_DIR + "build/three.module.min.js",
+    THREE_DIR + "examples/jsm/controls/OrbitControls.js",
+    THREE_DIR + "examples/jsm/loaders/STLLoader.js",
+    THREE_DIR + "examples/jsm/loaders/ColladaLoader.js",
+    THREE_DIR + "examples/jsm/loaders/TGALoader.js",
+    THREE_DIR + "examples/jsm/loaders/OBJLoader.js",
+    THREE_DIR + "examples/jsm/loaders/GLTFLoader.js",
+    THREE_DIR + "examples/jsm/utils/BufferGeometryUtils.js",
+]}
+STATIC_FILES = {**EXPLORER_FILES, **MODULE_FILES}
+
+
+def _inline_script_hashes(html: str) -> str:
+    """CSP source expressions ('sha256-…') of the inline scripts of a page (its import map)."""
+    scripts = re.findall(r"<script[^>]*>(.*?)</script>", html, flags=re.DOTALL)
+    return " ".join(
+        f"'sha256-{base64.b64encode(hashlib.sha256(body.encode()).digest()).decode()}'"
+        for body in scripts if body.strip())
+
 DOCS_FILES = {"swagger-ui-bundle.js": "text/javascript; charset=utf-8",
               "swagger-ui.css": "text/css; charset=utf-8",
               "favicon-32x32.png": "image/png"}
 
 # The browser enforces "nothing from elsewhere": scripts, styles, images, fonts and fetches
 # only from this origin (images also as data: URIs, which Swagger UI's CSS uses for icons).
-EXPLORER_CSP = ("default-src 'self'; img-src 'self' data:; object-src 'none'; "
+# The one inline script is the import map, admitted by its hash.
+EXPLORER_CSP = ("default-src 'self'; "
+                f"script-src 'self' {_inline_script_hashes((WEB_DIR / 'index.html').read_text())}; "
+                "img-src 'self' data:; object-src 'none'; "
                 "base-uri 'none'; frame-ancestors 'none'; form-action 'none'")
 # FastAPI's docs page starts Swagger UI with an inline script; Swagger UI sets inline styles.
 DOCS_CSP = ("default-src 'self'; script-src 'self' 'unsafe-inline'; "
@@ -58,9 +94,9 @@ async def explorer_page() -> FileResponse:
                                  "Content-Security-Policy": EXPLORER_CSP})
 
 
-@router.get("/static/{name}")
+@router.get("/static/{name:path}")
 async def explorer_file(name: str) -> FileResponse:
-    return _file(WEB_DIR, name, EXPLORER_FILES)
+    return _file(WEB_DIR, name, STATIC_FILES)
 
 
 @router.get("/docs")

@@ -18,6 +18,7 @@ log = logging.getLogger("robodyn.api")
 
 STATUS_BY_CODE: dict[str, int] = {
     "robot_not_found": 404,
+    "asset_not_found": 404,
     "catalog_robot": 409,
     "validation_error": 422,
     "dimension_mismatch": 422,

@@ -81,4 +81,6 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) ->
         results = quantity.parallel(robot, s)
     else:
         results = quantity.compute(robot, s, **options)
-    return {name: s.unbatch(value) for name, value in results.items()}
+    # (a non-array answer, e.g. the frame names of frame-placements, is given once as it is)
+    return {name: s.unbatch(value) if isinstance(value, np.ndarray) else value
+            for name, value in results.items()}

@@ -21,6 +21,7 @@ from robots import CATALOG_DIR, CATALOG_FILE
 from service.registry.build import build_urdf_model
 from service.registry.robot import Robot
 from service.registry.urdf_check import check_urdf
+from service.registry.visuals import on_model, resolve_assets, urdf_visuals
 
 log = logging.getLogger("robodyn.catalog")
 
@@ -113,10 +114,25 @@ def load_entry(entry: CatalogEntry) -> Robot:
         model.upperPositionLimit, model.lowerPositionLimit = upper, lower
     contact_type = spec.get("contact_type", "point")
     contacts = [{"frame": frame, "type": contact_type} for frame in spec.get("contact_frames", [])]
+    visuals, asset_paths = _visuals(entry, text, model)
     return Robot(id=entry.name, name=entry.name, source="catalog", root_joint=root_joint,
                  model=model, reference_configurations=references,
                  default_configuration=default, warnings=[f.as_dict() for f in findings],
-                 contact_frames=contacts)
+                 contact_frames=contacts, visuals=visuals, asset_paths=asset_paths)
+
+
+def _visuals(entry: CatalogEntry, text: str, model: Any) -> tuple[list[dict[str, Any]],
+                                                                  dict[str, Path]]:
+    """The robot's visuals and the mesh files they name (inside example-robot-data); none,
+    logged, if the description's visuals cannot be read: the dynamics still serve."""
+    body_frames = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
+    try:
+        return resolve_assets(on_model(urdf_visuals(text), body_frames.__contains__),
+                              package_root=erd_robots_dir().parent.parent,
+                              description_dir=entry.path("urdf").parent)
+    except Exception as exc:
+        log.warning("catalog robot %r: visuals not read (%s)", entry.name, exc)
+        return [], {}
 
 
 def load_catalog(names: list[str] | None = None) -> tuple[dict[str, Robot], dict[str, str]]:

@@ -13,6 +13,7 @@ import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -75,6 +76,10 @@ class Robot:
     contact_frames: list[dict[str, str]] = field(default_factory=list)  # suggested contacts
     warnings: list[dict[str, str]] = field(default_factory=list)
     origin: dict[str, Any] | None = None  # a reduced model: {"robot", "locked_joints"}
+    # API-shaped visual entries (GET /v1/robots/{id}/visuals); None = not computed yet
+    visuals: list[dict[str, Any]] | None = None
+    # asset key -> file on disk, only the files the visuals reference
+    asset_paths: dict[str, Path] = field(default_factory=dict)
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:

@@ -1,7 +1,7 @@
-// robodyn explorer: plain JavaScript, no library and no build step. Every request goes to this
-// service through a relative URL (so the page also works behind a path prefix); the page's
-// Content-Security-Policy forbids any other origin.
-"use strict";
+// robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
+// vendored three.js. Every request goes to this service through a relative URL (so the page
+// also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+import { ViewPanel } from "./view_panel.js";
 
 const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
 const DEFAULT_VELOCITY = 0.5; // rad/s or m/s in every coordinate when a robot is chosen
@@ -21,6 +21,7 @@ const state = {
   timer: 0,
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
+  view: null, // the 3-D view panel (view_panel.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -231,6 +232,7 @@ const currentV = () => state.rows.map((r) => Number(r.vel.value));
 function schedule() {
   clearTimeout(state.timer);
   state.timer = setTimeout(compute, 40);
+  state.view.place(); // the 3-D view follows the sliders at once, without the debounce
 }
 
 // ---- Computation and rendering ------------------------------------------------------------
@@ -268,6 +270,7 @@ async function compute() {
     renderNumbers(mm.mass_matrix, labels);
     renderBars(el("gravity-chart"), g.gravity, "f");
     renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
+    state.view.colour(g.gravity, c.coriolis_forces);
     renderEnergy(mm.mass_matrix, v);
     setStatus("Computed by the service for the state set on the left.");
   } catch (err) {
@@ -305,12 +308,36 @@ function svgEl(name, attrs) {
   return e;
 }
 
+function limbStarts() {
+  // Velocity rows where a limb begins: a multi-dof root (a free-flyer base) is its own block,
+  // and a new limb starts at each joint whose parent has several children (a branch point)
+  // or is such a root. Talos: base | left leg | right leg | torso | left arm | right arm | head.
+  const joints = state.info.joints;
+  const children = new Map();
+  for (const j of joints) children.set(j.parent, (children.get(j.parent) || 0) + 1);
+  const root = new Set(joints.filter((j) => j.nv > 1 && !joints.some((p) => p.name === j.parent))
+    .map((j) => j.name));
+  const starts = new Set();
+  for (const j of joints) {
+    if (j.idx_v > 0 && (children.get(j.parent) > 1 || root.has(j.parent) || root.has(j.name))) {
+      starts.add(j.idx_v);
+    }
+  }
+  return starts;
+}
+
 function renderHeatmap(M, labels, stamp) {
   const box = el("heatmap");
   const n = M.length;
-  const maxAbs = Math.max(...M.flat().map(Math.abs)) || 1;
-  const cell = Math.max(8, Math.min(48, Math.floor(440 / Math.max(n, 1))));
-  const font = Math.max(7, Math.min(12, cell * 0.75));
+  const normalised = el("normalised").checked;
+  // Mij / sqrt(Mii Mjj): unitless in [-1, 1] (M is positive definite), 1 on the diagonal.
+  const shown = normalised
+    ? M.map((r, i) => r.map((x, j) => x / Math.sqrt(Math.abs(M[i][i] * M[j][j])) || 0)) : M;
+  const maxAbs = Math.max(...shown.flat().map(Math.abs)) || 1;
+  // Cells of at least 14 px and labels of at least 11 px: a large robot (talos, nv 38) scrolls
+  // sideways rather than shrinking its labels out of reach.
+  const cell = Math.max(14, Math.min(48, Math.floor(440 / Math.max(n, 1))));
+  const font = Math.max(11, Math.min(13, cell * 0.75));
   const pad = Math.ceil(Math.max(0, ...labels.map((l) => l.length)) * font * 0.6) + 8;
   const size = pad + n * cell;
   const svg = svgEl("svg", { width: size, height: size, viewBox: `0 0 ${size} ${size}`,
@@ -329,16 +356,22 @@ function renderHeatmap(M, labels, stamp) {
   });
   M.forEach((r, i) => r.forEach((value, j) => {
     svg.append(svgEl("rect", { x: pad + j * cell, y: pad + i * cell, width: cell, height: cell,
-                               fill: colour(scaled(value, maxAbs)), class: "cell",
-                               "data-row": i, "data-col": j, "data-value": String(value) }));
+                               fill: colour(scaled(shown[i][j], maxAbs)), class: "cell",
+                               "data-row": i, "data-col": j, "data-value": String(value),
+                               "data-normalised": String(shown[i][j]) }));
   }));
+  for (const k of limbStarts()) { // a line between limbs, across and down
+    const at = pad + k * cell;
+    svg.append(svgEl("line", { x1: pad, x2: pad + n * cell, y1: at, y2: at, class: "limb" }),
+               svgEl("line", { x1: at, x2: at, y1: pad, y2: pad + n * cell, class: "limb" }));
+  }
   svg.addEventListener("mousemove", (ev) => showTooltip(ev, labels));
   svg.addEventListener("mouseleave", () => { el("tooltip").hidden = true; });
   box.replaceChildren(svg);
   box.dataset.robot = stamp.robot;
   box.dataset.q = JSON.stringify(stamp.q);
   box.dataset.v = JSON.stringify(stamp.v);
-  renderLegend(maxAbs);
+  renderLegend(maxAbs, normalised);
 }
 
 function showTooltip(ev, labels) {
@@ -346,14 +379,15 @@ function showTooltip(ev, labels) {
   const t = ev.target;
   if (!t.classList || !t.classList.contains("cell")) { tip.hidden = true; return; }
   const i = Number(t.dataset.row), j = Number(t.dataset.col);
-  tip.textContent = `M[${labels[i]}, ${labels[j]}] = ${fmt(Number(t.dataset.value), 6)}`;
+  tip.textContent = `M[${labels[i]}, ${labels[j]}] = ${fmt(Number(t.dataset.value), 6)}` +
+    (el("normalised").checked ? ` (÷ √(Mii Mjj): ${fmt(Number(t.dataset.normalised), 3)})` : "");
   const fig = el("mass-matrix-figure").getBoundingClientRect();
   tip.style.left = `${ev.clientX - fig.left + 14}px`;
   tip.style.top = `${ev.clientY - fig.top + 14}px`;
   tip.hidden = false;
 }
 
-function renderLegend(maxAbs) {
+function renderLegend(maxAbs, normalised) {
   const legend = el("legend");
   const bar = document.createElement("div");
   bar.className = "legend-bar";
@@ -362,7 +396,7 @@ function renderLegend(maxAbs) {
   // Ticks at −1, −½, 0, ½, 1 of the scale: on the log scale ½ is 10^(−decades/2) of the max.
   const log = el("log-scale").checked;
   const half = log ? maxAbs * 10 ** (-LOG_DECADES / 2) : maxAbs / 2;
-  const floor = `|M| < ${fmt(maxAbs * 10 ** -LOG_DECADES, 2)}`;
+  const floor = `${normalised ? "" : "|M| "}< ${fmt(maxAbs * 10 ** -LOG_DECADES, 2)}`;
   for (const x of [-maxAbs, -half, 0, half, maxAbs]) {
     const s = document.createElement("span");
     s.textContent = x === 0 && log ? floor : fmt(x, 3);
@@ -399,10 +433,38 @@ function renderNumbers(M, labels) {
   el("mass-matrix-numbers").replaceChildren(table);
 }
 
+function baseRows() {
+  // The velocity rows of a multi-dof root joint (a free-flyer or planar base), else 0.
+  const first = state.info.joints[0];
+  return first && first.nv > 1 && ["free_flyer", "planar"].includes(first.type) ? first.nv : 0;
+}
+
 function renderBars(box, values, unitKey) {
-  // Horizontal bars about a centre line, one per velocity coordinate, labelled by joint.
+  // Horizontal bars about a centre line, one per velocity coordinate, labelled by joint. A
+  // floating base's rows (a free-flyer carries the whole weight: 885 N on talos) get their own
+  // scale, so that they do not flatten every joint's bar.
+  const nBase = baseRows();
+  if (!nBase || nBase >= values.length) {
+    box.replaceChildren(...barRows(values, 0, unitKey));
+    return;
+  }
+  const heading = (text) => {
+    const p = document.createElement("p");
+    p.className = "bar-group";
+    p.textContent = text;
+    return p;
+  };
+  box.replaceChildren(
+    heading(`Base (${state.info.joints[0].name}, ${state.info.joints[0].type}), own scale`),
+    ...barRows(values.slice(0, nBase), 0, unitKey),
+    heading("Joints"),
+    ...barRows(values.slice(nBase), nBase, unitKey));
+}
+
+function barRows(values, offset, unitKey) {
   const maxAbs = Math.max(...values.map(Math.abs)) || 1;
-  const rows = values.map((x, i) => {
+  return values.map((x, k) => {
+    const i = offset + k;
     const r = state.rows[i];
     const row = document.createElement("div");
     row.className = "bar-row";
@@ -425,7 +487,6 @@ function renderBars(box, values, unitKey) {
     row.append(label, track, value);
     return row;
   });
-  box.replaceChildren(...rows);
 }
 
 function renderEnergy(M, v) {
@@ -492,6 +553,7 @@ async function selectRobot(id) {
   renderFacts(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
+  if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
   await compute();
 }
 
@@ -571,6 +633,8 @@ async function upload(ev) {
 // ---- Start --------------------------------------------------------------------------------
 
 async function start() {
+  state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
+                               onError: (err) => setStatus(err.message, true) });
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });
@@ -585,6 +649,9 @@ async function start() {
     }
   });
   el("upload").addEventListener("submit", upload);
+  el("normalised").addEventListener("change", () => {
+    if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
+  });
   el("log-scale").addEventListener("change", () => {
     if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
   });

@@ -20,11 +20,13 @@ from tests.servers import running_server
 
 CHROMIUM = os.environ.get("ROBODYN_TEST_CHROMIUM", "/usr/bin/chromium")
 # Flags known to work here as root on a machine without internet (see the environment notes):
-# no sandbox (root), no GPU, and none of Chromium's own background connections.
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+# no sandbox (root), WebGL on the CPU (SwiftShader through ANGLE, for the explorer's 3-D view;
+# no GPU is used), and none of Chromium's own background connections.
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader",
+                 "--enable-unsafe-swiftshader", "--disable-quic",
                  "--no-first-run", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync"]
-CATALOG = "ur5,panda,planar_arm,solo12,double_pendulum_continuous"
+CATALOG = "ur5,panda,planar_arm,solo12,double_pendulum_continuous,talos"
 ARTIFACTS = Path(__file__).parent / "artifacts"
 
 

@@ -3,6 +3,8 @@ request leaving the service (its assets come from the swagger-ui-bundle-v2 packa
 
 from __future__ import annotations
 
+import time
+
 from tests.browser.conftest import ARTIFACTS
 
 METHODS = {"get", "put", "post", "delete", "patch", "head", "options", "trace"}
@@ -45,6 +47,13 @@ def test_docs_try_it_out_calls_this_service(page, server, api) -> None:
     body = block.locator(".responses-wrapper .response-col_description .microlight").first
     body.wait_for()
     ids = {r["id"] for r in api.get("/v1/robots").json()["robots"]}
-    assert all(f'"{i}"' in body.inner_text() for i in ids)
+    # Swagger UI may show the answer before it has highlighted all of it: read until complete.
+    deadline = time.monotonic() + 10.0
+    while True:
+        missing = [i for i in ids if f'"{i}"' not in body.inner_text()]
+        if not missing or time.monotonic() > deadline:
+            break
+        page.wait_for_timeout(100)
+    assert missing == []
     assert f"{server}/v1/robots" in page.log.requests
     assert page.log.foreign_requests(server) == []

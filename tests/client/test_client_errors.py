@@ -19,6 +19,7 @@ from service.api.problems import STATUS_BY_CODE, problem
 # code → (status, class, a builtin or parent it must also be): written out, not derived.
 EXPECTED: dict[str, tuple[int, type[robodyn.APIError], type[BaseException]]] = {
     "robot_not_found": (404, robodyn.RobotNotFoundError, LookupError),
+    "asset_not_found": (404, robodyn.AssetNotFoundError, LookupError),
     "catalog_robot": (409, robodyn.CatalogRobotError, robodyn.ConflictError),
     "validation_error": (422, robodyn.ValidationError, ValueError),
     "dimension_mismatch": (422, robodyn.DimensionMismatchError, ValueError),

@@ -19,6 +19,7 @@ from robodyn.async_client import AsyncClient
 from robodyn.client import Client
 from robodyn.errors import (
     APIError,
+    AssetNotFoundError,
     BadRequestError,
     CatalogRobotError,
     ConflictError,
@@ -78,6 +79,7 @@ __all__ = [
     "DEFAULT_TIMEOUT",
     "APIError",
     "ArrayType",
+    "AssetNotFoundError",
     "AsyncClient",
     "AsyncStream",
     "BadRequestError",

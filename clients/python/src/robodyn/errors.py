@@ -13,7 +13,8 @@ nothing of robodyn can still catch them (`except LookupError`, `except ValueErro
         ├── BadRequestError                       400 bad_request
         ├── UnauthorizedError (PermissionError)   401 unauthorized
         ├── NotFoundError (LookupError)           404 not_found (no such route)
-        │   └── RobotNotFoundError                404 robot_not_found
+        │   ├── RobotNotFoundError                404 robot_not_found
+        │   └── AssetNotFoundError                404 asset_not_found
         ├── MethodNotAllowedError                 405 method_not_allowed
         ├── ConflictError                         409
         │   └── CatalogRobotError                 409 catalog_robot
@@ -135,6 +136,12 @@ class RobotNotFoundError(NotFoundError):
     """No robot has this id; `robots()` lists the valid ones."""
 
     error_code = "robot_not_found"
+
+
+class AssetNotFoundError(NotFoundError):
+    """Not a mesh file the robot's visuals reference (`visuals()` lists the valid paths)."""
+
+    error_code = "asset_not_found"
 
 
 class MethodNotAllowedError(APIError):

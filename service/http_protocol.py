@@ -1,31 +1,93 @@
-"""uvicorn's HTTP/1.1 protocol (httptools), with each answer sent in one system call.
+"""uvicorn's HTTP/1.1 protocol (httptools), hardened against slow and hostile clients, with each
+answer sent in one system call.
 
-uvicorn writes an answer's status line and headers (`http.response.start`) and its body
-(`http.response.body`) to the socket as two `send` calls; on loopback each costs a wake-up of
-the reader too. Here the writes one request makes within one step of the event loop are joined
-and sent together right after that step (`loop.call_soon`): the same bytes, in the same order,
-one system call (measured: a trivial ASGI app 22,000 → 25,000 requests/s; see README
-"Performance"). Nothing else of the protocol changes; closing the connection sends what is
-pending first.
+What it adds to uvicorn's `HttpToolsProtocol` (settings in `service.settings`, documented in
+docs/security.md):
+
+- **Read timeouts.** A request's head (request line and headers) must arrive within
+  `ROBODYN_HEADER_TIMEOUT_S` of its first byte (of the connection, for the first request), and
+  its body may pause at most `ROBODYN_BODY_TIMEOUT_S` between two reads; otherwise the connection
+  is closed. Time during which the server itself stopped reading (back-pressure, pipelining) does
+  not count. An answer the client does not read for `ROBODYN_SEND_TIMEOUT_S` drops the connection.
+- **A connection cap.** Past `ROBODYN_MAX_CONNECTIONS` open connections per process, a new
+  connection evicts the one that has waited longest without a request head (idle keep-alive or
+  half-sent); when every connection is busy with a request, the new one is answered 503
+  `overloaded` (problem+json, `Retry-After`) and closed.
+- **Honest closes.** An answer that starts before the request's body was read in full (a 413 by
+  Content-Length, a 404 before the body, `Expect: 100-continue` answered without the body) says
+  `Connection: close`: the unread rest of the body would otherwise be taken for the next request.
+  Such closes, and the parser's own 400 (now problem+json), half-close the socket and read what
+  the client still sends for up to `LINGER_S` before closing, so the client reads its answer
+  instead of a reset.
+- **Coalesced writes.** uvicorn writes an answer's status line and headers and its body as two
+  `send` calls; the writes one request makes within one step of the event loop are joined here
+  and sent together right after that step (`loop.call_soon`): the same bytes, one system call
+  (a trivial ASGI app 22,000 → 25,000 requests/s).
+
+It relies on private internals of uvicorn's protocol (pinned in pyproject.toml;
+tests/service/test_uvicorn_internals.py fails with a clear message if they move).
 """
 
 from __future__ import annotations
 
 import asyncio
+import functools
+import logging
+from dataclasses import dataclass
 from typing import Any
 
-from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol
+import orjson
+from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol, RequestResponseCycle
+
+log = logging.getLogger("robodyn.connections")
+
+LINGER_S = 2.0  # how long a closing connection keeps reading (and discarding) what still comes
+
+# Connections closed by the protocol, by reason (exported as robodyn_connections_closed_total).
+CLOSED: dict[str, int] = {"header_timeout": 0, "body_timeout": 0, "send_timeout": 0,
+                          "evicted": 0, "refused": 0, "bad_request": 0}
+
+
+@dataclass(frozen=True)
+class ConnectionLimits:
+    """The connection settings of this process (from `Settings`, read once)."""
+
+    header_timeout_s: float = 10.0
+    body_timeout_s: float = 30.0
+    send_timeout_s: float = 60.0
+    max_connections: int = 1024
+
+
+@functools.cache
+def connection_limits() -> ConnectionLimits:
+    from service.settings import Settings  # at first connection, after the workers' start
+
+    s = Settings()
+    return ConnectionLimits(s.header_timeout_s, s.body_timeout_s, s.send_timeout_s,
+                            s.max_connections)
+
+
+def _problem_answer(status: int, reason: bytes, code: str, title: str, detail: str,
+                    extra_headers: bytes = b"") -> bytes:
+    """A complete HTTP/1.1 problem+json answer that closes the connection."""
+    body = orjson.dumps({"type": "about:blank", "title": title, "status": status,
+                         "detail": detail, "code": code})
+    return (b"HTTP/1.1 %d %s\r\ncontent-type: application/problem+json\r\n"
+            b"content-length: %d\r\nconnection: close\r\n%s\r\n" % (
+                status, reason, len(body), extra_headers)) + body
 
 
 class CoalescedWrites:
     """The socket transport as one request/response cycle sees it: `write`s made in one step of
-    the event loop leave in one `write` at the end of that step; everything else is passed on."""
+    the event loop leave in one `write` at the end of that step; `close` closes, or lingers
+    (`on_close`) when the request was not read in full; everything else is passed on."""
 
-    __slots__ = ("_loop", "_pending", "_transport")
+    __slots__ = ("_loop", "_pending", "_transport", "on_close")
 
     def __init__(self, transport: asyncio.Transport, loop: asyncio.AbstractEventLoop) -> None:
         self._transport, self._loop = transport, loop
         self._pending: list[bytes] = []
+        self.on_close: Any = None
 
     def write(self, data: bytes) -> None:
         if not self._pending:  # an answer is a few writes (its body one), so nothing piles up
@@ -42,18 +104,193 @@ class CoalescedWrites:
 
     def close(self) -> None:
         self.flush()
-        self._transport.close()
+        if self.on_close is not None:
+            self.on_close()
+        else:
+            self._transport.close()
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._transport, name)
 
 
-class CoalescingHttpToolsProtocol(HttpToolsProtocol):
-    """`HttpToolsProtocol` whose request cycles write through `CoalescedWrites`."""
+class GuardedCycle(RequestResponseCycle):
+    """uvicorn's request/response cycle, closing the connection (announced) when the answer
+    starts before the request's body has been read in full."""
+
+    protocol: HardenedHttpToolsProtocol
+
+    async def send(self, message: Any) -> None:
+        if (not self.response_started and self.more_body and not self.disconnected
+                and message["type"] == "http.response.start"):
+            self.keep_alive = False  # uvicorn adds `connection: close` and closes after it
+            self.transport.on_close = self.protocol.linger_close  # type: ignore[attr-defined]
+        await super().send(message)
+
+
+class HardenedHttpToolsProtocol(HttpToolsProtocol):
+    """`HttpToolsProtocol` with read timeouts, a connection cap, honest closes and coalesced
+    writes (see the module docstring)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.limits = connection_limits()
+        self._waiting: str | None = None  # "head" or "body": what the read timer guards
+        self._since = 0.0  # start of the head, or the last read of the body (loop time)
+        self._read_timer: asyncio.TimerHandle | None = None
+        self._send_timer: asyncio.TimerHandle | None = None
+        self._idle_since: float | None = None  # None while a request head has been received
+        self._lingering = False
+
+    # -- connections --------------------------------------------------------------------
+    def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
+        full = len(self.connections) >= self.limits.max_connections
+        super().connection_made(transport)
+        now = self.loop.time()
+        self._idle_since = now
+        if full and not self._evict_one():
+            CLOSED["refused"] += 1
+            transport.write(_problem_answer(
+                503, b"Service Unavailable", "overloaded", "Overloaded",
+                f"the server has {self.limits.max_connections} open connections, its limit "
+                "(ROBODYN_MAX_CONNECTIONS); retry shortly", b"retry-after: 1\r\n"))
+            self.linger_close()
+            return
+        self._waiting, self._since = "head", now
+        self._arm_read_timer(self.limits.header_timeout_s)
+
+    def _evict_one(self) -> bool:
+        """Close the connection that has waited longest for a request head (lingering ones
+        first); False when every other connection is busy with a request."""
+        victim: HardenedHttpToolsProtocol | None = None
+        for other in self.connections:
+            if (other is self or not isinstance(other, HardenedHttpToolsProtocol)
+                    or other._idle_since is None or other.transport.is_closing()):
+                continue
+            if other._lingering:
+                victim = other
+                break
+            if victim is None or other._idle_since < victim._idle_since:  # type: ignore[operator]
+                victim = other
+        if victim is None:
+            return False
+        CLOSED["evicted"] += 1
+        victim.connections.discard(victim)  # no longer counted, even before it is closed
+        victim.transport.close()
+        return True
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        for timer in (self._read_timer, self._send_timer):
+            if timer is not None:
+                timer.cancel()
+        self._read_timer = self._send_timer = None
+        super().connection_lost(exc)
+
+    def linger_close(self) -> None:
+        """Close after this answer: half-close now (the client reads the answer, then EOF),
+        discard what the client still sends, close on its EOF or after `LINGER_S`."""
+        if self._lingering or self.transport.is_closing():
+            return
+        self._lingering = True
+        self._waiting = None
+        self.flow.resume_reading()  # keep reading, so the client's sends do not stall
+        try:
+            if self.transport.can_write_eof():
+                self.transport.write_eof()
+        except (OSError, RuntimeError):
+            self.transport.close()
+            return
+        self.loop.call_later(LINGER_S, self.transport.close)
+
+    # -- reading ------------------------------------------------------------------------
+    def data_received(self, data: bytes) -> None:
+        if self._lingering:
+            return  # the rest of a request already answered with `connection: close`
+        super().data_received(data)
+        if self._waiting is not None and self._read_timer is None:
+            self._arm_read_timer(self.limits.header_timeout_s if self._waiting == "head"
+                                 else self.limits.body_timeout_s)
+
+    def on_message_begin(self) -> None:
+        super().on_message_begin()
+        if self._waiting != "head":  # a later request on a kept-alive connection
+            self._waiting, self._since = "head", self.loop.time()
 
     def on_headers_complete(self) -> None:
         before = self.cycle
         super().on_headers_complete()  # creates the request's cycle (not for an upgrade)
-        if self.cycle is not None and self.cycle is not before:
-            # Its ASGI task has not run yet: every write it makes goes through the wrapper.
-            self.cycle.transport = CoalescedWrites(self.transport, self.loop)  # type: ignore[assignment]
+        cycle = self.cycle
+        if cycle is None or cycle is before:  # a WebSocket upgrade: no longer HTTP's business
+            self._waiting = None
+            return
+        self._idle_since = None
+        self._waiting, self._since = "body", self.loop.time()
+        # Its ASGI task has not run yet: every write it makes goes through the wrapper.
+        cycle.transport = CoalescedWrites(self.transport, self.loop)  # type: ignore[assignment]
+        cycle.__class__ = GuardedCycle
+        cycle.protocol = self  # type: ignore[attr-defined]
+
+    def on_body(self, body: bytes) -> None:
+        self._since = self.loop.time()
+        super().on_body(body)
+
+    def on_message_complete(self) -> None:
+        self._waiting = None
+        super().on_message_complete()
+
+    def on_response_complete(self) -> None:
+        if self._lingering:
+            self.server_state.total_requests += 1
+            return  # no keep-alive timer, no pipelined request: the connection is closing
+        super().on_response_complete()
+        if not self.pipeline and self._waiting is None:
+            self._idle_since = self.loop.time()
+
+    def _arm_read_timer(self, delay: float) -> None:
+        self._read_timer = self.loop.call_later(delay, self._read_deadline)
+
+    def _read_deadline(self) -> None:
+        self._read_timer = None
+        if self._waiting is None or self.transport.is_closing() or self._lingering:
+            return
+        now = self.loop.time()
+        if self.flow.read_paused:  # the server stopped reading, not the client
+            self._since = now
+        head = self._waiting == "head"
+        timeout = self.limits.header_timeout_s if head else self.limits.body_timeout_s
+        if now < self._since + timeout:
+            self._arm_read_timer(self._since + timeout - now)
+            return
+        reason = "header_timeout" if head else "body_timeout"
+        CLOSED[reason] += 1
+        log.debug("closing a connection: %s", reason.replace("_", " "))
+        self.transport.close()
+
+    def send_400_response(self, msg: str) -> None:
+        """The parser's 400 (malformed request line or headers), as problem+json."""
+        CLOSED["bad_request"] += 1
+        self.transport.write(_problem_answer(
+            400, b"Bad Request", "bad_request", "Bad request",
+            "the request is not valid HTTP/1.1 (request line or headers)"))
+        self.linger_close()
+
+    # -- writing ------------------------------------------------------------------------
+    def pause_writing(self) -> None:
+        super().pause_writing()
+        if self._send_timer is None:
+            self._send_timer = self.loop.call_later(self.limits.send_timeout_s, self._send_stalled)
+
+    def resume_writing(self) -> None:
+        super().resume_writing()
+        if self._send_timer is not None:
+            self._send_timer.cancel()
+            self._send_timer = None
+
+    def _send_stalled(self) -> None:
+        self._send_timer = None
+        if not self.transport.is_closing():
+            CLOSED["send_timeout"] += 1
+            log.debug("closing a connection: the client has not read its answer")
+            self.transport.abort()
+
+
+CoalescingHttpToolsProtocol = HardenedHttpToolsProtocol  # the name `python -m service` used

@@ -26,6 +26,7 @@ from typing import Any
 
 from fastapi import HTTPException
 from prometheus_client import CollectorRegistry, Counter, Histogram
+from starlette.requests import ClientDisconnect
 
 from service.api.problems import problem
 from service.logs import REQUEST_ID, sole_json_handler
@@ -33,6 +34,9 @@ from service.logs import REQUEST_ID, sole_json_handler
 Scope = dict[str, Any]
 
 access_log = logging.getLogger("robodyn.access")
+error_log = logging.getLogger("robodyn.api")
+
+CLIENT_CLOSED_REQUEST = 499  # the status counted for a client that left mid-request (nginx's)
 
 # An incoming X-Request-ID is kept when it is 1-128 characters of this set (so it cannot
 # inject anything into a header or a log line); otherwise a new one is generated.
@@ -135,14 +139,25 @@ class ObservabilityMiddleware:
 
         try:
             await self.app(scope, receive, send_with_headers)
+        except ClientDisconnect:
+            # The client went away before its request was read in full: not a failure of
+            # the service. Counted as 499 (as nginx does), logged without a traceback.
+            if status == 0:
+                status = CLIENT_CLOSED_REQUEST
+                error_log.info("the client disconnected before sending its whole request "
+                               "(%s %s)", scope["method"], scope["path"])
         except Exception:
-            if status == 0:  # answer the 500 here, so that it too carries the request id
-                answer = problem("internal_error", "Internal error",
-                                 "the service failed to answer this request; the failure was "
-                                 "logged")
-                with contextlib.suppress(Exception):  # e.g. the client has gone
-                    await answer(scope, receive, send_with_headers)
-            raise  # the framework's error handler logs it (its answer is not sent twice)
+            if status != 0:  # the answer is cut short: the server must drop the connection
+                raise
+            # Answered here, complete (so the connection stays usable) and with the request
+            # id; logged once with its traceback, not re-raised to the server.
+            error_log.exception("unexpected error on %s %s", scope["method"], scope["path"])
+            answer = problem("internal_error", "Internal error",
+                             "the service failed to answer this request; the failure was "
+                             "logged")
+            with contextlib.suppress(Exception):  # e.g. the client has gone
+                await answer(scope, receive, send_with_headers)
+            status = status or 500
         finally:
             self._record(scope, status or 500, time.perf_counter() - started, request_id)
 

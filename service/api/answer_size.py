@@ -1,0 +1,91 @@
+"""The answer budget: how big a dynamics answer will be, known before computing it.
+
+An answer's size follows from the robot's dimensions, the request's options and the number of
+states alone (never from the values): `NUMBERS_PER_STATE[quantity](nq, nv, options, with_v)`
+counts the numbers of one state's answer, exactly as the quantity shapes it (tests check each
+formula against computed answers). The answer is estimated at `JSON_BYTES_PER_NUMBER` bytes
+per number in JSON (the longest text of a float64, `-2.2250738585072014e-308`, and its comma)
+and `BINARY_BYTES_PER_NUMBER` in the binary form; one over `ROBODYN_MAX_ANSWER_BYTES` is
+refused with 413 `payload_too_large` naming the largest batch that fits, before any work.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from service.errors import PayloadTooLarge
+
+JSON_BYTES_PER_NUMBER = 25
+BINARY_BYTES_PER_NUMBER = 8
+
+# (nq, nv, options, v given) -> numbers in the answer of one state
+PerState = Callable[[int, int, dict[str, Any], bool], int]
+
+
+def _task_rows(options: dict[str, Any]) -> int:
+    """Rows k of an operational-space task: 6 for "full", 3 for "linear" or "angular"."""
+    return 6 if options.get("task", "full") == "full" else 3
+
+
+def _operational_space(nq: int, nv: int, options: dict[str, Any], v: bool) -> int:
+    k = _task_rows(options)  # Λ (k, k), J (k, nv), J̄ (nv, k), p (k), with v μ (k)
+    return k * k + 2 * k * nv + k + (k if v else 0)
+
+
+def _simulate(nq: int, nv: int, options: dict[str, Any], v: bool) -> int:
+    samples = int(options.get("steps", 1)) + 1  # t, q, v and the energy at every sample
+    return samples * (nq + nv + 2)
+
+
+NUMBERS_PER_STATE: dict[str, PerState] = {
+    "mass-matrix": lambda nq, nv, o, v: nv * nv,
+    "mass-matrix-inverse": lambda nq, nv, o, v: nv * nv,
+    "gravity": lambda nq, nv, o, v: nv,
+    "nonlinear-effects": lambda nq, nv, o, v: nv,
+    "inverse-dynamics": lambda nq, nv, o, v: nv,
+    "forward-dynamics": lambda nq, nv, o, v: nv,
+    "coriolis": lambda nq, nv, o, v: nv * nv + nv,
+    "energy": lambda nq, nv, o, v: 3,
+    "center-of-mass": lambda nq, nv, o, v: 3 + 3 * nv + (3 if v else 0),
+    "jacobian": lambda nq, nv, o, v: 6 * nv * (2 if v else 1),
+    "operational-space": _operational_space,
+    "centroidal": lambda nq, nv, o, v: 6 + 6 * nv + 3,
+    "inverse-dynamics-derivatives": lambda nq, nv, o, v: 3 * nv * nv,
+    "forward-dynamics-derivatives": lambda nq, nv, o, v: 3 * nv * nv,
+    "simulate": _simulate,
+}
+
+
+def check_answer_size(quantity: str, robot: Any, options: dict[str, Any], with_v: bool,
+                      states: int, bytes_per_number: int, limit: int) -> None:
+    """Raise `PayloadTooLarge` when the answer of `states` states would exceed `limit` bytes,
+    naming the largest batch that fits. Quantities without a formula are not checked."""
+    per_state = NUMBERS_PER_STATE.get(quantity)
+    if per_state is None:
+        return
+    numbers = per_state(robot.nq, robot.nv, options, with_v)
+    size = numbers * states * bytes_per_number
+    if size <= limit:
+        return
+    form = "JSON" if bytes_per_number == JSON_BYTES_PER_NUMBER else "binary"
+    fits = limit // (numbers * bytes_per_number)
+    what = (f"the {quantity} answer of {states:,} state{'s' if states != 1 else ''} of robot "
+            f"'{robot.id}' would be about {_megabytes(size)} in {form} ({numbers:,} numbers "
+            f"a state), over the limit of {_megabytes(limit)} (ROBODYN_MAX_ANSWER_BYTES)")
+    if fits >= 1:
+        hint = f"send batches of at most {fits:,} states"
+        if form == "JSON":
+            binary_fits = limit // (numbers * BINARY_BYTES_PER_NUMBER)
+            hint += f" ({binary_fits:,} with the binary form)"
+    elif quantity == "simulate":
+        per_step = robot.nq + robot.nv + 2
+        steps = limit // (per_step * bytes_per_number) - 1
+        hint = f"simulate at most {max(steps, 0):,} steps per request"
+    else:
+        hint = "even one state's answer does not fit"
+    raise PayloadTooLarge(f"{what}: {hint}", largest_batch=fits)
+
+
+def _megabytes(size: int) -> str:
+    return f"{size / 1e6:,.1f} MB"

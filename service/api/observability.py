@@ -21,14 +21,17 @@ import logging
 import random
 import re
 import time
-from collections.abc import MutableMapping
+from collections.abc import Iterator, MutableMapping
 from typing import Any
 
 from fastapi import HTTPException
 from prometheus_client import CollectorRegistry, Counter, Histogram
+from prometheus_client.core import CounterMetricFamily
+from prometheus_client.registry import Collector
 from starlette.requests import ClientDisconnect
 
 from service.api.problems import problem
+from service.http_protocol import CLOSED as CONNECTIONS_CLOSED
 from service.logs import REQUEST_ID, sole_json_handler
 
 Scope = dict[str, Any]
@@ -75,6 +78,7 @@ class Metrics:
         self.batch_size = Histogram(
             "robodyn_batch_size", "States per dynamics request (1 for a single state)",
             ["quantity"], registry=self.registry, buckets=_BATCH_BUCKETS)
+        self.registry.register(_ConnectionsClosed())
         self._request_children: dict[tuple[str, str, str, int], tuple[Any, Any]] = {}
         self._compute_children: dict[tuple[str, str], tuple[Any, Any]] = {}
 
@@ -97,6 +101,20 @@ class Metrics:
             self._compute_children[key] = children
         children[0].observe(seconds)
         children[1].observe(states)
+
+
+class _ConnectionsClosed(Collector):
+    """`robodyn_connections_closed_total{reason}`: connections the HTTP protocol closed
+    (service/http_protocol.py): header_timeout, body_timeout, send_timeout, evicted (past
+    the connection cap), refused (503 at the cap), bad_request (malformed HTTP)."""
+
+    def collect(self) -> Iterator[CounterMetricFamily]:
+        family = CounterMetricFamily(
+            "robodyn_connections_closed", "Connections closed by the server's HTTP protocol "
+            "for a timeout, the connection cap or malformed HTTP", labels=["reason"])
+        for reason, count in CONNECTIONS_CLOSED.items():
+            family.add_metric([reason], count)
+        yield family
 
 
 def _request_id(scope: Scope) -> str:

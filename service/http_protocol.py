@@ -268,6 +268,15 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
     def send_400_response(self, msg: str) -> None:
         """The parser's 400 (malformed request line or headers), as problem+json."""
         CLOSED["bad_request"] += 1
+        cycle = self.cycle
+        if cycle is not None and not cycle.response_complete:
+            # Malformed in its body (e.g. chunk framing): the request is void, its application
+            # sees a disconnect and its writes go nowhere.
+            cycle.disconnected = True
+            cycle.message_event.set()
+            if cycle.response_started:  # an answer is under way: no room for another
+                self.transport.close()
+                return
         self.transport.write(_problem_answer(
             400, b"Bad Request", "bad_request", "Bad request",
             "the request is not valid HTTP/1.1 (request line or headers)"))

@@ -84,7 +84,8 @@ def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -
 def test_json_pieces_are_the_same_text(monkeypatch, shape) -> None:
     rng = np.random.default_rng(0)
     value = rng.normal(0, 1e3, shape) * rng.choice([1e-12, 1, 1e12], shape)
-    content = {"a": value, "energy": 1.5, "named": [{"j1": 1.0}] * 3000, "b": np.ascontiguousarray(value[..., :1])}
+    content = {"a": value, "energy": 1.5, "named": [{"j1": 1.0}] * 3000,
+               "b": np.ascontiguousarray(value[..., :1])}
     assert b"".join(answers.json_pieces(content)) == answers.json_bytes(content)
     monkeypatch.setattr(answers, "PIECE_NUMBERS", 7)
     pieces = answers.json_pieces(content)

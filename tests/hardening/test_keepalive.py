@@ -131,6 +131,10 @@ def test_expect_100_continue_refused_up_front(base: str) -> None:
     b"GET / HTTP/1.1\r\nbad header line\r\n\r\n",
     b"GET / HTTP/1.1\r\nhost: x\r\ncontent-length: -5\r\n\r\n",
     b"GET /\x00 HTTP/1.1\r\n\r\n",
+    b"GET /\xff HTTP/1.1\r\nhost: x\r\n\r\n",
+    b"POST /v1/robots/ur5/gravity HTTP/1.1\r\ncontent-length: abc\r\n\r\n",
+    b"POST /v1/robots/ur5/gravity HTTP/1.1\r\ntransfer-encoding: chunked\r\n"
+    b"content-type: application/json\r\n\r\nzz\r\n",  # broken chunk framing in the body
 ])
 def test_malformed_requests_get_a_problem_json_400(base: str, garbage: bytes) -> None:
     with connect(base) as sock:

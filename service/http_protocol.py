@@ -33,6 +33,7 @@ from __future__ import annotations
 import asyncio
 import functools
 import logging
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
@@ -138,7 +139,12 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         self._since = 0.0  # start of the head, or the last read of the body (loop time)
         self._read_timer: asyncio.TimerHandle | None = None
         self._send_timer: asyncio.TimerHandle | None = None
-        self._idle_since: float | None = None  # None while a request head has been received
+        # This server's connections waiting for a request head, longest waiting first
+        # (lingering ones in front): the eviction order at the connection cap, O(1) to keep.
+        idle = getattr(self.server_state, "robodyn_idle", None)
+        if idle is None:
+            idle = self.server_state.robodyn_idle = OrderedDict()  # type: ignore[attr-defined]
+        self._idle: OrderedDict[HardenedHttpToolsProtocol, None] = idle
         self._lingering = False
 
     # -- connections --------------------------------------------------------------------
@@ -146,7 +152,6 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         full = len(self.connections) >= self.limits.max_connections
         super().connection_made(transport)
         now = self.loop.time()
-        self._idle_since = now
         if full and not self._evict_one():
             CLOSED["refused"] += 1
             transport.write(_problem_answer(
@@ -155,34 +160,29 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
                 "(ROBODYN_MAX_CONNECTIONS); retry shortly", b"retry-after: 1\r\n"))
             self.linger_close()
             return
+        self._idle[self] = None
         self._waiting, self._since = "head", now
         self._arm_read_timer(self.limits.header_timeout_s)
 
     def _evict_one(self) -> bool:
         """Close the connection that has waited longest for a request head (lingering ones
         first); False when every other connection is busy with a request."""
-        victim: HardenedHttpToolsProtocol | None = None
-        for other in self.connections:
-            if (other is self or not isinstance(other, HardenedHttpToolsProtocol)
-                    or other._idle_since is None or other.transport.is_closing()):
+        while self._idle:
+            victim, _ = self._idle.popitem(last=False)
+            if victim is self or victim.transport.is_closing():
                 continue
-            if other._lingering:
-                victim = other
-                break
-            if victim is None or other._idle_since < victim._idle_since:  # type: ignore[operator]
-                victim = other
-        if victim is None:
-            return False
-        CLOSED["evicted"] += 1
-        victim.connections.discard(victim)  # no longer counted, even before it is closed
-        victim.transport.close()
-        return True
+            CLOSED["evicted"] += 1
+            victim.connections.discard(victim)  # no longer counted, even before it is closed
+            victim.transport.close()
+            return True
+        return False
 
     def connection_lost(self, exc: Exception | None) -> None:
         for timer in (self._read_timer, self._send_timer):
             if timer is not None:
                 timer.cancel()
         self._read_timer = self._send_timer = None
+        self._idle.pop(self, None)
         super().connection_lost(exc)
 
     def linger_close(self) -> None:
@@ -191,6 +191,8 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         if self._lingering or self.transport.is_closing():
             return
         self._lingering = True
+        self._idle[self] = None
+        self._idle.move_to_end(self, last=False)  # the first to go at the connection cap
         self._waiting = None
         self.flow.resume_reading()  # keep reading, so the client's sends do not stall
         try:
@@ -221,8 +223,9 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         cycle = self.cycle
         if cycle is None or cycle is before:  # a WebSocket upgrade: no longer HTTP's business
             self._waiting = None
+            self._idle.pop(self, None)
             return
-        self._idle_since = None
+        self._idle.pop(self, None)
         self._waiting, self._since = "body", self.loop.time()
         # Its ASGI task has not run yet: every write it makes goes through the wrapper.
         cycle.transport = CoalescedWrites(self.transport, self.loop)  # type: ignore[assignment]
@@ -243,7 +246,8 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             return  # no keep-alive timer, no pipelined request: the connection is closing
         super().on_response_complete()
         if not self.pipeline and self._waiting is None:
-            self._idle_since = self.loop.time()
+            self._idle[self] = None
+            self._idle.move_to_end(self)
 
     def _arm_read_timer(self, delay: float) -> None:
         self._read_timer = self.loop.call_later(delay, self._read_deadline)

@@ -197,3 +197,14 @@ def test_when_every_connection_is_busy_a_new_one_gets_503(capped: str) -> None:
             sock.close()
     time.sleep(0.3)
     assert httpx.post(capped + "/v1/robots/ur5/gravity", json={"q": [0] * 6}).status_code == 200
+
+
+def test_an_idle_websocket_stream_is_not_a_stalled_request(base: str) -> None:
+    """The read timeouts guard HTTP requests; an upgraded stream idles as long as it likes."""
+    import robodyn
+
+    q = np.zeros(6)
+    with robodyn.Client(base) as client, client.stream("ur5") as stream:
+        first = stream.inverse_dynamics(q, q, q)
+        time.sleep(TIMEOUT_S * 2 + 0.5)
+        np.testing.assert_array_equal(stream.inverse_dynamics(q, q, q), first)

@@ -33,6 +33,7 @@ from __future__ import annotations
 import asyncio
 import functools
 import logging
+import resource
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
@@ -42,6 +43,7 @@ from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol, RequestResp
 
 log = logging.getLogger("robodyn.connections")
 
+FD_RESERVE = 64  # file descriptors kept for other than connections
 LINGER_S = 2.0  # how long a closing connection keeps reading (and discarding) what still comes
 
 # Connections closed by the protocol, by reason (exported as robodyn_connections_closed_total).
@@ -65,7 +67,17 @@ def connection_limits() -> ConnectionLimits:
 
     s = Settings()
     return ConnectionLimits(s.header_timeout_s, s.body_timeout_s, s.send_timeout_s,
-                            s.max_connections)
+                            min(s.max_connections, _descriptors_for_connections()))
+
+
+def _descriptors_for_connections() -> int:
+    """File descriptors this process may spend on connections: its soft RLIMIT_NOFILE less
+    `FD_RESERVE` for everything else (listening socket, logs, pipes, store files, builders).
+    Past the descriptor limit, accepting fails before the cap could act."""
+    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft == resource.RLIM_INFINITY:
+        return 1 << 30
+    return max(soft - FD_RESERVE, 16)
 
 
 def _problem_answer(status: int, reason: bytes, code: str, title: str, detail: str,

@@ -101,8 +101,9 @@ class Settings(BaseSettings):
     keep_alive_timeout_s: float = Field(
         5.0, gt=0, description="How long an idle kept-alive connection stays open, in seconds.")
     max_connections: int = Field(
-        1024, ge=1, description="Open connections per process; beyond, a new connection "
-        "evicts the one idle longest, or is answered 503 overloaded when all are busy.")
+        1024, ge=1, description="Open connections per process (at most the process's "
+        "file-descriptor limit less 64); beyond, a new connection evicts the one idle "
+        "longest, or is answered 503 overloaded when all are busy.")
 
     def api_key_list(self) -> list[str]:
         return [k.strip() for k in self.api_keys.split(",") if k.strip()]

@@ -208,3 +208,19 @@ def test_an_idle_websocket_stream_is_not_a_stalled_request(base: str) -> None:
         first = stream.inverse_dynamics(q, q, q)
         time.sleep(TIMEOUT_S * 2 + 0.5)
         np.testing.assert_array_equal(stream.inverse_dynamics(q, q, q), first)
+
+
+def test_the_cap_stays_below_the_descriptor_limit(monkeypatch) -> None:
+    import resource
+
+    from service import http_protocol
+
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (200, 4096))
+    http_protocol.connection_limits.cache_clear()
+    try:
+        assert http_protocol.connection_limits().max_connections == 200 - 64
+        monkeypatch.setenv("ROBODYN_MAX_CONNECTIONS", "50")
+        http_protocol.connection_limits.cache_clear()
+        assert http_protocol.connection_limits().max_connections == 50
+    finally:
+        http_protocol.connection_limits.cache_clear()

@@ -139,6 +139,17 @@ class GuardedCycle(RequestResponseCycle):
             self.transport.on_close = self.protocol.linger_close  # type: ignore[attr-defined]
         await super().send(message)
 
+    async def send_500_response(self) -> None:
+        """uvicorn's last-resort 500 (the application failed before answering), as
+        problem+json; the app's own middleware normally answers first."""
+        body = orjson.dumps({"type": "about:blank", "title": "Internal error", "status": 500,
+                             "detail": "the service failed to answer this request",
+                             "code": "internal_error"})
+        await self.send({"type": "http.response.start", "status": 500, "headers": [
+            (b"content-type", b"application/problem+json"),
+            (b"content-length", str(len(body)).encode()), (b"connection", b"close")]})
+        await self.send({"type": "http.response.body", "body": body, "more_body": False})
+
 
 class HardenedHttpToolsProtocol(HttpToolsProtocol):
     """`HttpToolsProtocol` with read timeouts, a connection cap, honest closes and coalesced

@@ -61,6 +61,10 @@ def test_the_cycle_class_and_its_send() -> None:
     assert list(inspect.signature(cycle.send).parameters) == ["self", "message"], _moved(
         "the parameters of RequestResponseCycle.send")
     assert GuardedCycle.__mro__[1] is cycle
+    assert inspect.iscoroutinefunction(cycle.send_500_response), _moved(
+        "RequestResponseCycle.send_500_response")
+    assert list(inspect.signature(cycle.run_asgi).parameters) == ["self", "app"], _moved(
+        "RequestResponseCycle.run_asgi (which calls send_500_response)")
     assert hasattr(flow_control.FlowControl(None), "read_paused"), _moved(  # type: ignore[arg-type]
         "FlowControl.read_paused")
 
@@ -94,6 +98,8 @@ class FakeTransport:
 
 
 async def _app(scope: dict[str, Any], receive: Any, send: Any) -> None:
+    if scope["path"] == "/fail":
+        raise RuntimeError("fails before answering")
     body = b"hello"
     await send({"type": "http.response.start", "status": 200,
                 "headers": [(b"content-length", b"5")]})
@@ -131,3 +137,21 @@ def test_uvicorn_run_takes_the_options_the_server_passes() -> None:
     for name in ("http", "timeout_keep_alive", "timeout_graceful_shutdown", "factory",
                  "log_config", "access_log"):
         assert name in parameters, _moved(f"uvicorn.run({name}=...)")
+
+
+def test_uvicorns_last_resort_500_is_problem_json() -> None:
+    async def run() -> FakeTransport:
+        config = uvicorn.Config(_app, http=HardenedHttpToolsProtocol, lifespan="off",
+                                log_level="critical")
+        protocol = HardenedHttpToolsProtocol(config, ServerState(), {})
+        transport = FakeTransport()
+        protocol.connection_made(transport)  # type: ignore[arg-type]
+        protocol.data_received(b"GET /fail HTTP/1.1\r\nhost: x\r\n\r\n")
+        for _ in range(20):
+            await asyncio.sleep(0)
+        return transport
+
+    transport = asyncio.run(run())
+    head, _, body = transport.written.partition(b"\r\n\r\n")
+    assert head.startswith(b"HTTP/1.1 500 ") and b"application/problem+json" in head
+    assert b"connection: close" in head and b'"code":"internal_error"' in body

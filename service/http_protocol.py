@@ -132,12 +132,12 @@ class GuardedCycle(RequestResponseCycle):
 
     protocol: HardenedHttpToolsProtocol
 
-    async def send(self, message: Any) -> None:
+    def send(self, message: Any) -> Any:  # (returns uvicorn's coroutine: no extra frame)
         if (not self.response_started and self.more_body and not self.disconnected
                 and message["type"] == "http.response.start"):
             self.keep_alive = False  # uvicorn adds `connection: close` and closes after it
             self.transport.on_close = self.protocol.linger_close  # type: ignore[attr-defined]
-        await super().send(message)
+        return RequestResponseCycle.send(self, message)
 
     async def send_500_response(self) -> None:
         """uvicorn's last-resort 500 (the application failed before answering), as
@@ -160,10 +160,12 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         self.limits = connection_limits()
         self._waiting: str | None = None  # "head" or "body": what the read timer guards
         self._since = 0.0  # start of the head, or the last read of the body (loop time)
+        self._busy = False  # a request head has been received and its answer is not done
         self._read_timer: asyncio.TimerHandle | None = None
         self._send_timer: asyncio.TimerHandle | None = None
-        # This server's connections waiting for a request head, longest waiting first
-        # (lingering ones in front): the eviction order at the connection cap, O(1) to keep.
+        # This server's connections that may wait for a request head, oldest first (lingering
+        # ones in front): the eviction order at the connection cap, O(1) to keep. Busy ones
+        # are skipped (and dropped) when met, and come back when their answer is done.
         idle = getattr(self.server_state, "robodyn_idle", None)
         if idle is None:
             idle = self.server_state.robodyn_idle = OrderedDict()  # type: ignore[attr-defined]
@@ -192,7 +194,7 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         first); False when every other connection is busy with a request."""
         while self._idle:
             victim, _ = self._idle.popitem(last=False)
-            if victim is self or victim.transport.is_closing():
+            if victim is self or victim._busy or victim.transport.is_closing():
                 continue
             CLOSED["evicted"] += 1
             victim.connections.discard(victim)  # no longer counted, even before it is closed
@@ -230,15 +232,19 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
     def data_received(self, data: bytes) -> None:
         if self._lingering:
             return  # the rest of a request already answered with `connection: close`
+        before = self._waiting
         super().data_received(data)
-        if self._waiting is not None and self._read_timer is None:
-            self._arm_read_timer(self.limits.header_timeout_s if self._waiting == "head"
-                                 else self.limits.body_timeout_s)
+        waiting = self._waiting
+        if waiting is not None:  # a request left incomplete by this packet: time it
+            if waiting == "body" or before != "head":  # body progress, or a new head began
+                self._since = self.loop.time()
+            if self._read_timer is None:
+                self._arm_read_timer(self.limits.header_timeout_s if waiting == "head"
+                                     else self.limits.body_timeout_s)
 
     def on_message_begin(self) -> None:
         super().on_message_begin()
-        if self._waiting != "head":  # a later request on a kept-alive connection
-            self._waiting, self._since = "head", self.loop.time()
+        self._waiting = "head"
 
     def on_headers_complete(self) -> None:
         before = self.cycle
@@ -248,16 +254,12 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             self._waiting = None
             self._idle.pop(self, None)
             return
-        self._idle.pop(self, None)
-        self._waiting, self._since = "body", self.loop.time()
+        self._busy = True
+        self._waiting = "body"
         # Its ASGI task has not run yet: every write it makes goes through the wrapper.
         cycle.transport = CoalescedWrites(self.transport, self.loop)  # type: ignore[assignment]
         cycle.__class__ = GuardedCycle
         cycle.protocol = self  # type: ignore[attr-defined]
-
-    def on_body(self, body: bytes) -> None:
-        self._since = self.loop.time()
-        super().on_body(body)
 
     def on_message_complete(self) -> None:
         self._waiting = None
@@ -268,9 +270,10 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             self.server_state.total_requests += 1
             return  # no keep-alive timer, no pipelined request: the connection is closing
         super().on_response_complete()
-        if not self.pipeline and self._waiting is None:
-            self._idle[self] = None
-            self._idle.move_to_end(self)
+        if not self.pipeline:
+            self._busy = False
+            if self not in self._idle:
+                self._idle[self] = None
 
     def _arm_read_timer(self, delay: float) -> None:
         self._read_timer = self.loop.call_later(delay, self._read_deadline)

@@ -10,8 +10,8 @@ docs/security.md):
   is closed. Time during which the server itself stopped reading (back-pressure, pipelining) does
   not count. An answer the client does not read for `ROBODYN_SEND_TIMEOUT_S` drops the connection.
 - **A connection cap.** Past `ROBODYN_MAX_CONNECTIONS` open connections per process, a new
-  connection evicts the one that has waited longest without a request head (idle keep-alive or
-  half-sent); when every connection is busy with a request, the new one is answered 503
+  connection evicts the oldest one not busy with a request (idle keep-alive, or a request head
+  still incomplete); when every connection is busy with a request, the new one is answered 503
   `overloaded` (problem+json, `Retry-After`) and closed.
 - **Honest closes.** An answer that starts before the request's body was read in full (a 413 by
   Content-Length, a 404 before the body, `Expect: 100-continue` answered without the body) says
@@ -190,8 +190,8 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         self._arm_read_timer(self.limits.header_timeout_s)
 
     def _evict_one(self) -> bool:
-        """Close the connection that has waited longest for a request head (lingering ones
-        first); False when every other connection is busy with a request."""
+        """Close the oldest connection not busy with a request (lingering ones first); False
+        when every other connection is busy with a request."""
         while self._idle:
             victim, _ = self._idle.popitem(last=False)
             if victim is self or victim._busy or victim.transport.is_closing():

@@ -91,10 +91,10 @@ def app_from_environment() -> FastAPI:
     logging is configured here too)."""
     settings = Settings()
     configure_logging(settings.log_level)
-    # Native libraries (urdfdom) and the model builder write raw text to stderr: as JSON
-    # lines too, so the log stream stays one JSON object per line (service/logs.py).
-    capture_native_stderr()
     # `python -m service` binds OpenMP teams (OMP_PROC_BIND), and libgomp bound this thread,
     # the event loop's, when pinocchio loaded: give it every CPU back before it starts others.
     unpin_this_thread()
+    # Native libraries (urdfdom) and the model builder write raw text to stderr: as JSON
+    # lines too, so the log stream stays one JSON object per line (service/logs.py).
+    capture_native_stderr()
     return create_app(settings)

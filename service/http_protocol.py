@@ -31,64 +31,22 @@ tests/service/test_uvicorn_internals.py fails with a clear message if they move)
 from __future__ import annotations
 
 import asyncio
-import functools
 import logging
-import resource
 from collections import OrderedDict
-from dataclasses import dataclass
 from typing import Any
 
 import orjson
 from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol, RequestResponseCycle
 
+from service.http_limits import (
+    CLOSED,
+    LINGER_S,
+    ConnectionLimits,
+    connection_limits,
+    problem_answer,
+)
+
 log = logging.getLogger("robodyn.connections")
-
-FD_RESERVE = 64  # file descriptors kept for other than connections
-LINGER_S = 2.0  # how long a closing connection keeps reading (and discarding) what still comes
-
-# Connections closed by the protocol, by reason (exported as robodyn_connections_closed_total).
-CLOSED: dict[str, int] = {"header_timeout": 0, "body_timeout": 0, "send_timeout": 0,
-                          "evicted": 0, "refused": 0, "bad_request": 0}
-
-
-@dataclass(frozen=True)
-class ConnectionLimits:
-    """The connection settings of this process (from `Settings`, read once)."""
-
-    header_timeout_s: float = 10.0
-    body_timeout_s: float = 30.0
-    send_timeout_s: float = 60.0
-    max_connections: int = 1024
-
-
-@functools.cache
-def connection_limits() -> ConnectionLimits:
-    from service.settings import Settings  # at first connection, after the workers' start
-
-    s = Settings()
-    return ConnectionLimits(s.header_timeout_s, s.body_timeout_s, s.send_timeout_s,
-                            min(s.max_connections, _descriptors_for_connections()))
-
-
-def _descriptors_for_connections() -> int:
-    """File descriptors this process may spend on connections: its soft RLIMIT_NOFILE less
-    `FD_RESERVE` for everything else (listening socket, logs, pipes, store files, builders).
-    Past the descriptor limit, accepting fails before the cap could act."""
-    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
-    if soft == resource.RLIM_INFINITY:
-        return 1 << 30
-    return max(soft - FD_RESERVE, 16)
-
-
-def _problem_answer(status: int, reason: bytes, code: str, title: str, detail: str,
-                    extra_headers: bytes = b"") -> bytes:
-    """A complete HTTP/1.1 problem+json answer that closes the connection."""
-    body = orjson.dumps({"type": "about:blank", "title": title, "status": status,
-                         "detail": detail, "code": code})
-    return (b"HTTP/1.1 %d %s\r\ncontent-type: application/problem+json\r\n"
-            b"content-length: %d\r\nconnection: close\r\n%s\r\n" % (
-                status, reason, len(body), extra_headers)) + body
-
 
 class CoalescedWrites:
     """The socket transport as one request/response cycle sees it: `write`s made in one step of
@@ -179,7 +137,7 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         now = self.loop.time()
         if full and not self._evict_one():
             CLOSED["refused"] += 1
-            transport.write(_problem_answer(
+            transport.write(problem_answer(
                 503, b"Service Unavailable", "overloaded", "Overloaded",
                 f"the server has {self.limits.max_connections} open connections, its limit "
                 "(ROBODYN_MAX_CONNECTIONS); retry shortly", b"retry-after: 1\r\n"))
@@ -307,7 +265,7 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             if cycle.response_started:  # an answer is under way: no room for another
                 self.transport.close()
                 return
-        self.transport.write(_problem_answer(
+        self.transport.write(problem_answer(
             400, b"Bad Request", "bad_request", "Bad request",
             "the request is not valid HTTP/1.1 (request line or headers)"))
         self.linger_close()
@@ -333,3 +291,6 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
 
 
 CoalescingHttpToolsProtocol = HardenedHttpToolsProtocol  # the name `python -m service` used
+
+__all__ = ["CLOSED", "LINGER_S", "CoalescedWrites", "CoalescingHttpToolsProtocol",
+           "ConnectionLimits", "GuardedCycle", "HardenedHttpToolsProtocol", "connection_limits"]

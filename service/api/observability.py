@@ -31,7 +31,7 @@ from prometheus_client.registry import Collector
 from starlette.requests import ClientDisconnect
 
 from service.api.problems import problem
-from service.http_protocol import CLOSED as CONNECTIONS_CLOSED
+from service.http_limits import CLOSED as CONNECTIONS_CLOSED
 from service.logs import REQUEST_ID, sole_json_handler
 
 Scope = dict[str, Any]

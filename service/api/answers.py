@@ -47,6 +47,11 @@ def _value_pieces(value: Any, out: list[bytes]) -> None:
                 out.append(b"[" if i == 0 else b",")
                 _value_pieces(value[i], out)
             out.append(b"]")
+    elif isinstance(value, list) and value and isinstance(value[0], list) and len(value[0]) > 1024:
+        for i, item in enumerate(value):  # lists of long lists (trajectories keyed by name)
+            out.append(b"[" if i == 0 else b",")
+            _value_pieces(item, out)
+        out.append(b"]")
     elif isinstance(value, list) and len(value) > 1024:  # e.g. answers keyed by joint name
         step = 1024
         for start in range(0, len(value), step):

@@ -85,6 +85,7 @@ def test_json_pieces_are_the_same_text(monkeypatch, shape) -> None:
     rng = np.random.default_rng(0)
     value = rng.normal(0, 1e3, shape) * rng.choice([1e-12, 1, 1e12], shape)
     content = {"a": value, "energy": 1.5, "named": [{"j1": 1.0}] * 3000,
+               "trajectories": [[{"j1": 1.0, "j2": -2e-9}] * 1500] * 2, "empty": [],
                "b": np.ascontiguousarray(value[..., :1])}
     assert b"".join(answers.json_pieces(content)) == answers.json_bytes(content)
     monkeypatch.setattr(answers, "PIECE_NUMBERS", 7)

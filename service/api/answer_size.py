@@ -5,7 +5,8 @@ states alone (never from the values): `NUMBERS_PER_STATE[quantity](nq, nv, optio
 counts the numbers of one state's answer, exactly as the quantity shapes it (tests check each
 formula against computed answers). The answer is estimated at `JSON_BYTES_PER_NUMBER` bytes
 per number in JSON (the longest text of a float64, `-2.2250738585072014e-308`, and its comma)
-and `BINARY_BYTES_PER_NUMBER` in the binary form; one over `ROBODYN_MAX_ANSWER_BYTES` is
+and `BINARY_BYTES_PER_NUMBER` in the binary form (plus `key_bytes` with `"joint_names": true`,
+when the quantity has answers keyed by joint name); one over `ROBODYN_MAX_ANSWER_BYTES` is
 refused with 413 `payload_too_large` naming the largest batch that fits, before any work.
 """
 
@@ -68,7 +69,7 @@ def check_answer_size(quantity: str, robot: Any, options: dict[str, Any], with_v
     size = numbers * states * bytes_per_number
     if size <= limit:
         return
-    form = "JSON" if bytes_per_number == JSON_BYTES_PER_NUMBER else "binary"
+    form = "binary" if bytes_per_number == BINARY_BYTES_PER_NUMBER else "JSON"
     fits = limit // (numbers * bytes_per_number)
     what = (f"the {quantity} answer of {states:,} state{'s' if states != 1 else ''} of robot "
             f"'{robot.id}' would be about {_megabytes(size)} in {form} ({numbers:,} numbers "
@@ -85,6 +86,13 @@ def check_answer_size(quantity: str, robot: Any, options: dict[str, Any], with_v
     else:
         hint = "even one state's answer does not fit"
     raise PayloadTooLarge(f"{what}: {hint}", largest_batch=fits)
+
+
+def key_bytes(robot: Any) -> int:
+    """Bytes a number of an answer keyed by joint name may carry besides itself: the longest
+    joint name, quoted, with its colon and brackets (counted for every number: an upper
+    bound)."""
+    return max((len(name.encode()) for name in robot.model.names), default=0) + 5
 
 
 def _megabytes(size: int) -> str:

@@ -33,6 +33,7 @@ from service.api.answer_size import (
     BINARY_BYTES_PER_NUMBER,
     JSON_BYTES_PER_NUMBER,
     check_answer_size,
+    key_bytes,
 )
 from service.api.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.deps import check_api_key_for_all
@@ -179,6 +180,8 @@ class Endpoint:
             options[setting] = getattr(settings, setting)
         started = time.perf_counter()
         work = self.quantity.work
+        if named and self.quantity.joint_answers:  # each number then also carries its key
+            bytes_per_number += key_bytes(robot)
         budget = (bytes_per_number, settings.max_answer_bytes)
         large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
         if large:

@@ -94,6 +94,20 @@ def test_json_pieces_are_the_same_text(monkeypatch, shape) -> None:
     assert answers.json_pieces({}) == [b"{}"]
 
 
+def test_answers_keyed_by_joint_name_count_their_keys(app_factory) -> None:
+    client = app_factory(catalog="ur5", max_answer_bytes=100_000)
+    per_state = 6 * JSON_BYTES_PER_NUMBER  # gravity: nv = 6 numbers
+    states = 100_000 // per_state  # fits as plain numbers
+    q = [[0.1] * 6] * states
+    assert client.post("/v1/robots/ur5/gravity", json={"q": q}).status_code == 200
+    named = client.post("/v1/robots/ur5/gravity", json={"q": q, "joint_names": True})
+    assert named.status_code == 413, named.text
+    fits = named.json()["largest_batch"]
+    assert 0 < fits < states
+    ok = client.post("/v1/robots/ur5/gravity", json={"q": q[:fits], "joint_names": True})
+    assert ok.status_code == 200 and len(ok.content) <= 100_000
+
+
 # -- a real server ---------------------------------------------------------------------------
 
 TALOS_NV, TALOS_NQ = 38, 39

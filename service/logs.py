@@ -8,8 +8,11 @@ in `"exc"` as one string, so a log collector never splits a record over several 
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
 import sys
+import threading
 import time
 from contextvars import ContextVar
 from typing import Any
@@ -114,3 +117,60 @@ def configure_logging(level: str, stream: Any = None) -> None:
         logging.getLogger(name).propagate = True
     access = logging.getLogger("uvicorn.access")
     access.handlers, access.propagate, access.disabled = [], False, True
+
+
+_NATIVE_LOGGER = "robodyn.native"
+
+
+def capture_native_stderr() -> None:
+    """Keep the JSON log stream whole when native code writes to stderr.
+
+    C++ libraries (urdfdom prints raw text when a model fails to parse) and child processes
+    write to file descriptor 2, past Python's logging. After this call the log handler writes
+    to a duplicate of the original stderr, and descriptor 2 becomes a pipe read by a thread
+    that logs each line written to it as one JSON record (level warning, logger
+    `robodyn.native`); a line that already is a JSON object is passed on as it is. Child
+    processes started later (the model builder) inherit the pipe. Idempotent; a no-op when
+    stderr is not a file descriptor."""
+    global _capturing
+    if _capturing:
+        return
+    try:
+        sys.stderr.flush()
+        original = os.dup(2)
+    except (OSError, ValueError, AttributeError):
+        return
+    stream = os.fdopen(original, "w", buffering=1, encoding="utf-8", errors="replace")
+    read_end, write_end = os.pipe()
+    os.dup2(write_end, 2)
+    os.close(write_end)
+    sys.stderr = stream  # Python-level writes (and the log handler) go to the real stderr
+    root = logging.getLogger()
+    for handler in root.handlers:
+        if isinstance(handler, JSONLineHandler):
+            handler.setStream(stream)
+    threading.Thread(target=_forward_native_lines, args=(read_end, stream),
+                     name="native-stderr", daemon=True).start()
+    _capturing = True
+
+
+_capturing = False
+
+
+def _forward_native_lines(read_end: int, stream: Any) -> None:
+    log = logging.getLogger(_NATIVE_LOGGER)
+    with os.fdopen(read_end, "rb") as pipe:
+        for raw in pipe:
+            text = raw.decode("utf-8", "replace").rstrip("\r\n")
+            if not text.strip():
+                continue
+            if text.startswith("{"):
+                try:
+                    orjson.loads(text)
+                except orjson.JSONDecodeError:
+                    pass
+                else:
+                    with contextlib.suppress(OSError, ValueError):
+                        stream.write(text + "\n")
+                    continue
+            log.warning("%s", text[:4000])

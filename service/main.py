@@ -19,7 +19,7 @@ from service.api.fast_path import DynamicsFastPath
 from service.api.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
 from service.api.openapi_problems import problem_openapi
 from service.api.problems import install_problem_handlers
-from service.logs import configure_logging
+from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.urdf_check import Limits
 from service.settings import Settings
@@ -95,4 +95,7 @@ def app_from_environment() -> FastAPI:
     # `python -m service` binds OpenMP teams (OMP_PROC_BIND), and libgomp bound this thread,
     # the event loop's, when pinocchio loaded: give it every CPU back before it starts others.
     unpin_this_thread()
+    # Native libraries (urdfdom) and the model builder write raw text to stderr: as JSON
+    # lines too, so the log stream stays one JSON object per line (service/logs.py).
+    capture_native_stderr()
     return create_app(settings)

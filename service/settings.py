@@ -83,6 +83,28 @@ class Settings(BaseSettings):
     build_cpu_s: int = Field(
         20, ge=1, description="CPU-time limit of the process that builds an upload, in seconds.")
 
+    # -- connections and answers (service/http_protocol.py; see docs/security.md) --
+    max_answer_bytes: int = Field(
+        256 * 1024 * 1024, ge=1024, description="Largest answer of a dynamics request, in "
+        "bytes, estimated before computing from the answer's shape (25 bytes a number in "
+        "JSON, 8 in the binary form); larger ones are answered 413 payload_too_large naming "
+        "the batch size that fits.")
+    header_timeout_s: float = Field(
+        10.0, gt=0, description="Time a client has to send a request's line and headers, from "
+        "its first byte (or from connecting), in seconds; then the connection is closed.")
+    body_timeout_s: float = Field(
+        30.0, gt=0, description="Longest pause between two reads of a request body, in "
+        "seconds; then the connection is closed.")
+    send_timeout_s: float = Field(
+        60.0, gt=0, description="Longest time a client may leave its answer unread (the "
+        "server's send buffer full), in seconds; then the connection is dropped.")
+    keep_alive_timeout_s: float = Field(
+        5.0, gt=0, description="How long an idle kept-alive connection stays open, in seconds.")
+    max_connections: int = Field(
+        1024, ge=1, description="Open connections per process (at most the process's "
+        "file-descriptor limit less 64); beyond, a new connection evicts the one idle "
+        "longest, or is answered 503 overloaded when all are busy.")
+
     def api_key_list(self) -> list[str]:
         return [k.strip() for k in self.api_keys.split(",") if k.strip()]
 

@@ -10,9 +10,9 @@ one JSON line:
   (mixed robots and quantities) as fast as the server answers;
 - `batch`: RSS peak and CPU while `clients` threads send large batches (talos mass matrices
   and inverse dynamics of 2,000 states: 23 MB answers) at the same time;
-- `largest_answer`: RSS peak for one talos mass-matrix batch of 20,000 states (a 230 MB array,
-  about 340 MB of JSON), and for two of them at once: what one answer of the largest batch the
-  Kubernetes deployment allows (ROBODYN_MAX_BATCH=20000) costs.
+- `largest_answer`: RSS peak for one talos mass-matrix batch of 7,435 states (an 86 MB array,
+  about 256 MiB of JSON: the largest the default answer budget ROBODYN_MAX_ANSWER_BYTES
+  admits), and for two of them at once: what one answer of the largest admitted batch costs.
 
 CPU is the process's user + system time over wall time (1.0 = one core busy). The load
 generator runs on the same machine, so on a small machine the server's figures are a lower
@@ -145,8 +145,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                    ("/v1/robots/talos/inverse-dynamics",
                     {"q": qs.tolist(), "v": vs.tolist(), "a": as_.tolist()})]
         out["batch"] = load_phase(base, proc.pid, batches, args.clients, args.seconds)
-        big = {"q": np.tile(qs, (10, 1)).tolist()}
-        out["largest_answer"] = {"states": 20000}
+        largest = 7435  # 256 MiB // (38² numbers × 25 bytes): the default answer budget's
+        big = {"q": np.resize(qs, (largest, qs.shape[1])).tolist()}
+        out["largest_answer"] = {"states": largest}
         for at_once in (1, 2):
             def one(_: int) -> httpx.Response:
                 with httpx.Client(timeout=300) as http:

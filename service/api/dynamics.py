@@ -31,7 +31,13 @@ from service.api import (
     schemas_placements,
     schemas_simulation,
 )
-from service.api.answers import JSONAnswer, json_bytes
+from service.api.answer_size import (
+    BINARY_BYTES_PER_NUMBER,
+    JSON_BYTES_PER_NUMBER,
+    check_answer_size,
+    key_bytes,
+)
+from service.api.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.deps import check_api_key_for_all
 from service.api.schemas import Problem
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
@@ -169,11 +175,14 @@ class Endpoint:
         return arrays, (options.model_dump(include=given) if given else {})
 
     async def compute(self, request: HTTPConnection, robot: Any, arrays: dict[str, Any],
-                      options: dict[str, Any]) -> dict[str, Any]:
-        """Validate the states and compute: inline when small, in a worker thread when large.
-        Name-keyed inputs become arrays first (`fill` fills missing joints); with
-        `"joint_names": true` the joint-space answers are keyed by joint name. Records what
-        was computed in the ASGI scope (`scope["robodyn"]`) for logs and Server-Timing."""
+                      options: dict[str, Any],
+                      bytes_per_number: int = JSON_BYTES_PER_NUMBER) -> dict[str, Any]:
+        """Validate the states, check the answer's size against the budget
+        (`service.api.answer_size`, at `bytes_per_number`) and compute: inline when small, in a
+        worker thread when large. Name-keyed inputs become arrays first (`fill` fills missing
+        joints); with `"joint_names": true` the joint-space answers are keyed by joint name.
+        Records what was computed in the ASGI scope (`scope["robodyn"]`) for logs and
+        Server-Timing."""
         named = options.pop("joint_names", False) if options else False
         fill = options.pop("fill", None) if options else None
         settings = request.app.state.settings
@@ -181,12 +190,16 @@ class Endpoint:
             options[setting] = getattr(settings, setting)
         started = time.perf_counter()
         work = self.quantity.work
+        if named and self.quantity.joint_answers:  # each number then also carries its key
+            bytes_per_number += key_bytes(robot)
+        budget = (bytes_per_number, settings.max_answer_bytes)
         large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
         if large:
             states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
-                                             options, settings.max_batch, fill)
+                                             options, settings.max_batch, budget, fill)
         else:
             states = _prepare(robot, arrays, settings.max_batch, fill)
+            self._check_size(robot, states, options, budget)
             large = (states.count * robot.nv if work is None else work(robot, states, options)
                      ) > INLINE_WORK
             if large:
@@ -202,14 +215,25 @@ class Endpoint:
         return result
 
     def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
-                         max_batch: int, fill: str | None = None) -> tuple[Any, dict[str, Any]]:
+                         max_batch: int, budget: tuple[int, int], fill: str | None = None
+                         ) -> tuple[Any, dict[str, Any]]:
         states = _prepare(robot, arrays, max_batch, fill)
+        self._check_size(robot, states, options, budget)
         return states, dynamics.run(robot, self.quantity, states, options)
 
+    def _check_size(self, robot: Any, states: Any, options: dict[str, Any],
+                    budget: tuple[int, int]) -> None:
+        """413 before computing an answer over `ROBODYN_MAX_ANSWER_BYTES` (single states of
+        fixed-size quantities are far below it: not checked, the hot path stays as it was)."""
+        if states.count > 1 or self.quantity.work is not None:
+            check_answer_size(self.quantity.path, robot, options, "v" in states.arrays,
+                              states.count, *budget)
+
     async def handle(self, request: HTTPConnection, body: bytes | bytearray
-                     ) -> tuple[bytes, str]:
-        """The answer to `body` (JSON or binary) as (content, media type); domain errors and
-        validation errors are raised for the app's exception handlers."""
+                     ) -> tuple[bytes | list[bytes], str]:
+        """The answer to `body` (JSON or binary) as (content, media type), content in pieces
+        for a large JSON answer; domain errors and validation errors are raised for the app's
+        exception handlers."""
         check_api_key_for_all(request)
         robot = request.app.state.registry.get(request.path_params["robot_id"])
         content_type, accept = _media_types(request.scope["headers"])
@@ -223,21 +247,26 @@ class Endpoint:
             arrays, options = await off_loop(request, self.parse_json, body)
         else:
             arrays, options = self.parse_json(body)
-        result = await self.compute(request, robot, arrays, options)
         as_binary = binary.BINARY_MEDIA_TYPE in accept
-        encode = binary.encode if as_binary else json_bytes
+        result = await self.compute(request, robot, arrays, options,
+                                    BINARY_BYTES_PER_NUMBER if as_binary else JSON_BYTES_PER_NUMBER)
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
         if request.scope["robodyn"]["large"]:
-            content = await off_loop(request, encode, result)  # ~0.1 s for 10k mass matrices
+            # In a worker thread (~0.1 s for 10k mass matrices); JSON in pieces, each encoded
+            # in one short call, so the event loop gets the GIL in between and the pieces are
+            # written as the client reads them.
+            encode_large = binary.encode if as_binary else json_pieces
+            content: bytes | list[bytes] = await off_loop(request, encode_large, result)
         else:
-            content = encode(result)
+            content = binary.encode(result) if as_binary else json_bytes(result)
         return content, media_type
 
     async def answer(self, request: Request) -> Response:
         """The Starlette endpoint (`service.api.fast_path` calls `handle` directly)."""
         request.scope["route"] = self.route  # FastAPI's router records only its own routes
         content, media_type = await self.handle(request, await request.body())
-        return Response(content, media_type=media_type)
+        return Response(content if isinstance(content, bytes) else b"".join(content),
+                        media_type=media_type)
 
 
 # Built once: an endpoint holds no per-app state (it reads the app from each request).

@@ -9,6 +9,7 @@ methods, paths, the WebSocket stream) goes to the app.
 
 from __future__ import annotations
 
+import asyncio
 from typing import Any
 
 from starlette.requests import ClientDisconnect, HTTPConnection, Request
@@ -48,12 +49,29 @@ class DynamicsFastPath:
                         response = await handler(Request(scope, receive), exc)
                         await response(scope, receive, send)
                         return
+                    length = (sum(len(p) for p in content) if isinstance(content, list)
+                              else len(content))
                     await send({"type": "http.response.start", "status": 200, "headers": [
-                        (b"content-length", str(len(content)).encode()),
+                        (b"content-length", str(length).encode()),
                         (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode())]})
-                    await send({"type": "http.response.body", "body": content})
+                    if isinstance(content, list):
+                        await _send_pieces(send, content)
+                    else:
+                        await send({"type": "http.response.body", "body": content})
                     return
         await self.app(scope, receive, send)
+
+
+async def _send_pieces(send: Send, pieces: list[bytes]) -> None:
+    """Send a large answer piece by piece, letting the event loop run between pieces: the
+    server writes each as the client reads (its flow control pauses `send`), so neither a big
+    copy nor a long write blocks the loop, and sent pieces are freed early."""
+    last = len(pieces) - 1
+    for i in range(len(pieces)):
+        piece, pieces[i] = pieces[i], b""
+        await send({"type": "http.response.body", "body": piece, "more_body": i < last})
+        if i < last:
+            await asyncio.sleep(0)
 
 
 async def _body(scope: Scope, receive: Receive) -> bytes | bytearray:

@@ -21,18 +21,25 @@ import logging
 import random
 import re
 import time
-from collections.abc import MutableMapping
+from collections.abc import Iterator, MutableMapping
 from typing import Any
 
 from fastapi import HTTPException
 from prometheus_client import CollectorRegistry, Counter, Histogram
+from prometheus_client.core import CounterMetricFamily
+from prometheus_client.registry import Collector
+from starlette.requests import ClientDisconnect
 
 from service.api.problems import problem
+from service.http_limits import CLOSED as CONNECTIONS_CLOSED
 from service.logs import REQUEST_ID, sole_json_handler
 
 Scope = dict[str, Any]
 
 access_log = logging.getLogger("robodyn.access")
+error_log = logging.getLogger("robodyn.api")
+
+CLIENT_CLOSED_REQUEST = 499  # the status counted for a client that left mid-request (nginx's)
 
 # An incoming X-Request-ID is kept when it is 1-128 characters of this set (so it cannot
 # inject anything into a header or a log line); otherwise a new one is generated.
@@ -71,6 +78,7 @@ class Metrics:
         self.batch_size = Histogram(
             "robodyn_batch_size", "States per dynamics request (1 for a single state)",
             ["quantity"], registry=self.registry, buckets=_BATCH_BUCKETS)
+        self.registry.register(_ConnectionsClosed())
         self._request_children: dict[tuple[str, str, str, int], tuple[Any, Any]] = {}
         self._compute_children: dict[tuple[str, str], tuple[Any, Any]] = {}
 
@@ -93,6 +101,20 @@ class Metrics:
             self._compute_children[key] = children
         children[0].observe(seconds)
         children[1].observe(states)
+
+
+class _ConnectionsClosed(Collector):
+    """`robodyn_connections_closed_total{reason}`: connections the HTTP protocol closed
+    (service/http_protocol.py): header_timeout, body_timeout, send_timeout, evicted (past
+    the connection cap), refused (503 at the cap), bad_request (malformed HTTP)."""
+
+    def collect(self) -> Iterator[CounterMetricFamily]:
+        family = CounterMetricFamily(
+            "robodyn_connections_closed", "Connections closed by the server's HTTP protocol "
+            "for a timeout, the connection cap or malformed HTTP", labels=["reason"])
+        for reason, count in CONNECTIONS_CLOSED.items():
+            family.add_metric([reason], count)
+        yield family
 
 
 def _request_id(scope: Scope) -> str:
@@ -135,14 +157,25 @@ class ObservabilityMiddleware:
 
         try:
             await self.app(scope, receive, send_with_headers)
+        except ClientDisconnect:
+            # The client went away before its request was read in full: not a failure of
+            # the service. Counted as 499 (as nginx does), logged without a traceback.
+            if status == 0:
+                status = CLIENT_CLOSED_REQUEST
+                error_log.info("the client disconnected before sending its whole request "
+                               "(%s %s)", scope["method"], scope["path"])
         except Exception:
-            if status == 0:  # answer the 500 here, so that it too carries the request id
-                answer = problem("internal_error", "Internal error",
-                                 "the service failed to answer this request; the failure was "
-                                 "logged")
-                with contextlib.suppress(Exception):  # e.g. the client has gone
-                    await answer(scope, receive, send_with_headers)
-            raise  # the framework's error handler logs it (its answer is not sent twice)
+            if status != 0:  # the answer is cut short: the server must drop the connection
+                raise
+            # Answered here, complete (so the connection stays usable) and with the request
+            # id; logged once with its traceback, not re-raised to the server.
+            error_log.exception("unexpected error on %s %s", scope["method"], scope["path"])
+            answer = problem("internal_error", "Internal error",
+                             "the service failed to answer this request; the failure was "
+                             "logged")
+            with contextlib.suppress(Exception):  # e.g. the client has gone
+                await answer(scope, receive, send_with_headers)
+            status = status or 500
         finally:
             self._record(scope, status or 500, time.perf_counter() - started, request_id)
 

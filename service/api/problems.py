@@ -9,6 +9,7 @@ import orjson
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.requests import ClientDisconnect
 from starlette.responses import Response
 
 from service.api.binary import BINARY_MEDIA_TYPE
@@ -114,6 +115,8 @@ _UNPARSABLE = {RecursionError: "the JSON body is nested too deeply to be read",
 
 async def _on_http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, StarletteHTTPException)
+    if isinstance(exc.__cause__, ClientDisconnect):  # the client left: nobody to answer
+        raise exc.__cause__  # counted as 499 by the observability middleware
     if exc.status_code == 400 and exc.detail == _BODY_PARSE_FAILURE:
         # A body FastAPI could not read as JSON (too deeply nested, not UTF-8, ...) is a
         # request the schema refuses, like any other malformed JSON: 422, not 400.

@@ -75,7 +75,7 @@ def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api
     q = rng.uniform(-1, 1, (800, 6))
     big = api.post("/v1/robots/ur5/mass-matrix", json={"q": q.tolist()})
     assert big.status_code == 200 and len(big.request.content) > routes.INLINE_BODY_BYTES
-    assert calls == ["parse_json", "_prepare_and_run", answers.json_bytes.__name__]
+    assert calls == ["parse_json", "_prepare_and_run", answers.json_pieces.__name__]
     calls.clear()
     small = api.post("/v1/robots/ur5/mass-matrix", json={"q": q[:3].tolist()})
     assert calls == [] and small.status_code == 200

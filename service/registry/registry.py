@@ -17,9 +17,17 @@ from pathlib import Path
 from typing import Any
 
 from service.errors import CatalogRobot, InvalidModel, NotReady, RobotNotFound
+from service.registry.assets import (
+    MESH_TYPES,
+    AssetStore,
+    decode_assets,
+    digest,
+    extension,
+    unreferenced,
+)
 from service.registry.build import build_isolated, build_model, reference_configurations
 from service.registry.catalog import load_catalog
-from service.registry.mjcf_check import check_mjcf
+from service.registry.mjcf_compile import preflight
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
 from service.registry.robot import Robot
 from service.registry.store import ModelStore, content_id, reduced_id
@@ -35,6 +43,7 @@ class Registry:
                  build_timeout_s: float = 30.0, *, limits: Limits | None = None,
                  build_limits: dict[str, Any] | None = None) -> None:
         self.store = ModelStore(data_dir)
+        self.assets = AssetStore(data_dir)
         self.catalog_names = catalog_names
         self.build_timeout_s = build_timeout_s
         # Hardening (issue 9): caps of upload validation, and keyword arguments of
@@ -84,11 +93,21 @@ class Registry:
             locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
             return reduced_robot(base, locked, model_id, record.get("name", model_id),
                                  origin={"robot": base.id, "locked_joints": locked})
-        model = build_model(fmt, record["description"], record["root_joint"], record["gravity"])
+        index = record.get("assets") or {}
+        assets = self.assets.get(index) if fmt == "mjcf" else {}
+        model = build_model(fmt, record["description"], record["root_joint"], record["gravity"],
+                            assets)
         return Robot(id=model_id, name=record.get("name", model_id), source="upload",
-                     root_joint=record["root_joint"], model=model,
+                     root_joint=record.get("served_root_joint", record["root_joint"]),
+                     model=model,
                      reference_configurations=reference_configurations(model),
-                     warnings=record.get("warnings", []))
+                     warnings=record.get("warnings", []),
+                     asset_paths=self._mesh_paths(index))
+
+    def _mesh_paths(self, index: Mapping[str, str]) -> dict[str, Path]:
+        """Asset key → stored file, for an upload's meshes (the files visuals may name)."""
+        return {key: self.assets.path(sha) for key, sha in index.items()
+                if extension(key) in MESH_TYPES}
 
     def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
         """The base of a reduced model: a catalog robot (loaded here if this server does not
@@ -163,43 +182,64 @@ class Registry:
     # -- uploads and deletions ------------------------------------------------------------
 
     def upload(self, *, urdf: str | None = None, mjcf: str | None = None, root_joint: str,
-               gravity: list[float], name: str | None, inertia_check: str,
-               locked_joints: Mapping[str, LockedValue] | None = None) -> tuple[Robot, bool]:
+               gravity: list[float] | None, name: str | None, inertia_check: str,
+               locked_joints: Mapping[str, LockedValue] | None = None,
+               assets: Mapping[str, str] | None = None) -> tuple[Robot, bool]:
         """Validate, build (out of process) and store an uploaded URDF or MJCF (with
-        `locked_joints`: its reduced model, stored alone): (robot, created)."""
+        `locked_joints`: its reduced model, stored alone): (robot, created). `gravity` None is
+        the description's own (MJCF `<option gravity>`; URDF: 0, 0, −9.81 m/s²). `assets`:
+        path → base64 bytes of the files the description references (`assets.decode_assets`).
+        """
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
         if (urdf is None) == (mjcf is None):
             raise ValueError("give exactly one of urdf and mjcf")
         fmt, text = ("urdf", urdf) if urdf is not None else ("mjcf", mjcf)
         assert text is not None
-        findings, notes, label, root_joint = _validate(fmt, text, root_joint, self.limits)
-        if findings and inertia_check == "reject":
-            listed = "; ".join(f.message for f in findings[:10])
-            more = len(findings) - 10
-            raise InvalidModel(
-                f"{listed}{f'; and {more} more' if more > 0 else ''}. Send "
-                '"inertia_check": "warn" to store the model with these findings as warnings')
-        record: dict[str, Any] = {"format": fmt, "description": text,
-                                  "root_joint": root_joint, "gravity": list(gravity)}
+        if gravity is None and fmt == "urdf":
+            gravity = [0.0, 0.0, -9.81]
+        files = decode_assets(assets)
+        findings, notes, label = _validate(fmt, text, files, self.limits)
+        _check_findings(findings, inertia_check)
+        record: dict[str, Any] = {"format": fmt, "description": text, "root_joint": root_joint,
+                                  "gravity": None if gravity is None else list(gravity)}
+        if files:
+            record["assets"] = {key: digest(data) for key, data in sorted(files.items())}
         model_id = content_id(record)
         request = None if locked_joints is None else as_lists(locked_joints)
         target = model_id if request is None else reduced_id(model_id, request)
         if self.store.exists(target):
             return self.get(target), False
-        model = build_isolated(text, root_joint, list(gravity), self.build_timeout_s,
-                               description_format=fmt, **self.build_limits)
+        report: dict[str, Any] = {}
+        model = build_isolated(text, root_joint, record["gravity"], self.build_timeout_s,
+                               description_format=fmt, assets=files, report=report,
+                               **self.build_limits)
         warnings = [f.as_dict() for f in findings + notes]
-        robot = Robot(id=model_id, name=name or label, source="upload", root_joint=root_joint,
+        if fmt == "mjcf" and model.nv > self.limits.max_nv:
+            raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates; the limit "
+                               f"is {self.limits.max_nv}")
+        if fmt == "mjcf":  # MuJoCo compiled it: its findings come from the builder process
+            _check_findings([Finding(**f) for f in report["findings"]], inertia_check)
+            warnings = report["findings"] + report["notes"]
+        served_root = report.get("root_joint", root_joint)
+        texts = [text] + [data.decode("utf-8", "replace") for key, data in files.items()
+                          if extension(key) not in (*MESH_TYPES, "png")]
+        warnings += [{"code": "unreferenced_asset", "element": "asset", "name": key,
+                      "message": f"asset '{key}' is not named by the description or its "
+                      "included files; it is stored with the model"}
+                     for key in unreferenced(files, texts)]
+        robot = Robot(id=model_id, name=name or label, source="upload", root_joint=served_root,
                       model=model, reference_configurations=reference_configurations(model),
-                      warnings=warnings)
+                      warnings=warnings, asset_paths=self._mesh_paths(record.get("assets", {})))
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
+        self.assets.put(files)
         if request is not None:
             spec = {"source": "upload", "id": model_id,
                     "record": {**record, "name": robot.name, "warnings": warnings}}
             return self._store_reduced(robot, spec, request, name), True
         record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
+                      served_root_joint=served_root,
                       warnings=warnings, summary=robot.summary(), created_at=time.time())
         self.store.write(record)
         with self._lock:
@@ -222,9 +262,10 @@ class Registry:
             if record is None:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
             keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
-                    else ("format", "description", "root_joint", "gravity"))
+                    else ("format", "description", "root_joint", "gravity", "assets",
+                          "served_root_joint"))
             spec = {"source": "upload", "id": base.id,
-                    "record": {**{k: record[k] for k in keys}, "name": base.name,
+                    "record": {**{k: record[k] for k in keys if k in record}, "name": base.name,
                                "warnings": base.warnings}}
         return self._store_reduced(base, spec, request, name), True
 
@@ -254,14 +295,24 @@ class Registry:
                                 f"{NOT_FOUND_HINT}")
 
 
-def _validate(fmt: str, text: str, root_joint: str, limits: Limits
-              ) -> tuple[list[Finding], list[Finding], str, str]:
-    """(physical findings, notes, the description's own name, root joint as served)."""
+def _validate(fmt: str, text: str, assets: Mapping[str, bytes], limits: Limits
+              ) -> tuple[list[Finding], list[Finding], str]:
+    """(physical findings, notes, the description's own name) of the checks before a build
+    (MJCF: MuJoCo's compiler finds the rest in the builder process)."""
     if fmt == "mjcf":
-        mjcf = check_mjcf(text, root_joint, limits)
-        return mjcf.findings, mjcf.notes, mjcf.robot_name, mjcf.root_joint
+        return [], [], preflight(text, assets, limits)
     urdf = check_urdf(text, limits)
-    return urdf.findings, [], urdf.robot_name, root_joint
+    return urdf.findings, [], urdf.robot_name
+
+
+def _check_findings(findings: list[Finding], inertia_check: str) -> None:
+    """Refuse physical findings unless `inertia_check` is "warn"."""
+    if findings and inertia_check == "reject":
+        listed = "; ".join(f.message for f in findings[:10])
+        more = len(findings) - 10
+        raise InvalidModel(
+            f"{listed}{f'; and {more} more' if more > 0 else ''}. Send "
+            '"inertia_check": "warn" to store the model with these findings as warnings')
 
 
 def _shown(robot_id: str) -> str:

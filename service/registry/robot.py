@@ -13,6 +13,7 @@ import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -74,6 +75,8 @@ class Robot:
     default_configuration: np.ndarray | None = None
     warnings: list[dict[str, str]] = field(default_factory=list)
     origin: dict[str, Any] | None = None  # a reduced model: {"robot", "locked_joints"}
+    visuals: list[dict[str, Any]] | None = None  # API-shaped visual entries; None = not yet
+    asset_paths: dict[str, Path] = field(default_factory=dict)  # asset key -> file on disk
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:

@@ -11,6 +11,7 @@ MuJoCo's own error message (which names the element and line) becomes the 422 de
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import tempfile
@@ -27,6 +28,7 @@ from defusedxml import DefusedXmlException
 from service.errors import InvalidModel
 from service.registry.urdf_check import Limits
 
+log = logging.getLogger("robodyn.mjcf")
 PATH_ATTRIBUTES = ("file", "meshdir", "texturedir", "assetdir")
 MAX_MESSAGE = 600
 _TMP = re.compile(r"/\S*robodyn-mjcf-[^/\s]*/?")
@@ -100,6 +102,15 @@ def empty_working_directory() -> Iterator[None]:
             yield
         finally:
             os.chdir(old)
+
+
+def _warning(message: str) -> None:
+    log.info("MuJoCo: %s", message)
+
+
+# MuJoCo's default warning handler appends to MUJOCO_LOG.TXT in the working directory (the
+# builder process may not write files): its warnings go to the log instead.
+mujoco.set_mju_user_warning(_warning)
 
 
 def compile_mjcf(text: str, assets: Mapping[str, bytes]) -> Any:

@@ -58,10 +58,20 @@ class UploadRequest(_Strict):
         "included MJCF or xacro files, YAML, PNG textures. Part of the model's id; stored with "
         "it; unreferenced ones are listed in `warnings`.")
 
+    xacro: str | None = Field(None, description="Instead of `urdf`: a xacro file, expanded by "
+                              "the service with ROS's xacro, with access to nothing but `assets` "
+                              "(`$(find pkg)` is the assets under `pkg/`).",
+                              max_length=DESCRIPTION_LIMIT)
+    xacro_args: dict[str, str] | None = Field(
+        None, max_length=200, description="The xacro's arguments (`$(arg name)`), as strings. "
+        "Part of the model's id.")
+
     @model_validator(mode="after")
     def _one_description(self) -> UploadRequest:
-        if (self.urdf is None) == (self.mjcf is None):
-            raise ValueError("give exactly one of `urdf` and `mjcf`")
+        if sum(x is not None for x in (self.urdf, self.mjcf, self.xacro)) != 1:
+            raise ValueError("give exactly one of `urdf`, `mjcf` and `xacro`")
+        if self.xacro_args is not None and self.xacro is None:
+            raise ValueError("`xacro_args` go with `xacro`")
         return self
 
 

@@ -26,9 +26,11 @@ import pinocchio as pin
 from service.errors import InvalidModel, Overloaded
 from service.registry.mjcf_build import MJCFModel, pinocchio_model
 from service.registry.mjcf_compile import compile_mjcf, empty_working_directory
+from service.registry.urdf_check import check_urdf
+from service.registry.xacro_expand import expand_xacro, xacro_workspace
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
-FORMATS = ("urdf", "mjcf")
+FORMATS = ("urdf", "mjcf", "xacro")
 
 
 def root_joint_model(root_joint: str) -> Any | None:
@@ -114,10 +116,19 @@ def _limit_resources(memory_mb: int, cpu_s: int) -> None:
 
 def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None,
                  description_format: str = "urdf", memory_mb: int = 1024, cpu_s: int = 20,
-                 max_nv: int | None = None, assets: Mapping[str, bytes] | None = None) -> None:
+                 max_nv: int | None = None, assets: Mapping[str, bytes] | None = None,
+                 xacro_args: Mapping[str, str] | None = None) -> None:
     report: dict[str, Any] = {}
     try:
-        if description_format == "mjcf":
+        if description_format == "xacro":
+            with xacro_workspace(text, assets or {}) as root_file:  # written before the limits
+                _limit_resources(memory_mb, cpu_s)
+                urdf = expand_xacro(root_file, xacro_args or {})
+            checked = check_urdf(urdf)
+            model = build_urdf_model(urdf, root_joint, gravity)
+            report = {"expanded_urdf": urdf, "robot_name": checked.robot_name,
+                      "findings": [f.as_dict() for f in checked.findings]}
+        elif description_format == "mjcf":
             with empty_working_directory():  # created before the limits forbid writes
                 _limit_resources(memory_mb, cpu_s)
                 built = build_mjcf_model(text, root_joint, gravity, assets)
@@ -177,10 +188,12 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
                    timeout_s: float, *, description_format: str = "urdf",
                    memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None,
                    assets: Mapping[str, bytes] | None = None,
+                   xacro_args: Mapping[str, str] | None = None,
                    report: dict[str, Any] | None = None) -> Any:
     """Build a URDF (or, with `description_format="mjcf"`, an MJCF with its `assets`) model in
-    a resource-limited child process. For MJCF, `report` (if given) receives what the build
-    found (`MJCFModel.report`: served root joint, findings, notes).
+    a resource-limited child process; with `"xacro"`, a xacro expanded there first with
+    `xacro_args` (`xacro_expand`). `report` (if given) receives what the build found (MJCF:
+    `MJCFModel.report`; xacro: the expanded URDF, its robot name and findings).
 
     Raises `InvalidModel` (with the reason, never a C++ message) on an invalid description, a
     crash or kill of the child, a memory or CPU limit, or after `timeout_s` seconds of wall
@@ -192,7 +205,7 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
     parent, child = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_child_build, daemon=True,
                        args=(child, text, root_joint, gravity, description_format, memory_mb,
-                             cpu_s, max_nv, assets))
+                             cpu_s, max_nv, assets, xacro_args))
     try:
         proc.start()
     except OSError:  # no processes or descriptors left: the server's condition, not the model's

@@ -27,7 +27,7 @@ from service.registry.assets import (
 )
 from service.registry.build import build_isolated, build_model, reference_configurations
 from service.registry.catalog import load_catalog
-from service.registry.mjcf_compile import preflight
+from service.registry.mjcf_compile import parse_xml, preflight
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
 from service.registry.robot import Robot
 from service.registry.store import ModelStore, content_id, reduced_id
@@ -95,8 +95,10 @@ class Registry:
                                  origin={"robot": base.id, "locked_joints": locked})
         index = record.get("assets") or {}
         assets = self.assets.get(index) if fmt == "mjcf" else {}
-        model = build_model(fmt, record["description"], record["root_joint"], record["gravity"],
-                            assets)
+        # a xacro is never expanded in the serving process: its stored expansion is rebuilt
+        fmt, text = ("urdf", record["expanded_urdf"]) if fmt == "xacro" \
+            else (fmt, record["description"])
+        model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
         return Robot(id=model_id, name=record.get("name", model_id), source="upload",
                      root_joint=record.get("served_root_joint", record["root_joint"]),
                      model=model,
@@ -184,7 +186,8 @@ class Registry:
     def upload(self, *, urdf: str | None = None, mjcf: str | None = None, root_joint: str,
                gravity: list[float] | None, name: str | None, inertia_check: str,
                locked_joints: Mapping[str, LockedValue] | None = None,
-               assets: Mapping[str, str] | None = None) -> tuple[Robot, bool]:
+               assets: Mapping[str, str] | None = None, xacro: str | None = None,
+               xacro_args: Mapping[str, str] | None = None) -> tuple[Robot, bool]:
         """Validate, build (out of process) and store an uploaded URDF or MJCF (with
         `locked_joints`: its reduced model, stored alone): (robot, created). `gravity` None is
         the description's own (MJCF `<option gravity>`; URDF: 0, 0, −9.81 m/s²). `assets`:
@@ -192,11 +195,12 @@ class Registry:
         """
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
-        if (urdf is None) == (mjcf is None):
-            raise ValueError("give exactly one of urdf and mjcf")
-        fmt, text = ("urdf", urdf) if urdf is not None else ("mjcf", mjcf)
-        assert text is not None
-        if gravity is None and fmt == "urdf":
+        given = [(f, t) for f, t in (("urdf", urdf), ("mjcf", mjcf), ("xacro", xacro))
+                 if t is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one of urdf, mjcf and xacro")
+        fmt, text = given[0]
+        if gravity is None and fmt != "mjcf":
             gravity = [0.0, 0.0, -9.81]
         files = decode_assets(assets)
         findings, notes, label = _validate(fmt, text, files, self.limits)
@@ -205,6 +209,8 @@ class Registry:
                                   "gravity": None if gravity is None else list(gravity)}
         if files:
             record["assets"] = {key: digest(data) for key, data in sorted(files.items())}
+        if fmt == "xacro":
+            record["xacro_args"] = dict(sorted((xacro_args or {}).items()))
         model_id = content_id(record)
         request = None if locked_joints is None else as_lists(locked_joints)
         target = model_id if request is None else reduced_id(model_id, request)
@@ -213,14 +219,18 @@ class Registry:
         report: dict[str, Any] = {}
         model = build_isolated(text, root_joint, record["gravity"], self.build_timeout_s,
                                description_format=fmt, assets=files, report=report,
+                               xacro_args=xacro_args,
                                **self.build_limits)
         warnings = [f.as_dict() for f in findings + notes]
         if fmt == "mjcf" and model.nv > self.limits.max_nv:
             raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates; the limit "
                                f"is {self.limits.max_nv}")
-        if fmt == "mjcf":  # MuJoCo compiled it: its findings come from the builder process
+        if fmt != "urdf":  # MJCF and xacro: findings come from the builder process
             _check_findings([Finding(**f) for f in report["findings"]], inertia_check)
-            warnings = report["findings"] + report["notes"]
+            warnings = report["findings"] + report.get("notes", [])
+            label = report.get("robot_name", label)
+        if fmt == "xacro":
+            record["expanded_urdf"] = report["expanded_urdf"]
         served_root = report.get("root_joint", root_joint)
         texts = [text] + [data.decode("utf-8", "replace") for key, data in files.items()
                           if extension(key) not in (*MESH_TYPES, "png")]
@@ -263,7 +273,7 @@ class Registry:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
             keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
                     else ("format", "description", "root_joint", "gravity", "assets",
-                          "served_root_joint"))
+                          "served_root_joint", "xacro_args", "expanded_urdf"))
             spec = {"source": "upload", "id": base.id,
                     "record": {**{k: record[k] for k in keys if k in record}, "name": base.name,
                                "warnings": base.warnings}}
@@ -301,6 +311,9 @@ def _validate(fmt: str, text: str, assets: Mapping[str, bytes], limits: Limits
     (MJCF: MuJoCo's compiler finds the rest in the builder process)."""
     if fmt == "mjcf":
         return [], [], preflight(text, assets, limits)
+    if fmt == "xacro":
+        parse_xml(text, "the xacro", limits)  # well-formed, no DTD or entities, within the caps
+        return [], [], "xacro"
     urdf = check_urdf(text, limits)
     return urdf.findings, [], urdf.robot_name
 

@@ -26,6 +26,7 @@ import pinocchio as pin
 from service.errors import InvalidModel, Overloaded
 from service.registry.mjcf_build import MJCFModel, pinocchio_model
 from service.registry.mjcf_compile import compile_mjcf, empty_working_directory
+from service.registry.mjcf_visuals import mjcf_visuals
 from service.registry.urdf_check import check_urdf
 from service.registry.xacro_expand import expand_xacro, xacro_workspace
 
@@ -60,9 +61,12 @@ def _set_gravity(model: Any, gravity: Sequence[float] | None) -> None:
 def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None = None,
                      assets: Mapping[str, bytes] | None = None) -> MJCFModel:
     """Compile MJCF text with MuJoCo (`mjcf_compile`, assets in memory) and build its Pinocchio
-    model body by body (`mjcf_build`); gravity defaults to the model's own."""
-    return pinocchio_model(compile_mjcf(text, assets or {}), root_joint,
-                           gravity)
+    model body by body (`mjcf_build`) and its visuals (`mjcf_visuals`); gravity defaults to the
+    model's own."""
+    mj = compile_mjcf(text, assets or {})
+    built = pinocchio_model(mj, root_joint, gravity)
+    built.visuals = mjcf_visuals(mj, built.body_frames)
+    return built
 
 
 def build_model(description_format: str, text: str, root_joint: str,

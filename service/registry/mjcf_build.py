@@ -50,12 +50,14 @@ class MJCFModel:
     notes: list[Finding] = field(default_factory=list)  # always warnings
     # MuJoCo qpos index → Pinocchio q index of the same number (quaternions reordered)
     q_index: list[int] = field(default_factory=list)
+    body_frames: list[str] = field(default_factory=list)  # MuJoCo body → Pinocchio frame name
+    visuals: list[dict[str, Any]] = field(default_factory=list)  # as GET .../visuals answers
 
     def report(self) -> dict[str, Any]:
         """What the registry stores and reports beside the model (plain data)."""
         return {"root_joint": self.root_joint,
                 "findings": [f.as_dict() for f in self.findings],
-                "notes": [f.as_dict() for f in self.notes]}
+                "notes": [f.as_dict() for f in self.notes], "visuals": self.visuals}
 
 
 def se3(quat_wxyz: np.ndarray, pos: np.ndarray) -> Any:
@@ -247,4 +249,5 @@ def pinocchio_model(mj: Any, root_joint: str = "fixed",
     for k in range(mj.nkey):
         model.referenceConfigurations[mj.key(k).name or f"key{k}"] = \
             builder.configuration(mj.key_qpos[k])
-    return MJCFModel(model, served, findings, _notes(mj), builder.q_index)
+    frames = ["universe"] + [model.frames[builder.body_frame[b]].name for b in range(1, mj.nbody)]
+    return MJCFModel(model, served, findings, _notes(mj), builder.q_index, frames)

@@ -103,13 +103,16 @@ class Registry:
                      root_joint=record.get("served_root_joint", record["root_joint"]),
                      model=model,
                      reference_configurations=reference_configurations(model),
-                     warnings=record.get("warnings", []),
-                     asset_paths=self._mesh_paths(index))
+                     warnings=record.get("warnings", []), visuals=record.get("visuals"),
+                     asset_paths=self._mesh_paths(index, record.get("visuals")))
 
-    def _mesh_paths(self, index: Mapping[str, str]) -> dict[str, Path]:
-        """Asset key → stored file, for an upload's meshes (the files visuals may name)."""
+    def _mesh_paths(self, index: Mapping[str, str],
+                    visuals: list[dict[str, Any]] | None) -> dict[str, Path]:
+        """Asset key → stored file, for the meshes an upload's visuals name (with visuals not
+        yet computed, e.g. a URDF's: every mesh asset)."""
+        named = None if visuals is None else {v["geometry"].get("asset") for v in visuals}
         return {key: self.assets.path(sha) for key, sha in index.items()
-                if extension(key) in MESH_TYPES}
+                if extension(key) in MESH_TYPES and (named is None or key in named)}
 
     def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
         """The base of a reduced model: a catalog robot (loaded here if this server does not
@@ -231,6 +234,8 @@ class Registry:
             label = report.get("robot_name", label)
         if fmt == "xacro":
             record["expanded_urdf"] = report["expanded_urdf"]
+        if fmt == "mjcf":
+            record["visuals"] = report["visuals"]
         served_root = report.get("root_joint", root_joint)
         texts = [text] + [data.decode("utf-8", "replace") for key, data in files.items()
                           if extension(key) not in (*MESH_TYPES, "png")]
@@ -240,7 +245,9 @@ class Registry:
                      for key in unreferenced(files, texts)]
         robot = Robot(id=model_id, name=name or label, source="upload", root_joint=served_root,
                       model=model, reference_configurations=reference_configurations(model),
-                      warnings=warnings, asset_paths=self._mesh_paths(record.get("assets", {})))
+                      warnings=warnings, visuals=record.get("visuals"),
+                      asset_paths=self._mesh_paths(record.get("assets", {}),
+                                                   record.get("visuals")))
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
         self.assets.put(files)

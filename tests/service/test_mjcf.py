@@ -388,3 +388,49 @@ def test_mjcf_uploads_survive_a_restart(registry: Registry, client: TestClient) 
     again = restarted.get(info["id"])
     assert again.info() == info
     assert again.asset_paths["assets/cube.stl"].read_bytes() == cube_stl()
+
+
+def test_visuals_are_placed_where_mujoco_draws_them(client: TestClient,
+                                                    registry: Registry) -> None:
+    import pinocchio as pin
+
+    text = ('<mujoco model="drawn"><compiler meshdir="assets"/><asset><mesh name="cube" '
+            'file="./cube.stl" scale="1 1 2"/><material name="red" rgba="1 0 0 1"/></asset>'
+            '<worldbody><body name="b" pos="0 0 1"><joint axis="0 1 0"/><geom type="mesh" '
+            'mesh="cube" pos="0 0 0.5" euler="0 0 90" material="red"/><body name="c" '
+            'pos="0.3 0 0"><joint type="ball"/><geom name="box" type="box" size="0.1 0.2 0.3" '
+            'pos="0.1 0 0"/><geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.05"/>'
+            '<geom type="sphere" size="0.1" group="3"/></body></body></worldbody></mujoco>')
+    files = {"assets/cube.stl": cube_stl(), "assets/unused.stl": cube_stl(0.01)}
+    info = _upload(client, mjcf=text, assets=encoded(files))
+    assert [(w["code"], w["name"]) for w in info["warnings"]] == [
+        ("unreferenced_asset", "assets/unused.stl")]
+    robot = registry.get(info["id"])
+    visuals = robot.visuals
+    assert [v["geometry"]["type"] for v in visuals] == ["mesh", "box", "capsule"]  # not group 3
+    assert visuals[0]["geometry"] == {"type": "mesh", "asset": "assets/cube.stl",
+                                      "scale": [1.0, 1.0, 2.0]}
+    assert visuals[0]["color"] == [1.0, 0.0, 0.0, 1.0] and visuals[0]["frame"] == "b"
+    np.testing.assert_allclose(visuals[0]["placement"]["translation"], [0, 0, 0.5], atol=1e-12)
+    assert visuals[1]["geometry"] == {"type": "box", "size": [0.2, 0.4, 0.6]}
+    assert visuals[2]["geometry"]["length"] == pytest.approx(0.2)
+    assert set(robot.asset_paths) == {"assets/cube.stl"}  # only what the visuals name
+    # world poses: Pinocchio's frame · placement (· the mesh's own offset) = MuJoCo's geom pose
+    mj = mujoco.MjModel.from_xml_string(text, files)
+    model, data, mjd = robot.model, robot.model.createData(), mujoco.MjData(mj)
+    drawn = [g for g in range(mj.ngeom) if mj.geom_group[g] < 3]
+    for qpos, _qvel, _M, _bias in random_states(mj, np.random.default_rng(2), 3):
+        mjd.qpos[:] = qpos
+        mujoco.mj_kinematics(mj, mjd)
+        pin.framesForwardKinematics(model, data, robodyn_q(mj, qpos))
+        for visual, g in zip(visuals, drawn, strict=True):
+            frame = data.oMf[model.getFrameId(visual["frame"], pin.BODY)]
+            pose = frame * pin.SE3(np.array(visual["placement"]["rotation"]),
+                                   np.array(visual["placement"]["translation"]))
+            if visual["geometry"]["type"] == "mesh":
+                pose = pose * pin.SE3(pin.Quaternion(*mj.mesh_quat[0]).matrix(), mj.mesh_pos[0])
+            np.testing.assert_allclose(pose.translation, mjd.geom_xpos[g], atol=1e-12)
+            np.testing.assert_allclose(pose.rotation, mjd.geom_xmat[g].reshape(3, 3), atol=1e-12)
+    restarted = Registry(registry.store.dir.parent, ["ur5"])
+    restarted.load()
+    assert restarted.get(info["id"]).visuals == visuals

@@ -26,9 +26,9 @@ DESCRIPTION_LIMIT = 8 * 1024 * 1024
 
 
 class UploadRequest(_Strict):
-    urdf: str | None = Field(None, description="The URDF text (XML). Meshes are not read: "
-                             "robodyn needs kinematics and inertias only. Give this or `mjcf`.",
-                             max_length=DESCRIPTION_LIMIT)
+    urdf: str | None = Field(None, description="The URDF text (XML). Give exactly one of "
+                             "`urdf`, `mjcf` and `xacro`; meshes (for the 3-D view) as "
+                             "`assets`.", max_length=DESCRIPTION_LIMIT)
     mjcf: str | None = Field(None, description="Instead of `urdf`: MJCF (MuJoCo XML) text, "
                              "compiled by MuJoCo itself (includes and meshes come from `assets`). "
                              "q and v are MuJoCo's qpos and qvel, except that quaternions (ball "

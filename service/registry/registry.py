@@ -16,22 +16,23 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from service.errors import CatalogRobot, InvalidModel, NotReady, RobotNotFound
-from service.registry.assets import (
-    MESH_TYPES,
-    AssetStore,
-    decode_assets,
-    digest,
-    extension,
-    unreferenced,
-)
+from service.errors import CatalogRobot, NotReady, RobotNotFound
+from service.registry.assets import AssetStore, decode_assets
 from service.registry.build import build_isolated, build_model, reference_configurations
 from service.registry.catalog import load_catalog
-from service.registry.mjcf_compile import parse_xml, preflight
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
 from service.registry.robot import Robot
 from service.registry.store import ModelStore, content_id, reduced_id
-from service.registry.urdf_check import Finding, Limits, check_urdf
+from service.registry.upload_formats import (
+    REBUILD_KEYS,
+    after_build,
+    check_findings,
+    mesh_paths,
+    new_record,
+    rebuild_inputs,
+    validate,
+)
+from service.registry.urdf_check import Limits
 
 log = logging.getLogger("robodyn.registry")
 
@@ -93,26 +94,13 @@ class Registry:
             locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
             return reduced_robot(base, locked, model_id, record.get("name", model_id),
                                  origin={"robot": base.id, "locked_joints": locked})
-        index = record.get("assets") or {}
-        assets = self.assets.get(index) if fmt == "mjcf" else {}
-        # a xacro is never expanded in the serving process: its stored expansion is rebuilt
-        fmt, text = ("urdf", record["expanded_urdf"]) if fmt == "xacro" \
-            else (fmt, record["description"])
+        fmt, text, assets = rebuild_inputs(record, self.assets)
         model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
         return Robot(id=model_id, name=record.get("name", model_id), source="upload",
                      root_joint=record.get("served_root_joint", record["root_joint"]),
-                     model=model,
-                     reference_configurations=reference_configurations(model),
+                     model=model, reference_configurations=reference_configurations(model),
                      warnings=record.get("warnings", []), visuals=record.get("visuals"),
-                     asset_paths=self._mesh_paths(index, record.get("visuals")))
-
-    def _mesh_paths(self, index: Mapping[str, str],
-                    visuals: list[dict[str, Any]] | None) -> dict[str, Path]:
-        """Asset key → stored file, for the meshes an upload's visuals name (with visuals not
-        yet computed, e.g. a URDF's: every mesh asset)."""
-        named = None if visuals is None else {v["geometry"].get("asset") for v in visuals}
-        return {key: self.assets.path(sha) for key, sha in index.items()
-                if extension(key) in MESH_TYPES and (named is None or key in named)}
+                     asset_paths=mesh_paths(self.assets, record))
 
     def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
         """The base of a reduced model: a catalog robot (loaded here if this server does not
@@ -189,13 +177,12 @@ class Registry:
     def upload(self, *, urdf: str | None = None, mjcf: str | None = None, root_joint: str,
                gravity: list[float] | None, name: str | None, inertia_check: str,
                locked_joints: Mapping[str, LockedValue] | None = None,
-               assets: Mapping[str, str] | None = None, xacro: str | None = None,
-               xacro_args: Mapping[str, str] | None = None) -> tuple[Robot, bool]:
-        """Validate, build (out of process) and store an uploaded URDF or MJCF (with
-        `locked_joints`: its reduced model, stored alone): (robot, created). `gravity` None is
-        the description's own (MJCF `<option gravity>`; URDF: 0, 0, −9.81 m/s²). `assets`:
-        path → base64 bytes of the files the description references (`assets.decode_assets`).
-        """
+               xacro: str | None = None, xacro_args: Mapping[str, str] | None = None,
+               assets: Mapping[str, str] | None = None) -> tuple[Robot, bool]:
+        """Validate, build (out of process) and store an uploaded URDF, MJCF or xacro (with
+        `locked_joints`: its reduced model, stored alone): (robot, created). `assets`: path →
+        base64 of the files it references; `gravity` None: the description's own
+        (`upload_formats`)."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
         given = [(f, t) for f, t in (("urdf", urdf), ("mjcf", mjcf), ("xacro", xacro))
@@ -203,17 +190,10 @@ class Registry:
         if len(given) != 1:
             raise ValueError("give exactly one of urdf, mjcf and xacro")
         fmt, text = given[0]
-        if gravity is None and fmt != "mjcf":
-            gravity = [0.0, 0.0, -9.81]
         files = decode_assets(assets)
-        findings, notes, label = _validate(fmt, text, files, self.limits)
-        _check_findings(findings, inertia_check)
-        record: dict[str, Any] = {"format": fmt, "description": text, "root_joint": root_joint,
-                                  "gravity": None if gravity is None else list(gravity)}
-        if files:
-            record["assets"] = {key: digest(data) for key, data in sorted(files.items())}
-        if fmt == "xacro":
-            record["xacro_args"] = dict(sorted((xacro_args or {}).items()))
+        findings, label = validate(fmt, text, files, self.limits)
+        check_findings(findings, inertia_check)
+        record = new_record(fmt, text, root_joint, gravity, files, xacro_args)
         model_id = content_id(record)
         request = None if locked_joints is None else as_lists(locked_joints)
         target = model_id if request is None else reduced_id(model_id, request)
@@ -221,33 +201,16 @@ class Registry:
             return self.get(target), False
         report: dict[str, Any] = {}
         model = build_isolated(text, root_joint, record["gravity"], self.build_timeout_s,
-                               description_format=fmt, assets=files, report=report,
-                               xacro_args=xacro_args,
-                               **self.build_limits)
-        warnings = [f.as_dict() for f in findings + notes]
-        if fmt == "mjcf" and model.nv > self.limits.max_nv:
-            raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates; the limit "
-                               f"is {self.limits.max_nv}")
-        if fmt != "urdf":  # MJCF and xacro: findings come from the builder process
-            _check_findings([Finding(**f) for f in report["findings"]], inertia_check)
-            warnings = report["findings"] + report.get("notes", [])
-            label = report.get("robot_name", label)
-        if fmt == "xacro":
-            record["expanded_urdf"] = report["expanded_urdf"]
-        if fmt == "mjcf":
-            record["visuals"] = report["visuals"]
-        served_root = report.get("root_joint", root_joint)
-        texts = [text] + [data.decode("utf-8", "replace") for key, data in files.items()
-                          if extension(key) not in (*MESH_TYPES, "png")]
-        warnings += [{"code": "unreferenced_asset", "element": "asset", "name": key,
-                      "message": f"asset '{key}' is not named by the description or its "
-                      "included files; it is stored with the model"}
-                     for key in unreferenced(files, texts)]
-        robot = Robot(id=model_id, name=name or label, source="upload", root_joint=served_root,
-                      model=model, reference_configurations=reference_configurations(model),
+                               description_format=fmt, assets=files, xacro_args=xacro_args,
+                               report=report, **self.build_limits)
+        warnings = [f.as_dict() for f in findings]
+        warnings += after_build(record, report, model, files, inertia_check, self.limits)
+        robot = Robot(id=model_id, name=name or report.get("robot_name", label),
+                      source="upload",
+                      root_joint=record.get("served_root_joint", root_joint), model=model,
+                      reference_configurations=reference_configurations(model),
                       warnings=warnings, visuals=record.get("visuals"),
-                      asset_paths=self._mesh_paths(record.get("assets", {}),
-                                                   record.get("visuals")))
+                      asset_paths=mesh_paths(self.assets, record))
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
         self.assets.put(files)
@@ -256,7 +219,6 @@ class Registry:
                     "record": {**record, "name": robot.name, "warnings": warnings}}
             return self._store_reduced(robot, spec, request, name), True
         record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
-                      served_root_joint=served_root,
                       warnings=warnings, summary=robot.summary(), created_at=time.time())
         self.store.write(record)
         with self._lock:
@@ -279,8 +241,7 @@ class Registry:
             if record is None:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
             keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
-                    else ("format", "description", "root_joint", "gravity", "assets",
-                          "served_root_joint", "xacro_args", "expanded_urdf"))
+                    else REBUILD_KEYS)
             spec = {"source": "upload", "id": base.id,
                     "record": {**{k: record[k] for k in keys if k in record}, "name": base.name,
                                "warnings": base.warnings}}
@@ -310,29 +271,6 @@ class Registry:
         if not self.store.delete(robot_id):
             raise RobotNotFound(f"no uploaded robot has id '{_shown(robot_id)}'; "
                                 f"{NOT_FOUND_HINT}")
-
-
-def _validate(fmt: str, text: str, assets: Mapping[str, bytes], limits: Limits
-              ) -> tuple[list[Finding], list[Finding], str]:
-    """(physical findings, notes, the description's own name) of the checks before a build
-    (MJCF: MuJoCo's compiler finds the rest in the builder process)."""
-    if fmt == "mjcf":
-        return [], [], preflight(text, assets, limits)
-    if fmt == "xacro":
-        parse_xml(text, "the xacro", limits)  # well-formed, no DTD or entities, within the caps
-        return [], [], "xacro"
-    urdf = check_urdf(text, limits)
-    return urdf.findings, [], urdf.robot_name
-
-
-def _check_findings(findings: list[Finding], inertia_check: str) -> None:
-    """Refuse physical findings unless `inertia_check` is "warn"."""
-    if findings and inertia_check == "reject":
-        listed = "; ".join(f.message for f in findings[:10])
-        more = len(findings) - 10
-        raise InvalidModel(
-            f"{listed}{f'; and {more} more' if more > 0 else ''}. Send "
-            '"inertia_check": "warn" to store the model with these findings as warnings')
 
 
 def _shown(robot_id: str) -> str:

@@ -434,3 +434,25 @@ def test_visuals_are_placed_where_mujoco_draws_them(client: TestClient,
     restarted = Registry(registry.store.dir.parent, ["ur5"])
     restarted.load()
     assert restarted.get(info["id"]).visuals == visuals
+
+
+def test_a_body_and_its_joint_may_share_a_name(client: TestClient) -> None:
+    text = ('<mujoco model="same"><worldbody><body name="arm" pos="0 0 1"><joint name="arm" '
+            'axis="0 1 0" pos="0 0 0.1"/><geom type="capsule" fromto="0 0 0 0.4 0 0" '
+            'size="0.05"/></body></worldbody></mujoco>')
+    info = assert_as_mujoco(client, text)
+    mj = mujoco.MjModel.from_xml_string(text)
+    data = mujoco.MjData(mj)
+    data.qpos[:] = [0.4]
+    mujoco.mj_kinematics(mj, data)
+    mujoco.mj_comPos(mj, data)
+    jacp, jacr = np.zeros((3, 1)), np.zeros((3, 1))
+    mujoco.mj_jacBody(mj, data, jacp, jacr, mj.body("arm").id)
+    r = client.post(f"/v1/robots/{info['id']}/jacobian",
+                    json={"q": [0.4], "frame": "arm", "reference_frame": "world"})
+    assert r.status_code == 200, r.text  # the body's frame (not an ambiguity error)
+    J = np.array(r.json()["jacobian"])
+    np.testing.assert_allclose(J[3:], jacr, atol=1e-12)
+    # MuJoCo's jacp is the velocity of the point at the body origin; Pinocchio's world-frame
+    # linear rows are those of the point at the world origin: v_o = v_p − ω × p
+    np.testing.assert_allclose(J[:3], jacp - np.cross(jacr.T, data.xpos[1]).T, atol=1e-12)

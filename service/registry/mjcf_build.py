@@ -57,7 +57,8 @@ class MJCFModel:
         """What the registry stores and reports beside the model (plain data)."""
         return {"root_joint": self.root_joint,
                 "findings": [f.as_dict() for f in self.findings],
-                "notes": [f.as_dict() for f in self.notes], "visuals": self.visuals}
+                "notes": [f.as_dict() for f in self.notes], "visuals": self.visuals,
+                "bodies": len(self.body_frames) - 1}
 
 
 def se3(quat_wxyz: np.ndarray, pos: np.ndarray) -> Any:

@@ -65,6 +65,9 @@ def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
     if fmt == "mjcf" and model.nv > limits.max_nv:
         raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates; the limit is "
                            f"{limits.max_nv}")
+    if report.get("bodies", 0) > limits.max_links:
+        raise InvalidModel(f"the model has {report['bodies']} bodies; the limit is "
+                           f"{limits.max_links} (ROBODYN_MAX_LINKS)")
     found = [Finding(**f) for f in report.get("findings", [])]
     check_findings(found, inertia_check)
     if "root_joint" in report:

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from service.errors import InvalidModel
 from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
@@ -375,6 +376,20 @@ def test_request_level_errors(client: TestClient) -> None:
     huge = client.post("/v1/robots", json={"mjcf": " " * (UPLOAD_LIMIT + 1)})
     assert huge.status_code == 413 and huge.json()["code"] == "payload_too_large", huge.text
     assert "ROBODYN_MAX_UPLOAD_BYTES" in huge.json()["detail"]
+
+
+def test_caps_follow_the_limits(tmp_path) -> None:
+    from service.registry.urdf_check import Limits
+
+    registry = Registry(tmp_path, ["ur5"], limits=Limits(max_links=3, max_nv=2))
+    registry.load()
+    for text, fragment in ((_nested(3), "nv = 3 velocity coordinates; the limit is 2"),
+                           (_nested(2).replace("<joint/>", "", 1).replace(
+                               "</body></body>", '<body name="x"/><body name="y"/></body>'
+                               "</body>"), "4 bodies; the limit is 3")):
+        with pytest.raises(InvalidModel, match=fragment):
+            registry.upload(mjcf=text, root_joint="fixed", gravity=None, name=None,
+                            inertia_check="reject")
 
 
 def test_mjcf_uploads_survive_a_restart(registry: Registry, client: TestClient) -> None:

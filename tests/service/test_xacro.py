@@ -150,6 +150,10 @@ HOSTILE = {
         '<xacro:property name="p" value="' + _escape(
             "G['__builtins__']['__import__']('subprocess').run(['id'])")
         + '"/><link name="x${p}"/>'), "subprocess"),
+    "the network via an escape": (_xacro(
+        '<xacro:property name="p" value="' + _escape(
+            "G['__builtins__']['__import__']('socket').socket()")
+        + '"/><link name="x${p}"/>'), "socket"),
     "the environment": (_xacro('<link name="x$(env HOME)"/>'), "HOME"),
     "infinite macro recursion": (_xacro(
         '<xacro:macro name="m"><xacro:m/></xacro:macro><xacro:m/>'), "recursed"),

@@ -35,7 +35,6 @@ from service.registry.urdf_check import Finding, _inertia_findings
 
 FREE, BALL, SLIDE, HINGE = 0, 1, 2, 3  # mujoco.mjtJoint
 GRAVITY_DISABLED = 128  # mujoco.mjtDisableBit.mjDSBL_GRAVITY
-_MAX = float(np.finfo(np.float64).max)
 _AXES: dict[tuple[float, ...], str] = {(1.0, 0.0, 0.0): "X", (0.0, 1.0, 0.0): "Y",
                                        (0.0, 0.0, 1.0): "Z"}
 
@@ -128,12 +127,12 @@ class _Builder:
                 if parent != 0 or count != 1 or self.root != "fixed":
                     raise InvalidModel(f"body '{body_name}': a free joint is served only as the "
                                        "single joint of a body attached to the world")
-                big = np.full(3, _MAX)
+                big = np.full(3, np.inf)  # unbounded (reported as null)
                 jid = self.add_joint(jid, pin.JointModelTranslation(), pin.SE3.Identity(), name,
                                      -big, big, np.inf)
                 self.names.add(f"{name}_rotation")
                 jid = self.add_joint(jid, pin.JointModelSpherical(), pin.SE3.Identity(),
-                                     f"{name}_rotation", -np.full(4, _MAX), np.full(4, _MAX),
+                                     f"{name}_rotation", -np.full(4, np.inf), np.full(4, np.inf),
                                      np.inf)
                 self._map(qadr, jid, (0, 1, 2, 6, 3, 4, 5), base=-3)
                 idx_v = model.joints[jid].idx_v - 3
@@ -147,7 +146,7 @@ class _Builder:
                       if mj.jnt_actfrclimited[j] else np.inf)
             if kind == BALL:
                 joint = pin.JointModelSpherical()
-                lower, upper = -np.full(4, _MAX), np.full(4, _MAX)
+                lower, upper = -np.full(4, np.inf), np.full(4, np.inf)
                 order: tuple[int, ...] = (3, 0, 1, 2)
             else:
                 axis = np.asarray(mj.jnt_axis[j], dtype=float)

@@ -215,6 +215,8 @@ def test_a_free_joint_is_a_translation_and_a_rotation(client: TestClient) -> Non
     assert [(j["name"], j["type"], j["nq"], j["nv"]) for j in default["joints"]] == [
         ("root", "translation", 3, 3), ("root_rotation", "spherical", 4, 3),
         ("shoulder", "revolute", 1, 1)]
+    assert default["joints"][0]["lower"] == [None] * 3  # unbounded
+    assert default["joints"][1]["upper"] == [None] * 4
     # keyframes: MuJoCo's w-first quaternion becomes w-last
     refs = default["reference_configurations"]
     np.testing.assert_allclose(refs["home"], [0.1, 0.2, 0.9, 0, 0, 0, 1, 0.5])

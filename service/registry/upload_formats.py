@@ -68,8 +68,10 @@ def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
     if report.get("bodies", 0) > limits.max_links:
         raise InvalidModel(f"the model has {report['bodies']} bodies; the limit is "
                            f"{limits.max_links} (ROBODYN_MAX_LINKS)")
-    found = [Finding(**f) for f in report.get("findings", [])]
-    check_findings(found, inertia_check)
+    findings = list(report.get("findings", []))
+    if fmt == "xacro":  # its expansion is checked again with this server's caps
+        findings = [f.as_dict() for f in check_urdf(report["expanded_urdf"], limits).findings]
+    check_findings([Finding(**f) for f in findings], inertia_check)
     if "root_joint" in report:
         record["served_root_joint"] = report["root_joint"]
     if fmt == "mjcf":
@@ -79,7 +81,7 @@ def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
     texts = [record["description"]] + [data.decode("utf-8", "replace")
                                        for key, data in assets.items()
                                        if extension(key) not in (*MESH_TYPES, "png")]
-    return [*report.get("findings", []), *report.get("notes", []),
+    return [*findings, *report.get("notes", []),
             *({"code": "unreferenced_asset", "element": "asset", "name": key,
                "message": f"asset '{key}' is not named by the description or its included "
                           "files; it is stored with the model"}

@@ -186,6 +186,17 @@ def test_hostile_xacro_is_refused(client: TestClient, registry: Registry, case: 
     assert g.status_code == 200
 
 
+def test_the_expansion_meets_the_servers_caps(tmp_path: Path) -> None:
+    from service.errors import InvalidModel
+    from service.registry.urdf_check import Limits
+
+    registry = Registry(tmp_path, ["ur5"], limits=Limits(max_links=1))
+    registry.load()
+    with pytest.raises(InvalidModel, match="the limit is 1"):
+        registry.upload(xacro=ARGS_XACRO, assets=encoded(PARTS), root_joint="fixed",
+                        gravity=None, name=None, inertia_check="reject")
+
+
 def test_request_level_errors(client: TestClient) -> None:
     r = client.post("/v1/robots", json={"urdf": "<robot/>", "xacro_args": {"a": "1"}})
     assert r.status_code == 422 and "xacro_args" in r.json()["detail"]

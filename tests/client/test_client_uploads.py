@@ -101,6 +101,16 @@ def test_a_urdf_with_package_meshes(client: Client, tmp_path: Path) -> None:
                                rtol=1e-12)
 
 
+def test_the_format_is_told_from_the_text() -> None:
+    from robodyn.uploads import detect_format
+
+    generated = ('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+                 '<link name="a"/></robot>')
+    assert detect_format(generated) == "urdf"  # xacro's output keeps the namespace
+    assert detect_format(ARGS_XACRO) == "xacro"
+    assert detect_format(MODEL) == "mjcf"
+
+
 def test_local_errors(tmp_path: Path) -> None:
     root = _mjcf_dir(tmp_path / "two")
     (root / "other.urdf").write_text("<robot name='x'/>")

@@ -68,8 +68,9 @@ class Settings(BaseSettings):
         "deletions; `all` guards every /v1 route (reads and compute too). Health, metrics and "
         "docs stay open.")
     max_upload_bytes: int = Field(
-        4 * 1024 * 1024, ge=1024, description="Largest body of POST /v1/robots, in bytes "
-        "(the largest catalog URDF is 211 kB).")
+        64 * 1024 * 1024, ge=1024, description="Largest body of POST /v1/robots, in bytes, "
+        "assets (base64) included: 64 MiB admits a robot arm with its meshes (the largest "
+        "catalog URDF is 211 kB).")
     max_links: int = Field(1000, ge=1, description="Most <link> elements in an uploaded model.")
     max_nv: int = Field(
         128, ge=1, description="Largest nv (velocity coordinates, root joint included) of an "

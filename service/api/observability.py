@@ -226,7 +226,7 @@ class BodyLimitMiddleware:
             await self.app(scope, receive, send)
             return
         limit, setting = self.limit, "ROBODYN_MAX_BODY_BYTES"
-        if (self.upload_limit is not None and self.upload_limit < limit
+        if (self.upload_limit is not None and self.upload_limit <= limit
                 and scope["method"] == "POST" and scope["path"].rstrip("/") == self.upload_path):
             limit, setting = self.upload_limit, "ROBODYN_MAX_UPLOAD_BYTES"
         detail = f"the request body is larger than the limit of {limit} bytes ({setting})"

@@ -52,7 +52,8 @@ async def upload_robot(body: UploadRequest, registry: RegistryDep) -> Response:
     robot, created = await run_in_threadpool(
         registry.upload, urdf=body.urdf, mjcf=body.mjcf, root_joint=body.root_joint,
         gravity=body.gravity, name=body.name, inertia_check=body.inertia_check,
-        locked_joints=body.locked_joints)
+        locked_joints=body.locked_joints, assets=body.assets, xacro=body.xacro,
+        xacro_args=body.xacro_args)
     return JSONAnswer(robot.info(), status_code=201 if created else 200,
                       headers={"Location": f"/v1/robots/{robot.id}"})
 

@@ -26,20 +26,24 @@ DESCRIPTION_LIMIT = 8 * 1024 * 1024
 
 
 class UploadRequest(_Strict):
-    urdf: str | None = Field(None, description="The URDF text (XML). Meshes are not read: "
-                             "robodyn needs kinematics and inertias only. Give this or `mjcf`.",
+    urdf: str | None = Field(None, description="The URDF text (XML). Give exactly one of "
+                             "`urdf`, `mjcf` and `xacro`; meshes (for the 3-D view) as "
+                             "`assets`.", max_length=DESCRIPTION_LIMIT)
+    mjcf: str | None = Field(None, description="Instead of `urdf`: MJCF (MuJoCo XML) text, "
+                             "compiled by MuJoCo itself (includes and meshes come from `assets`). "
+                             "q and v are MuJoCo's qpos and qvel, except that quaternions (ball "
+                             "and free joints) are x, y, z, w. A free joint is served as two "
+                             "joints: `<name>` (translation) and `<name>_rotation`.",
                              max_length=DESCRIPTION_LIMIT)
-    mjcf: str | None = Field(None, description="Instead of `urdf`: MJCF (MuJoCo XML) text, one "
-                             "self-contained file (<include> is refused; meshes are not read). "
-                             "A free joint on its top body is its root (served as "
-                             "\"free-flyer\").", max_length=DESCRIPTION_LIMIT)
     root_joint: Literal["fixed", "free-flyer", "planar"] = Field(
         "fixed", description="How the root link attaches to the world. For MJCF, only a top "
         "body without joints gets a root joint; a top body with a free joint is free-flying.")
     name: str | None = Field(None, max_length=200, description="Optional label; defaults to "
                              "the description's robot/model name. Not part of the id.")
-    gravity: list[Number] = Field([0.0, 0.0, -9.81], min_length=3, max_length=3,
-                                  description="Gravity vector in the world frame, m/s².")
+    gravity: list[Number] | None = Field(
+        None, min_length=3, max_length=3, description="Gravity vector in the world frame, m/s². "
+        "Default: the MJCF's own `<option gravity>` (zero if its gravity flag is disabled); "
+        "[0, 0, -9.81] for URDF.")
     inertia_check: Literal["reject", "warn"] = Field(
         "reject", description="What to do with physically implausible inertias (negative "
         "principal moment, triangle inequality violated): reject the upload (422) or store it "
@@ -47,11 +51,27 @@ class UploadRequest(_Strict):
     locked_joints: dict[str, LockedJointValue] | None = Field(
         None, max_length=1000, description=LOCKED_DESC + " With this, only the reduced model "
         "is stored (its id is that of reducing the full upload with POST .../reduce).")
+    assets: dict[str, str] | None = Field(
+        None, description="The files the description references, by the relative path it uses "
+        "(`package://pkg/x.stl` matches `pkg/x.stl`; MJCF's meshdir is joined as MuJoCo joins "
+        "it): path → the file's bytes in base64. Meshes (stl, obj, dae, glb, gltf, ply, msh), "
+        "included MJCF or xacro files, YAML, PNG textures. Part of the model's id; stored with "
+        "it; unreferenced ones are listed in `warnings`.")
+
+    xacro: str | None = Field(None, description="Instead of `urdf`: a xacro file, expanded by "
+                              "the service with ROS's xacro, with access to nothing but `assets` "
+                              "(`$(find pkg)` is the assets under `pkg/`).",
+                              max_length=DESCRIPTION_LIMIT)
+    xacro_args: dict[str, str] | None = Field(
+        None, max_length=200, description="The xacro's arguments (`$(arg name)`), as strings. "
+        "Part of the model's id.")
 
     @model_validator(mode="after")
     def _one_description(self) -> UploadRequest:
-        if (self.urdf is None) == (self.mjcf is None):
-            raise ValueError("give exactly one of `urdf` and `mjcf`")
+        if sum(x is not None for x in (self.urdf, self.mjcf, self.xacro)) != 1:
+            raise ValueError("give exactly one of `urdf`, `mjcf` and `xacro`")
+        if self.xacro_args is not None and self.xacro is None:
+            raise ValueError("`xacro_args` go with `xacro`")
         return self
 
 

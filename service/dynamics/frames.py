@@ -37,6 +37,8 @@ REFERENCE_FRAMES: dict[str, Any] = {
     "local_world_aligned": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
 }
 
+_PREFERRED = (pin.FrameType.BODY, pin.FrameType.OP_FRAME, pin.FrameType.FIXED_JOINT,
+              pin.FrameType.JOINT, pin.FrameType.SENSOR)
 _SHOWN_NAME_LENGTH = 64  # longer (or unprintable) unknown names are not echoed back
 
 
@@ -45,7 +47,9 @@ def frame_id(robot: Robot, name: str, field: str = "frame") -> int:
     the model has none. `field` is the request member that gave the name, named in the error
     when it is not the plain `frame` (e.g. "external_forces[1].frame")."""
     if robot.model.existFrame(name):
-        return int(robot.model.getFrameId(name))
+        for kind in _PREFERRED:  # a name several frames share (an MJCF body and its joint)
+            if robot.model.existFrame(name, kind):  # is the body's, as MuJoCo names it
+                return int(robot.model.getFrameId(name, kind))
     shown = (f"'{name}'" if len(name) <= _SHOWN_NAME_LENGTH and name.isprintable()
              else "of that name")
     where = "" if field == "frame" else f" (in {field})"
@@ -59,12 +63,14 @@ def frame_jacobian(robot: Robot, data: Any, q: np.ndarray, fid: int, reference: 
     """J (6×nv) of frame `fid` at one configuration q, and with v also J̇ (6×nv), in the
     Pinocchio reference frame `reference`. Uses `data`; copies are returned."""
     model = robot.model
+    shape = (6, model.nv)  # Pinocchio gives a 6×1 matrix as a vector (nv = 1)
     if v is None:
-        return np.array(pin.computeFrameJacobian(model, data, q, fid, reference)), None
+        J = pin.computeFrameJacobian(model, data, q, fid, reference)
+        return np.array(J).reshape(shape), None
     pin.computeJointJacobiansTimeVariation(model, data, q, v)
     pin.updateFramePlacements(model, data)
-    J = np.array(pin.getFrameJacobian(model, data, fid, reference))
-    dJ = np.array(pin.getFrameJacobianTimeVariation(model, data, fid, reference))
+    J = np.array(pin.getFrameJacobian(model, data, fid, reference)).reshape(shape)
+    dJ = np.array(pin.getFrameJacobianTimeVariation(model, data, fid, reference)).reshape(shape)
     return J, dJ
 
 

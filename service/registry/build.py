@@ -1,41 +1,37 @@
 """Building Pinocchio models from description text (the only place the native parsers run).
 
 `build_urdf_model` runs the native URDF parser on text that `urdf_check` has already validated,
-`build_mjcf_model` the native MJCF parser on text that `mjcf_check` validates (again) first.
+`build_mjcf_model` MuJoCo's compiler on MJCF that `mjcf_compile.preflight` has checked.
 `build_isolated` runs either in a separate short-lived process (forked from a forkserver that has
 Pinocchio imported) and brings back the model serialized by Pinocchio itself. The child limits
 itself before the native parser touches the text: address space (`RLIMIT_AS`, memory_mb), CPU
 time (`RLIMIT_CPU`, cpu_s: SIGXCPU, then SIGKILL one second later), no core files, no file writes
-(an MJCF file is written just before), few file descriptors; the parent adds a wall-clock
+(MuJoCo reads the assets from memory), few file descriptors; the parent adds a wall-clock
 timeout. A crash, a kill, a memory blow-up or a hang of the native parser becomes `InvalidModel`
 with a reason; the serving process never sees it.
 """
 
 from __future__ import annotations
 
-import math
 import multiprocessing as mp
 import pickle
 import resource
 import signal
-import tempfile
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
-from pathlib import Path
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from service.errors import InvalidModel, Overloaded
-from service.registry.mjcf_check import MJCFSummary, check_mjcf
-from service.registry.mjcf_split import pinocchio_text
+from service.registry.mjcf_build import MJCFModel, pinocchio_model
+from service.registry.mjcf_compile import compile_mjcf, empty_working_directory
+from service.registry.mjcf_visuals import mjcf_visuals
+from service.registry.urdf_check import check_urdf
+from service.registry.xacro_expand import expand_xacro, xacro_workspace
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
-FORMATS = ("urdf", "mjcf")
-_PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned")
-_UNBOUNDED = ("JointModelFreeFlyer", "JointModelSpherical")
-_MAX = float(np.finfo(np.float64).max)
+FORMATS = ("urdf", "mjcf", "xacro")
 
 
 def root_joint_model(root_joint: str) -> Any | None:
@@ -62,60 +58,23 @@ def _set_gravity(model: Any, gravity: Sequence[float] | None) -> None:
         model.gravity = pin.Motion(np.asarray(gravity, dtype=float), np.zeros(3))
 
 
-def _fix_mjcf_limits(model: Any, angle_in_degrees: bool) -> None:
-    """Undo two quirks of Pinocchio's MJCF limits: slide ranges scaled by π/180 in degree mode,
-    and ±1.01 on free and ball joints (served, like URDF root joints, as unbounded)."""
-    lower, upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
-    for jid in range(1, model.njoints):
-        jm = model.joints[jid]
-        q = slice(jm.idx_q, jm.idx_q + jm.nq)
-        if jm.shortname() in _PRISMATIC and angle_in_degrees:
-            lower[q] *= 180.0 / math.pi
-            upper[q] *= 180.0 / math.pi
-        elif jm.shortname() in _UNBOUNDED:
-            lower[q], upper[q] = -_MAX, _MAX
-    model.lowerPositionLimit, model.upperPositionLimit = lower, upper
-
-
-@contextmanager
-def mjcf_source(text: str, root_joint: str) -> Iterator[tuple[Path, MJCFSummary]]:
-    """Validate MJCF text (`check_mjcf`, which also decides the root: a free joint on the top
-    body is its own root; otherwise `root_joint` is added above a joint-less top body) and write
-    the text Pinocchio is given (`mjcf_split`: bodies with several joints become chains) to a
-    private temporary file, removed on exit: Pinocchio's MJCF parser reads files only.
-
-    In the builder child this runs before any limit on file writes is set.
-    """
-    summary = check_mjcf(text, root_joint)
-    with tempfile.TemporaryDirectory(prefix="robodyn-mjcf-") as tmp:
-        path = Path(tmp) / "model.xml"
-        path.write_text(pinocchio_text(text), encoding="utf-8")
-        yield path, summary
-
-
-def build_mjcf_file(path: Path, summary: MJCFSummary,
-                    gravity: Sequence[float] | None = None) -> Any:
-    """Parse the file `mjcf_source` wrote into a `pin.Model` (kinematics and inertias; meshes
-    and textures are never read)."""
-    joint = root_joint_model(summary.added_root_joint)
-    model = (pin.buildModelFromMJCF(str(path)) if joint is None
-             else pin.buildModelFromMJCFAndRootJoint(str(path), joint, "root_joint"))
-    _fix_mjcf_limits(model, summary.angle_in_degrees)
-    _set_gravity(model, gravity)
-    return model
-
-
-def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None = None) -> Any:
-    """Validate and parse MJCF text into a `pin.Model` (`mjcf_source`, then `build_mjcf_file`)."""
-    with mjcf_source(text, root_joint) as (path, summary):
-        return build_mjcf_file(path, summary, gravity)
+def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None = None,
+                     assets: Mapping[str, bytes] | None = None) -> MJCFModel:
+    """Compile MJCF text with MuJoCo (`mjcf_compile`, assets in memory) and build its Pinocchio
+    model body by body (`mjcf_build`) and its visuals (`mjcf_visuals`); gravity defaults to the
+    model's own."""
+    mj = compile_mjcf(text, assets or {})
+    built = pinocchio_model(mj, root_joint, gravity)
+    built.visuals = mjcf_visuals(mj, built.body_frames)
+    return built
 
 
 def build_model(description_format: str, text: str, root_joint: str,
-                gravity: Sequence[float] | None = None) -> Any:
+                gravity: Sequence[float] | None = None,
+                assets: Mapping[str, bytes] | None = None) -> Any:
     """Build a model from validated URDF or MJCF text (`description_format`: "urdf"/"mjcf")."""
     if description_format == "mjcf":
-        return build_mjcf_model(text, root_joint, gravity)
+        return build_mjcf_model(text, root_joint, gravity, assets).model
     if description_format == "urdf":
         return build_urdf_model(text, root_joint, gravity)
     raise ValueError(f"description_format must be one of {FORMATS}")
@@ -161,14 +120,23 @@ def _limit_resources(memory_mb: int, cpu_s: int) -> None:
 
 def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None,
                  description_format: str = "urdf", memory_mb: int = 1024, cpu_s: int = 20,
-                 max_nv: int | None = None) -> None:
+                 max_nv: int | None = None, assets: Mapping[str, bytes] | None = None,
+                 xacro_args: Mapping[str, str] | None = None) -> None:
+    report: dict[str, Any] = {}
     try:
-        if description_format == "mjcf":
-            # Pinocchio's MJCF parser reads files only: the file is written before the limits
-            # (which forbid writes) and removed after the build.
-            with mjcf_source(text, root_joint) as (path, summary):
+        if description_format == "xacro":
+            with xacro_workspace(text, assets or {}) as root_file:  # written before the limits
                 _limit_resources(memory_mb, cpu_s)
-                model = build_mjcf_file(path, summary, gravity)
+                urdf = expand_xacro(root_file, xacro_args or {})
+            checked = check_urdf(urdf)
+            model = build_urdf_model(urdf, root_joint, gravity)
+            report = {"expanded_urdf": urdf, "robot_name": checked.robot_name,
+                      "findings": [f.as_dict() for f in checked.findings]}
+        elif description_format == "mjcf":
+            with empty_working_directory():  # created before the limits forbid writes
+                _limit_resources(memory_mb, cpu_s)
+                built = build_mjcf_model(text, root_joint, gravity, assets)
+            model, report = built.model, built.report()
         else:
             _limit_resources(memory_mb, cpu_s)
             model = build_urdf_model(text, root_joint, gravity)
@@ -179,7 +147,7 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
         if description_format == "mjcf":
             check_subtree_masses(model)  # URDF uploads are checked on the text (urdf_check)
         check_mass_matrix(model)
-        conn.send(("ok", pickle.dumps(model)))
+        conn.send(("ok", pickle.dumps((model, report))))
     except InvalidModel as exc:
         conn.send(("invalid", exc.detail))
     except MemoryError:
@@ -198,7 +166,7 @@ def _mp_context() -> Any:
     global _context
     if _context is None:
         _context = mp.get_context("forkserver")
-        _context.set_forkserver_preload(["pinocchio", "numpy"])
+        _context.set_forkserver_preload(["pinocchio", "numpy", "mujoco"])
     return _context
 
 
@@ -222,9 +190,14 @@ def _death(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
 
 def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
                    timeout_s: float, *, description_format: str = "urdf",
-                   memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None) -> Any:
-    """Build a URDF (or, with `description_format="mjcf"`, an MJCF) model in a
-    resource-limited child process.
+                   memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None,
+                   assets: Mapping[str, bytes] | None = None,
+                   xacro_args: Mapping[str, str] | None = None,
+                   report: dict[str, Any] | None = None) -> Any:
+    """Build a URDF (or, with `description_format="mjcf"`, an MJCF with its `assets`) model in
+    a resource-limited child process; with `"xacro"`, a xacro expanded there first with
+    `xacro_args` (`xacro_expand`). `report` (if given) receives what the build found (MJCF:
+    `MJCFModel.report`; xacro: the expanded URDF, its robot name and findings).
 
     Raises `InvalidModel` (with the reason, never a C++ message) on an invalid description, a
     crash or kill of the child, a memory or CPU limit, or after `timeout_s` seconds of wall
@@ -236,7 +209,7 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
     parent, child = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_child_build, daemon=True,
                        args=(child, text, root_joint, gravity, description_format, memory_mb,
-                             cpu_s, max_nv))
+                             cpu_s, max_nv, assets, xacro_args))
     try:
         proc.start()
     except OSError:  # no processes or descriptors left: the server's condition, not the model's
@@ -259,4 +232,7 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
         proc.join(5)
     if status != "ok":
         raise InvalidModel(payload)
-    return pickle.loads(payload)
+    model, found = pickle.loads(payload)
+    if report is not None:
+        report.update(found)
+    return model

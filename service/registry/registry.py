@@ -16,14 +16,23 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from service.errors import CatalogRobot, InvalidModel, NotReady, RobotNotFound
+from service.errors import CatalogRobot, NotReady, RobotNotFound
+from service.registry.assets import AssetStore, decode_assets
 from service.registry.build import build_isolated, build_model, reference_configurations
 from service.registry.catalog import load_catalog
-from service.registry.mjcf_check import check_mjcf
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
 from service.registry.robot import Robot
 from service.registry.store import ModelStore, content_id, reduced_id
-from service.registry.urdf_check import Finding, Limits, check_urdf
+from service.registry.upload_formats import (
+    REBUILD_KEYS,
+    after_build,
+    check_findings,
+    mesh_paths,
+    new_record,
+    rebuild_inputs,
+    validate,
+)
+from service.registry.urdf_check import Limits
 
 log = logging.getLogger("robodyn.registry")
 
@@ -35,6 +44,7 @@ class Registry:
                  build_timeout_s: float = 30.0, *, limits: Limits | None = None,
                  build_limits: dict[str, Any] | None = None) -> None:
         self.store = ModelStore(data_dir)
+        self.assets = AssetStore(data_dir)
         self.catalog_names = catalog_names
         self.build_timeout_s = build_timeout_s
         # Hardening (issue 9): caps of upload validation, and keyword arguments of
@@ -84,11 +94,13 @@ class Registry:
             locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
             return reduced_robot(base, locked, model_id, record.get("name", model_id),
                                  origin={"robot": base.id, "locked_joints": locked})
-        model = build_model(fmt, record["description"], record["root_joint"], record["gravity"])
+        fmt, text, assets = rebuild_inputs(record, self.assets)
+        model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
         return Robot(id=model_id, name=record.get("name", model_id), source="upload",
-                     root_joint=record["root_joint"], model=model,
-                     reference_configurations=reference_configurations(model),
-                     warnings=record.get("warnings", []))
+                     root_joint=record.get("served_root_joint", record["root_joint"]),
+                     model=model, reference_configurations=reference_configurations(model),
+                     warnings=record.get("warnings", []), visuals=record.get("visuals"),
+                     asset_paths=mesh_paths(self.assets, record))
 
     def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
         """The base of a reduced model: a catalog robot (loaded here if this server does not
@@ -163,38 +175,45 @@ class Registry:
     # -- uploads and deletions ------------------------------------------------------------
 
     def upload(self, *, urdf: str | None = None, mjcf: str | None = None, root_joint: str,
-               gravity: list[float], name: str | None, inertia_check: str,
-               locked_joints: Mapping[str, LockedValue] | None = None) -> tuple[Robot, bool]:
-        """Validate, build (out of process) and store an uploaded URDF or MJCF (with
-        `locked_joints`: its reduced model, stored alone): (robot, created)."""
+               gravity: list[float] | None, name: str | None, inertia_check: str,
+               locked_joints: Mapping[str, LockedValue] | None = None,
+               xacro: str | None = None, xacro_args: Mapping[str, str] | None = None,
+               assets: Mapping[str, str] | None = None) -> tuple[Robot, bool]:
+        """Validate, build (out of process) and store an uploaded URDF, MJCF or xacro (with
+        `locked_joints`: its reduced model, stored alone): (robot, created). `assets`: path →
+        base64 of the files it references; `gravity` None: the description's own
+        (`upload_formats`)."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
-        if (urdf is None) == (mjcf is None):
-            raise ValueError("give exactly one of urdf and mjcf")
-        fmt, text = ("urdf", urdf) if urdf is not None else ("mjcf", mjcf)
-        assert text is not None
-        findings, notes, label, root_joint = _validate(fmt, text, root_joint, self.limits)
-        if findings and inertia_check == "reject":
-            listed = "; ".join(f.message for f in findings[:10])
-            more = len(findings) - 10
-            raise InvalidModel(
-                f"{listed}{f'; and {more} more' if more > 0 else ''}. Send "
-                '"inertia_check": "warn" to store the model with these findings as warnings')
-        record: dict[str, Any] = {"format": fmt, "description": text,
-                                  "root_joint": root_joint, "gravity": list(gravity)}
+        given = [(f, t) for f, t in (("urdf", urdf), ("mjcf", mjcf), ("xacro", xacro))
+                 if t is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one of urdf, mjcf and xacro")
+        fmt, text = given[0]
+        files = decode_assets(assets)
+        findings, label = validate(fmt, text, files, self.limits)
+        check_findings(findings, inertia_check)
+        record = new_record(fmt, text, root_joint, gravity, files, xacro_args)
         model_id = content_id(record)
         request = None if locked_joints is None else as_lists(locked_joints)
         target = model_id if request is None else reduced_id(model_id, request)
         if self.store.exists(target):
             return self.get(target), False
-        model = build_isolated(text, root_joint, list(gravity), self.build_timeout_s,
-                               description_format=fmt, **self.build_limits)
-        warnings = [f.as_dict() for f in findings + notes]
-        robot = Robot(id=model_id, name=name or label, source="upload", root_joint=root_joint,
-                      model=model, reference_configurations=reference_configurations(model),
-                      warnings=warnings)
+        report: dict[str, Any] = {}
+        model = build_isolated(text, root_joint, record["gravity"], self.build_timeout_s,
+                               description_format=fmt, assets=files, xacro_args=xacro_args,
+                               report=report, **self.build_limits)
+        warnings = [f.as_dict() for f in findings]
+        warnings += after_build(record, report, model, files, inertia_check, self.limits)
+        robot = Robot(id=model_id, name=name or report.get("robot_name", label),
+                      source="upload",
+                      root_joint=record.get("served_root_joint", root_joint), model=model,
+                      reference_configurations=reference_configurations(model),
+                      warnings=warnings, visuals=record.get("visuals"),
+                      asset_paths=mesh_paths(self.assets, record))
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
+        self.assets.put(files)
         if request is not None:
             spec = {"source": "upload", "id": model_id,
                     "record": {**record, "name": robot.name, "warnings": warnings}}
@@ -222,9 +241,9 @@ class Registry:
             if record is None:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
             keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
-                    else ("format", "description", "root_joint", "gravity"))
+                    else REBUILD_KEYS)
             spec = {"source": "upload", "id": base.id,
-                    "record": {**{k: record[k] for k in keys}, "name": base.name,
+                    "record": {**{k: record[k] for k in keys if k in record}, "name": base.name,
                                "warnings": base.warnings}}
         return self._store_reduced(base, spec, request, name), True
 
@@ -252,16 +271,6 @@ class Registry:
         if not self.store.delete(robot_id):
             raise RobotNotFound(f"no uploaded robot has id '{_shown(robot_id)}'; "
                                 f"{NOT_FOUND_HINT}")
-
-
-def _validate(fmt: str, text: str, root_joint: str, limits: Limits
-              ) -> tuple[list[Finding], list[Finding], str, str]:
-    """(physical findings, notes, the description's own name, root joint as served)."""
-    if fmt == "mjcf":
-        mjcf = check_mjcf(text, root_joint, limits)
-        return mjcf.findings, mjcf.notes, mjcf.robot_name, mjcf.root_joint
-    urdf = check_urdf(text, limits)
-    return urdf.findings, [], urdf.robot_name, root_joint
 
 
 def _shown(robot_id: str) -> str:

@@ -31,13 +31,18 @@ def content_id(record: dict[str, Any]) -> str:
     """The id of an upload: a hash of its description and the options that change the model.
 
     The same upload gives the same id on any machine, so uploads are idempotent and replicas
-    agree on ids. The label (`name`) and `inertia_check` do not change the dynamics and are
-    not part of it.
+    agree on ids. It covers the assets (by content) and a xacro's arguments. The label (`name`)
+    and `inertia_check` do not change the dynamics and are not part of it.
     """
-    canonical = json.dumps(
-        {"format": record["format"], "description": record["description"],
-         "root_joint": record["root_joint"], "gravity": [float(g) for g in record["gravity"]]},
-        sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    gravity = record["gravity"]  # None: the description's own (MJCF)
+    identity = {"format": record["format"], "description": record["description"],
+                "root_joint": record["root_joint"],
+                "gravity": None if gravity is None else [float(g) for g in gravity]}
+    if record.get("assets"):  # key → sha256 of the bytes; absent for uploads without assets
+        identity["assets"] = dict(sorted(record["assets"].items()))
+    if record["format"] == "xacro":
+        identity["xacro_args"] = dict(sorted(record.get("xacro_args", {}).items()))
+    canonical = json.dumps(identity, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
     return "u-" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:24]
 
 

@@ -192,10 +192,14 @@ def ensure_visuals(robot: Robot, base: Callable[[str], Robot],
         robot.visuals = visuals
         return
     record = description(robot.id) if robot.source == "upload" else None
-    if record is not None and record.get("format", "urdf") == "urdf":
-        robot.visuals = on_model(urdf_visuals(record["description"]), has_body)
-    else:
-        robot.visuals = []
+    urdf = None if record is None else (
+        record["description"] if record.get("format", "urdf") == "urdf"
+        else record.get("expanded_urdf"))  # a xacro upload: the URDF it expanded to
+    visuals = [] if urdf is None else on_model(urdf_visuals(urdf), has_body)
+    # Only the meshes the visuals name are served (not collision meshes, not included files).
+    keys = {v["geometry"]["asset"] for v in visuals if v["geometry"]["type"] == "mesh"}
+    robot.asset_paths = {k: p for k, p in robot.asset_paths.items() if k in keys}
+    robot.visuals = visuals
 
 
 def _body_frames(robot: Robot) -> Callable[[str], bool]:

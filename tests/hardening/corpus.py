@@ -13,6 +13,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from service.settings import Settings
+
+UPLOAD_LIMIT = Settings.model_fields["max_upload_bytes"].default  # the default limit, bytes
 INERTIA = "<inertia ixx='0.01' ixy='0' ixz='0' iyy='0.01' iyz='0' izz='0.01'/>"
 LIMIT = "<limit lower='-1' upper='1' effort='10' velocity='2'/>"
 
@@ -250,7 +253,7 @@ CASES: list[Case] = [
     _bad("huge-name-not-echoed", "huge",
          robot(f"<link name='{'n' * 100_000}'/>", f"<link name='{'n' * 100_000}'/>"),
          "is used twice"),
-    Case("body-over-the-upload-limit", "huge", _u(arm(link_extra=" " * (4 * 1024 * 1024))),
+    Case("body-over-the-upload-limit", "huge", _u(arm(link_extra=" " * UPLOAD_LIMIT)),
          413, "payload_too_large", "ROBODYN_MAX_UPLOAD_BYTES"),
     Case("json-nesting-bomb", "huge", b"[" * 200_000, 422, "validation_error", "nested too deeply"),
     Case("json-body-not-utf8", "unicode", b'{"urdf": "\xff\xfe"}', 422, "validation_error",

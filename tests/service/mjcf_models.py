@@ -7,20 +7,31 @@ equal dynamics over HTTP show that robodyn reads MJCF right.
 
 from __future__ import annotations
 
+import numpy as np
+
 from robots import CATALOG_DIR
+
+
+def _rpy(r: float, p: float, y: float) -> np.ndarray:
+    """URDF's fixed-axis roll-pitch-yaw rotation Rz(y) Ry(p) Rx(r)."""
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return (np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+            @ np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+            @ np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]]))
 
 PLANAR_ARM_URDF = (CATALOG_DIR / "textbook" / "planar_arm.urdf").read_text()
 
-# robots/textbook/planar_arm.urdf by hand: joint axes -y, point masses at the link tips.
+# robots/textbook/planar_arm.urdf by hand: joint axes -y, point masses at the link tips (MuJoCo
+# refuses moving bodies whose inertia is below mjMINVAL = 1e-15 kg·m²: they carry 1e-14).
 PLANAR_ARM_MJCF = """<mujoco model="planar_arm">
   <compiler angle="radian"/>
   <worldbody>
     <body name="link1">
       <joint name="shoulder" type="hinge" axis="0 -1 0" range="-3.14159 3.14159"/>
-      <inertial pos="1 0 0" mass="2" diaginertia="0 0 0"/>
+      <inertial pos="1 0 0" mass="2" diaginertia="1e-14 1e-14 1e-14"/>
       <body name="link2" pos="1 0 0">
         <joint name="elbow" type="hinge" axis="0 -1 0" range="-3.14159 3.14159"/>
-        <inertial pos="0.7 0 0" mass="1.5" diaginertia="0 0 0"/>
+        <inertial pos="0.7 0 0" mass="1.5" diaginertia="1e-14 1e-14 1e-14"/>
         <site name="tip" pos="0.7 0 0"/>
       </body>
     </body>
@@ -53,15 +64,18 @@ SPATIAL_ARM_URDF = """<?xml version="1.0"?>
 """
 
 # The same in MuJoCo's units: degrees (the default), and URDF's fixed-axis roll-pitch-yaw
-# (r, p, y) as rotating-axis Euler angles z-y-x (y, p, r).
+# (r, p, y) as rotating-axis Euler angles z-y-x (y, p, r). MuJoCo takes a full inertia tensor
+# only in the body frame (not with an orientation): the URDF's tensor rotated by its rpy.
+_UPPER = _rpy(0.1, 0.2, 0.3) @ np.array([[0.03, 0.001, -0.002], [0.001, 0.025, 0.0015],
+                                        [-0.002, 0.0015, 0.01]]) @ _rpy(0.1, 0.2, 0.3).T
+_UPPER_FULL = " ".join(repr(float(_UPPER[i, j]))
+                       for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))
 SPATIAL_ARM_MJCF = """<mujoco model="spatial_arm">
   <compiler eulerseq="zyx"/>
   <worldbody>
     <body name="upper" pos="0 0 0.1">
       <joint name="yaw" axis="0 0 1" range="-171.88733853924697 171.88733853924697"/>
-      <inertial pos="0.02 0.01 0.2" mass="2.0"
-                euler="17.188733853924695 11.459155902616464 5.729577951308232"
-                fullinertia="0.03 0.025 0.01 0.001 -0.002 0.0015"/>
+      <inertial pos="0.02 0.01 0.2" mass="2.0" fullinertia="UPPER_FULL"/>
       <body name="fore" pos="0 0.05 0.4" euler="0 0 90">
         <joint name="pitch" axis="0 0 1" range="-114.59155902616465 114.59155902616465"/>
         <inertial pos="0.15 0 0" mass="1.2" diaginertia="0.002 0.01 0.01"/>
@@ -73,7 +87,7 @@ SPATIAL_ARM_MJCF = """<mujoco model="spatial_arm">
     </body>
   </worldbody>
 </mujoco>
-"""
+""".replace("UPPER_FULL", _UPPER_FULL)
 
 # A free-floating body with an arm: MJCF's <freejoint/> against URDF with root_joint free-flyer.
 FLOATING_URDF = """<robot name="floating">
@@ -131,7 +145,8 @@ GIMBAL_URDF = """<robot name="gimbal">
 </robot>
 """
 
-# Inertia from geoms: a box (density 800, half sizes 0.1, 0.05, 0.2) and a 1 kg sphere, against
+# Inertia from geoms: a box (density 800, half sizes 0.1, 0.05, 0.2) and a 1 kg sphere (and a
+# visual box of density 0: visual geoms weigh as any other in MuJoCo), against
 # the same solids' closed-form inertias in URDF (box: m/12 (b² + c²), ...; sphere: 2/5 m r²).
 GEOMS_MJCF = """<mujoco model="geoms">
   <compiler angle="radian"/>
@@ -141,7 +156,7 @@ GEOMS_MJCF = """<mujoco model="geoms">
       <joint name="hinge" axis="0 1 0"/>
       <geom type="box" size="0.1 0.05 0.2" pos="0 0 0.3"/>
       <geom type="sphere" size="0.05" mass="1" pos="0.2 0 0"/>
-      <geom type="box" size="0.3 0.3 0.3" contype="0" conaffinity="0"/>
+      <geom type="box" size="0.3 0.3 0.3" contype="0" conaffinity="0" density="0"/>
     </body>
   </worldbody>
 </mujoco>
@@ -187,8 +202,6 @@ MULTI_JOINT_MJCF = """<mujoco model="multi">
 TWINS = {  # name → (MJCF, URDF, root_joint of the URDF)
     "planar_arm": (PLANAR_ARM_MJCF, PLANAR_ARM_URDF, "fixed"),
     "spatial_arm": (SPATIAL_ARM_MJCF, SPATIAL_ARM_URDF, "fixed"),
-    "floating": (floating_mjcf(free_joint=True, torso_pos="1 2 3"), FLOATING_URDF,
-                 "free-flyer"),
     "gimbal": (GIMBAL_MJCF, GIMBAL_URDF, "fixed"),
     "geoms": (GEOMS_MJCF, GEOMS_URDF, "fixed"),
 }

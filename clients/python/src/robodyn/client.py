@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
@@ -34,6 +33,7 @@ from robodyn.results import (
     Trajectory,
 )
 from robodyn.stream import Stream, stream_url
+from robodyn.uploads import AssetValue, Source
 
 T = TypeVar("T")
 
@@ -177,14 +177,19 @@ class Client:
     def robot(self, robot_id: str) -> RobotInfo:
         return self._send(core.robot(robot_id))
 
-    def upload(self, urdf: str | bytes | os.PathLike[str] | None = None, *,
-               mjcf: str | bytes | os.PathLike[str] | None = None,
-               root_joint: RootJoint = "fixed", name: str | None = None,
-               gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
+    def upload(self, source: Source | None = None, *, urdf: Source | None = None,
+               mjcf: Source | None = None, xacro: Source | None = None,
+               xacro_args: Mapping[str, str] | None = None,
+               assets: Mapping[str, AssetValue] | None = None,
+               collect_assets: bool = True, root_joint: RootJoint = "fixed",
+               name: str | None = None, gravity: ArrayLike | None = None,
+               inertia_check: InertiaCheck | None = None,
                locked_joints: Mapping[str, ArrayLike] | None = None) -> RobotInfo:
-        return self._send(core.upload(urdf, mjcf=mjcf, root_joint=root_joint, name=name,
-                                      gravity=gravity, inertia_check=inertia_check,
-                                      locked_joints=locked_joints))
+        """Store a model (text, file or directory; see `robodyn.core.upload`)."""
+        return self._send(core.upload(
+            source, urdf=urdf, mjcf=mjcf, xacro=xacro, xacro_args=xacro_args, assets=assets,
+            collect_assets=collect_assets, root_joint=root_joint, name=name, gravity=gravity,
+            inertia_check=inertia_check, locked_joints=locked_joints))
 
     def delete(self, robot_id: str) -> None:
         return self._send(core.delete(robot_id))

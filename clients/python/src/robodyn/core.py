@@ -64,6 +64,7 @@ from robodyn.results import (
     OperationalSpace,
     Trajectory,
 )
+from robodyn.uploads import AssetValue, Source, upload_body
 
 T = TypeVar("T")
 
@@ -331,23 +332,33 @@ def _locked_joints(locked: Mapping[str, ArrayLike]) -> dict[str, Any]:
     return out
 
 
-def upload(urdf: str | bytes | os.PathLike[str] | None = None, *,
-           mjcf: str | bytes | os.PathLike[str] | None = None, root_joint: RootJoint = "fixed",
-           name: str | None = None, gravity: ArrayLike | None = None,
-           inertia_check: InertiaCheck | None = None,
+def upload(source: Source | None = None, *, urdf: Source | None = None,
+           mjcf: Source | None = None, xacro: Source | None = None,
+           xacro_args: Mapping[str, str] | None = None,
+           assets: Mapping[str, AssetValue] | None = None, collect_assets: bool = True,
+           root_joint: RootJoint = "fixed", name: str | None = None,
+           gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
            locked_joints: Mapping[str, ArrayLike] | None = None) -> Call[RobotInfo]:
-    """Store a URDF (or, with `mjcf=`, an MJCF) model on the server and return its `RobotInfo`
-    (`created` tells whether it is new). The id is derived from the content and options, so the
-    same upload gives the same id. `urdf`/`mjcf` is the XML text (str or UTF-8 bytes) or a path
-    to a file (give exactly one); `root_joint` is "fixed", "free-flyer" or "planar" (an MJCF
-    whose top body has a free joint is free-flying by itself); `gravity` is 3 numbers in m/s²
-    (default [0, 0, -9.81]); `inertia_check` "reject" (default) or "warn" for implausible
-    inertias. `locked_joints` (joint name → position, see `reduce`) stores only the reduced
-    model. Raises `InvalidModelError` for a description that is not a usable model."""
-    if (urdf is None) == (mjcf is None):
-        raise InputError("give exactly one of urdf and mjcf")
-    body: dict[str, Any] = ({"urdf": _description(urdf, "urdf")} if urdf is not None
-                            else {"mjcf": _description(mjcf, "mjcf")})  # type: ignore[arg-type]
+    """Store a model on the server and return its `RobotInfo` (`created` tells whether it is
+    new). The id is derived from the content, options and assets, so the same upload gives the
+    same id.
+
+    `source` is the description: its text (str or UTF-8 bytes; URDF, MJCF or xacro, told apart
+    by its root element), a path to its file, or a directory holding it. From a path, the files
+    it references (meshes, included MJCF or xacro files, YAML) are collected and sent as
+    assets (see `robodyn.uploads`; `collect_assets=False` sends none); `assets` (key → bytes,
+    text or a path) adds or replaces some. `urdf=`, `mjcf=` or `xacro=` name the format
+    instead of `source`. `xacro_args` sets a xacro's arguments (strings).
+
+    `root_joint` is "fixed", "free-flyer" or "planar" (an MJCF whose top body has a free joint
+    is free-flying by itself); `gravity` is 3 numbers in m/s² (default: an MJCF's own
+    `<option gravity>`, else [0, 0, -9.81]); `inertia_check` "reject" (default) or "warn" for
+    implausible inertias. `locked_joints` (joint name → position, see `reduce`) stores only the
+    reduced model. Raises `InvalidModelError` for a description that is not a usable model."""
+    body = upload_body(source, urdf=urdf, mjcf=mjcf, xacro=xacro, assets=assets,
+                       collect_assets=collect_assets)
+    if xacro_args is not None:
+        body["xacro_args"] = {str(k): str(v) for k, v in xacro_args.items()}
     body["root_joint"] = root_joint
     if name is not None:
         body["name"] = name

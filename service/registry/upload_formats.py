@@ -1,0 +1,112 @@
+"""What each upload format (URDF, MJCF, xacro) adds around a build: the checks before it, the
+record that identifies and rebuilds the model, what the builder process reports after it
+(findings, notes, the served root joint, an MJCF's visuals, a xacro's expansion), and where the
+assets the robot's visuals name are stored.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from service.errors import InvalidModel
+from service.registry.assets import MESH_TYPES, AssetStore, digest, extension, unreferenced
+from service.registry.mjcf_compile import parse_xml, preflight
+from service.registry.urdf_check import Finding, Limits, check_urdf
+
+URDF_GRAVITY = [0.0, 0.0, -9.81]  # m/s², a URDF or xacro upload's default
+
+
+def validate(fmt: str, text: str, assets: Mapping[str, bytes], limits: Limits
+             ) -> tuple[list[Finding], str]:
+    """(physical findings, the description's own name) of the checks in the serving process
+    (MJCF and xacro: safe XML and caps only; the builder process finds the rest)."""
+    if fmt == "mjcf":
+        return [], preflight(text, assets, limits)
+    if fmt == "xacro":
+        parse_xml(text, "the xacro", limits)
+        return [], "xacro"
+    urdf = check_urdf(text, limits)
+    return urdf.findings, urdf.robot_name
+
+
+def check_findings(findings: list[Finding], inertia_check: str) -> None:
+    """Refuse physical findings unless `inertia_check` is "warn"."""
+    if findings and inertia_check == "reject":
+        listed = "; ".join(f.message for f in findings[:10])
+        more = len(findings) - 10
+        raise InvalidModel(
+            f"{listed}{f'; and {more} more' if more > 0 else ''}. Send "
+            '"inertia_check": "warn" to store the model with these findings as warnings')
+
+
+def new_record(fmt: str, text: str, root_joint: str, gravity: list[float] | None,
+               assets: Mapping[str, bytes], xacro_args: Mapping[str, str] | None
+               ) -> dict[str, Any]:
+    """The members of an upload's record that its content-derived id covers."""
+    if gravity is None and fmt != "mjcf":
+        gravity = URDF_GRAVITY
+    record: dict[str, Any] = {"format": fmt, "description": text, "root_joint": root_joint,
+                              "gravity": None if gravity is None else list(gravity)}
+    if assets:
+        record["assets"] = {key: digest(data) for key, data in sorted(assets.items())}
+    if fmt == "xacro":
+        record["xacro_args"] = dict(sorted((xacro_args or {}).items()))
+    return record
+
+
+def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
+                assets: Mapping[str, bytes], inertia_check: str, limits: Limits
+                ) -> list[dict[str, str]]:
+    """Apply what the builder process reported to `record` (served root joint, visuals,
+    expansion) and refuse what it found; the upload's warnings beyond the URDF findings."""
+    fmt = record["format"]
+    if fmt == "mjcf" and model.nv > limits.max_nv:
+        raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates; the limit is "
+                           f"{limits.max_nv}")
+    if report.get("bodies", 0) > limits.max_links:
+        raise InvalidModel(f"the model has {report['bodies']} bodies; the limit is "
+                           f"{limits.max_links} (ROBODYN_MAX_LINKS)")
+    findings = list(report.get("findings", []))
+    if fmt == "xacro":  # its expansion is checked again with this server's caps
+        findings = [f.as_dict() for f in check_urdf(report["expanded_urdf"], limits).findings]
+    check_findings([Finding(**f) for f in findings], inertia_check)
+    if "root_joint" in report:
+        record["served_root_joint"] = report["root_joint"]
+    if fmt == "mjcf":
+        record["visuals"] = report["visuals"]
+    if fmt == "xacro":
+        record["expanded_urdf"] = report["expanded_urdf"]
+    texts = [record["description"]] + [data.decode("utf-8", "replace")
+                                       for key, data in assets.items()
+                                       if extension(key) not in (*MESH_TYPES, "png")]
+    return [*findings, *report.get("notes", []),
+            *({"code": "unreferenced_asset", "element": "asset", "name": key,
+               "message": f"asset '{key}' is not named by the description or its included "
+                          "files; it is stored with the model"}
+              for key in unreferenced(assets, texts))]
+
+
+def rebuild_inputs(record: Mapping[str, Any], store: AssetStore
+                   ) -> tuple[str, str, dict[str, bytes]]:
+    """(format, text, assets) that rebuild a stored upload in the serving process: a xacro's
+    stored expansion (xacro never runs there), an MJCF with its assets."""
+    fmt = record.get("format", "urdf")
+    if fmt == "xacro":
+        return "urdf", record["expanded_urdf"], {}
+    assets = store.get(record.get("assets") or {}) if fmt == "mjcf" else {}
+    return fmt, record["description"], assets
+
+
+def mesh_paths(store: AssetStore, record: Mapping[str, Any]) -> dict[str, Path]:
+    """Asset key → stored file, for the meshes an upload's visuals name (visuals not yet
+    computed, e.g. a URDF's: every mesh asset)."""
+    visuals = record.get("visuals")
+    named = None if visuals is None else {v["geometry"].get("asset") for v in visuals}
+    return {key: store.path(sha) for key, sha in (record.get("assets") or {}).items()
+            if extension(key) in MESH_TYPES and (named is None or key in named)}
+
+
+REBUILD_KEYS = ("format", "description", "root_joint", "gravity", "assets", "served_root_joint",
+                "xacro_args", "expanded_urdf", "visuals")

@@ -120,7 +120,7 @@ def _name_operations(paths: dict[str, Any], routes: Sequence[BaseRoute]) -> None
     for route in routes:
         if not isinstance(route, APIRoute) or not route.include_in_schema:
             continue
-        for method in route.methods:
+        for method in route.methods or ():
             operation = paths.get(route.path_format, {}).get(method.lower())
             if operation is not None:
                 operation["operationId"] = operation_id(route)
@@ -150,7 +150,7 @@ def _binary_content(paths: dict[str, Any], described: Sequence[BaseRoute]) -> No
     for route in described:
         if not isinstance(route, APIRoute):
             continue
-        for method in route.methods:
+        for method in route.methods or ():
             operation = paths.get(route.path_format, {}).get(method.lower())
             if operation is None:
                 continue

@@ -12,6 +12,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import Response
 
 from service.api.binary import BINARY_MEDIA_TYPE
+from service.api.validation_errors import user_errors
 from service.errors import ALL_ERRORS, RobodynError
 
 log = logging.getLogger("robodyn.api")
@@ -64,15 +65,6 @@ def error_response(exc: RobodynError) -> Response:
     return problem(exc.code, exc.title, exc.detail, headers or None, **exc.extra)
 
 
-def _location(loc: tuple[Any, ...]) -> str:
-    # Drop the transport prefix and pydantic's union-branch tags ("list[float]").
-    parts = [str(p) for p in loc if p != "body" and not str(p).startswith(("list[", "function-"))]
-    out = ""
-    for p in parts:
-        out += f"[{p}]" if p.isdigit() else (f".{p}" if out else p)
-    return out or "body"
-
-
 async def _on_domain_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, RobodynError)
     return error_response(exc)
@@ -90,14 +82,14 @@ async def _on_validation_error(request: Request, exc: Exception) -> Response:
 
 
 def validation_details(exc: RequestValidationError) -> dict[str, Any]:
-    """`detail` (the first error, located) and `errors` (up to 20) of a validation failure."""
-    errors = [{"loc": _location(tuple(e.get("loc", ()))), "msg": e.get("msg", "invalid")}
-              for e in exc.errors()[:20]]
+    """`detail` (the first mistake, located) and `errors` (up to 20, one per mistake) of a
+    validation failure (`service.api.validation_errors`)."""
+    errors = user_errors(list(exc.errors()))
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
     detail = f"{first['loc']}: {first['msg']}"
     if len(errors) > 1:
-        detail += f" (and {len(exc.errors()) - 1} more)"
-    return {"detail": detail, "errors": errors}
+        detail += f" (and {len(errors) - 1} more)"
+    return {"detail": detail, "errors": errors[:20]}
 
 
 def problem_body(code: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:

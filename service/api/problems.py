@@ -78,13 +78,28 @@ async def _on_validation_error(request: Request, exc: Exception) -> Response:
         return problem("unsupported_media_type", "Unsupported media type",
                        "send the body as JSON with 'Content-Type: application/json' "
                        "(with curl: --json '{...}')")
-    return problem("validation_error", "Invalid request", **validation_details(exc))
+    return problem("validation_error", "Invalid request",
+                   **validation_details(exc, *_body_schema(request)))
 
 
-def validation_details(exc: RequestValidationError) -> dict[str, Any]:
+def _body_schema(request: Request) -> tuple[dict[str, Any] | None, dict[str, Any]]:
+    """The JSON schema of the request's body in the app's OpenAPI document (None when it has
+    none), and the document's component schemas; used to suggest close member names."""
+    path = getattr(request.scope.get("route"), "path", None)
+    try:
+        doc = request.app.openapi()
+        operation = doc["paths"][path][request.method.lower()]
+        schema = operation["requestBody"]["content"]["application/json"]["schema"]
+    except (KeyError, TypeError):
+        return None, {}
+    return schema, doc.get("components", {}).get("schemas", {})
+
+
+def validation_details(exc: RequestValidationError, schema: dict[str, Any] | None = None,
+                       schemas: dict[str, Any] | None = None) -> dict[str, Any]:
     """`detail` (the first mistake, located) and `errors` (up to 20, one per mistake) of a
-    validation failure (`service.api.validation_errors`)."""
-    errors = user_errors(list(exc.errors()))
+    validation failure (`service.api.validation_errors`; `schema`: the body's JSON schema)."""
+    errors = user_errors(list(exc.errors()), schema, schemas)
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
     detail = f"{first['loc']}: {first['msg']}"
     if len(errors) > 1:

@@ -16,6 +16,8 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from service.errors import did_you_mean
+
 # pydantic's names of union members: types (`float`, `list[float]`, `constrained-str`,
 # `function-after[...]`, ...) as opposed to field names, keys and indices.
 _MEMBER = re.compile(r"^(float|int|str|bool|bytes|none|list|dict|set|tuple|union|literal|model|"
@@ -40,10 +42,61 @@ class _Error:
         return self.type.endswith("_type") or self.type == "union_type"
 
 
-def user_errors(raw: list[Any]) -> list[dict[str, str]]:
-    """`{"loc", "msg"}` entries, one per mistake, of pydantic's `errors()` list."""
+def user_errors(raw: list[Any], schema: dict[str, Any] | None = None,
+                schemas: dict[str, Any] | None = None) -> list[dict[str, str]]:
+    """`{"loc", "msg"}` entries, one per mistake, of pydantic's `errors()` list. With the
+    request body's JSON `schema` (and the OpenAPI `schemas` its `$ref`s point into), an unknown
+    member gets the close matches among the members allowed where it was sent."""
     errors = [_Error(tuple(e.get("loc", ())), str(e.get("type", "")), _message(e)) for e in raw]
-    return [{"loc": _location(e.loc), "msg": e.msg} for e in _resolve(errors)]
+    out = []
+    for e in _resolve(errors):
+        msg = e.msg
+        if e.type == "extra_forbidden" and schema is not None and e.loc:
+            allowed = _members(schema, schemas or {}, _body_path(e.loc)[:-1])
+            msg += did_you_mean(str(e.loc[-1]), allowed)
+        out.append({"loc": _location(e.loc), "msg": msg})
+    return out
+
+
+def _body_path(loc: tuple[Any, ...]) -> tuple[Any, ...]:
+    return loc[1:] if loc[:1] == ("body",) else loc
+
+
+def _members(schema: dict[str, Any], schemas: dict[str, Any], path: tuple[Any, ...]
+             ) -> list[str]:
+    """The member names the object schema at `path` of `schema` allows ([] when unsure)."""
+    nodes = [schema]
+    for part in path:
+        nodes = [child for node in _alternatives_of(nodes, schemas)
+                 for child in _children(node, part)]
+    return [name for node in _alternatives_of(nodes, schemas)
+            for name in node.get("properties", {})]
+
+
+def _alternatives_of(nodes: list[dict[str, Any]], schemas: dict[str, Any]
+                     ) -> list[dict[str, Any]]:
+    """`nodes` with `$ref`s resolved and `anyOf`/`oneOf`/`allOf` members flattened."""
+    out: list[dict[str, Any]] = []
+    todo = list(nodes)
+    while todo and len(out) < 64:
+        node = todo.pop(0)
+        ref = node.get("$ref")
+        if isinstance(ref, str):
+            todo.append(schemas.get(ref.rsplit("/", 1)[-1], {}))
+            continue
+        members = [m for key in ("anyOf", "oneOf", "allOf") for m in node.get(key, [])]
+        todo.extend(members)
+        if not members:
+            out.append(node)
+    return out
+
+
+def _children(node: dict[str, Any], part: Any) -> list[dict[str, Any]]:
+    if isinstance(part, int) and isinstance(node.get("items"), dict):
+        return [node["items"]]
+    if isinstance(part, str) and part in node.get("properties", {}):
+        return [node["properties"][part]]
+    return []
 
 
 def _message(error: dict[str, Any]) -> str:

@@ -90,3 +90,17 @@ def test_an_unknown_locked_joint_gets_close_matches(api):
                                       json={"locked_joints": {"elbow_jiont": 0.5}}),
                              422, "validation_error")
     assert "'elbow_jiont' (did you mean 'elbow_joint'?)" in problem["detail"]
+
+
+@pytest.mark.parametrize(("path", "body", "loc", "meant"), [
+    ("ur5/gravity", {"q": Q, "jointnames": True}, "jointnames", "joint_names"),
+    ("ur5/inverse-dynamics", {"q": Q, "v": Q, "a": Q, "external_forces": [
+        {"frame": "tool0", "wrench": [0] * 6, "refrence_frame": "local"}]},
+     "external_forces[0].refrence_frame", "reference_frame"),
+    ("", {"urdf": "<robot/>", "rootjoint": "fixed"}, "rootjoint", "root_joint"),
+])
+def test_an_unknown_member_gets_close_matches(api, path, body, loc, meant):
+    problem = assert_problem(api.post(f"/v1/robots/{path}".rstrip("/"), json=body), 422,
+                             "validation_error")
+    assert {"loc": loc, "msg": f"is not a field of this request (did you mean '{meant}'?)"} in \
+        problem["errors"]

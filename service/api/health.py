@@ -33,9 +33,9 @@ async def ready(request: Request) -> Response:
 
 
 @router.get("/metrics", response_class=PlainTextResponse,
-            responses={200: {"description": "Prometheus text exposition format (version "
-                             "0.0.4): request counts, latencies, compute time and batch "
-                             "sizes by route, robot and quantity"}},
+            responses={200: {"description": "Prometheus text exposition format "
+                             f"({CONTENT_TYPE_LATEST}): request counts, latencies, compute "
+                             "time and batch sizes by route, robot and quantity"}},
             summary="Prometheus metrics: requests and latency by route and robot")
 async def metrics(request: Request) -> Response:
     return Response(generate_latest(request.app.state.metrics.registry),

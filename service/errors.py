@@ -24,7 +24,25 @@ that could be huge or non-finite, and never carries a backend path or C++ source
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from typing import Any, ClassVar
+
+_SUGGESTED_NAME_CHARS = 64  # a name longer than this (or unprintable) gets no suggestion
+
+
+def did_you_mean(name: str, valid: Iterable[str], most: int = 3) -> str:
+    """" (did you mean 'tool0'?)" when `valid` has names close to the unknown `name` (by
+    difflib's similarity ratio ≥ 0.6, best first, at most `most`), else "". Meant to follow the
+    quoted unknown name in an error's detail."""
+    if not name or len(name) > _SUGGESTED_NAME_CHARS or not name.isprintable():
+        return ""
+    close = difflib.get_close_matches(name, list(valid), n=most, cutoff=0.6)
+    if not close:
+        return ""
+    quoted = [f"'{c}'" for c in close]
+    shown = quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} or {quoted[-1]}"
+    return f" (did you mean {shown}?)"
 
 
 class RobodynError(Exception):

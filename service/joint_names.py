@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from service.errors import DimensionMismatch, InvalidInput
+from service.errors import DimensionMismatch, InvalidInput, did_you_mean
 from service.registry.robot import Robot
 from service.states import SPACES
 
@@ -98,7 +98,8 @@ def _state(robot: Robot, field: str, value: Mapping[str, Any], dim: str,
         if missing:
             parts.append(f"missing joints: {', '.join(_names(missing))}")
         if unknown:
-            parts.append(f"unknown names: {', '.join(_names(unknown))}")
+            parts.append("unknown names: " + ", ".join(
+                name + did_you_mean(name, missing) for name in _names(unknown)))
         raise DimensionMismatch(
             f"{field} by joint name must name every joint of robot '{robot.id}' once "
             f"({'; '.join(parts)}), or the request must say how to fill the missing ones "

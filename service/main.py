@@ -17,7 +17,7 @@ from service.api import health, pages, robots, stream, visuals
 from service.api.deps import require_api_key_for_all
 from service.api.fast_path import DynamicsFastPath
 from service.api.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
-from service.api.openapi_problems import problem_openapi
+from service.api.openapi_problems import operation_id, problem_openapi
 from service.api.problems import install_problem_handlers
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
@@ -61,7 +61,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     # /docs is served by service.api.pages from local assets (FastAPI's default loads a CDN);
     # ReDoc is off, as its page would load its script and fonts from the internet.
     app = FastAPI(title="robodyn", version=__version__, description=DESCRIPTION,
-                  lifespan=lifespan, docs_url=None, redoc_url=None, **options)
+                  lifespan=lifespan, docs_url=None, redoc_url=None,
+                  generate_unique_id_function=operation_id, **options)
     app.state.settings = settings
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]

@@ -4,7 +4,7 @@
 
 Without a Docker engine (as on the project's machines), the image is built with buildah
 (chroot isolation) on `python:3.11-slim`, or on the local stand-in for it that
-`../shared/tools/container-base.sh` makes when no such image is present. The container is run
+`deploy/scripts/container-base.sh` makes when no such image is present. The container is run
 the way a container engine would run it: the image's CMD as the image's USER, with its ENV and
 WORKDIR (`buildah run` applies none of them by itself). Then:
 
@@ -51,7 +51,7 @@ from localrun import (
 )
 
 BASE_IMAGE = "docker.io/library/python:3.11-slim"
-BASE_SCRIPT = ROOT.parent / "shared" / "tools" / "container-base.sh"
+BASE_SCRIPT = ROOT / "deploy" / "scripts" / "container-base.sh"
 IMAGE_PORT = 8000
 WRITABLE = ("/data", "/tmp", "/proc", "/sys", "/dev", "/run")  # volumes and kernel file systems
 BUILDAH_FILES = ("/", "/etc", "/etc/hosts", "/etc/resolv.conf", "/etc/hostname")  # run's own

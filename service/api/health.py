@@ -8,16 +8,21 @@ from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
 from service.api.answers import JSONAnswer
 from service.api.problems import problem
+from service.api.schemas import Problem
+from service.api.schemas_health import Liveness, Readiness
 
 router = APIRouter(tags=["operations"])
 
 
-@router.get("/health/live", summary="200 whenever the process answers")
+@router.get("/health/live", response_model=Liveness, name="health_live",
+            summary="200 whenever the process answers")
 async def live() -> Response:
     return JSONAnswer({"status": "ok"})
 
 
-@router.get("/health/ready", summary="200 once the catalog is loaded; 503 before")
+@router.get("/health/ready", response_model=Readiness, name="health_ready",
+            responses={503: {"model": Problem, "description": "not_ready"}},
+            summary="200 once the catalog is loaded; 503 before")
 async def ready(request: Request) -> Response:
     registry = request.app.state.registry
     if not registry.ready:
@@ -28,6 +33,9 @@ async def ready(request: Request) -> Response:
 
 
 @router.get("/metrics", response_class=PlainTextResponse,
+            responses={200: {"description": "Prometheus text exposition format "
+                             f"({CONTENT_TYPE_LATEST}): request counts, latencies, compute "
+                             "time and batch sizes by route, robot and quantity"}},
             summary="Prometheus metrics: requests and latency by route and robot")
 async def metrics(request: Request) -> Response:
     return Response(generate_latest(request.app.state.metrics.registry),

@@ -13,6 +13,7 @@ from starlette.requests import ClientDisconnect
 from starlette.responses import Response
 
 from service.api.binary import BINARY_MEDIA_TYPE
+from service.api.validation_errors import user_errors
 from service.errors import ALL_ERRORS, RobodynError
 
 log = logging.getLogger("robodyn.api")
@@ -66,15 +67,6 @@ def error_response(exc: RobodynError) -> Response:
     return problem(exc.code, exc.title, exc.detail, headers or None, **exc.extra)
 
 
-def _location(loc: tuple[Any, ...]) -> str:
-    # Drop the transport prefix and pydantic's union-branch tags ("list[float]").
-    parts = [str(p) for p in loc if p != "body" and not str(p).startswith(("list[", "function-"))]
-    out = ""
-    for p in parts:
-        out += f"[{p}]" if p.isdigit() else (f".{p}" if out else p)
-    return out or "body"
-
-
 async def _on_domain_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, RobodynError)
     return error_response(exc)
@@ -88,18 +80,33 @@ async def _on_validation_error(request: Request, exc: Exception) -> Response:
         return problem("unsupported_media_type", "Unsupported media type",
                        "send the body as JSON with 'Content-Type: application/json' "
                        "(with curl: --json '{...}')")
-    return problem("validation_error", "Invalid request", **validation_details(exc))
+    return problem("validation_error", "Invalid request",
+                   **validation_details(exc, *_body_schema(request)))
 
 
-def validation_details(exc: RequestValidationError) -> dict[str, Any]:
-    """`detail` (the first error, located) and `errors` (up to 20) of a validation failure."""
-    errors = [{"loc": _location(tuple(e.get("loc", ()))), "msg": e.get("msg", "invalid")}
-              for e in exc.errors()[:20]]
+def _body_schema(request: Request) -> tuple[dict[str, Any] | None, dict[str, Any]]:
+    """The JSON schema of the request's body in the app's OpenAPI document (None when it has
+    none), and the document's component schemas; used to suggest close member names."""
+    path = getattr(request.scope.get("route"), "path", None)
+    try:
+        doc = request.app.openapi()
+        operation = doc["paths"][path][request.method.lower()]
+        schema = operation["requestBody"]["content"]["application/json"]["schema"]
+    except (KeyError, TypeError):
+        return None, {}
+    return schema, doc.get("components", {}).get("schemas", {})
+
+
+def validation_details(exc: RequestValidationError, schema: dict[str, Any] | None = None,
+                       schemas: dict[str, Any] | None = None) -> dict[str, Any]:
+    """`detail` (the first mistake, located) and `errors` (up to 20, one per mistake) of a
+    validation failure (`service.api.validation_errors`; `schema`: the body's JSON schema)."""
+    errors = user_errors(list(exc.errors()), schema, schemas)
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
     detail = f"{first['loc']}: {first['msg']}"
     if len(errors) > 1:
-        detail += f" (and {len(exc.errors()) - 1} more)"
-    return {"detail": detail, "errors": errors}
+        detail += f" (and {len(errors) - 1} more)"
+    return {"detail": detail, "errors": errors[:20]}
 
 
 def problem_body(code: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:

@@ -43,7 +43,7 @@ class UploadRequest(_Strict):
     gravity: list[Number] | None = Field(
         None, min_length=3, max_length=3, description="Gravity vector in the world frame, m/s². "
         "Default: the MJCF's own `<option gravity>` (zero if its gravity flag is disabled); "
-        "[0, 0, -9.81] for URDF.")
+        "[0, 0, -9.81] for URDF.", examples=[[0.0, 0.0, -9.81]])
     inertia_check: Literal["reject", "warn"] = Field(
         "reject", description="What to do with physically implausible inertias (negative "
         "principal moment, triangle inequality violated): reject the upload (422) or store it "

@@ -25,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from service.dynamics.quantity import Quantity, Results, finite
-from service.errors import UnknownFrame
+from service.errors import UnknownFrame, did_you_mean
 from service.registry.robot import Robot
 from service.states import States
 
@@ -53,8 +53,9 @@ def frame_id(robot: Robot, name: str, field: str = "frame") -> int:
     shown = (f"'{name}'" if len(name) <= _SHOWN_NAME_LENGTH and name.isprintable()
              else "of that name")
     where = "" if field == "frame" else f" (in {field})"
-    raise UnknownFrame(f"robot '{robot.id}' has no frame {shown}{where}; the valid names are "
-                       f"listed under `frames` of GET /v1/robots/{robot.id} (links, joints and "
+    close = did_you_mean(name, (frame.name for frame in robot.model.frames))
+    raise UnknownFrame(f"robot '{robot.id}' has no frame {shown}{close}{where}; the valid names "
+                       f"are listed under `frames` of GET /v1/robots/{robot.id} (links, joints and "
                        "fixed frames)")
 
 

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.errors import InvalidConfiguration, InvalidInput, InvalidModel
+from service.errors import InvalidConfiguration, InvalidInput, InvalidModel, did_you_mean
 from service.registry.robot import Robot
 
 UNIT_NORM_TOL = 1e-6  # as for q in dynamics requests (service.states)
@@ -98,7 +98,8 @@ def locked_configuration(robot: Robot, locked: Mapping[str, LockedValue]
         raise InvalidInput("locked_joints is empty; name at least one joint to lock")
     unknown = [name for name in locked if name not in robot.joint_types]
     if unknown:
-        shown = ", ".join(f"'{_shown(n)}'" for n in unknown[:10])
+        shown = ", ".join(f"'{_shown(n)}'{did_you_mean(n, robot.joint_types)}"
+                          for n in unknown[:10])
         more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
         raise InvalidInput(f"robot '{robot.id}' has no joint {shown}{more}; the `joints` of "
                            f"GET /v1/robots/{robot.id} list the valid names")

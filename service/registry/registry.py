@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from service.errors import CatalogRobot, NotReady, RobotNotFound
+from service.errors import CatalogRobot, NotReady, RobotNotFound, did_you_mean
 from service.registry.assets import AssetStore, decode_assets
 from service.registry.build import build_isolated, build_model, reference_configurations
 from service.registry.catalog import load_catalog
@@ -136,7 +136,8 @@ class Registry:
         if not self.store.exists(robot_id):  # deleted here or by another replica
             with self._lock:
                 self.uploads.pop(robot_id, None)
-            raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
+            close = did_you_mean(robot_id, self.catalog)
+            raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'{close}; {NOT_FOUND_HINT}")
         robot = self.uploads.get(robot_id)
         if robot is None:  # uploaded through another process sharing the store
             try:

@@ -1,7 +1,7 @@
 """Slow: build the image with buildah, run its CMD as its user, check what it serves
 (deploy/scripts/container_check.py does the work and the checks; this asserts its summary).
 
-Needs buildah (and, without a python:3.11-slim image, ../shared/tools/container-base.sh,
+Needs buildah (and, without a python:3.11-slim image, deploy/scripts/container-base.sh,
 which installs it): `pytest -m slow tests/deploy/test_container.py`."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ pytestmark = pytest.mark.slow
 
 def test_image_builds_runs_and_answers_like_pinocchio():
     if shutil.which("buildah") is None:
-        pytest.skip("buildah is not installed (../shared/tools/container-base.sh installs it)")
+        pytest.skip("buildah is not installed (deploy/scripts/container-base.sh installs it)")
     result = subprocess.run([sys.executable, str(ROOT / "deploy/scripts/container_check.py")],
                             capture_output=True, text=True, timeout=1800, cwd=ROOT)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-5000:]

@@ -1,0 +1,64 @@
+"""Every example of the README runs, as a newcomer would run it, against a real server: the
+Python block with the client the set-up command installs, the JavaScript block with node, the
+curl commands with curl."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.servers import running_server
+
+ROOT = Path(__file__).resolve().parents[1]
+BLOCKS = re.findall(r"```(\w+)\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+
+
+def _blocks(lang: str) -> list[str]:
+    return [body for kind, body in BLOCKS if kind == lang]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    with running_server(tmp_path_factory.mktemp("readme"), catalog="ur5") as url:
+        yield url
+
+
+def _run(args: list[str]) -> str:
+    done = subprocess.run(args, capture_output=True, text=True, timeout=120, cwd=ROOT,
+                          check=False)
+    assert done.returncode == 0, f"{args[0]}:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
+    return done.stdout
+
+
+def test_the_python_example_runs(server: str) -> None:
+    (code,) = _blocks("python")
+    out = _run([sys.executable, "-c", code.replace("http://127.0.0.1:8000", server)])
+    assert "(1000, 6, 6)" in out
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
+def test_the_javascript_example_runs(server: str, tmp_path: Path) -> None:
+    (code,) = _blocks("js")
+    script = tmp_path / "first.mjs"
+    script.write_text(code.replace("http://127.0.0.1:8000", server))
+    out = _run(["node", str(script)])
+    assert out.count("[") == 7  # a 6 × 6 matrix, printed by console.log
+
+
+@pytest.mark.skipif(shutil.which("curl") is None, reason="curl is not installed")
+def test_the_curl_examples_run(server: str) -> None:
+    commands = [line for body in _blocks("sh") for line in body.splitlines()
+                if line.startswith("curl ")]
+    assert len(commands) == 2
+    host = server.removeprefix("http://")
+    answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
+               for c in commands]
+    assert len(answers[0]["mass_matrix"]) == 6
+    assert answers[1]["id"].startswith("u-") and answers[1]["name"] == "my arm"

@@ -31,6 +31,10 @@ from service.errors import InvalidInput
 BINARY_MEDIA_TYPE = "application/vnd.robodyn.binary"
 MAGIC = b"RDY1"
 MAX_HEADER_BYTES = 1 << 20
+MAX_ARRAY_ELEMENTS = 1 << 24
+"""The most numbers an array of a body may declare: the product of its dimensions, zeros
+counted as ones (so `[0, 2**63]` is refused too), and so also each single dimension. 2**24
+float64 are 128 MiB, more than any request body the server accepts."""
 _PREFIX = struct.Struct("<4sI")
 
 
@@ -69,15 +73,26 @@ def _array(name: str, descriptor: Any, data: memoryview) -> np.ndarray:
     if not isinstance(descriptor, dict) or set(descriptor) != {"shape", "offset"}:
         raise _bad(f'array {name} needs exactly "shape" and "offset"')
     shape, offset = descriptor["shape"], descriptor["offset"]
-    if (not isinstance(shape, list) or len(shape) > 3
-            or not all(type(n) is int and n >= 0 for n in shape)):
-        raise _bad(f"array {name}: shape must be a list of at most 3 non-negative integers")
+    count = _element_count(name, shape)
     if type(offset) is not int or offset < 0 or offset % 8:
         raise _bad(f"array {name}: offset must be a non-negative multiple of 8")
-    count = math.prod(shape)
     if offset + 8 * count > len(data):
         raise _bad(f"array {name} ({count} numbers at offset {offset}) runs past the body")
     return np.frombuffer(data, dtype="<f8", count=count, offset=offset).reshape(shape)
+
+
+def _element_count(name: str, shape: Any) -> int:
+    """The number of entries of a declared shape, checked before anything is allocated: a list
+    of at most 3 non-negative integers whose product (zeros counted as ones) is at most
+    MAX_ARRAY_ELEMENTS."""
+    if (not isinstance(shape, list) or len(shape) > 3
+            or not all(type(n) is int and n >= 0 for n in shape)):
+        raise _bad(f"array {name}: shape must be a list of at most 3 non-negative integers")
+    if math.prod(max(n, 1) for n in shape) > MAX_ARRAY_ELEMENTS:
+        raise _bad(f"array {name}: the shape declares more than {MAX_ARRAY_ELEMENTS} numbers "
+                   "(each dimension, and their product with zeros counted as ones, is at most "
+                   "that)")
+    return math.prod(shape)
 
 
 def _aligned(n: int) -> int:

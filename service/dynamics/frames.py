@@ -24,7 +24,7 @@ from typing import Any, Literal
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.quantity import Quantity, Results, finite, matrix
 from service.errors import UnknownFrame
 from service.registry.robot import Robot
 from service.states import States
@@ -44,8 +44,9 @@ def frame_id(robot: Robot, name: str, field: str = "frame") -> int:
     """The index of the frame called `name`; `UnknownFrame` (saying where the names are) if
     the model has none. `field` is the request member that gave the name, named in the error
     when it is not the plain `frame` (e.g. "external_forces[1].frame")."""
-    if robot.model.existFrame(name):
-        return int(robot.model.getFrameId(name))
+    fid = robot.frame_ids.get(name)  # the first frame of that name in model order
+    if fid is not None:
+        return fid
     shown = (f"'{name}'" if len(name) <= _SHOWN_NAME_LENGTH and name.isprintable()
              else "of that name")
     where = "" if field == "frame" else f" (in {field})"
@@ -58,13 +59,13 @@ def frame_jacobian(robot: Robot, data: Any, q: np.ndarray, fid: int, reference: 
                    v: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """J (6×nv) of frame `fid` at one configuration q, and with v also J̇ (6×nv), in the
     Pinocchio reference frame `reference`. Uses `data`; copies are returned."""
-    model = robot.model
+    model, nv = robot.model, robot.nv
     if v is None:
-        return np.array(pin.computeFrameJacobian(model, data, q, fid, reference)), None
+        return matrix(pin.computeFrameJacobian(model, data, q, fid, reference), 6, nv), None
     pin.computeJointJacobiansTimeVariation(model, data, q, v)
     pin.updateFramePlacements(model, data)
-    J = np.array(pin.getFrameJacobian(model, data, fid, reference))
-    dJ = np.array(pin.getFrameJacobianTimeVariation(model, data, fid, reference))
+    J = matrix(pin.getFrameJacobian(model, data, fid, reference), 6, nv)
+    dJ = matrix(pin.getFrameJacobianTimeVariation(model, data, fid, reference), 6, nv)
     return J, dJ
 
 

@@ -89,6 +89,11 @@ class Robot:
                 self.unit_joints.append(
                     (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
         self.total_mass = float(pin.computeTotalMass(self.model))
+        # Frame name → index of the FIRST frame of that name in model order (the order of
+        # `frames` in `info()`): a link and a joint may share a name, and the first is meant.
+        self.frame_ids: dict[str, int] = {}
+        for fid, frame in enumerate(self.model.frames):
+            self.frame_ids.setdefault(frame.name, fid)
         self._info: dict[str, Any] | None = None
         self._pool = data_pool.Pool(data_pool.BUDGET, self.nv)
         # a robot that is gone (deleted upload) gives its idle Datas back to the budget

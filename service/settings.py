@@ -77,6 +77,10 @@ class Settings(BaseSettings):
     max_depth: int = Field(128, ge=1, description="Deepest kinematic chain, in links.")
     max_xml_elements: int = Field(50_000, ge=10, description="Most XML elements in an upload.")
     max_xml_depth: int = Field(32, ge=4, description="Deepest XML element nesting.")
+    max_name_length: int = Field(
+        256, ge=16, description="Longest name in an uploaded description, in characters: "
+        "<robot name>, link, joint, frame, MJCF body/joint/site names and <mujoco model> "
+        "(names are echoed in answers).")
     build_memory_mb: int = Field(
         1024, ge=256, description="Address-space limit of the process that builds an upload, "
         "in MB.")
@@ -90,7 +94,7 @@ class Settings(BaseSettings):
         """The caps of upload validation: keyword arguments of `urdf_check.Limits`."""
         return {"max_links": self.max_links, "max_nv": self.max_nv,
                 "max_depth": self.max_depth, "max_elements": self.max_xml_elements,
-                "max_xml_depth": self.max_xml_depth}
+                "max_xml_depth": self.max_xml_depth, "max_name_length": self.max_name_length}
 
     def build_limits(self) -> dict[str, int]:
         """Keyword arguments of `build_isolated` besides the timeout."""

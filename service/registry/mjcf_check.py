@@ -40,6 +40,7 @@ from service.registry.mjcf_attributes import (
     shown,
 )
 from service.registry.mjcf_tree import BodyTree, walk_bodies
+from service.registry.safe_xml import check_name_lengths
 from service.registry.urdf_check import Finding, Limits
 
 SECTIONS = ("compiler", "option", "size", "visual", "statistic", "default", "custom", "asset",
@@ -83,6 +84,7 @@ def parse_mjcf(text: str, limits: Limits = DEFAULT_LIMITS) -> Element:
         raise InvalidModel("the text is not well-formed XML") from None
     if root.tag != "mujoco":
         raise InvalidModel(f"the root element is <{shown(str(root.tag))}>; an MJCF needs <mujoco>")
+    check_name_lengths(root, limits.max_name_length)
     count = sum(1 for _ in root.iter())
     if count > limits.max_elements:
         raise InvalidModel(f"the description has {count} XML elements; "

@@ -35,7 +35,7 @@ from xml.etree.ElementTree import Element
 import numpy as np
 
 from service.errors import InvalidModel
-from service.registry.safe_xml import parse_bounded, read_numbers, shown
+from service.registry.safe_xml import check_name_lengths, parse_bounded, read_numbers, shown
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 AXIS_TYPES = ("revolute", "continuous", "prismatic", "planar")
@@ -84,6 +84,7 @@ class Limits:
     max_depth: int = 128
     max_elements: int = 50_000
     max_xml_depth: int = 32
+    max_name_length: int = 256  # of robot, link, joint, body, site... names (characters)
 
 
 def _numbers(text: str | None, count: int, what: str, default: str | None = None) -> list[float]:
@@ -231,12 +232,47 @@ def _names(elements: Iterable[Element], kind: str) -> dict[str, Element]:
     return out
 
 
+def mimic_findings(joints: dict[str, Element], mimics: dict[str, str]) -> list[Finding]:
+    """What is wrong with the mimic graph (joint → the joint it mimics): a joint that mimics
+    itself, a joint that mimics a fixed joint (which has no motion to copy), and cycles of
+    mimics (A mimics B mimics … mimics A: no joint of the cycle has a motion of its own)."""
+    out: list[Finding] = []
+    for jname, target in mimics.items():
+        label = shown(jname)
+        if target == jname:
+            out.append(Finding("self_mimic", "joint", jname,
+                               f"joint '{label}': mimics itself"))
+        elif joints[target].get("type") == "fixed":
+            out.append(Finding("mimic_of_fixed_joint", "joint", jname,
+                               f"joint '{label}': mimics joint '{shown(target)}', which is "
+                               "fixed (it has no motion to copy)"))
+    done: set[str] = set()
+    for start in mimics:  # each joint mimics at most one: follow the chain, iteratively
+        path: list[str] = []
+        on_path: set[str] = set()
+        joint: str | None = start
+        while joint is not None and joint not in done and joint not in on_path:
+            path.append(joint)
+            on_path.add(joint)
+            joint = mimics.get(joint)
+        if joint is not None and joint in on_path and mimics.get(joint) != joint:
+            cycle = path[path.index(joint):]
+            shown_cycle = " → ".join(f"'{shown(j)}'" for j in [*cycle[:6], cycle[0]])
+            out.append(Finding("mimic_cycle", "joint", joint,
+                               f"joint '{shown(joint)}': its mimics form a cycle "
+                               f"({shown_cycle}{' …' if len(cycle) > 6 else ''}); one joint of "
+                               "a mimic chain must move on its own"))
+        done.update(path)
+    return out
+
+
 def parse_urdf(text: str, limits: Limits = Limits()) -> Element:
     """Parse URDF text safely (no DTDs, entities or external references; element count and
     nesting capped) and check that its root is <robot>."""
     root = parse_bounded(text, limits.max_elements, limits.max_xml_depth)
     if root.tag != "robot":
         raise InvalidModel(f"the root element is <{shown(root.tag)}>; a URDF needs <robot>")
+    check_name_lengths(root, limits.max_name_length)
     return root
 
 
@@ -266,6 +302,7 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
                            f"{limits.max_links} (ROBODYN_MAX_LINKS)")
 
     children: dict[str, list[tuple[str, str]]] = {name: [] for name in links}
+    mimics: dict[str, str] = {}  # joint → the joint it mimics (existing targets only)
     parent_of: dict[str, str] = {}
     child_of_joint: dict[str, str] = {}
     moving = nv = 0
@@ -298,12 +335,16 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
                 tolerable(Finding("dangling_mimic", "joint", jname,
                                   f"joint '{label}': mimics joint '{shown(target)}', which "
                                   "does not exist (the mimic is ignored)"))
+            else:
+                mimics[jname] = target
             for attr in ("multiplier", "offset"):
                 if mimic.get(attr) is not None:
                     _number(mimic, attr, f"joint '{label}' mimic {attr}")
         if jtype != "fixed":
             moving += 1
             nv += JOINT_NV[jtype]
+    for finding in mimic_findings(joints, mimics):
+        tolerable(finding)
     if nv > limits.max_nv:
         raise InvalidModel(f"the description has nv = {nv} velocity coordinates ({moving} "
                            f"moving joints); the limit is {limits.max_nv} (ROBODYN_MAX_NV)")

@@ -353,7 +353,7 @@ def test_caps_follow_the_shared_limits_object() -> None:
 
     text = TWINS["spatial_arm"][0]  # 3 joints, 3 bodies, nv = 3
     assert check_mjcf(text).nq == 3
-    caps = {"max_links": 1000, "max_depth": 128, "max_elements": 50_000}
+    caps = {"max_links": 1000, "max_depth": 128, "max_elements": 50_000, "max_name_length": 256}
     for extra, fragment in (({"max_nv": 2}, "more than 2 velocity coordinates"),
                             ({"max_moving_joints": 2}, "more than 2 joints"),
                             ({"max_links": 2}, "more than 2 bodies"),

@@ -86,6 +86,14 @@ class Settings(BaseSettings):
         "in MB.")
     build_cpu_s: int = Field(
         20, ge=1, description="CPU-time limit of the process that builds an upload, in seconds.")
+    max_concurrent_builds: int = Field(
+        0, ge=0, description="Uploads validated and built at once per server process (each in "
+        "its own builder process); 0 means the CPU count, and more than the CPU count is "
+        "capped to it. Further uploads wait for a free builder (see build_queue_timeout_s).")
+    build_queue_timeout_s: float = Field(
+        30.0, gt=0, description="How long an upload may wait for a free builder, in seconds; "
+        "beyond it (or with more than 4 uploads per builder waiting) the answer is 503 "
+        "overloaded with Retry-After. The build timeout starts when the build does.")
 
     def api_key_list(self) -> list[str]:
         return [k.strip() for k in self.api_keys.split(",") if k.strip()]

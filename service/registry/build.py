@@ -2,25 +2,32 @@
 
 `build_urdf_model` runs the native URDF parser on text that `urdf_check` has already validated,
 `build_mjcf_model` the native MJCF parser on text that `mjcf_check` validates (again) first.
-`build_isolated` runs either in a separate short-lived process (forked from a forkserver that has
-Pinocchio imported) and brings back the model serialized by Pinocchio itself. The child limits
-itself before the native parser touches the text: address space (`RLIMIT_AS`, memory_mb), CPU
-time (`RLIMIT_CPU`, cpu_s: SIGXCPU, then SIGKILL one second later), no core files, no file writes
-(an MJCF file is written just before), few file descriptors; the parent adds a wall-clock
-timeout. A crash, a kill, a memory blow-up or a hang of the native parser becomes `InvalidModel`
-with a reason; the serving process never sees it.
+`build_upload` validates an uploaded description (`urdf_check` / `mjcf_check`: pure-Python XML
+work that would hold the serving process's GIL for seconds on a large file) and builds it, both
+in a separate short-lived process (forked from a forkserver that has Pinocchio and this module
+imported), and brings back what validation found and the model serialized by Pinocchio itself
+(`build_isolated`: the model only). The child limits itself before it reads the text: address
+space (`RLIMIT_AS`, memory_mb), CPU time (`RLIMIT_CPU`, cpu_s: SIGXCPU, then SIGKILL one second
+later), no core files, few file descriptors, and no file writes from just before the native
+parser runs (an MJCF file is written just before); the parent adds a wall-clock timeout. A
+crash, a kill, a memory blow-up or a hang of the native parser becomes `InvalidModel` with a
+reason; the serving process never sees it. A wall-clock timeout of a child that got less than
+half of that time on a CPU is the server's contention, not the model's: `Overloaded` (503).
+How many builds run at once is bounded by the caller (`service.registry.build_slots`).
 """
 
 from __future__ import annotations
 
 import math
 import multiprocessing as mp
+import os
 import pickle
 import resource
 import signal
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +37,7 @@ import pinocchio as pin
 from service.errors import InvalidModel, Overloaded
 from service.registry.mjcf_check import MJCFSummary, check_mjcf
 from service.registry.mjcf_split import pinocchio_text
+from service.registry.urdf_check import Finding, Limits, check_urdf
 
 ROOT_JOINTS = ("fixed", "free-flyer", "planar")
 FORMATS = ("urdf", "mjcf")
@@ -78,15 +86,17 @@ def _fix_mjcf_limits(model: Any, angle_in_degrees: bool) -> None:
 
 
 @contextmanager
-def mjcf_source(text: str, root_joint: str) -> Iterator[tuple[Path, MJCFSummary]]:
+def mjcf_source(text: str, root_joint: str, summary: MJCFSummary | None = None
+                ) -> Iterator[tuple[Path, MJCFSummary]]:
     """Validate MJCF text (`check_mjcf`, which also decides the root: a free joint on the top
-    body is its own root; otherwise `root_joint` is added above a joint-less top body) and write
-    the text Pinocchio is given (`mjcf_split`: bodies with several joints become chains) to a
-    private temporary file, removed on exit: Pinocchio's MJCF parser reads files only.
+    body is its own root; otherwise `root_joint` is added above a joint-less top body; skipped
+    when its `summary` is given) and write the text Pinocchio is given (`mjcf_split`: bodies
+    with several joints become chains) to a private temporary file, removed on exit:
+    Pinocchio's MJCF parser reads files only.
 
-    In the builder child this runs before any limit on file writes is set.
+    In the builder child this runs before the limit on file writes is set.
     """
-    summary = check_mjcf(text, root_joint)
+    summary = summary or check_mjcf(text, root_joint)
     with tempfile.TemporaryDirectory(prefix="robodyn-mjcf-") as tmp:
         path = Path(tmp) / "model.xml"
         path.write_text(pinocchio_text(text), encoding="utf-8")
@@ -149,28 +159,74 @@ def check_mass_matrix(model: Any) -> None:
                            "definite (a moving body without mass or inertia)")
 
 
+@dataclass(frozen=True)
+class Checked:
+    """What validation of a description found: physical `findings` (rejected unless the
+    upload asks for warnings), `notes` (always warnings), the description's own name `label`
+    and the root joint as served (MJCF: a free joint on the top body is its own root)."""
+
+    findings: list[Finding] = field(default_factory=list)
+    notes: list[Finding] = field(default_factory=list)
+    label: str = ""
+    root_joint: str = "fixed"
+
+
+@dataclass(frozen=True)
+class Built:
+    """The result of `build_upload`: what validation found and the model (None when the
+    findings were to be rejected, so nothing was built)."""
+
+    checked: Checked
+    model: Any | None
+
+
+def validate_description(description_format: str, text: str, root_joint: str,
+                         limits: Limits) -> tuple[Checked, MJCFSummary | None]:
+    """Validate URDF or MJCF text (raises `InvalidModel` naming the element at fault): what it
+    found, and for MJCF the summary the build needs."""
+    if description_format == "mjcf":
+        mjcf = check_mjcf(text, root_joint, limits)
+        return Checked(mjcf.findings, mjcf.notes, mjcf.robot_name, mjcf.root_joint), mjcf
+    if description_format == "urdf":
+        urdf = check_urdf(text, limits)
+        return Checked(urdf.findings, [], urdf.robot_name, root_joint), None
+    raise ValueError(f"description_format must be one of {FORMATS}")
+
+
 def _limit_resources(memory_mb: int, cpu_s: int) -> None:
-    """Resource limits of the builder child (Linux/Unix `setrlimit`; soft = hard)."""
+    """Resource limits of the builder child (Linux/Unix `setrlimit`; soft = hard); file writes
+    are forbidden separately (`_forbid_file_writes`), once an MJCF file is written."""
     memory = memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     resource.setrlimit(resource.RLIMIT_CPU, (cpu_s, cpu_s + 1))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
     resource.setrlimit(resource.RLIMIT_NOFILE, (64, 64))
+
+
+def _forbid_file_writes() -> None:
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
 
 
 def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None,
                  description_format: str = "urdf", memory_mb: int = 1024, cpu_s: int = 20,
-                 max_nv: int | None = None) -> None:
+                 max_nv: int | None = None, limits: Limits | None = None,
+                 reject_findings: bool = False) -> None:
+    """The builder process: validate, then (unless findings are to be rejected) build."""
     try:
-        if description_format == "mjcf":
-            # Pinocchio's MJCF parser reads files only: the file is written before the limits
-            # (which forbid writes) and removed after the build.
-            with mjcf_source(text, root_joint) as (path, summary):
-                _limit_resources(memory_mb, cpu_s)
+        _limit_resources(memory_mb, cpu_s)
+        checked, summary = validate_description(description_format, text, root_joint,
+                                                limits or Limits())
+        if checked.findings and reject_findings:
+            conn.send(("checked", checked))
+            return
+        if summary is not None:
+            # Pinocchio's MJCF parser reads files only: the file is written before file writes
+            # are forbidden, and removed after the build.
+            with mjcf_source(text, checked.root_joint, summary) as (path, summary):
+                _forbid_file_writes()
                 model = build_mjcf_file(path, summary, gravity)
         else:
-            _limit_resources(memory_mb, cpu_s)
+            _forbid_file_writes()
             model = build_urdf_model(text, root_joint, gravity)
         if max_nv is not None and model.nv > max_nv:
             # before createData: its memory grows with nv³
@@ -179,7 +235,7 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
         if description_format == "mjcf":
             check_subtree_masses(model)  # URDF uploads are checked on the text (urdf_check)
         check_mass_matrix(model)
-        conn.send(("ok", pickle.dumps(model)))
+        conn.send(("ok", checked, pickle.dumps(model)))
     except InvalidModel as exc:
         conn.send(("invalid", exc.detail))
     except MemoryError:
@@ -198,7 +254,7 @@ def _mp_context() -> Any:
     global _context
     if _context is None:
         _context = mp.get_context("forkserver")
-        _context.set_forkserver_preload(["pinocchio", "numpy"])
+        _context.set_forkserver_preload(["pinocchio", "numpy", __name__])
     return _context
 
 
@@ -220,15 +276,55 @@ def _death(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
     return "the native model builder ended without an answer on this description"
 
 
+STARVED_CPU_FRACTION = 0.5
+"""A child that timed out having run on a CPU for less than this fraction of the wall-clock
+timeout was starved by the machine's load: the answer is 503 overloaded, not invalid_model."""
+
+
+def _cpu_seconds(pid: int) -> float | None:
+    """CPU time (user + system, s) a live child has used, from /proc (None where unknown)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            fields = fh.read().rsplit(b")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def _timed_out(pid: int, timeout_s: float) -> Exception:
+    cpu = _cpu_seconds(pid)
+    if cpu is not None and cpu < STARVED_CPU_FRACTION * timeout_s:
+        return Overloaded(f"building the model got only {cpu:.1f} s of CPU time in its "
+                          f"{timeout_s:g} s (ROBODYN_BUILD_TIMEOUT_S): the server is too busy "
+                          "right now; retry shortly")
+    return InvalidModel(f"building the model took longer than {timeout_s:g} s "
+                        "(ROBODYN_BUILD_TIMEOUT_S)")
+
+
 def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
                    timeout_s: float, *, description_format: str = "urdf",
-                   memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None) -> Any:
-    """Build a URDF (or, with `description_format="mjcf"`, an MJCF) model in a
-    resource-limited child process.
+                   memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None,
+                   limits: Limits | None = None) -> Any:
+    """Validate and build a URDF (or, with `description_format="mjcf"`, an MJCF) model in a
+    resource-limited child process (`build_upload`, findings reported, not rejected): the
+    model."""
+    return build_upload(text, root_joint, gravity, timeout_s,
+                        description_format=description_format, memory_mb=memory_mb,
+                        cpu_s=cpu_s, max_nv=max_nv, limits=limits).model
+
+
+def build_upload(text: str, root_joint: str, gravity: list[float] | None,
+                 timeout_s: float, *, description_format: str = "urdf",
+                 memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None,
+                 limits: Limits | None = None, reject_findings: bool = False) -> Built:
+    """Validate (`validate_description`, with the caps of `limits`) and build a description in
+    a resource-limited child process. With `reject_findings`, a description with physical
+    findings is not built (`Built.model` is None).
 
     Raises `InvalidModel` (with the reason, never a C++ message) on an invalid description, a
     crash or kill of the child, a memory or CPU limit, or after `timeout_s` seconds of wall
-    clock; the child is then killed.
+    clock (the child is then killed) — unless the child was starved of CPU in that time:
+    `Overloaded`.
     """
     if description_format not in FORMATS:
         raise ValueError(f"description_format must be one of {FORMATS}")
@@ -236,7 +332,7 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
     parent, child = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_child_build, daemon=True,
                        args=(child, text, root_joint, gravity, description_format, memory_mb,
-                             cpu_s, max_nv))
+                             cpu_s, max_nv, limits, reject_findings))
     try:
         proc.start()
     except OSError:  # no processes or descriptors left: the server's condition, not the model's
@@ -246,9 +342,8 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
         child.close()
     try:
         if not parent.poll(timeout_s):
-            raise InvalidModel(f"building the model took longer than {timeout_s:g} s "
-                               "(ROBODYN_BUILD_TIMEOUT_S)")
-        status, payload = parent.recv()
+            raise _timed_out(proc.pid, timeout_s)
+        answer = parent.recv()
     except (EOFError, OSError):
         proc.join(5)
         raise InvalidModel(_death(proc.exitcode, memory_mb, cpu_s)) from None
@@ -257,6 +352,8 @@ def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
         if proc.is_alive():
             proc.kill()
         proc.join(5)
-    if status != "ok":
-        raise InvalidModel(payload)
-    return pickle.loads(payload)
+    if answer[0] == "invalid":
+        raise InvalidModel(answer[1])
+    if answer[0] == "checked":
+        return Built(answer[1], None)
+    return Built(answer[1], pickle.loads(answer[2]))

@@ -17,13 +17,13 @@ from pathlib import Path
 from typing import Any
 
 from service.errors import CatalogRobot, InvalidModel, NotReady, RobotNotFound
-from service.registry.build import build_isolated, build_model, reference_configurations
+from service.registry.build import build_model, build_upload, reference_configurations
+from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.catalog import load_catalog
-from service.registry.mjcf_check import check_mjcf
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
 from service.registry.robot import Robot
 from service.registry.store import ModelStore, content_id, reduced_id
-from service.registry.urdf_check import Finding, Limits, check_urdf
+from service.registry.urdf_check import Limits
 
 log = logging.getLogger("robodyn.registry")
 
@@ -33,7 +33,8 @@ NOT_FOUND_HINT = "GET /v1/robots lists the valid ids"
 class Registry:
     def __init__(self, data_dir: Path, catalog_names: list[str] | None = None,
                  build_timeout_s: float = 30.0, *, limits: Limits | None = None,
-                 build_limits: dict[str, Any] | None = None) -> None:
+                 build_limits: dict[str, Any] | None = None,
+                 build_slots: BuildSlots | None = None) -> None:
         self.store = ModelStore(data_dir)
         self.catalog_names = catalog_names
         self.build_timeout_s = build_timeout_s
@@ -41,6 +42,9 @@ class Registry:
         # `build_isolated` (memory_mb, cpu_s, max_nv) for every isolated build.
         self.limits = limits or Limits()
         self.build_limits: dict[str, Any] = dict(build_limits or {})
+        # Issue 16: at most this many builds at once (the CPU count by default), waiting for
+        # a slot is bounded and answered 503 overloaded, never invalid_model.
+        self.build_slots = build_slots or BuildSlots(build_slot_count(0), build_timeout_s)
         self.catalog: dict[str, Robot] = {}
         self.catalog_failures: dict[str, str] = {}
         self.uploads: dict[str, Robot] = {}
@@ -173,7 +177,16 @@ class Registry:
             raise ValueError("give exactly one of urdf and mjcf")
         fmt, text = ("urdf", urdf) if urdf is not None else ("mjcf", mjcf)
         assert text is not None
-        findings, notes, label, root_joint = _validate(fmt, text, root_joint, self.limits)
+        # Validation and the native build run in a builder process (never in this one: on a
+        # large description they would hold its GIL for seconds), one build slot each.
+        with self.build_slots.slot():
+            built = build_upload(text, root_joint, list(gravity), self.build_timeout_s,
+                                 description_format=fmt, limits=self.limits,
+                                 reject_findings=inertia_check == "reject",
+                                 **self.build_limits)
+        checked = built.checked
+        findings, notes, label, root_joint = (checked.findings, checked.notes, checked.label,
+                                              checked.root_joint)
         if findings and inertia_check == "reject":
             listed = "; ".join(f.message for f in findings[:10])
             more = len(findings) - 10
@@ -187,8 +200,8 @@ class Registry:
         target = model_id if request is None else reduced_id(model_id, request)
         if self.store.exists(target):
             return self.get(target), False
-        model = build_isolated(text, root_joint, list(gravity), self.build_timeout_s,
-                               description_format=fmt, **self.build_limits)
+        model = built.model
+        assert model is not None  # built unless findings were rejected (above)
         warnings = [f.as_dict() for f in findings + notes]
         robot = Robot(id=model_id, name=name or label, source="upload", root_joint=root_joint,
                       model=model, reference_configurations=reference_configurations(model),
@@ -252,16 +265,6 @@ class Registry:
         if not self.store.delete(robot_id):
             raise RobotNotFound(f"no uploaded robot has id '{_shown(robot_id)}'; "
                                 f"{NOT_FOUND_HINT}")
-
-
-def _validate(fmt: str, text: str, root_joint: str, limits: Limits
-              ) -> tuple[list[Finding], list[Finding], str, str]:
-    """(physical findings, notes, the description's own name, root joint as served)."""
-    if fmt == "mjcf":
-        mjcf = check_mjcf(text, root_joint, limits)
-        return mjcf.findings, mjcf.notes, mjcf.robot_name, mjcf.root_joint
-    urdf = check_urdf(text, limits)
-    return urdf.findings, [], urdf.robot_name, root_joint
 
 
 def _shown(robot_id: str) -> str:

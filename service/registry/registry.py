@@ -208,6 +208,7 @@ class Registry:
                       warnings=warnings)
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
+        robot.info()  # and its description (thousands of frames for a large model)
         if request is not None:
             spec = {"source": "upload", "id": model_id,
                     "record": {**record, "name": robot.name, "warnings": warnings}}

@@ -137,6 +137,16 @@ def reference_configurations(model: Any) -> dict[str, np.ndarray]:
             for entry in model.referenceConfigurations}
 
 
+def check_moves(model: Any) -> None:
+    """Reject a model without any velocity coordinate (nv = 0: only fixed joints and a fixed
+    root): it has no dynamics, and several of Pinocchio's algorithms (frame Jacobians) crash
+    the process on it instead of answering."""
+    if model.nv == 0:
+        raise InvalidModel("the model has no moving joint (nv = 0), so it has no dynamics to "
+                           'compute; give it a moving joint, or a root joint ("root_joint": '
+                           '"free-flyer" or "planar")')
+
+
 def check_subtree_masses(model: Any) -> None:
     """Reject a model with a moving joint whose subtree carries no mass (M singular)."""
     data = model.createData()
@@ -238,6 +248,7 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
             # before createData: its memory grows with nv³
             raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates (with its "
                                f"root joint); the limit is {max_nv} (ROBODYN_MAX_NV)")
+        check_moves(model)
         if description_format == "mjcf":
             check_subtree_masses(model)  # URDF uploads are checked on the text (urdf_check)
         check_mass_matrix(model)

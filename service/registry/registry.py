@@ -17,7 +17,12 @@ from pathlib import Path
 from typing import Any
 
 from service.errors import CatalogRobot, InvalidModel, NotReady, RobotNotFound
-from service.registry.build import build_model, build_upload, reference_configurations
+from service.registry.build import (
+    build_model,
+    build_upload,
+    check_moves,
+    reference_configurations,
+)
 from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.catalog import load_catalog
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
@@ -89,6 +94,7 @@ class Registry:
             return reduced_robot(base, locked, model_id, record.get("name", model_id),
                                  origin={"robot": base.id, "locked_joints": locked})
         model = build_model(fmt, record["description"], record["root_joint"], record["gravity"])
+        check_moves(model)  # a record stored before nv = 0 was refused is not served
         return Robot(id=model_id, name=record.get("name", model_id), source="upload",
                      root_joint=record["root_joint"], model=model,
                      reference_configurations=reference_configurations(model),

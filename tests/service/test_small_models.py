@@ -5,6 +5,7 @@ Pinocchio binding hands back, and failures of linear algebra or of shapes are 42
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import orjson
@@ -258,3 +259,43 @@ def test_an_empty_binary_batch_within_the_bounds_is_still_answered_as_a_dimensio
     r = client.post("/v1/robots/ur5/gravity", content=_binary_with_shape([0, 6]),
                     headers={"Content-Type": BIN})
     assert r.status_code == 422 and r.json()["code"] == "dimension_mismatch"
+
+
+FIXED_ONLY = PENDULUM.replace('type="revolute"', 'type="fixed"')
+
+
+def test_a_model_without_a_moving_joint_is_refused_at_upload(small):
+    """nv = 0: no dynamics, and Pinocchio's frame Jacobians crash the process on such a model
+    (found by the full sweep) — refused when built, whatever the format."""
+    client, *_ = small
+    no_joint_mjcf = ('<mujoco model="still"><worldbody><body name="b"><inertial pos="0 0 0" '
+                     'mass="1" diaginertia="0.1 0.1 0.1"/></body></worldbody></mujoco>')
+    for body in ({"urdf": FIXED_ONLY}, {"mjcf": no_joint_mjcf}):
+        r = client.post("/v1/robots", json=body)
+        assert r.status_code == 422 and r.json()["code"] == "invalid_model", r.text
+        assert re.search("no (moving )?joint", r.json()["detail"])
+    r = client.post("/v1/robots", json={"urdf": FIXED_ONLY, "root_joint": "free-flyer"})
+    assert r.status_code == 201 and r.json()["nv"] == 6
+
+
+def test_a_stored_model_without_a_moving_joint_is_not_served(tmp_path):
+    from fastapi.testclient import TestClient
+
+    from service.main import create_app
+    from service.registry import Registry
+    from service.settings import Settings
+
+    model_id = "u-still"
+    summary = {"id": model_id, "name": "still", "source": "upload", "nq": 0, "nv": 0,
+               "root_joint": "fixed"}
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / f"{model_id}.json").write_text(json.dumps({
+        "id": model_id, "format": "urdf", "description": FIXED_ONLY, "root_joint": "fixed",
+        "gravity": [0.0, 0.0, -9.81], "name": "still", "warnings": [], "summary": summary}))
+    registry = Registry(tmp_path, ["ur5"])
+    registry.load()
+    with TestClient(create_app(Settings(data_dir=tmp_path), registry=registry),
+                    raise_server_exceptions=False) as client:
+        r = client.post(f"/v1/robots/{model_id}/jacobian",
+                        json={"q": [], "v": [], "frame": "arm"})
+        assert r.status_code == 404 and r.json()["code"] == "robot_not_found"

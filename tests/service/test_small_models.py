@@ -299,3 +299,40 @@ def test_a_stored_model_without_a_moving_joint_is_not_served(tmp_path):
         r = client.post(f"/v1/robots/{model_id}/jacobian",
                         json={"q": [], "v": [], "frame": "arm"})
         assert r.status_code == 404 and r.json()["code"] == "robot_not_found"
+
+
+def test_a_robot_whose_link_and_joint_share_names_can_be_reduced(tmp_path):
+    """Pinocchio's own reduction fails on shared frame names (anymal_c: link and joint
+    'LF_HAA'; found by the full sweep). M of the reduced robot is M of the base with the
+    locked joint's row and column removed, at the locked value."""
+    from fastapi.testclient import TestClient
+
+    from service.main import create_app
+    from service.registry import Registry
+    from service.settings import Settings
+
+    registry = Registry(tmp_path, ["anymal_c"])
+    registry.load()
+    base = registry.get("anymal_c")
+    assert len({f.name for f in base.model.frames}) < base.model.nframes  # shared names
+    with TestClient(create_app(Settings(data_dir=tmp_path), registry=registry),
+                    raise_server_exceptions=False) as client:
+        r = client.post("/v1/robots/anymal_c/reduce", json={"locked_joints": {"LF_HAA": 0.2}})
+        assert r.status_code == 201, r.text
+        reduced = r.json()
+        assert reduced["nv"] == base.nv - 1
+        base_names = [f["name"] for f in client.get("/v1/robots/anymal_c").json()["frames"]]
+        assert "LF_HAA" in [f["name"] for f in reduced["frames"]]
+        assert set(f["name"] for f in reduced["frames"]) == set(base_names)
+        q = np.array(base.info()["neutral_configuration"])
+        lf = base.model.joints[base.model.getJointId("LF_HAA")]
+        q[lf.idx_q] = 0.2
+        keep = [i for i in range(base.nq) if i != lf.idx_q]
+        M = client.post(f"/v1/robots/{reduced['id']}/mass-matrix",
+                        json={"q": q[keep].tolist()}).json()["mass_matrix"]
+        M_base = pin.crba(base.model, base.model.createData(), q)
+        keep_v = [i for i in range(base.nv) if i != lf.idx_v]
+        np.testing.assert_allclose(M, M_base[np.ix_(keep_v, keep_v)], atol=1e-10)
+        r = client.post(f"/v1/robots/{reduced['id']}/jacobian",
+                        json={"q": q[keep].tolist(), "frame": "LF_HFE"})
+        assert r.status_code == 200, r.text

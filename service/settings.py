@@ -78,9 +78,10 @@ class Settings(BaseSettings):
     max_xml_elements: int = Field(50_000, ge=10, description="Most XML elements in an upload.")
     max_xml_depth: int = Field(32, ge=4, description="Deepest XML element nesting.")
     max_name_length: int = Field(
-        256, ge=16, description="Longest name in an uploaded description, in characters: "
-        "<robot name>, link, joint, frame, MJCF body/joint/site names and <mujoco model> "
-        "(names are echoed in answers).")
+        256, ge=16, le=256, description="Longest name in an uploaded description, in "
+        "characters: <robot name>, link, joint, frame, MJCF body/joint/site names and <mujoco "
+        "model> (names are echoed in answers). At most 256, the longest frame or joint name a "
+        "request may give.")
     build_memory_mb: int = Field(
         1024, ge=256, description="Address-space limit of the process that builds an upload, "
         "in MB.")

@@ -336,3 +336,14 @@ def test_a_robot_whose_link_and_joint_share_names_can_be_reduced(tmp_path):
         r = client.post(f"/v1/robots/{reduced['id']}/jacobian",
                         json={"q": q[keep].tolist(), "frame": "LF_HFE"})
         assert r.status_code == 200, r.text
+
+
+def test_the_talos_legs_catalog_robot_can_be_reduced(tmp_path):
+    """talos_legs is assembled joint by joint from talos; its lower velocity and effort bounds
+    must follow, or Pinocchio's reduction refuses it (found by the full sweep)."""
+    from service.registry import Registry
+
+    registry = Registry(tmp_path, ["talos_legs"])
+    registry.load()
+    robot, created = registry.reduce("talos_legs", {"leg_left_1_joint": [0.1]})
+    assert created and robot.nv == registry.get("talos_legs").nv - 1

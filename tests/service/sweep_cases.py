@@ -183,6 +183,51 @@ def _numbers_replaced(value: Any, number: float) -> Any:
     return number if isinstance(value, float) else value
 
 
+BINARY = {"Content-Type": "application/vnd.robodyn.binary"}
+
+
+def binary_body(fields: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
+    """A body in the binary form (docs/binary-format.md), written here from the format."""
+    descriptors, chunks, offset = {}, [], 0
+    for name, value in arrays.items():
+        data = np.ascontiguousarray(value, dtype="<f8")
+        descriptors[name] = {"shape": list(data.shape), "offset": offset}
+        chunks.append(data.tobytes())
+        offset += data.nbytes
+    header = json.dumps({"fields": fields, "arrays": descriptors}, allow_nan=True).encode()
+    pad = b"\0" * ((8 - (8 + len(header)) % 8) % 8)
+    return b"RDY1" + len(header).to_bytes(4, "little") + header + pad + b"".join(chunks)
+
+
+def _binary_variants(body: dict[str, Any]) -> Iterator[Request]:
+    """The body in the binary form (numeric arrays as arrays), and broken binary bodies."""
+    arrays: dict[str, np.ndarray] = {}
+    fields: dict[str, Any] = {}
+    for name, value in body.items():
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            array = None
+        if array is not None and array.ndim in (1, 2) and array.size and isinstance(value, list):
+            arrays[name] = array
+        else:
+            fields[name] = value
+    if not arrays:
+        return
+    yield "binary-valid", binary_body(fields, arrays), BINARY
+    first = next(iter(arrays))
+    for label, replaced in (
+            ("nan", np.full_like(arrays[first], np.nan)),
+            ("3d", arrays[first][np.newaxis, np.newaxis]),
+            ("empty-rows", np.zeros((0, arrays[first].shape[-1]))),
+            ("scalar", np.zeros(())),
+            ("wide", np.zeros((1, 10_000)))):
+        yield (f"binary-{first}-{label}", binary_body(fields, {**arrays, first: replaced}),
+               BINARY)
+    yield "binary-unknown-array", binary_body(fields, {**arrays, "zzz": np.zeros(3)}), BINARY
+    yield "binary-missing-array", binary_body(fields, {}), BINARY
+
+
 def hostile(body: dict[str, Any]) -> Iterator[Request]:
     """Broken variants of a valid body: every way a client can get it wrong."""
     for number, label in ((math.nan, "nan"), (math.inf, "inf"), (-math.inf, "-inf"),
@@ -219,7 +264,8 @@ def hostile(body: dict[str, Any]) -> Iterator[Request]:
     yield ("deep-nesting", b"[" * 20_000 + b"]" * 20_000, JSON)
     yield ("not-utf8", b'{"q": "\xff\xfe"}', JSON)
     yield ("text-plain", json.dumps(body).encode(), {"Content-Type": "text/plain"})
-    binary = {"Content-Type": "application/vnd.robodyn.binary"}
+    yield from _binary_variants(body)
+    binary = BINARY
     yield ("binary-garbage", b"RDY1\x10\x00\x00\x00" + b"\xff" * 40, binary)
     header = json.dumps({"fields": {}, "arrays": {"q": {"shape": [0, 2**63], "offset": 0}}})
     yield ("binary-huge-shape", b"RDY1" + len(header).to_bytes(4, "little")

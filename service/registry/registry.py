@@ -17,12 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from service.errors import CatalogRobot, InvalidModel, NotReady, RobotNotFound
-from service.registry.build import (
-    build_model,
-    build_upload,
-    check_moves,
-    reference_configurations,
-)
+from service.registry.build import build_model, check_moves, reference_configurations
+from service.registry.build_process import build_upload
 from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.catalog import load_catalog
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot

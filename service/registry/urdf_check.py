@@ -35,6 +35,7 @@ from xml.etree.ElementTree import Element
 import numpy as np
 
 from service.errors import InvalidModel
+from service.registry.mimic import mimic_problems
 from service.registry.safe_xml import check_name_lengths, parse_bounded, read_numbers, shown
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -232,40 +233,6 @@ def _names(elements: Iterable[Element], kind: str) -> dict[str, Element]:
     return out
 
 
-def mimic_findings(joints: dict[str, Element], mimics: dict[str, str]) -> list[Finding]:
-    """What is wrong with the mimic graph (joint → the joint it mimics): a joint that mimics
-    itself, a joint that mimics a fixed joint (which has no motion to copy), and cycles of
-    mimics (A mimics B mimics … mimics A: no joint of the cycle has a motion of its own)."""
-    out: list[Finding] = []
-    for jname, target in mimics.items():
-        label = shown(jname)
-        if target == jname:
-            out.append(Finding("self_mimic", "joint", jname,
-                               f"joint '{label}': mimics itself"))
-        elif joints[target].get("type") == "fixed":
-            out.append(Finding("mimic_of_fixed_joint", "joint", jname,
-                               f"joint '{label}': mimics joint '{shown(target)}', which is "
-                               "fixed (it has no motion to copy)"))
-    done: set[str] = set()
-    for start in mimics:  # each joint mimics at most one: follow the chain, iteratively
-        path: list[str] = []
-        on_path: set[str] = set()
-        joint: str | None = start
-        while joint is not None and joint not in done and joint not in on_path:
-            path.append(joint)
-            on_path.add(joint)
-            joint = mimics.get(joint)
-        if joint is not None and joint in on_path and mimics.get(joint) != joint:
-            cycle = path[path.index(joint):]
-            shown_cycle = " → ".join(f"'{shown(j)}'" for j in [*cycle[:6], cycle[0]])
-            out.append(Finding("mimic_cycle", "joint", joint,
-                               f"joint '{shown(joint)}': its mimics form a cycle "
-                               f"({shown_cycle}{' …' if len(cycle) > 6 else ''}); one joint of "
-                               "a mimic chain must move on its own"))
-        done.update(path)
-    return out
-
-
 def parse_urdf(text: str, limits: Limits = Limits()) -> Element:
     """Parse URDF text safely (no DTDs, entities or external references; element count and
     nesting capped) and check that its root is <robot>."""
@@ -343,8 +310,8 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
         if jtype != "fixed":
             moving += 1
             nv += JOINT_NV[jtype]
-    for finding in mimic_findings(joints, mimics):
-        tolerable(finding)
+    for code, joint_name, message in mimic_problems(joints, mimics):
+        tolerable(Finding(code, "joint", joint_name, message))
     if nv > limits.max_nv:
         raise InvalidModel(f"the description has nv = {nv} velocity coordinates ({moving} "
                            f"moving joints); the limit is {limits.max_nv} (ROBODYN_MAX_NV)")

@@ -23,7 +23,7 @@ from service import CPUS
 from service.errors import InvalidModel, Overloaded
 from service.main import create_app
 from service.registry import Registry
-from service.registry.build import _timed_out
+from service.registry.build_process import _timed_out
 from service.registry.build_slots import BuildSlots, build_slot_count
 from service.settings import Settings
 

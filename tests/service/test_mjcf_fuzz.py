@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from service.errors import InvalidModel
-from service.registry.build import build_isolated
+from service.registry.build_process import build_isolated
 from service.registry.mjcf_check import check_mjcf
 from tests.service.mjcf_models import MULTI_JOINT_MJCF, TWINS
 

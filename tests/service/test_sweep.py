@@ -122,7 +122,16 @@ def test_sampled_sweep_over_the_stream_never_answers_internal_errors(tmp_path):
             by_robot.setdefault(robot_id, []).append((path, request))
         for robot_id, requests in by_robot.items():
             with client.websocket_connect(f"/v1/robots/{robot_id}/stream") as ws:
-                for path, (label, content, _) in requests:
+                for path, (label, content, headers) in requests:
+                    quantity = path.rsplit("/", 1)[-1]
+                    if "binary" in headers["Content-Type"]:
+                        ws.send_bytes(_binary_message(content, quantity))
+                        answer = ws.receive()
+                        if answer.get("bytes") is not None:
+                            continue  # a binary answer: computed
+                        answer = orjson.loads(answer["text"])
+                        assert answer.get("code") != "internal_error", (robot_id, path, label)
+                        continue
                     try:
                         body = json.loads(content)
                     except (ValueError, RecursionError):
@@ -135,6 +144,21 @@ def test_sampled_sweep_over_the_stream_never_answers_internal_errors(tmp_path):
                     assert answer.get("code") != "internal_error", (robot_id, path, label)
                     if "code" in answer:
                         assert 400 <= answer["status"] < 500, (robot_id, path, label)
+
+
+def _binary_message(content: bytes, quantity: str) -> bytes:
+    """A binary request body as a stream message: `quantity` added to its fields (bodies
+    whose header cannot be read are sent as they are)."""
+    try:
+        size = int.from_bytes(content[4:8], "little")
+        header = json.loads(content[8:8 + size])
+        header["fields"]["quantity"] = quantity
+    except (ValueError, KeyError, TypeError):
+        return content
+    data_start = 8 + size + (-(8 + size) % 8)
+    new = json.dumps(header, allow_nan=True).encode()
+    pad = b"\0" * ((8 - (8 + len(new)) % 8) % 8)
+    return b"RDY1" + len(new).to_bytes(4, "little") + new + pad + content[data_start:]
 
 
 @pytest.mark.slow

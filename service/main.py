@@ -21,6 +21,7 @@ from service.api.openapi_problems import operation_id, problem_openapi
 from service.api.problems import install_problem_handlers
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
+from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.urdf_check import Limits
 from service.settings import Settings
 
@@ -41,7 +42,10 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     registry = registry or Registry(settings.data_dir, settings.catalog_names(),
                                     settings.build_timeout_s,
                                     limits=Limits(**settings.model_limits()),
-                                    build_limits=settings.build_limits())
+                                    build_limits=settings.build_limits(),
+                                    build_slots=BuildSlots(
+                                        build_slot_count(settings.max_concurrent_builds),
+                                        settings.build_queue_timeout_s))
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:

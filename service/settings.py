@@ -78,11 +78,24 @@ class Settings(BaseSettings):
     max_depth: int = Field(128, ge=1, description="Deepest kinematic chain, in links.")
     max_xml_elements: int = Field(50_000, ge=10, description="Most XML elements in an upload.")
     max_xml_depth: int = Field(32, ge=4, description="Deepest XML element nesting.")
+    max_name_length: int = Field(
+        256, ge=16, le=256, description="Longest name in an uploaded description, in "
+        "characters: <robot name>, link, joint, frame, MJCF body/joint/site names and <mujoco "
+        "model> (names are echoed in answers). At most 256, the longest frame or joint name a "
+        "request may give.")
     build_memory_mb: int = Field(
         1024, ge=256, description="Address-space limit of the process that builds an upload, "
         "in MB.")
     build_cpu_s: int = Field(
         20, ge=1, description="CPU-time limit of the process that builds an upload, in seconds.")
+    max_concurrent_builds: int = Field(
+        0, ge=0, description="Uploads validated and built at once per server process (each in "
+        "its own builder process); 0 means the CPU count, and more than the CPU count is "
+        "capped to it. Further uploads wait for a free builder (see build_queue_timeout_s).")
+    build_queue_timeout_s: float = Field(
+        30.0, gt=0, description="How long an upload may wait for a free builder, in seconds; "
+        "beyond it (or with more than 4 uploads per builder waiting) the answer is 503 "
+        "overloaded with Retry-After. The build timeout starts when the build does.")
 
     # -- connections and answers (service/http_protocol.py; see docs/security.md) --
     max_answer_bytes: int = Field(
@@ -113,7 +126,7 @@ class Settings(BaseSettings):
         """The caps of upload validation: keyword arguments of `urdf_check.Limits`."""
         return {"max_links": self.max_links, "max_nv": self.max_nv,
                 "max_depth": self.max_depth, "max_elements": self.max_xml_elements,
-                "max_xml_depth": self.max_xml_depth}
+                "max_xml_depth": self.max_xml_depth, "max_name_length": self.max_name_length}
 
     def build_limits(self) -> dict[str, int]:
         """Keyword arguments of `build_isolated` besides the timeout."""

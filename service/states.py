@@ -66,15 +66,18 @@ def all_finite(values: np.ndarray) -> bool:
     return bool(np.isfinite(values).all())
 
 
-def _as_array(name: str, value: Any) -> np.ndarray:
+def as_array(name: str, value: Any, what: str = "(one state) or 2-D (a batch)"
+             ) -> np.ndarray:
+    """`value` as a finite float64 array of 1 or 2 dimensions (`what` says what each means),
+    or `InvalidInput` naming `name`: ragged lists, non-numbers, other ranks and NaN/inf are
+    refused here, before any computation sees them."""
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (ValueError, TypeError):
         raise InvalidInput(f"{name} must be an array of numbers or an array of equal-length "
-                           "arrays of numbers (a batch)") from None
+                           "arrays of numbers") from None
     if arr.ndim not in (1, 2):
-        raise InvalidInput(f"{name} must be 1-D (one state) or 2-D (a batch), "
-                           f"not {arr.ndim}-D")
+        raise InvalidInput(f"{name} must be 1-D {what}, not {arr.ndim}-D")
     if not all_finite(arr):
         raise InvalidInput(f"{name} contains a non-finite number (NaN or infinity)")
     return arr
@@ -82,7 +85,7 @@ def _as_array(name: str, value: Any) -> np.ndarray:
 
 def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
     """Check and convert the joint-space inputs named in `inputs` (keys of SPACES)."""
-    arrays = {name: _as_array(name, value) for name, value in inputs.items()}
+    arrays = {name: as_array(name, value) for name, value in inputs.items()}
     ndims = {arr.ndim for arr in arrays.values()}
     if len(ndims) > 1:
         shapes = ", ".join(f"{n} is {a.ndim}-D" for n, a in arrays.items())

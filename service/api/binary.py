@@ -38,6 +38,10 @@ from service.errors import InvalidInput
 BINARY_MEDIA_TYPE = "application/vnd.robodyn.safetensors"
 MAX_HEADER_BYTES = 1 << 20
 MAX_NDIM = 3
+MAX_ARRAY_ELEMENTS = 1 << 24
+"""The most numbers a tensor may declare: the product of its dimensions, zeros counted as ones
+(so `[0, 2**63]` is refused too), and so also each single dimension. 2**24 float64 are
+128 MiB, more than any request body the server accepts."""
 METADATA = "__metadata__"
 DTYPE = "F64"
 _LENGTH = struct.Struct("<Q")
@@ -102,9 +106,12 @@ def _arrays(header: dict[str, Any], data: memoryview) -> dict[str, np.ndarray]:
                        f"every tensor is {DTYPE} (float64)")
         shape, offsets = descriptor["shape"], descriptor["data_offsets"]
         if (not isinstance(shape, list) or len(shape) > MAX_NDIM
-                or not all(type(n) is int and 0 <= n <= max(limit, 1) for n in shape)):
+                or not all(type(n) is int and 0 <= n <= MAX_ARRAY_ELEMENTS for n in shape)
+                or math.prod(max(n, 1) for n in shape) > MAX_ARRAY_ELEMENTS):
+            # zeros count as ones: an empty batch [0, n] is a shape, [0, 2**63] is not
             raise _bad(f"tensor {name}: shape must be a list of at most {MAX_NDIM} "
-                       f"non-negative integers, none over the body's {limit} numbers")
+                       "non-negative integers whose product (zeros counted as ones) is at "
+                       f"most {MAX_ARRAY_ELEMENTS}")
         count = math.prod(shape)  # each factor bounded: a small integer
         if count > limit:
             raise _bad(f"tensor {name} has {count} numbers; the body carries {limit}")

@@ -50,17 +50,22 @@ class JacobianRequest(OptionalVRequest):
                                                  description=REFERENCE_DESC)
 
 
+MAX_DAMPING = 1e150
+"""The largest damping λ: λ² (added to J M⁻¹ Jᵀ) must stay a finite float64."""
+
+
 class OperationalSpaceRequest(JacobianRequest):
     task: Literal["full", "linear", "angular"] = Field(
         "full", description="Task rows of the frame Jacobian: `full` all 6 [linear; angular] "
         "(k = 6), `linear` the 3 linear rows, `angular` the 3 angular rows (k = 3).")
     damping: float = Field(
-        0.0, ge=0.0, allow_inf_nan=False,
+        0.0, ge=0.0, le=MAX_DAMPING, allow_inf_nan=False,
         description="Damping λ ≥ 0. With λ > 0, Λ = (J M⁻¹ Jᵀ + λ² I)⁻¹ (damped least squares) "
         "and a singular configuration is answered; with 0 (default) Λ = (J M⁻¹ Jᵀ)⁻¹ and a "
         "configuration where the smallest singular value of J M⁻¹ Jᵀ is at most 1e-8 times its "
         "largest is a 422 `singular_configuration`. λ² is added in the units of J M⁻¹ Jᵀ: "
-        "1/kg on linear rows, 1/(kg·m²) on angular rows.")
+        "1/kg on linear rows, 1/(kg·m²) on angular rows. At most 1e150 (λ² stays a finite "
+        "float64).")
 
 
 class MassMatrixInverseAnswer(BaseModel):

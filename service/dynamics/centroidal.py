@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.quantity import Quantity, Results, finite, matrix
 from service.registry.robot import Robot
 from service.states import States
 
@@ -26,13 +26,15 @@ def centroidal(robot: Robot, s: States) -> Results:
     A_G(q) (N, 6, nv) and the centre of mass c(q) (N, 3, m, world frame), by ccrba."""
     q, v = s["q"], s["v"]
     n = q.shape[0]
-    momentum, matrix, com = np.empty((n, 6)), np.empty((n, 6, robot.nv)), np.empty((n, 3))
+    momentum, momentum_matrix = np.empty((n, 6)), np.empty((n, 6, robot.nv))
+    com = np.empty((n, 3))
     with robot.data() as data:
         for i in range(n):
-            matrix[i] = pin.ccrba(robot.model, data, q[i], v[i])
+            momentum_matrix[i] = matrix(pin.ccrba(robot.model, data, q[i], v[i]), 6, robot.nv)
             momentum[i] = data.hg.vector
             com[i] = data.com[0]
-    return finite("centroidal", momentum=momentum, momentum_matrix=matrix, center_of_mass=com)
+    return finite("centroidal", momentum=momentum, momentum_matrix=momentum_matrix,
+                  center_of_mass=com)
 
 
 CENTROIDAL = (

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite, mirror_upper
+from service.dynamics.quantity import Quantity, Results, finite, matrix, mirror_upper
 from service.registry.robot import Robot
 from service.states import States
 
@@ -29,7 +29,8 @@ def inverse_dynamics_derivatives(robot: Robot, s: States) -> Results:
     dq, dv, da = np.empty((n, nv, nv)), np.empty((n, nv, nv)), np.empty((n, nv, nv))
     with robot.data() as data:
         for i in range(n):
-            dq[i], dv[i], da[i] = pin.computeRNEADerivatives(robot.model, data, q[i], v[i], a[i])
+            dq[i], dv[i], da[i] = (matrix(d, nv, nv) for d in pin.computeRNEADerivatives(
+                robot.model, data, q[i], v[i], a[i]))
     mirror_upper(da)
     return finite("inverse-dynamics-derivatives", dtau_dq=dq, dtau_dv=dv, dtau_da=da)
 
@@ -42,8 +43,8 @@ def forward_dynamics_derivatives(robot: Robot, s: States) -> Results:
     dq, dv, dtau = np.empty((n, nv, nv)), np.empty((n, nv, nv)), np.empty((n, nv, nv))
     with robot.data() as data:
         for i in range(n):
-            dq[i], dv[i], dtau[i] = pin.computeABADerivatives(robot.model, data, q[i], v[i],
-                                                              tau[i])
+            dq[i], dv[i], dtau[i] = (matrix(d, nv, nv) for d in pin.computeABADerivatives(
+                robot.model, data, q[i], v[i], tau[i]))
     mirror_upper(dtau)
     return finite("forward-dynamics-derivatives", da_dq=dq, da_dv=dv, da_dtau=dtau)
 

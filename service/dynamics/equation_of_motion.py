@@ -19,7 +19,7 @@ import pinocchio as pin
 
 from service.dynamics import parallel
 from service.dynamics.external_forces import ExternalForces
-from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.quantity import Quantity, Results, finite, matrix
 from service.registry.robot import Robot
 from service.states import States
 
@@ -31,7 +31,7 @@ def mass_matrix(robot: Robot, s: States) -> Results:
     out = np.empty((q.shape[0], robot.nv, robot.nv))
     with robot.data() as data:
         for i in range(q.shape[0]):
-            out[i] = pin.crba(robot.model, data, q[i])
+            out[i] = matrix(pin.crba(robot.model, data, q[i]), robot.nv, robot.nv)
     # The CRBA algorithm fills only the upper triangle (the C++ trap), but Pinocchio's Python
     # `crba` copies it down before returning (its binding's make_symmetric): M comes back
     # exactly symmetric, so no second pass over N·nv² numbers here (tested, batch and single).
@@ -56,7 +56,8 @@ def coriolis(robot: Robot, s: States) -> Results:
     C = np.empty((n, robot.nv, robot.nv))
     with robot.data() as data:
         for i in range(n):
-            C[i] = pin.computeCoriolisMatrix(robot.model, data, q[i], v[i])
+            C[i] = matrix(pin.computeCoriolisMatrix(robot.model, data, q[i], v[i]), robot.nv,
+                          robot.nv)
     Cv = np.einsum("nij,nj->ni", C, v)
     return finite("coriolis", coriolis_matrix=C, coriolis_forces=Cv)
 

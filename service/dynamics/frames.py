@@ -2,7 +2,7 @@
 
 A frame is any named frame of the model: a link (BODY), a joint (JOINT), a fixed joint
 (FIXED_JOINT) or an operational frame; `GET /v1/robots/{id}` lists them under `frames`. Where a
-name is shared (a link and a joint of the same name), the first frame in model order is meant.
+name is shared (a link and a joint of the same name), the link's body frame is meant.
 
 The frame Jacobian J (6×nv) maps the joint velocity v to the frame's spatial velocity J v =
 [linear (m/s); angular (rad/s)], linear first, expressed in `reference_frame`:
@@ -24,7 +24,7 @@ from typing import Any, Literal
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.quantity import Quantity, Results, finite, matrix
 from service.errors import UnknownFrame, did_you_mean
 from service.registry.robot import Robot
 from service.states import States
@@ -37,8 +37,6 @@ REFERENCE_FRAMES: dict[str, Any] = {
     "local_world_aligned": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
 }
 
-_PREFERRED = (pin.FrameType.BODY, pin.FrameType.OP_FRAME, pin.FrameType.FIXED_JOINT,
-              pin.FrameType.JOINT, pin.FrameType.SENSOR)
 _SHOWN_NAME_LENGTH = 64  # longer (or unprintable) unknown names are not echoed back
 
 
@@ -46,10 +44,9 @@ def frame_id(robot: Robot, name: str, field: str = "frame") -> int:
     """The index of the frame called `name`; `UnknownFrame` (saying where the names are) if
     the model has none. `field` is the request member that gave the name, named in the error
     when it is not the plain `frame` (e.g. "external_forces[1].frame")."""
-    if robot.model.existFrame(name):
-        for kind in _PREFERRED:  # a name several frames share (an MJCF body and its joint)
-            if robot.model.existFrame(name, kind):  # is the body's, as MuJoCo names it
-                return int(robot.model.getFrameId(name, kind))
+    fid = robot.frame_ids.get(name)  # its body frame, else the first of that name
+    if fid is not None:
+        return fid
     shown = (f"'{name}'" if len(name) <= _SHOWN_NAME_LENGTH and name.isprintable()
              else "of that name")
     where = "" if field == "frame" else f" (in {field})"
@@ -63,15 +60,13 @@ def frame_jacobian(robot: Robot, data: Any, q: np.ndarray, fid: int, reference: 
                    v: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """J (6×nv) of frame `fid` at one configuration q, and with v also J̇ (6×nv), in the
     Pinocchio reference frame `reference`. Uses `data`; copies are returned."""
-    model = robot.model
-    shape = (6, model.nv)  # Pinocchio gives a 6×1 matrix as a vector (nv = 1)
+    model, nv = robot.model, robot.nv
     if v is None:
-        J = pin.computeFrameJacobian(model, data, q, fid, reference)
-        return np.array(J).reshape(shape), None
+        return matrix(pin.computeFrameJacobian(model, data, q, fid, reference), 6, nv), None
     pin.computeJointJacobiansTimeVariation(model, data, q, v)
     pin.updateFramePlacements(model, data)
-    J = np.array(pin.getFrameJacobian(model, data, fid, reference)).reshape(shape)
-    dJ = np.array(pin.getFrameJacobianTimeVariation(model, data, fid, reference)).reshape(shape)
+    J = matrix(pin.getFrameJacobian(model, data, fid, reference), 6, nv)
+    dJ = matrix(pin.getFrameJacobianTimeVariation(model, data, fid, reference), 6, nv)
     return J, dJ
 
 

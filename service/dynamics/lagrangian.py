@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite, mirror_upper
+from service.dynamics.quantity import Quantity, Results, finite, matrix, mirror_upper
 from service.registry.robot import Robot
 from service.states import States
 
@@ -21,7 +21,8 @@ def minverse(robot: Robot, data: object, q: np.ndarray) -> np.ndarray:
     extension of the articulated-body algorithm: M is never formed nor inverted numerically.
     (The pin 4 binding returns it already mirrored; `mirror_upper` keeps the answer symmetric
     whichever binding runs.)"""
-    return mirror_upper(np.array(pin.computeMinverse(robot.model, data, q)))
+    nv = robot.nv
+    return mirror_upper(np.array(matrix(pin.computeMinverse(robot.model, data, q), nv, nv)))
 
 
 def mass_matrix_inverse(robot: Robot, s: States) -> Results:
@@ -61,7 +62,7 @@ def center_of_mass(robot: Robot, s: States) -> Results:
     model = robot.model
     with robot.data() as data:
         for i in range(n):
-            jac[i] = pin.jacobianCenterOfMass(model, data, q[i])
+            jac[i] = matrix(pin.jacobianCenterOfMass(model, data, q[i]), 3, robot.nv)
             if v is None or velocity is None:
                 position[i] = pin.centerOfMass(model, data, q[i])
             else:

@@ -31,7 +31,7 @@ import pinocchio as pin
 from service.dynamics.frames import REFERENCE_FRAMES, ReferenceFrame, frame_id, frame_jacobian
 from service.dynamics.lagrangian import minverse
 from service.dynamics.quantity import Quantity, Results, finite
-from service.errors import SingularConfiguration
+from service.errors import InvalidInput, SingularConfiguration
 from service.registry.robot import Robot
 from service.states import States
 
@@ -98,6 +98,8 @@ def operational_space(robot: Robot, s: States, *, frame: str,
         out["coriolis"] = np.empty((n, k))
     model = robot.model
     damping2 = damping * damping
+    if not np.isfinite(damping2):
+        raise InvalidInput(f"damping {damping:g} is too large: λ² is not a finite number")
     with robot.data() as data:
         for i in range(n):
             J, dJ = frame_jacobian(robot, data, q[i], fid, reference,

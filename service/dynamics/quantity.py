@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from service.errors import NonFiniteResult
+from service.errors import NonFiniteResult, SingularConfiguration
 from service.registry.robot import Robot
 from service.states import States, all_finite
 
@@ -66,6 +66,17 @@ def mirror_upper(out: np.ndarray) -> np.ndarray:
     return out
 
 
+def matrix(value: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """A matrix result of Pinocchio as a (rows, cols) array, whatever shape the binding gave.
+
+    Pinocchio's Python bindings (eigenpy) hand back a dynamic-size matrix with one column as a
+    1-D array: J of a 1-dof robot comes back (6,), not (6, 1). Every matrix result passes
+    through here, so its shape comes from the model (nv) and the task, never from the binding.
+    A 2-D result is Eigen's rows × cols already and is returned as it is (about 0.1 µs: this
+    is on the hot path); a 1-D one is reshaped (a view, no copy)."""
+    return value if value.ndim == 2 else value.reshape(rows, cols)
+
+
 def finite(quantity: str, **results: np.ndarray) -> Results:
     """Return `results`, or raise NonFiniteResult naming the first non-finite one."""
     for name, value in results.items():
@@ -76,11 +87,27 @@ def finite(quantity: str, **results: np.ndarray) -> Results:
 
 
 def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) -> dict[str, Any]:
-    """Compute one quantity and drop the batch axis again for a single-state request."""
-    if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
-        results = quantity.parallel(robot, s)
-    else:
-        results = quantity.compute(robot, s, **options)
+    """Compute one quantity and drop the batch axis again for a single-state request.
+
+    Every computation runs inside the one guard of numerical linear algebra: a factorization
+    or eigen-decomposition that fails (numpy's `LinAlgError`: no convergence, a singular
+    matrix, values beyond float64) is `SingularConfiguration` (422), never a 500."""
+    try:
+        if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
+            results = quantity.parallel(robot, s)
+        else:
+            results = quantity.compute(robot, s, **options)
+    except np.linalg.LinAlgError as exc:
+        raise linear_algebra_failure(quantity.path, exc) from None
     # (a non-array answer, e.g. the frame names of frame-placements, is given once as it is)
     return {name: s.unbatch(value) if isinstance(value, np.ndarray) else value
             for name, value in results.items()}
+
+
+def linear_algebra_failure(quantity: str, exc: np.linalg.LinAlgError) -> SingularConfiguration:
+    """The 422 answer to a failed solve: the numbers of these inputs are beyond what the
+    linear algebra of `quantity` can factorize (numpy's message names the failure)."""
+    reason = str(exc).split("\n", 1)[0][:120] or "the solver failed"
+    return SingularConfiguration(
+        f"{quantity}: the linear algebra failed for these inputs ({reason}): the "
+        "configuration is singular for it or an input is too extreme to compute with")

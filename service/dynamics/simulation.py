@@ -41,7 +41,7 @@ from service.dynamics.quantity import Quantity, Results, finite
 from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
 from service.joint_names import from_names
 from service.registry.robot import Robot
-from service.states import States, check_configuration
+from service.states import States, as_array, check_configuration
 
 STAGES = {"semi-implicit-euler": 1, "rk4": 4}
 MAX_STEPS = 100_000  # defaults of the settings of the same names
@@ -89,7 +89,8 @@ def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, A
     if tau is None:
         zero = np.zeros(robot.nv)
         return lambda k, q, v, data: zero
-    schedule = np.asarray(from_names(robot, "tau", tau, "nv"), dtype=np.float64)
+    schedule = as_array("tau", from_names(robot, "tau", tau, "nv"),
+                        "(a constant torque) or 2-D (a schedule [steps][nv])")
     if schedule.ndim == 1:
         constant = _vector(robot, "tau", schedule, "nv")
         return lambda k, q, v, data: constant

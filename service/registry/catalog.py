@@ -52,6 +52,10 @@ def catalog_entries() -> list[CatalogEntry]:
     return [CatalogEntry(name, spec) for name, spec in sorted(table.items())]
 
 
+_VELOCITY_EFFORT_BOUNDS = ("lowerVelocityLimit", "upperVelocityLimit", "lowerEffortLimit",
+                           "upperEffortLimit")
+
+
 def _keep_joints_below(model: Any, limit: int) -> Any:
     """A copy of `model` with only joints of index < limit (the loader's talos_legs)."""
     reduced = pin.Model()
@@ -63,6 +67,10 @@ def _keep_joints_below(model: Any, limit: int) -> Any:
         for attr, (src, dst, n) in {
             "upperPositionLimit": (jm.idx_q, rq, nq), "lowerPositionLimit": (jm.idx_q, rq, nq),
             "velocityLimit": (jm.idx_v, rv, nv), "effortLimit": (jm.idx_v, rv, nv),
+            # Pinocchio ≥ 3.4 also keeps lower bounds (addJoint leaves them at +max, which
+            # its model reduction refuses as lower > upper)
+            **{name: (jm.idx_v, rv, nv) for name in _VELOCITY_EFFORT_BOUNDS
+               if hasattr(model, name)},
         }.items():
             values = getattr(reduced, attr)
             values[dst:dst + n] = getattr(model, attr)[src:src + n]

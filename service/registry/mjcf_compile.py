@@ -61,6 +61,12 @@ def parse_xml(text: str | bytes, what: str, limits: Limits) -> Element:
         if depth > limits.max_depth + 8:
             raise InvalidModel(f"{what}: <{shown(str(el.tag))}> is nested deeper than "
                                f"{limits.max_depth + 8} XML levels")
+        for attr in ("name", "model"):  # names are echoed in every answer: bounded
+            value = el.get(attr)
+            if value is not None and len(value) > limits.max_name_length:
+                raise InvalidModel(f"{what}: <{shown(str(el.tag))}> {attr}='{shown(value)}' is "
+                                   f"{len(value)} characters long; the limit is "
+                                   f"{limits.max_name_length} (ROBODYN_MAX_NAME_LENGTH)")
         stack.extend((child, depth + 1) for child in el)
     return root
 

@@ -25,6 +25,7 @@ reference configurations and the default configuration are restricted to the rem
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -137,6 +138,36 @@ def _restriction(base: Any, reduced: Any) -> np.ndarray:
     return np.array(index, dtype=int)
 
 
+_ALIAS = "\x00"  # never in a name a description can give (XML cannot carry it)
+
+
+def build_reduced_model(model: Any, joint_ids: list[int], q_ref: np.ndarray) -> Any:
+    """`pin.buildReducedModel`, also for models where a link and a joint share a name.
+
+    Pinocchio's reduction looks frames up by name alone and fails when two frames have the
+    name (a URDF link and joint of the same name, common in the catalog: anymal_c, b1_z1, …).
+    The reduction is made on a copy whose non-joint frames of shared names carry a unique
+    suffix, and the names are restored on the result, in the same order."""
+    counts = Counter(frame.name for frame in model.frames)
+    if all(count == 1 for count in counts.values()):
+        return pin.buildReducedModel(model, joint_ids, q_ref)
+    renamed = pin.Model(model)
+    for fid, frame in enumerate(model.frames):
+        if counts[frame.name] > 1 and frame.type != pin.FrameType.JOINT:
+            _rename_frame(renamed, fid, f"{frame.name}{_ALIAS}{fid}")
+    reduced = pin.buildReducedModel(renamed, joint_ids, q_ref)
+    for fid, frame in enumerate(reduced.frames):
+        if _ALIAS in frame.name:
+            _rename_frame(reduced, fid, frame.name.split(_ALIAS, 1)[0])
+    return reduced
+
+
+def _rename_frame(model: Any, fid: int, name: str) -> None:
+    frame = model.frames[fid]
+    frame.name = name
+    model.frames[fid] = frame
+
+
 def reduced_robot(base: Robot, locked_q: Mapping[str, list[float]], robot_id: str, name: str,
                   origin: dict[str, Any]) -> Robot:
     """The `Robot` of `base` with the joints of `locked_q` (from `locked_configuration`) locked.
@@ -151,7 +182,7 @@ def reduced_robot(base: Robot, locked_q: Mapping[str, list[float]], robot_id: st
         jid = model.getJointId(joint)
         q_ref[model.joints[jid].idx_q:model.joints[jid].idx_q + len(values)] = values
         ids.append(jid)
-    reduced = pin.buildReducedModel(model, sorted(ids), q_ref)
+    reduced = build_reduced_model(model, sorted(ids), q_ref)
     keep = _restriction(model, reduced)
     root_locked = model.njoints > 1 and model.names[1] in locked_q
     default = None if base.default_configuration is None else base.default_configuration[keep]

@@ -18,7 +18,9 @@ from typing import Any
 
 from service.errors import CatalogRobot, NotReady, RobotNotFound, did_you_mean
 from service.registry.assets import AssetStore, decode_assets
-from service.registry.build import build_isolated, build_model, reference_configurations
+from service.registry.build import build_model, check_moves, reference_configurations
+from service.registry.build_process import build_upload
+from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.catalog import load_catalog
 from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
 from service.registry.robot import Robot
@@ -30,7 +32,6 @@ from service.registry.upload_formats import (
     mesh_paths,
     new_record,
     rebuild_inputs,
-    validate,
 )
 from service.registry.urdf_check import Limits
 
@@ -42,7 +43,8 @@ NOT_FOUND_HINT = "GET /v1/robots lists the valid ids"
 class Registry:
     def __init__(self, data_dir: Path, catalog_names: list[str] | None = None,
                  build_timeout_s: float = 30.0, *, limits: Limits | None = None,
-                 build_limits: dict[str, Any] | None = None) -> None:
+                 build_limits: dict[str, Any] | None = None,
+                 build_slots: BuildSlots | None = None) -> None:
         self.store = ModelStore(data_dir)
         self.assets = AssetStore(data_dir)
         self.catalog_names = catalog_names
@@ -51,6 +53,9 @@ class Registry:
         # `build_isolated` (memory_mb, cpu_s, max_nv) for every isolated build.
         self.limits = limits or Limits()
         self.build_limits: dict[str, Any] = dict(build_limits or {})
+        # Issue 16: at most this many builds at once (the CPU count by default), waiting for
+        # a slot is bounded and answered 503 overloaded, never invalid_model.
+        self.build_slots = build_slots or BuildSlots(build_slot_count(0), build_timeout_s)
         self.catalog: dict[str, Robot] = {}
         self.catalog_failures: dict[str, str] = {}
         self.uploads: dict[str, Robot] = {}
@@ -96,6 +101,7 @@ class Registry:
                                  origin={"robot": base.id, "locked_joints": locked})
         fmt, text, assets = rebuild_inputs(record, self.assets)
         model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
+        check_moves(model)  # a record stored before nv = 0 was refused is not served
         return Robot(id=model_id, name=record.get("name", model_id), source="upload",
                      root_joint=record.get("served_root_joint", record["root_joint"]),
                      model=model, reference_configurations=reference_configurations(model),
@@ -192,28 +198,33 @@ class Registry:
             raise ValueError("give exactly one of urdf, mjcf and xacro")
         fmt, text = given[0]
         files = decode_assets(assets)
-        findings, label = validate(fmt, text, files, self.limits)
-        check_findings(findings, inertia_check)
         record = new_record(fmt, text, root_joint, gravity, files, xacro_args)
+        # Validation, a xacro's expansion and the native build run in a builder process (never
+        # in this one: on a large description they would hold its GIL for seconds), one build
+        # slot each.
+        with self.build_slots.slot():
+            built = build_upload(text, root_joint, record["gravity"], self.build_timeout_s,
+                                 description_format=fmt, limits=self.limits,
+                                 reject_findings=inertia_check == "reject", assets=files,
+                                 xacro_args=xacro_args, **self.build_limits)
+        checked = built.checked
+        check_findings(checked.findings, inertia_check)
         model_id = content_id(record)
         request = None if locked_joints is None else as_lists(locked_joints)
         target = model_id if request is None else reduced_id(model_id, request)
         if self.store.exists(target):
             return self.get(target), False
-        report: dict[str, Any] = {}
-        model = build_isolated(text, root_joint, record["gravity"], self.build_timeout_s,
-                               description_format=fmt, assets=files, xacro_args=xacro_args,
-                               report=report, **self.build_limits)
-        warnings = [f.as_dict() for f in findings]
-        warnings += after_build(record, report, model, files, inertia_check, self.limits)
-        robot = Robot(id=model_id, name=name or report.get("robot_name", label),
-                      source="upload",
+        model = built.model
+        assert model is not None  # built unless findings were rejected (above)
+        warnings = after_build(record, built.report, model, files, checked, self.limits)
+        robot = Robot(id=model_id, name=name or checked.label, source="upload",
                       root_joint=record.get("served_root_joint", root_joint), model=model,
                       reference_configurations=reference_configurations(model),
                       warnings=warnings, visuals=record.get("visuals"),
                       asset_paths=mesh_paths(self.assets, record))
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
+        robot.info()  # and its description (thousands of frames for a large model)
         self.assets.put(files)
         if request is not None:
             spec = {"source": "upload", "id": model_id,

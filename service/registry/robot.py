@@ -95,6 +95,15 @@ class Robot:
                 self.unit_joints.append(
                     (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
         self.total_mass = float(pin.computeTotalMass(self.model))
+        # Frame name → frame index. A link and a joint (an MJCF body and its joint) may share a
+        # name: the body frame of that name is meant, else the first frame of that name in
+        # model order (the order of `frames` in `info()`).
+        self.frame_ids: dict[str, int] = {}
+        body = pin.FrameType.BODY
+        for fid, frame in enumerate(self.model.frames):
+            known = self.frame_ids.get(frame.name)
+            if known is None or (frame.type == body and self.model.frames[known].type != body):
+                self.frame_ids[frame.name] = fid
         self._info: dict[str, Any] | None = None
         self._pool = data_pool.Pool(data_pool.BUDGET, self.nv)
         # a robot that is gone (deleted upload) gives its idle Datas back to the budget

@@ -89,6 +89,21 @@ def parse_bounded(text: str, max_elements: int, max_depth: int) -> Element:
     return root
 
 
+NAME_ATTRIBUTES = ("name", "model")  # <robot name>, <link name>, <joint name>, <mujoco model>, ...
+
+
+def check_name_lengths(root: Element, max_length: int) -> None:
+    """Refuse any element whose name (`name`, or MJCF's `model`) is longer than `max_length`
+    characters: names are echoed in every answer that lists joints or frames."""
+    for el in root.iter():
+        for attr in NAME_ATTRIBUTES:
+            value = el.get(attr)
+            if value is not None and len(value) > max_length:
+                raise InvalidModel(
+                    f"<{shown(str(el.tag))}> {attr} '{shown(value)}' is {len(value)} characters "
+                    f"long; the limit is {max_length} (ROBODYN_MAX_NAME_LENGTH)")
+
+
 def _position(exc: ParseError) -> str:
     # expat's own text: "mismatched tag: line 1, column 30"; keep it short.
     return str(exc).split("\n")[0][:120]

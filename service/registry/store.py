@@ -2,9 +2,10 @@
 
 One JSON record per model at `<data_dir>/models/<id>.json` holding what is needed to rebuild it
 (the description text and the upload options; for a reduced model its base's record or catalog
-name and the locked joints) plus its summary. Writes are atomic: write a
-temporary file, fsync, rename over the final name, fsync the directory. A record is therefore
-either absent or complete; an unreadable one is skipped with a log line. Temporary files left by
+name and the locked joints) plus its summary. Writes are atomic: write a temporary file, fsync,
+rename over the final name, fsync the directory. A record is therefore either absent or
+complete; an unreadable one, or one that is valid JSON but incomplete (checked against the
+schema of `service.registry.records`), is skipped with one log line. Temporary files left by
 a process killed in the middle of a write are never read as records (their names start with a
 dot) and are removed when a store opens and finds them older than a minute.
 """
@@ -20,6 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+from service.registry.records import check_record
 
 log = logging.getLogger("robodyn.store")
 
@@ -63,6 +66,7 @@ class ModelStore:
     def __init__(self, data_dir: Path) -> None:
         self.dir = Path(data_dir) / "models"
         self.dir.mkdir(parents=True, exist_ok=True)
+        self._reported: set[str] = set()  # ids of unreadable records already logged
         self._remove_stale_temporaries()
 
     def _remove_stale_temporaries(self) -> None:
@@ -89,13 +93,13 @@ class ModelStore:
         try:
             with path.open("rb") as fh:
                 record = json.loads(fh.read())
-            if not isinstance(record, dict) or record.get("id") != model_id:
-                raise ValueError("record does not match its file name")
-            return record
+            return check_record(record, model_id)
         except FileNotFoundError:
             return None
         except (OSError, ValueError) as exc:
-            log.error("skipping unreadable model record %s: %s", path.name, exc)
+            if model_id not in self._reported:  # records never change: one line per record
+                self._reported.add(model_id)
+                log.error("skipping unreadable model record %s: %s", path.name, exc)
             return None
 
     def write(self, record: dict[str, Any]) -> None:

@@ -1,7 +1,7 @@
-"""What each upload format (URDF, MJCF, xacro) adds around a build: the checks before it, the
-record that identifies and rebuilds the model, what the builder process reports after it
-(findings, notes, the served root joint, an MJCF's visuals, a xacro's expansion), and where the
-assets the robot's visuals name are stored.
+"""What each upload format (URDF, MJCF, xacro) adds around a build: the refusal of physical
+findings, the record that identifies and rebuilds the model, what the builder process reports
+after it (findings, notes, the served root joint, an MJCF's visuals, a xacro's expansion), and
+where the assets the robot's visuals name are stored.
 """
 
 from __future__ import annotations
@@ -12,23 +12,10 @@ from typing import Any
 
 from service.errors import InvalidModel
 from service.registry.assets import MESH_TYPES, AssetStore, digest, extension, unreferenced
-from service.registry.mjcf_compile import parse_xml, preflight
-from service.registry.urdf_check import Finding, Limits, check_urdf
+from service.registry.build import Checked
+from service.registry.urdf_check import Finding, Limits
 
 URDF_GRAVITY = [0.0, 0.0, -9.81]  # m/s², a URDF or xacro upload's default
-
-
-def validate(fmt: str, text: str, assets: Mapping[str, bytes], limits: Limits
-             ) -> tuple[list[Finding], str]:
-    """(physical findings, the description's own name) of the checks in the serving process
-    (MJCF and xacro: safe XML and caps only; the builder process finds the rest)."""
-    if fmt == "mjcf":
-        return [], preflight(text, assets, limits)
-    if fmt == "xacro":
-        parse_xml(text, "the xacro", limits)
-        return [], "xacro"
-    urdf = check_urdf(text, limits)
-    return urdf.findings, urdf.robot_name
 
 
 def check_findings(findings: list[Finding], inertia_check: str) -> None:
@@ -57,10 +44,11 @@ def new_record(fmt: str, text: str, root_joint: str, gravity: list[float] | None
 
 
 def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
-                assets: Mapping[str, bytes], inertia_check: str, limits: Limits
+                assets: Mapping[str, bytes], checked: Checked, limits: Limits
                 ) -> list[dict[str, str]]:
     """Apply what the builder process reported to `record` (served root joint, visuals,
-    expansion) and refuse what it found; the upload's warnings beyond the URDF findings."""
+    expansion) and refuse what its caps do not admit; the upload's warnings: what validation
+    found (`checked`, already accepted) and the assets the description never names."""
     fmt = record["format"]
     if fmt == "mjcf" and model.nv > limits.max_nv:
         raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates; the limit is "
@@ -68,10 +56,6 @@ def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
     if report.get("bodies", 0) > limits.max_links:
         raise InvalidModel(f"the model has {report['bodies']} bodies; the limit is "
                            f"{limits.max_links} (ROBODYN_MAX_LINKS)")
-    findings = list(report.get("findings", []))
-    if fmt == "xacro":  # its expansion is checked again with this server's caps
-        findings = [f.as_dict() for f in check_urdf(report["expanded_urdf"], limits).findings]
-    check_findings([Finding(**f) for f in findings], inertia_check)
     if "root_joint" in report:
         record["served_root_joint"] = report["root_joint"]
     if fmt == "mjcf":
@@ -81,7 +65,7 @@ def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
     texts = [record["description"]] + [data.decode("utf-8", "replace")
                                        for key, data in assets.items()
                                        if extension(key) not in (*MESH_TYPES, "png")]
-    return [*findings, *report.get("notes", []),
+    return [*(f.as_dict() for f in checked.findings + checked.notes),
             *({"code": "unreferenced_asset", "element": "asset", "name": key,
                "message": f"asset '{key}' is not named by the description or its included "
                           "files; it is stored with the model"}

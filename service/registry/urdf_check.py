@@ -35,7 +35,8 @@ from xml.etree.ElementTree import Element
 import numpy as np
 
 from service.errors import InvalidModel
-from service.registry.safe_xml import parse_bounded, read_numbers, shown
+from service.registry.mimic import mimic_problems
+from service.registry.safe_xml import check_name_lengths, parse_bounded, read_numbers, shown
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 AXIS_TYPES = ("revolute", "continuous", "prismatic", "planar")
@@ -84,6 +85,7 @@ class Limits:
     max_depth: int = 128
     max_elements: int = 50_000
     max_xml_depth: int = 32
+    max_name_length: int = 256  # of robot, link, joint, body, site... names (characters)
 
 
 def _numbers(text: str | None, count: int, what: str, default: str | None = None) -> list[float]:
@@ -237,6 +239,7 @@ def parse_urdf(text: str, limits: Limits = Limits()) -> Element:
     root = parse_bounded(text, limits.max_elements, limits.max_xml_depth)
     if root.tag != "robot":
         raise InvalidModel(f"the root element is <{shown(root.tag)}>; a URDF needs <robot>")
+    check_name_lengths(root, limits.max_name_length)
     return root
 
 
@@ -266,6 +269,7 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
                            f"{limits.max_links} (ROBODYN_MAX_LINKS)")
 
     children: dict[str, list[tuple[str, str]]] = {name: [] for name in links}
+    mimics: dict[str, str] = {}  # joint → the joint it mimics (existing targets only)
     parent_of: dict[str, str] = {}
     child_of_joint: dict[str, str] = {}
     moving = nv = 0
@@ -298,12 +302,16 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
                 tolerable(Finding("dangling_mimic", "joint", jname,
                                   f"joint '{label}': mimics joint '{shown(target)}', which "
                                   "does not exist (the mimic is ignored)"))
+            else:
+                mimics[jname] = target
             for attr in ("multiplier", "offset"):
                 if mimic.get(attr) is not None:
                     _number(mimic, attr, f"joint '{label}' mimic {attr}")
         if jtype != "fixed":
             moving += 1
             nv += JOINT_NV[jtype]
+    for code, joint_name, message in mimic_problems(joints, mimics):
+        tolerable(Finding(code, "joint", joint_name, message))
     if nv > limits.max_nv:
         raise InvalidModel(f"the description has nv = {nv} velocity coordinates ({moving} "
                            f"moving joints); the limit is {limits.max_nv} (ROBODYN_MAX_NV)")

@@ -30,7 +30,10 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path
     # start-up (as a record written by an older version, or edited by hand, might).
     ModelStore(data).write({"id": "u-000000000000000000000bad", "format": "urdf",
                             "description": BROKEN_URDF, "root_joint": "fixed",
-                            "gravity": [0.0, 0.0, -9.81], "name": "broken"})
+                            "gravity": [0.0, 0.0, -9.81], "name": "broken",
+                            "summary": {"id": "u-000000000000000000000bad", "name": "broken",
+                                        "source": "upload", "nq": 1, "nv": 1,
+                                        "root_joint": "fixed"}})
     with running_server(data, catalog="ur5", log_level="info") as url:
         yield url, data / "server.log"
 

@@ -20,8 +20,11 @@ from tests.helpers import planar_arm_closed_form, planar_arm_urdf
 
 
 def _record(model_id: str) -> dict:
+    # complete by the store's schema (service.registry.records): an incomplete one is skipped
     return {"id": model_id, "format": "urdf", "description": "<robot/>", "root_joint": "fixed",
-            "gravity": [0, 0, -9.81]}
+            "gravity": [0, 0, -9.81], "name": model_id, "warnings": [],
+            "summary": {"id": model_id, "name": model_id, "source": "upload", "nq": 0, "nv": 0,
+                        "root_joint": "fixed"}}
 
 
 def test_a_write_interrupted_before_the_rename_leaves_no_record(tmp_path, monkeypatch):

@@ -154,7 +154,7 @@ F64_6 = {"dtype": "F64", "shape": [6], "data_offsets": [0, 48]}
     (raw({"q": F64_6}, bytes(56)), "end at byte 48"),
     (raw({"q": F64_6, "v": {**F64_6, "data_offsets": [0, 48]}}, bytes(96)), "must start where"),
     (raw({"q": F64_6, "__metadata__": {"q": "1"}}, bytes(48)), "both"),
-    (encode_request(GOOD)[:-8], "body's 5 numbers"),
+    (encode_request(GOOD)[:-8], "the body carries 5"),
     (encode_request({"q": np.zeros(6), "v": np.zeros(6)}), "unknown array 'v'"),
     (encode_request({}), "missing array 'q'"),
 ])

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from service.errors import InvalidModel
-from service.registry.build import build_isolated
+from service.registry.build_process import build_isolated
 from tests.service.mjcf_models import MULTI_JOINT_MJCF, TWINS
 from tests.service.mjcf_reference import random_states, relative_error, robodyn_q
 

@@ -86,7 +86,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(pages.router)
     app.add_middleware(DynamicsFastPath)  # innermost: after the body limit and observability
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
-                       upload_limit=settings.max_upload_bytes)
+                       upload_limit=settings.max_upload_bytes,
+                       json_limit=settings.max_json_body_bytes)
     app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,
                        catalog_ids=lambda: registry.catalog)  # outermost: sees every answer
     return app

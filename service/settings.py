@@ -38,6 +38,10 @@ class Settings(BaseSettings):
     max_body_bytes: int = Field(
         64 * 1024 * 1024, ge=1024, description="Largest request body accepted, in bytes."
     )
+    max_json_body_bytes: int = Field(
+        16 * 1024 * 1024, ge=1024, description="Largest JSON request body other than an upload, "
+        "in bytes: parsing JSON numbers holds the event loop (about 80 ms for 16 MiB), so "
+        "larger batches are sent in the binary form (up to max_body_bytes).")
     max_batch: int = Field(100_000, ge=1, description="Largest batch (states per request).")
     max_pending_batches: int = Field(
         16, ge=1, description="Large batches computed or queued at once per process; more are "

@@ -66,7 +66,7 @@ class Settings(BaseSettings):
     )
     log_level: str = Field("info", description="Log level: debug, info, warning, error.")
 
-    # -- hardening: API keys for reads and compute, upload limits (see README "Security") --
+    # -- hardening: API keys for reads and compute, upload limits (docs/security.md) --
     api_keys_scope: Literal["writes", "all"] = Field(
         "writes", description="With API keys set: `writes` guards uploads, reductions and "
         "deletions; `all` guards every /v1 route (reads and compute too). Health, metrics and "

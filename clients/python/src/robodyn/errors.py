@@ -139,7 +139,8 @@ class RobotNotFoundError(NotFoundError):
 
 
 class AssetNotFoundError(NotFoundError):
-    """Not a mesh file the robot's visuals reference (`visuals()` lists the valid paths)."""
+    """Not a mesh file the robot's visuals reference (GET /v1/robots/{id}/visuals lists the
+    valid paths, its `asset` members)."""
 
     error_code = "asset_not_found"
 

@@ -4,8 +4,9 @@ Instead of an array, a joint-space input may be an object keyed by joint name, i
 as a ROS `sensor_msgs/JointState` holds it: each joint takes its entries of that space — a
 number (or a 1-list) for a 1-dof joint; for a continuous joint's q its angle θ (rad) or
 `[cos θ, sin θ]`; for a planar joint's q `[x, y, θ]` or `[x, y, cos θ, sin θ]`; the 7-vector
-`[x, y, z, qx, qy, qz, qw]` for a free-flyer's q and its 6-vector in v, a and τ. A batch is a
-list of such objects, one per state.
+`[x, y, z, qx, qy, qz, qw]` for a free-flyer's q and its 6-vector in v, a and τ; a spherical
+joint's quaternion in the robot's q order (`[qw, qx, qy, qz]`, MuJoCo's, for a model built from
+MJCF). A batch is a list of such objects, one per state.
 
 Every joint must be named once, unless the request says how to fill the others (`"fill"`):
 `"neutral"` or the name of one of the robot's reference configurations (e.g. `"standing"`)
@@ -66,8 +67,8 @@ def fill_values(robot: Robot, fill: str | None, dim: str) -> np.ndarray | None:
         return None
     if fill == NEUTRAL:
         base = np.asarray(robot.info()["neutral_configuration"], dtype=np.float64)
-    elif fill in robot.reference_configurations:
-        base = np.asarray(robot.reference_configurations[fill], dtype=np.float64)
+    elif fill in robot.reference_configurations:  # as the API gives it (`Robot.info`)
+        base = np.asarray(robot.info()["reference_configurations"][fill], dtype=np.float64)
     else:
         choices = [NEUTRAL, *robot.reference_configurations]
         raise InvalidInput(f"fill {fill[:_NAME_CHARS]!r} is not a configuration of robot "

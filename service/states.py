@@ -23,6 +23,7 @@ UNIT_NORM_TOL = 1e-6  # |‖quaternion‖ − 1| and |‖(cos, sin)‖ − 1| al
 # Which dimension each joint-space input has.
 SPACES = {"q": "nq", "v": "nv", "a": "nv", "tau": "nv"}
 
+_WXYZ = "quaternion (w, x, y, z)"  # a MuJoCo-qpos robot's (MJCF): `Robot.mujoco_qpos`
 _UNIT_KIND = {"free_flyer": "quaternion (x, y, z, w)", "spherical": "quaternion (x, y, z, w)",
               "planar": "(cos θ, sin θ)", "continuous": "(cos θ, sin θ)"}
 
@@ -113,12 +114,22 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
             raise DimensionMismatch(f"{what} has {arr.shape[1]} entries; robot '{robot.id}' "
                                     f"has {dim_name} = {expected}")
     if "q" in arrays:
-        check_configuration(robot, arrays["q"])
+        arrays["q"] = configurations(robot, arrays["q"])
     return States(arrays=arrays, batched=batched)
 
 
+def configurations(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """Checked configurations (N, nq) as the API gives them, in Pinocchio's order: unit norms
+    checked (`check_configuration`), then each quaternion of a MuJoCo-qpos robot (MJCF) turned
+    from (w, x, y, z) into (x, y, z, w) (`Robot.pinocchio_q`). Every q of a request (the
+    states, a PD target) passes here; other robots' q is returned as it is."""
+    check_configuration(robot, q)
+    return q if robot.q_from_api is None else robot.pinocchio_q(q)
+
+
 def check_configuration(robot: Robot, q: np.ndarray) -> None:
-    """Quaternions and (cos, sin) pairs in q must have unit norm (within UNIT_NORM_TOL)."""
+    """Quaternions and (cos, sin) pairs in q (the API's order) must have unit norm (within
+    UNIT_NORM_TOL)."""
     for joint, start, end in robot.unit_joints:
         norms = np.linalg.norm(q[:, start:end], axis=1)
         bad = np.flatnonzero(np.abs(norms - 1.0) > UNIT_NORM_TOL)
@@ -126,6 +137,8 @@ def check_configuration(robot: Robot, q: np.ndarray) -> None:
             i = int(bad[0])
             where = f"state {i}: " if q.shape[0] > 1 else ""
             kind = _UNIT_KIND.get(robot.joint_types[joint], "unit vector")
+            if start in robot.wxyz_starts:
+                kind = _WXYZ
             raise InvalidConfiguration(
                 f"{where}q[{start}:{end}] is the {kind} of joint '{joint}' and must have unit "
                 f"norm; its norm is {norms[i]:.9g}")

@@ -18,7 +18,8 @@ LOCKED_DESC = (
     "Joints to lock, by name (GET /v1/robots/{id} lists them), each at a position: a number "
     "(rad or m) for revolute and prismatic joints; an angle θ (rad) or [cos θ, sin θ] for "
     "continuous joints; [x, y, z, qx, qy, qz, qw] for a free-flyer; [x, y, θ] or "
-    "[x, y, cos θ, sin θ] for a planar joint; [qx, qy, qz, qw] for a spherical one; the nq "
+    "[x, y, cos θ, sin θ] for a planar joint; [qx, qy, qz, qw] for a spherical one "
+    "([qw, qx, qy, qz], MuJoCo's order, for a model uploaded as MJCF); the nq "
     "entries of q for any other. Values outside a revolute or prismatic joint's position limits "
     "are rejected (422 invalid_configuration). The locked joints leave q, v, a and τ; their "
     "bodies are welded where these positions put them.")

@@ -27,7 +27,9 @@ def joint_field(desc: str, default: Any = ...) -> Any:
 
 Q_DESC = ("Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "
           "free-flyer base takes [x, y, z, qx, qy, qz, qw] (m, unit quaternion, scalar last), a "
-          "continuous joint [cos θ, sin θ]. GET /v1/robots/{id} gives each joint's idx_q.")
+          "continuous joint [cos θ, sin θ]. For a model uploaded as MJCF, q is MuJoCo's qpos "
+          "(ball and free joint quaternions w first). GET /v1/robots/{id} gives each joint's "
+          "idx_q.")
 V_DESC = ("Velocity v, length nv: rad/s or m/s; a free-flyer base takes 6 entries first "
           "(linear then angular, in the base frame).")
 A_DESC = "Acceleration a, length nv: rad/s² or m/s² (free-flyer: linear then angular)."

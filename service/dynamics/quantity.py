@@ -99,6 +99,8 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) ->
             results = quantity.compute(robot, s, **options)
     except np.linalg.LinAlgError as exc:
         raise linear_algebra_failure(quantity.path, exc) from None
+    if robot.q_to_api is not None and "q" in quantity.joint_answers:
+        results["q"] = robot.api_q(results["q"])  # configurations answered (simulate's)
     # (a non-array answer, e.g. the frame names of frame-placements, is given once as it is)
     return {name: s.unbatch(value) if isinstance(value, np.ndarray) else value
             for name, value in results.items()}

@@ -41,7 +41,7 @@ from service.dynamics.quantity import Quantity, Results, finite
 from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
 from service.joint_names import from_names
 from service.registry.robot import Robot
-from service.states import States, as_array, check_configuration
+from service.states import States, as_array, configurations
 
 STAGES = {"semi-implicit-euler": 1, "rk4": 4}
 MAX_STEPS = 100_000  # defaults of the settings of the same names
@@ -74,7 +74,7 @@ def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, A
                            "not both")
     if controller is not None:
         target = _vector(robot, "controller.q_target", controller["q_target"], "nq")
-        check_configuration(robot, target[np.newaxis])
+        target = configurations(robot, target[np.newaxis])[0]  # checked, Pinocchio's order
         kp = _gain(robot, "controller.kp", controller["kp"])
         kd = _gain(robot, "controller.kd", controller["kd"])
         compensate = bool(controller.get("gravity_compensation", False))

@@ -13,13 +13,14 @@ Pinocchio joints: joint 1 at (parent frame → body frame at qpos0) · T(p1) · 
 joint i at T(−p(i−1) + pi) · R(axis_i, −ref_i) from joint i−1, and the body at T(−pk) from
 joint k. The joints between are massless (Pinocchio's composite joint is not used).
 
-Coordinates (q and v as MuJoCo's qpos and qvel): hinges and slides are one number each, exactly
-MuJoCo's. A ball joint is a Pinocchio spherical joint: q is its quaternion in Pinocchio's order
-(x, y, z, w) where MuJoCo's qpos has (w, x, y, z); v is the body-frame angular velocity in both.
-A free joint is two Pinocchio joints, a translation (`<name>`, q = position, v = world-frame
-linear velocity of the body origin) and a spherical joint (`<name>_rotation`, quaternion x, y, z, w,
-body-frame angular velocity): v is exactly MuJoCo's qvel, and q is qpos with the quaternion's w
-moved last.
+Coordinates: hinges and slides are one number each, exactly MuJoCo's qpos. A ball joint is a
+Pinocchio spherical joint whose q holds the quaternion in Pinocchio's order (x, y, z, w) where
+MuJoCo's qpos has (w, x, y, z); v is the body-frame angular velocity in both. A free joint is two
+Pinocchio joints, a translation (`<name>`, q = position, v = world-frame linear velocity of the
+body origin) and a spherical joint (`<name>_rotation`, quaternion x, y, z, w, body-frame angular
+velocity): v is exactly MuJoCo's qvel. The API gives and takes q as MuJoCo's qpos itself: a
+robot built from MJCF has `Robot.mujoco_qpos`, and the service reorders each spherical joint's
+quaternion at its boundary (`service.states.configurations` in, `Robot.api_q` out).
 """
 
 from __future__ import annotations

@@ -12,7 +12,8 @@ Value of a locked joint, by joint type (GET /v1/robots/{id} gives each joint's t
     continuous              an angle θ in rad, or [cos θ, sin θ] (unit norm within 1e-6)
     free_flyer              [x, y, z, qx, qy, qz, qw] (m; unit quaternion, scalar last)
     planar                  [x, y, θ] or [x, y, cos θ, sin θ]
-    spherical               [qx, qy, qz, qw]
+    spherical               [qx, qy, qz, qw]; [qw, qx, qy, qz] (MuJoCo's qpos) for a model
+                            built from MJCF, as its q
     any other               its nq entries of q
 
 Unit quaternions and (cos, sin) pairs are normalized once checked. A revolute or prismatic value
@@ -61,9 +62,14 @@ def _unit(values: list[float], joint: str, kind: str) -> list[float]:
     return [x / norm for x in values]
 
 
-def _joint_q(joint: str, kind: str, nq: int, values: list[float]) -> list[float]:
-    """The q entries of one locked joint from its requested value (see the module docstring)."""
+def _joint_q(joint: str, kind: str, nq: int, values: list[float], wxyz: bool = False
+             ) -> list[float]:
+    """The q entries of one locked joint from its requested value (see the module docstring),
+    in Pinocchio's order; `wxyz`: a spherical joint's value is (qw, qx, qy, qz)."""
     n = len(values)
+    if kind == "spherical" and n == 4 and wxyz:
+        x, y, z, w = _unit(values[1:] + values[:1], joint, "quaternion (qw, qx, qy, qz)")
+        return [x, y, z, w]
     if kind == "continuous" and n == 1:
         return [math.cos(values[0]), math.sin(values[0])]
     if kind == "continuous" and n == 2:
@@ -80,7 +86,7 @@ def _joint_q(joint: str, kind: str, nq: int, values: list[float]) -> list[float]
         return values
     expected = {"continuous": "an angle θ or [cos θ, sin θ]", "planar": "[x, y, θ] or "
                 "[x, y, cos θ, sin θ]", "free_flyer": "[x, y, z, qx, qy, qz, qw]",
-                "spherical": "[qx, qy, qz, qw]"}.get(
+                "spherical": "[qw, qx, qy, qz]" if wxyz else "[qx, qy, qz, qw]"}.get(
         kind, "a number" if nq == 1 else f"a list of its {nq} entries of q")
     raise InvalidInput(f"locked joint '{_shown(joint)}' is {kind}: its value must be {expected}; "
                        f"{n} numbers were given")
@@ -113,7 +119,8 @@ def locked_configuration(robot: Robot, locked: Mapping[str, LockedValue]
         values = as_lists({name: locked[name]})[name]
         if not all(math.isfinite(x) for x in values):
             raise InvalidInput(f"locked joint '{_shown(name)}': values must be finite")
-        q = _joint_q(name, kind, jm.nq, values)
+        wxyz = jm.idx_q in robot.wxyz_starts  # MuJoCo's order: w first (`Robot.mujoco_qpos`)
+        q = _joint_q(name, kind, jm.nq, values, wxyz)
         if kind in CHECKED_LIMITS:
             lower = model.lowerPositionLimit[jm.idx_q:jm.idx_q + jm.nq]
             upper = model.upperPositionLimit[jm.idx_q:jm.idx_q + jm.nq]
@@ -190,4 +197,5 @@ def reduced_robot(base: Robot, locked_q: Mapping[str, list[float]], robot_id: st
         id=robot_id, name=name, source="upload",
         root_joint="fixed" if root_locked else base.root_joint, model=reduced,
         reference_configurations={k: v[keep] for k, v in base.reference_configurations.items()},
-        default_configuration=default, warnings=list(base.warnings), origin=origin)
+        default_configuration=default, warnings=list(base.warnings), origin=origin,
+        mujoco_qpos=base.mujoco_qpos)

@@ -106,7 +106,7 @@ class Registry:
                      root_joint=record.get("served_root_joint", record["root_joint"]),
                      model=model, reference_configurations=reference_configurations(model),
                      warnings=record.get("warnings", []), visuals=record.get("visuals"),
-                     asset_paths=mesh_paths(self.assets, record))
+                     asset_paths=mesh_paths(self.assets, record), mujoco_qpos=fmt == "mjcf")
 
     def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
         """The base of a reduced model: a catalog robot (loaded here if this server does not
@@ -221,7 +221,7 @@ class Registry:
                       root_joint=record.get("served_root_joint", root_joint), model=model,
                       reference_configurations=reference_configurations(model),
                       warnings=warnings, visuals=record.get("visuals"),
-                      asset_paths=mesh_paths(self.assets, record))
+                      asset_paths=mesh_paths(self.assets, record), mujoco_qpos=fmt == "mjcf")
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
         robot.info()  # and its description (thousands of frames for a large model)

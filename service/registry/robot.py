@@ -71,6 +71,7 @@ class Robot:
     source: str  # "catalog" or "upload"
     root_joint: str
     model: Any  # pin.Model
+    # (both in Pinocchio's q order; `info()` gives them in the API's, see `api_q`)
     reference_configurations: dict[str, np.ndarray] = field(default_factory=dict)
     default_configuration: np.ndarray | None = None
     contact_frames: list[dict[str, str]] = field(default_factory=list)  # suggested contacts
@@ -80,6 +81,9 @@ class Robot:
     visuals: list[dict[str, Any]] | None = None
     # asset key -> file on disk, only the files the visuals reference
     asset_paths: dict[str, Path] = field(default_factory=dict)
+    # q is MuJoCo's qpos (a model built from MJCF): every spherical joint's quaternion is
+    # (w, x, y, z) in the API and (x, y, z, w) in Pinocchio (`pinocchio_q`, `api_q`)
+    mujoco_qpos: bool = False
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
@@ -95,6 +99,18 @@ class Robot:
                 self.unit_joints.append(
                     (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
         self.total_mass = float(pin.computeTotalMass(self.model))
+        # q index permutations API → Pinocchio and back; None when q needs no reordering
+        self.wxyz_starts: tuple[int, ...] = tuple(
+            self.model.joints[self.model.getJointId(name)].idx_q
+            for name, kind in self.joint_types.items()
+            if kind == "spherical") if self.mujoco_qpos else ()
+        self.q_from_api: np.ndarray | None = None
+        self.q_to_api: np.ndarray | None = None
+        if self.wxyz_starts:
+            self.q_from_api, self.q_to_api = np.arange(self.nq), np.arange(self.nq)
+            for s in self.wxyz_starts:
+                self.q_from_api[s:s + 4] = (s + 1, s + 2, s + 3, s)
+                self.q_to_api[s:s + 4] = (s + 3, s, s + 1, s + 2)
         # Frame name → frame index. A link and a joint (an MJCF body and its joint) may share a
         # name: the body frame of that name is meant, else the first frame of that name in
         # model order (the order of `frames` in `info()`).
@@ -109,6 +125,18 @@ class Robot:
         # a robot that is gone (deleted upload) gives its idle Datas back to the budget
         weakref.finalize(self, self._pool.close)
 
+
+    def pinocchio_q(self, q: np.ndarray) -> np.ndarray:
+        """Configurations q (last axis nq) as the API gives them → Pinocchio's order: for a
+        MuJoCo-qpos robot each quaternion (w, x, y, z) becomes (x, y, z, w); otherwise `q`
+        itself. The one conversion of every q the service takes."""
+        # np.take: C-contiguous (q[..., index] is not, for Pinocchio and orjson alike)
+        return q if self.q_from_api is None else np.take(q, self.q_from_api, axis=-1)
+
+    def api_q(self, q: np.ndarray) -> np.ndarray:
+        """Configurations q (last axis nq) in Pinocchio's order → the API's (the inverse of
+        `pinocchio_q`). The one conversion of every q the service answers."""
+        return q if self.q_to_api is None else np.take(q, self.q_to_api, axis=-1)
 
     def data(self) -> _BorrowedData:
         """Borrow a `pin.Data` for the duration of one computation (thread-safe):
@@ -159,16 +187,18 @@ class Robot:
                     "armature": [float(x) for x in m.armature[vs]],
                 })
             default = self.default_configuration
+            neutral = [float(x) for x in self.api_q(pin.neutral(m))]
             self._info = {
                 **self.summary(),
                 "gravity": [float(x) for x in m.gravity.linear],
                 "total_mass": self.total_mass,
-                "neutral_configuration": [float(x) for x in pin.neutral(m)],
+                "neutral_configuration": neutral,
                 "default_configuration": (
-                    [float(x) for x in default] if default is not None
-                    else [float(x) for x in pin.neutral(m)]),
+                    [float(x) for x in self.api_q(default)] if default is not None
+                    else list(neutral)),
                 "reference_configurations": {
-                    k: [float(x) for x in v] for k, v in self.reference_configurations.items()},
+                    k: [float(x) for x in self.api_q(v)]
+                    for k, v in self.reference_configurations.items()},
                 "warnings": list(self.warnings),
                 "contact_frames": [dict(c) for c in self.contact_frames],
                 "joints": joints,

@@ -103,12 +103,18 @@ function jointCoordinates(j, q0) {
     };
   }
   if (j.type === "spherical") {
-    const [r, p, y] = quatToRpy(qj);
+    // The identity in neutral_configuration shows the order: [1, 0, 0, 0] is w first (an MJCF
+    // model, whose q is MuJoCo's qpos), [0, 0, 0, 1] w last (Pinocchio's).
+    const wFirst = state.info.neutral_configuration[j.idx_q] === 1;
+    const [r, p, y] = quatToRpy(wFirst ? [...qj.slice(1), qj[0]] : qj);
     return {
       coords: [coord("roll", "ωx", "angle", null, null, r, ANGLE),
                coord("pitch", "ωy", "angle", null, null, p, [-PI / 2, PI / 2]),
                coord("yaw", "ωz", "angle", null, null, y, ANGLE)],
-      toQ: (c) => rpyToQuat(c[0], c[1], c[2]),
+      toQ: (c) => {
+        const xyzw = rpyToQuat(c[0], c[1], c[2]);
+        return wFirst ? [xyzw[3], ...xyzw.slice(0, 3)] : xyzw;
+      },
     };
   }
   if (j.type === "planar") {

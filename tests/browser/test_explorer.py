@@ -228,6 +228,33 @@ def test_free_flyer_base_gives_a_unit_quaternion(page, server, api) -> None:
     assert_matches_api(page, api, "solo12", q, v)
 
 
+BALL_MJCF = """<mujoco model="ball"><worldbody><body name="bob" pos="0 0 1">
+  <joint name="socket" type="ball"/>
+  <inertial pos="0.05 0.02 -0.3" mass="2" diaginertia="0.05 0.06 0.02"/>
+</body></worldbody></mujoco>"""
+
+
+def test_mjcf_ball_joint_gives_a_w_first_quaternion(page, server, api) -> None:
+    """An MJCF model's q is MuJoCo's qpos: the page writes a ball joint's quaternion w first."""
+    r = api.post("/v1/robots", json={"mjcf": BALL_MJCF, "name": "ball"})
+    assert r.status_code in (200, 201), r.text
+    robot = r.json()["id"]
+    assert r.json()["neutral_configuration"] == [1, 0, 0, 0]
+    open_explorer(page, server, robot)
+    labels = page.eval_on_selector_all("#joints input[id^='q-']",
+                                       "xs => xs.map(x => x.labels[0].textContent)")
+    yaw = next(i for i, t in enumerate(labels) if t.startswith("socket yaw"))
+    set_slider(page, f"#q-{yaw}", 0.9)
+    page.wait_for_function("""() => {
+        const q = JSON.parse(document.querySelector('#heatmap').dataset.q);
+        return Math.abs(q[3] - Math.sin(0.45)) < 1e-12 }""")
+    wait_computed(page)
+    q, v = shown_state(page)
+    # a yaw of 0.9 rad from the identity is (w, x, y, z) = (cos, 0, 0, sin)
+    assert np.allclose(q, [math.cos(0.45), 0, 0, math.sin(0.45)], atol=1e-12)
+    assert_matches_api(page, api, robot, q, v)
+
+
 def test_continuous_joint_angle_becomes_cos_sin(page, server, api) -> None:
     open_explorer(page, server, "double_pendulum_continuous")
     info = api.get("/v1/robots/double_pendulum_continuous").json()

@@ -1,8 +1,9 @@
 """MuJoCo itself as the reference of MJCF uploads: its mass matrix (`mj_fullM`) and bias forces
 (`qfrc_bias` = C(q, v) v + g(q)) at random states, and the documented q mapping.
 
-Coordinates as documented (docs/uploads.md): hinge and slide values as MuJoCo's; quaternions of
-ball and free joints move their w last; v is MuJoCo's qvel.
+Coordinates as documented (docs/uploads.md): over the API q is MuJoCo's qpos and v its qvel
+exactly. Inside, the Pinocchio model holds every quaternion of a ball or free joint w last
+(`pinocchio_q`, for tests that call the built `pin.Model` directly).
 """
 
 from __future__ import annotations
@@ -19,8 +20,9 @@ MUJOCO_TESTDATA = Path(mujoco.__file__).parent / "testdata"
 FREE, BALL = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL)
 
 
-def robodyn_q(mj: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
-    """robodyn's q of MuJoCo's qpos: every quaternion's w moved last, the rest unchanged."""
+def pinocchio_q(mj: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
+    """The built Pinocchio model's q of MuJoCo's qpos: every quaternion's w moved last, the
+    rest unchanged (the API takes qpos itself)."""
     q = np.array(qpos, dtype=float)
     for j in range(mj.njnt):
         kind, adr = int(mj.jnt_type[j]), int(mj.jnt_qposadr[j])

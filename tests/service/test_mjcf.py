@@ -25,7 +25,13 @@ from tests.service.mjcf_models import (
     TWINS,
     floating_mjcf,
 )
-from tests.service.mjcf_reference import cube_stl, encoded, random_states, relative_error, robodyn_q
+from tests.service.mjcf_reference import (
+    cube_stl,
+    encoded,
+    pinocchio_q,
+    random_states,
+    relative_error,
+)
 
 LEAK = re.compile(r"Traceback|\.hxx|\.hpp|\.cpp|\.py\b|/usr/|/work/|/tmp/|site-packages|File \"")
 TOL = 1e-9
@@ -75,7 +81,7 @@ def assert_as_mujoco(client: TestClient, text: str, files: dict[str, bytes] | No
     mj = mujoco.MjModel.from_xml_string(text, files)
     assert (info["nq"], info["nv"]) == (mj.nq, mj.nv)
     for qpos, qvel, M, bias in random_states(mj, np.random.default_rng(seed), states):
-        q = robodyn_q(mj, qpos).tolist()
+        q = qpos.tolist()  # q is MuJoCo's qpos
         got_M = client.post(f"/v1/robots/{info['id']}/mass-matrix", json={"q": q})
         got_h = client.post(f"/v1/robots/{info['id']}/nonlinear-effects",
                             json={"q": q, "v": qvel.tolist()})
@@ -217,10 +223,11 @@ def test_a_free_joint_is_a_translation_and_a_rotation(client: TestClient) -> Non
         ("shoulder", "revolute", 1, 1)]
     assert default["joints"][0]["lower"] == [None] * 3  # unbounded
     assert default["joints"][1]["upper"] == [None] * 4
-    # keyframes: MuJoCo's w-first quaternion becomes w-last
+    # keyframes: MuJoCo's qpos as they are, quaternion w first
     refs = default["reference_configurations"]
-    np.testing.assert_allclose(refs["home"], [0.1, 0.2, 0.9, 0, 0, 0, 1, 0.5])
-    np.testing.assert_allclose(refs["qpos0"], [1, 2, 3, 0, 0, 0, 1, 0])  # the body's pose
+    np.testing.assert_allclose(refs["home"], [0.1, 0.2, 0.9, 1, 0, 0, 0, 0.5])
+    np.testing.assert_allclose(refs["qpos0"], [1, 2, 3, 1, 0, 0, 0, 0])  # the body's pose
+    assert default["neutral_configuration"] == [0, 0, 0, 1, 0, 0, 0, 0]
     assert default["gravity"] == [0, 0, -9.81]  # MuJoCo's default <option gravity>
     r = client.post("/v1/robots", json={"mjcf": text, "root_joint": "planar"})
     assert r.status_code == 422 and "single top body without joints" in r.json()["detail"]
@@ -264,17 +271,19 @@ def test_multi_joint_body_is_a_chain(client: TestClient, registry: Registry) -> 
     frames = {f["name"]: f["parent_joint"] for f in info["frames"] if f["type"] != "joint"}
     assert frames["torso"] == frames["grip"] == "hip_ball"
     np.testing.assert_allclose(info["reference_configurations"]["bent"],
-                               [0.1, 0.05, 0, 0.3826834, 0, 0.9238795, -0.5], atol=1e-7)
-    served = registry.get(info["id"]).model
+                               [0.1, 0.05, 0.9238795, 0, 0.3826834, 0, -0.5], atol=1e-7)
+    robot = registry.get(info["id"])  # its q is MuJoCo's qpos: Pinocchio's q → robot.api_q
+    served = robot.model
     rng = np.random.default_rng(5)
     import pinocchio as pin
 
     q, v, a = random_state(served, rng)
     eps = 1e-6  # the Coriolis matrix of the chain is right: Ṁ = C + Cᵀ (central differences)
-    M_dot = (_dynamics(client, info["id"], pin.integrate(served, q, eps * v), v, a)[
-        "mass_matrix"] - _dynamics(client, info["id"], pin.integrate(served, q, -eps * v),
-                                   v, a)["mass_matrix"]) / (2 * eps)
-    C = _dynamics(client, info["id"], q, v, a)["coriolis_matrix"]
+    M_dot = (_dynamics(client, info["id"], robot.api_q(pin.integrate(served, q, eps * v)), v,
+                       a)["mass_matrix"]
+             - _dynamics(client, info["id"], robot.api_q(pin.integrate(served, q, -eps * v)),
+                         v, a)["mass_matrix"]) / (2 * eps)
+    C = _dynamics(client, info["id"], robot.api_q(q), v, a)["coriolis_matrix"]
     np.testing.assert_allclose(M_dot, C + C.T, atol=1e-6)
 
 
@@ -439,7 +448,7 @@ def test_visuals_are_placed_where_mujoco_draws_them(client: TestClient,
     for qpos, _qvel, _M, _bias in random_states(mj, np.random.default_rng(2), 3):
         mjd.qpos[:] = qpos
         mujoco.mj_kinematics(mj, mjd)
-        pin.framesForwardKinematics(model, data, robodyn_q(mj, qpos))
+        pin.framesForwardKinematics(model, data, pinocchio_q(mj, qpos))
         for visual, g in zip(visuals, drawn, strict=True):
             frame = data.oMf[model.getFrameId(visual["frame"], pin.BODY)]
             pose = frame * pin.SE3(np.array(visual["placement"]["rotation"]),

@@ -17,7 +17,7 @@ import pytest
 from service.errors import InvalidModel
 from service.registry.build_process import build_isolated
 from tests.service.mjcf_models import MULTI_JOINT_MJCF, TWINS
-from tests.service.mjcf_reference import random_states, relative_error, robodyn_q
+from tests.service.mjcf_reference import pinocchio_q, random_states, relative_error
 
 pytestmark = pytest.mark.slow
 
@@ -75,7 +75,7 @@ def test_mutated_mjcf_is_refused_with_a_reason_or_builds_as_mujoco() -> None:
         mj = mujoco.MjModel.from_xml_string(text)
         data = model.createData()
         for qpos, qvel, M, bias in random_states(mj, np.random.default_rng(0), 1):
-            q = robodyn_q(mj, qpos)
+            q = pinocchio_q(mj, qpos)
             M_pin = pin.crba(model, data, q)
             M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
             assert relative_error(M_pin, M) < 1e-9, text

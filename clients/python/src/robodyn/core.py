@@ -570,7 +570,8 @@ def reduce(robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str |
     `locked_joints` maps joint names to positions: a number (rad or m) for revolute and
     prismatic joints, an angle or [cos θ, sin θ] for continuous ones, [x, y, z, qx, qy, qz, qw]
     for a free-flyer, [x, y, θ] or [x, y, cos θ, sin θ] for a planar joint, [qx, qy, qz, qw]
-    for a spherical one. Raises `ValidationError` for an unknown joint (all listed) or a value
+    for a spherical one ([qw, qx, qy, qz], MuJoCo's qpos order, for a model uploaded as MJCF).
+    Raises `ValidationError` for an unknown joint (all listed) or a value
     of the wrong size, `InvalidConfigurationError` for a value outside the joint's limits, and
     `InvalidModelError` when every moving joint would be locked."""
     body: dict[str, Any] = {"locked_joints": _locked_joints(locked_joints)}

@@ -26,7 +26,7 @@ def _blocks(lang: str) -> list[str]:
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with running_server(tmp_path_factory.mktemp("readme"), catalog="ur5") as url:
+    with running_server(tmp_path_factory.mktemp("readme"), catalog="ur5,solo12") as url:
         yield url
 
 
@@ -53,12 +53,34 @@ def test_the_javascript_example_runs(server: str, tmp_path: Path) -> None:
 
 
 @pytest.mark.skipif(shutil.which("curl") is None, reason="curl is not installed")
+def _curl_commands() -> list[str]:
+    """Each curl command of the README's sh blocks: from a line starting with `curl ` to the
+    next such line, comment or end of block (a JSON body may span lines)."""
+    commands: list[str] = []
+    for body in _blocks("sh"):
+        current: list[str] | None = None
+        for line in body.splitlines():
+            if line.startswith("curl "):
+                current = [line]
+                commands.append("")
+            elif current is not None and line.strip() and not line.startswith("#"):
+                current.append(line)
+            else:
+                current = None
+            if current is not None:
+                commands[-1] = "\n".join(current)
+    return commands
+
+
 def test_the_curl_examples_run(server: str) -> None:
-    commands = [line for body in _blocks("sh") for line in body.splitlines()
-                if line.startswith("curl ")]
-    assert len(commands) == 2
+    commands = _curl_commands()
+    assert len(commands) == 3
     host = server.removeprefix("http://")
     answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
                for c in commands]
     assert len(answers[0]["mass_matrix"]) == 6
-    assert answers[1]["id"].startswith("u-") and answers[1]["name"] == "my arm"
+    standing = answers[1]  # Solo-12 on its four feet: the base needs no torque
+    assert standing["tau"][:6] == [0.0] * 6 and standing["residual"] < 1e-9
+    mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
+    assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
+    assert answers[2]["id"].startswith("u-") and answers[2]["name"] == "my arm"

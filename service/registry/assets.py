@@ -14,9 +14,7 @@ import base64
 import binascii
 import hashlib
 import json
-import os
 import struct
-import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path, PurePosixPath
 
@@ -24,6 +22,7 @@ import defusedxml.ElementTree as SafeET
 from defusedxml import DefusedXmlException
 
 from service.errors import InvalidModel
+from service.registry.store import write_atomically
 
 MAX_ASSETS = 2000
 MESH_TYPES = ("stl", "obj", "dae", "glb", "gltf", "ply", "msh")
@@ -162,16 +161,7 @@ class AssetStore:
             path = self.path(sha)
             if path.exists():
                 continue
-            fd, tmp = tempfile.mkstemp(dir=self.dir, prefix=".tmp-")
-            try:
-                with os.fdopen(fd, "wb") as fh:
-                    fh.write(data)
-                    fh.flush()
-                    os.fsync(fh.fileno())
-                os.replace(tmp, path)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
+            write_atomically(path, data)
         return index
 
     def get(self, index: Mapping[str, str]) -> dict[str, bytes]:

@@ -60,6 +60,27 @@ def reduced_id(base_id: str, locked_joints: dict[str, list[float]]) -> str:
     return "r-" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:24]
 
 
+def write_atomically(path: Path, payload: bytes) -> None:
+    """Write `payload` to `path` so that readers see the old file or the whole new one: a
+    temporary file in the same directory (its name starts with a dot), fsync, rename over
+    `path`, fsync the directory."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(payload)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    dir_fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)
+    finally:
+        os.close(dir_fd)
+
+
 class ModelStore:
     """Records of uploaded models in one directory, shared safely by processes and replicas."""
 
@@ -106,22 +127,7 @@ class ModelStore:
         path = self._path(record["id"])
         if path is None:
             raise ValueError("invalid model id")
-        payload = json.dumps(record, ensure_ascii=False).encode("utf-8")
-        fd, tmp = tempfile.mkstemp(dir=self.dir, prefix=".tmp-", suffix=".json")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(payload)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        dir_fd = os.open(self.dir, os.O_RDONLY)
-        try:
-            os.fsync(dir_fd)
-        finally:
-            os.close(dir_fd)
+        write_atomically(path, json.dumps(record, ensure_ascii=False).encode("utf-8"))
 
     def delete(self, model_id: str) -> bool:
         path = self._path(model_id)

@@ -5,7 +5,6 @@ event loop keeps answering /health/live while a 100 MB answer is produced."""
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Iterator
 
@@ -25,6 +24,7 @@ from service.api.answer_size import (
 from service.api.binary import BINARY_MEDIA_TYPE
 from service.registry.catalog import load_catalog
 from service.states import prepare
+from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 
 ROBOTS = ("ur5", "talos", "double_pendulum")
@@ -184,27 +184,11 @@ def test_a_long_simulation_over_the_budget_names_the_steps_that_fit(app_factory)
 def test_health_stays_fast_while_a_large_answer_is_produced(base: str, accept: str) -> None:
     states = 7000 if accept == "application/json" else 20000  # ~120 MB and ~230 MB answers
     body = orjson.dumps({"q": _talos_q(states)})
-    latencies: list[float] = []
-    stop = threading.Event()
+    def post() -> httpx.Response:
+        return httpx.post(base + "/v1/robots/talos/mass-matrix", content=body, timeout=300,
+                          headers={"content-type": "application/json", "accept": accept})
 
-    def probe() -> None:
-        with httpx.Client(timeout=5) as client:
-            while not stop.is_set() and len(latencies) < 100_000:
-                t = time.perf_counter()
-                assert client.get(base + "/health/live").status_code == 200
-                latencies.append(time.perf_counter() - t)
-                time.sleep(0.005)
-
-    prober = threading.Thread(target=probe)
-    prober.start()
-    try:
-        time.sleep(0.2)
-        r = httpx.post(base + "/v1/robots/talos/mass-matrix", content=body, timeout=300,
-                       headers={"content-type": "application/json", "accept": accept})
-        time.sleep(0.2)
-    finally:
-        stop.set()
-        prober.join(10)
+    r, latencies = health_latencies_during(base, post)
     assert r.status_code == 200
     assert len(r.content) > 50_000_000
     assert len(latencies) > 20

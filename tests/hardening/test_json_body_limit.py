@@ -5,8 +5,6 @@ fast while the largest admitted JSON batch is parsed and computed."""
 
 from __future__ import annotations
 
-import threading
-import time
 from collections.abc import Iterator
 
 import httpx
@@ -15,6 +13,7 @@ import orjson
 import pytest
 
 from service.api.binary import BINARY_MEDIA_TYPE, encode
+from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 
 LIMIT = 4096
@@ -71,27 +70,11 @@ def test_health_stays_fast_while_the_largest_json_batch_is_handled(base: str) ->
     states = int(60_000 * (limit - 100) / len(text))
     body = orjson.dumps({"q": q[:states].tolist()})
     assert limit - 200_000 < len(body) <= limit
-    latencies: list[float] = []
-    stop = threading.Event()
+    def post() -> httpx.Response:
+        return httpx.post(base + "/v1/robots/talos/gravity", content=body, timeout=300,
+                          headers={"content-type": "application/json"})
 
-    def probe() -> None:
-        with httpx.Client(timeout=5) as client:
-            while not stop.is_set() and len(latencies) < 100_000:
-                t = time.perf_counter()
-                assert client.get(base + "/health/live").status_code == 200
-                latencies.append(time.perf_counter() - t)
-                time.sleep(0.005)
-
-    prober = threading.Thread(target=probe)
-    prober.start()
-    try:
-        time.sleep(0.2)
-        r = httpx.post(base + "/v1/robots/talos/gravity", content=body, timeout=300,
-                       headers={"content-type": "application/json"})
-        time.sleep(0.2)
-    finally:
-        stop.set()
-        prober.join(10)
+    r, latencies = health_latencies_during(base, post)
     assert r.status_code == 200, r.text[:300]
     assert len(latencies) > 20
     assert np.percentile(latencies, 99) < 0.25, sorted(latencies)[-5:]

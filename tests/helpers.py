@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 import pinocchio as pin
+from fastapi.testclient import TestClient
 
+from service.main import create_app
 from service.registry.robot import joint_type
+from service.settings import Settings
 
 
 def random_configuration(model, rng: np.random.Generator) -> np.ndarray:
@@ -96,3 +102,12 @@ def record_off_loop(monkeypatch, module) -> list[str]:
 
     monkeypatch.setattr(module, "off_loop", recording)
     return calls
+
+
+@contextmanager
+def registry_client(registry) -> Iterator[TestClient]:
+    """A TestClient over the production app wired to `registry` (its data directory as the
+    settings' data_dir); errors answered, not raised."""
+    app = create_app(Settings(data_dir=registry.store.dir.parent), registry=registry)
+    with TestClient(app, raise_server_exceptions=False) as client:
+        yield client

@@ -5,14 +5,14 @@ the id, and unreferenced ones listed in warnings."""
 from __future__ import annotations
 
 import base64
+from collections.abc import Iterator
 
 import pytest
 from fastapi.testclient import TestClient
 
-from service.main import create_app
 from service.registry import Registry
 from service.registry.assets import MAX_ASSETS, normalize_key
-from service.settings import Settings
+from tests.helpers import registry_client
 from tests.service.mjcf_reference import cube_stl, encoded
 
 URDF = ('<robot name="r"><link name="a"/><link name="b"><visual><geometry><mesh '
@@ -29,9 +29,8 @@ def registry(tmp_path_factory: pytest.TempPathFactory) -> Registry:
 
 
 @pytest.fixture(scope="module")
-def client(registry: Registry) -> TestClient:
-    app = create_app(Settings(data_dir=registry.store.dir.parent), registry=registry)
-    with TestClient(app, raise_server_exceptions=False) as c:
+def client(registry: Registry) -> Iterator[TestClient]:
+    with registry_client(registry) as c:
         yield c
 
 

@@ -10,15 +10,16 @@ PD target, contacts, frame placements and reduced models take and give the same 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import mujoco
 import numpy as np
 import orjson
 import pytest
 from fastapi.testclient import TestClient
 
-from service.main import create_app
 from service.registry import Registry
-from service.settings import Settings
+from tests.helpers import registry_client
 from tests.service.mjcf_models import floating_mjcf
 from tests.service.mjcf_reference import relative_error
 from tests.service.test_binary import BIN, decode_answer, encode_request
@@ -77,9 +78,8 @@ def registry(tmp_path_factory: pytest.TempPathFactory) -> Registry:
 
 
 @pytest.fixture(scope="module")
-def client(registry: Registry) -> TestClient:
-    app = create_app(Settings(data_dir=registry.store.dir.parent), registry=registry)
-    with TestClient(app, raise_server_exceptions=False) as c:
+def client(registry: Registry) -> Iterator[TestClient]:
+    with registry_client(registry) as c:
         yield c
 
 

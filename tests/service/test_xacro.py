@@ -7,17 +7,16 @@ what was refused while the server keeps serving."""
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from service.main import create_app
 from service.registry import Registry
 from service.registry.catalog import erd_robots_dir
-from service.settings import Settings
-from tests.helpers import random_state
+from tests.helpers import random_state, registry_client
 from tests.service.mjcf_reference import encoded
 
 LEAK = re.compile(r"Traceback|\.py\b|/usr/|/work/|/tmp/|site-packages|File \"|robodyn-xacro")
@@ -34,9 +33,8 @@ def registry(tmp_path_factory: pytest.TempPathFactory) -> Registry:
 
 
 @pytest.fixture(scope="module")
-def client(registry: Registry) -> TestClient:
-    app = create_app(Settings(data_dir=registry.store.dir.parent), registry=registry)
-    with TestClient(app, raise_server_exceptions=False) as c:
+def client(registry: Registry) -> Iterator[TestClient]:
+    with registry_client(registry) as c:
         yield c
 
 

@@ -1,0 +1,211 @@
+"""Exact trigonometric polynomials: the algebra the equations of motion are derived in.
+
+A `Series` over n joint coordinates is a finite sum of terms
+
+    a · x^e · cos(k·q)    or    a · x^e · sin(k·q)
+
+with an exact rational coefficient a (`fractions.Decimal`), an integer frequency vector k (one
+entry per coordinate; zero for prismatic ones), and a monomial x^e in the polynomial variables
+x = (q₁ … qₙ, dq₁ … dqₙ) — the prismatic coordinates and the joint velocities (e has 2n entries).
+
+The form is canonical: the first non-zero entry of k is positive (cos(−θ) = cos θ,
+sin(−θ) = −sin θ), a term with k = 0 is a cosine (sin 0 = 0, cos 0 = 1), and no coefficient is
+zero. Products use the product-to-sum identities, so cos q₁ cos q₂ becomes
+½ cos(q₁ + q₂) + ½ cos(q₁ − q₂) and sin² q₂ becomes ½ − ½ cos 2q₂: two equal trigonometric
+polynomials have the same terms, and sums of angles appear where they arise. Derivatives are
+exact: ∂/∂qᵢ cos(k·q) = −kᵢ sin(k·q), ∂/∂qᵢ sin(k·q) = kᵢ cos(k·q), ∂/∂xᵢ x^e = eᵢ x^(e−1).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from decimal import Decimal
+
+# A term's key: (k, e, kind) with kind 0 = cos(k·q), 1 = sin(k·q).
+Key = tuple[tuple[int, ...], tuple[int, ...], int]
+COS, SIN = 0, 1
+ZERO, HALF, ONE = Decimal(0), Decimal("0.5"), Decimal(1)
+
+
+def _canonical(k: tuple[int, ...], kind: int) -> tuple[tuple[int, ...], int]:
+    """(k, sign) with the first non-zero entry of k positive; sign 0 means the term vanishes
+    (sin 0)."""
+    for x in k:
+        if x > 0:
+            return k, 1
+        if x < 0:
+            return tuple(-y for y in k), (-1 if kind == SIN else 1)
+    return k, (0 if kind == SIN else 1)
+
+
+class Series:
+    """A trigonometric polynomial in n coordinates (see the module docstring). Immutable by
+    convention: every operation returns a new Series."""
+
+    __slots__ = ("n", "terms")
+
+    def __init__(self, n: int, terms: dict[Key, Decimal] | None = None) -> None:
+        self.n = n
+        self.terms: dict[Key, Decimal] = terms if terms is not None else {}
+
+    # -- constructors ----------------------------------------------------------------------
+    @classmethod
+    def constant(cls, n: int, value: Decimal) -> Series:
+        if value == 0:
+            return cls(n)
+        return cls(n, {((0,) * n, (0,) * (2 * n), COS): Decimal(value)})
+
+    @classmethod
+    def trig(cls, n: int, i: int, kind: int) -> Series:
+        """cos(qᵢ) or sin(qᵢ) (i from 0)."""
+        k = tuple(1 if j == i else 0 for j in range(n))
+        return cls(n, {(k, (0,) * (2 * n), kind): ONE})
+
+    @classmethod
+    def variable(cls, n: int, index: int) -> Series:
+        """The polynomial variable x_index: q_index for index < n, dq_(index−n) after."""
+        e = tuple(1 if j == index else 0 for j in range(2 * n))
+        return cls(n, {((0,) * n, e, COS): ONE})
+
+    # -- algebra ---------------------------------------------------------------------------
+    def is_zero(self) -> bool:
+        return not self.terms
+
+    def __add__(self, other: Series) -> Series:
+        if not other.terms:
+            return self
+        if not self.terms:
+            return other
+        out = dict(self.terms)
+        for key, c in other.terms.items():
+            s = out.get(key, 0) + c
+            if s:
+                out[key] = s
+            else:
+                out.pop(key, None)
+        return Series(self.n, out)
+
+    def __neg__(self) -> Series:
+        return Series(self.n, {key: -c for key, c in self.terms.items()})
+
+    def __sub__(self, other: Series) -> Series:
+        return self + (-other)
+
+    def scale(self, factor: Decimal) -> Series:
+        if factor == 0:
+            return Series(self.n)
+        return Series(self.n, {key: c * factor for key, c in self.terms.items()})
+
+    def constant_value(self) -> Decimal | None:
+        """The value when the series is a constant (or zero), else None."""
+        if not self.terms:
+            return ZERO
+        if len(self.terms) == 1:
+            (k, e, _), c = next(iter(self.terms.items()))
+            if not any(k) and not any(e):
+                return c
+        return None
+
+    def __mul__(self, other: Series) -> Series:
+        a = self.constant_value()
+        if a is not None:
+            return other.scale(a)
+        b = other.constant_value()
+        if b is not None:
+            return self.scale(b)
+        out: dict[Key, Decimal] = {}
+        half = HALF
+
+        def put(k: tuple[int, ...], e: tuple[int, ...], kind: int, c: Decimal) -> None:
+            k, sign = _canonical(k, kind)
+            if sign == 0:
+                return
+            key = (k, e, kind)
+            s = out.get(key, 0) + (c if sign > 0 else -c)
+            if s:
+                out[key] = s
+            else:
+                out.pop(key, None)
+
+        for (ka, ea, ta), ca in self.terms.items():
+            a_flat = not any(ka)
+            for (kb, eb, tb), cb in other.terms.items():
+                e = tuple(x + y for x, y in zip(ea, eb, strict=True))
+                if a_flat:  # cos 0 = 1
+                    put(kb, e, tb, ca * cb)
+                    continue
+                if not any(kb):
+                    put(ka, e, ta, ca * cb)
+                    continue
+                c = ca * cb * half
+                ks = tuple(x + y for x, y in zip(ka, kb, strict=True))
+                kd = tuple(x - y for x, y in zip(ka, kb, strict=True))
+                if ta == COS and tb == COS:  # cos a cos b = ½ cos(a−b) + ½ cos(a+b)
+                    put(kd, e, COS, c)
+                    put(ks, e, COS, c)
+                elif ta == SIN and tb == SIN:  # sin a sin b = ½ cos(a−b) − ½ cos(a+b)
+                    put(kd, e, COS, c)
+                    put(ks, e, COS, -c)
+                elif ta == SIN:  # sin a cos b = ½ sin(a+b) + ½ sin(a−b)
+                    put(ks, e, SIN, c)
+                    put(kd, e, SIN, c)
+                else:  # cos a sin b = ½ sin(a+b) − ½ sin(a−b)
+                    put(ks, e, SIN, c)
+                    put(kd, e, SIN, -c)
+        return Series(self.n, out)
+
+    def derivative(self, index: int) -> Series:
+        """∂/∂x_index, x = (q₁ … qₙ, dq₁ … dqₙ) from 0: the trigonometric part for a
+        revolute coordinate, the monomial part for every variable."""
+        out: dict[Key, Decimal] = {}
+        for (k, e, kind), c in self.terms.items():
+            if index < self.n and k[index]:
+                # d/dq cos(k·q) = −k_i sin(k·q); d/dq sin(k·q) = k_i cos(k·q)
+                new_kind = SIN if kind == COS else COS
+                dc = -c * k[index] if kind == COS else c * k[index]
+                key = (k, e, new_kind)
+                out[key] = out.get(key, 0) + dc
+            if e[index]:
+                e2 = tuple(x - 1 if j == index else x for j, x in enumerate(e))
+                key = (k, e2, kind)
+                out[key] = out.get(key, 0) + c * e[index]
+        return Series(self.n, {key: c for key, c in out.items() if c})
+
+    # -- inspection ------------------------------------------------------------------------
+    def coordinates(self) -> list[int]:
+        """Indices (from 0) of the coordinates qᵢ the series depends on."""
+        used = [False] * self.n
+        for k, e, _ in self.terms:
+            for i in range(self.n):
+                if k[i] or e[i]:
+                    used[i] = True
+        return [i for i in range(self.n) if used[i]]
+
+    def evaluate(self, q: Sequence[float], dq: Sequence[float] | None = None) -> float:
+        """The value at joint positions q (rad or m) and velocities dq, in double precision."""
+        x = [float(v) for v in q] + [float(v) for v in (dq if dq is not None else [0.0] * self.n)]
+        out = 0.0
+        for (k, e, kind), c in self.terms.items():
+            angle = sum(ki * x[i] for i, ki in enumerate(k) if ki)
+            value = float(c) * (math.cos(angle) if kind == COS else math.sin(angle))
+            for i, ei in enumerate(e):
+                if ei:
+                    value *= x[i] ** ei
+            out += value
+        return out
+
+    def largest_coefficient(self) -> Decimal:
+        return max((abs(c) for c in self.terms.values()), default=ZERO)
+
+    def without_terms_below(self, bound: Decimal) -> Series:
+        """The series less its terms whose coefficient is at most `bound` in magnitude."""
+        return Series(self.n, {key: c for key, c in self.terms.items() if abs(c) > bound})
+
+
+def total(series: Iterable[Series], n: int) -> Series:
+    """The sum of `series` (zero when empty)."""
+    out = Series(n)
+    for s in series:
+        out = out + s
+    return out

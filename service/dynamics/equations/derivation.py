@@ -24,15 +24,12 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from decimal import Decimal
+from decimal import Decimal, localcontext
 
 from service.dynamics.equations.model_numbers import Joint, Mat3, Vec3
-from service.dynamics.equations.series import COS, SIN, Series
+from service.dynamics.equations.series import COS, PRECISION, SIN, Series
 from service.errors import UnsupportedModel
 
-# Significant digits of the decimal arithmetic: products of two model numbers (≤ 17 digits
-# each) are exact; longer chains are rounded 23 digits beyond double precision.
-PRECISION = 40
 # What that rounding leaves where terms cancel: a composite's terms below this fraction of its
 # largest coefficient are dropped as they are formed (they are 1e-40-relative residues).
 ROUNDING_RESIDUE = Decimal("1e-30")
@@ -183,6 +180,12 @@ def move_inertia(m: Decimal, h: SVec, io: SMat, rot: SMat, p: SVec,
 def mass_matrix_and_potential(joints: list[Joint], gravity: Vec3,
                               check: Check) -> tuple[list[list[Series]], Series]:
     """(M(q) as nv×nv Series, symmetric; U(q)), exact. See the module docstring."""
+    with localcontext(prec=PRECISION):
+        return _mass_matrix_and_potential(joints, gravity, check)
+
+
+def _mass_matrix_and_potential(joints: list[Joint], gravity: Vec3,
+                               check: Check) -> tuple[list[list[Series]], Series]:
     n = len(joints)
     placements = [parent_placement(j, i, n) for i, j in enumerate(joints)]
     mass = [j.mass for j in joints]

@@ -26,15 +26,16 @@ from dataclasses import dataclass
 from decimal import Decimal, localcontext
 from typing import Any
 
-from service.dynamics.equations.derivation import (
-    PRECISION,
-    deadline_check,
-    mass_matrix_and_potential,
-)
+from service.dynamics.equations.derivation import deadline_check, mass_matrix_and_potential
 from service.dynamics.equations.model_numbers import gravity, moving_joints
-from service.dynamics.equations.series import HALF, Series
+from service.dynamics.equations.series import HALF, PRECISION, Series
 
 NOISE = Decimal("1e-14")
+# M and U are kept to this many significant digits (23 beyond double precision). Their
+# coefficients then span at most 14 orders of magnitude (NOISE), so the sums, halvings and
+# integer multiples that give g, c_ijk, C and T fit in `PRECISION` = 60 digits: they are exact,
+# and so are the identities Ṁ = C + Cᵀ and g = ∂U/∂q between the expressions.
+KEPT_DIGITS = 40
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ class Equations:
 
 def _without_noise(entries: list[Series]) -> list[Series]:
     scale = max((s.largest_coefficient() for s in entries), default=Decimal(0))
-    return [s.without_terms_below(scale * NOISE) for s in entries]
+    return [s.without_terms_below(scale * NOISE).rounded(KEPT_DIGITS) for s in entries]
 
 
 def derive_equations(model: Any, time_limit_s: float | None = None) -> Equations:

@@ -3,9 +3,9 @@
 Every float of the model (joint placements, axes, masses, centres of mass, inertias, armature,
 gravity) becomes the `Decimal` of its shortest round-trip decimal (`repr`, at most 17
 significant digits): 0.7 is 0.7, not the nearest binary fraction. The derivation then runs in
-decimal arithmetic on the model's own numbers (see `derivation.PRECISION`), and the expressions
-evaluate to what Pinocchio computes in double precision from the same numbers. One exception:
-rotation-matrix entries and axis components of magnitude ≤ `RESIDUE` = 1e-15 are rounding
+decimal arithmetic on the model's own numbers (`series.PRECISION` significant digits), and the
+expressions evaluate to what Pinocchio computes in double precision from the same numbers. One
+exception: rotation-matrix entries and axis components of magnitude ≤ `RESIDUE` = 1e-15 are rounding
 residues of the double-precision rotation (an rpy of π/2 gives cos = 6.1e-17) and are taken as 0,
 so right angles stay right angles.
 

@@ -73,7 +73,7 @@ def _trig(k: tuple[int, ...], kind: int, latex: bool) -> list[str]:
 def _product(c: Decimal, factors: list[str], latex: bool) -> str:
     """c times the factors, the sign first: '-0.5*dq1*sin(q2)'."""
     joiner = " " if latex else "*"
-    magnitude = abs(c)
+    magnitude = c.copy_abs()
     parts = list(factors)
     if magnitude != 1 or not parts:
         parts.insert(0, _latex_number(magnitude) if latex else _number(magnitude))

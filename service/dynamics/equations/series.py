@@ -20,12 +20,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from decimal import Decimal
+from decimal import Context, Decimal
 
 # A term's key: (k, e, kind) with kind 0 = cos(k·q), 1 = sin(k·q).
 Key = tuple[tuple[int, ...], tuple[int, ...], int]
 COS, SIN = 0, 1
 ZERO, HALF, ONE = Decimal(0), Decimal("0.5"), Decimal(1)
+
+# Significant digits of the coefficient arithmetic: a product of three model numbers (≤ 17
+# digits each) is exact; longer chains are rounded 40 digits beyond double precision. Every
+# operation uses this context explicitly, whatever the thread's decimal context is.
+PRECISION = 60
+CONTEXT = Context(prec=PRECISION)
+_add, _mul, _neg = CONTEXT.add, CONTEXT.multiply, CONTEXT.minus
 
 
 def _canonical(k: tuple[int, ...], kind: int) -> tuple[tuple[int, ...], int]:
@@ -79,7 +86,7 @@ class Series:
             return other
         out = dict(self.terms)
         for key, c in other.terms.items():
-            s = out.get(key, 0) + c
+            s = _add(out[key], c) if key in out else c
             if s:
                 out[key] = s
             else:
@@ -87,7 +94,7 @@ class Series:
         return Series(self.n, out)
 
     def __neg__(self) -> Series:
-        return Series(self.n, {key: -c for key, c in self.terms.items()})
+        return Series(self.n, {key: _neg(c) for key, c in self.terms.items()})
 
     def __sub__(self, other: Series) -> Series:
         return self + (-other)
@@ -95,7 +102,7 @@ class Series:
     def scale(self, factor: Decimal) -> Series:
         if factor == 0:
             return Series(self.n)
-        return Series(self.n, {key: c * factor for key, c in self.terms.items()})
+        return Series(self.n, {key: _mul(c, factor) for key, c in self.terms.items()})
 
     def constant_value(self) -> Decimal | None:
         """The value when the series is a constant (or zero), else None."""
@@ -122,7 +129,9 @@ class Series:
             if sign == 0:
                 return
             key = (k, e, kind)
-            s = out.get(key, 0) + (c if sign > 0 else -c)
+            if sign < 0:
+                c = _neg(c)
+            s = _add(out[key], c) if key in out else c
             if s:
                 out[key] = s
             else:
@@ -133,12 +142,12 @@ class Series:
             for (kb, eb, tb), cb in other.terms.items():
                 e = tuple(x + y for x, y in zip(ea, eb, strict=True))
                 if a_flat:  # cos 0 = 1
-                    put(kb, e, tb, ca * cb)
+                    put(kb, e, tb, _mul(ca, cb))
                     continue
                 if not any(kb):
-                    put(ka, e, ta, ca * cb)
+                    put(ka, e, ta, _mul(ca, cb))
                     continue
-                c = ca * cb * half
+                c = _mul(_mul(ca, cb), half)
                 ks = tuple(x + y for x, y in zip(ka, kb, strict=True))
                 kd = tuple(x - y for x, y in zip(ka, kb, strict=True))
                 if ta == COS and tb == COS:  # cos a cos b = ½ cos(a−b) + ½ cos(a+b)
@@ -146,13 +155,13 @@ class Series:
                     put(ks, e, COS, c)
                 elif ta == SIN and tb == SIN:  # sin a sin b = ½ cos(a−b) − ½ cos(a+b)
                     put(kd, e, COS, c)
-                    put(ks, e, COS, -c)
+                    put(ks, e, COS, _neg(c))
                 elif ta == SIN:  # sin a cos b = ½ sin(a+b) + ½ sin(a−b)
                     put(ks, e, SIN, c)
                     put(kd, e, SIN, c)
                 else:  # cos a sin b = ½ sin(a+b) − ½ sin(a−b)
                     put(ks, e, SIN, c)
-                    put(kd, e, SIN, -c)
+                    put(kd, e, SIN, _neg(c))
         return Series(self.n, out)
 
     def derivative(self, index: int) -> Series:
@@ -163,13 +172,14 @@ class Series:
             if index < self.n and k[index]:
                 # d/dq cos(k·q) = −k_i sin(k·q); d/dq sin(k·q) = k_i cos(k·q)
                 new_kind = SIN if kind == COS else COS
-                dc = -c * k[index] if kind == COS else c * k[index]
+                dc = _mul(c, Decimal(-k[index] if kind == COS else k[index]))
                 key = (k, e, new_kind)
-                out[key] = out.get(key, 0) + dc
+                out[key] = _add(out[key], dc) if key in out else dc
             if e[index]:
                 e2 = tuple(x - 1 if j == index else x for j, x in enumerate(e))
                 key = (k, e2, kind)
-                out[key] = out.get(key, 0) + c * e[index]
+                de = _mul(c, Decimal(e[index]))
+                out[key] = _add(out[key], de) if key in out else de
         return Series(self.n, {key: c for key, c in out.items() if c})
 
     # -- inspection ------------------------------------------------------------------------
@@ -196,11 +206,16 @@ class Series:
         return out
 
     def largest_coefficient(self) -> Decimal:
-        return max((abs(c) for c in self.terms.values()), default=ZERO)
+        return max((c.copy_abs() for c in self.terms.values()), default=ZERO)
+
+    def rounded(self, digits: int) -> Series:
+        """The series with every coefficient rounded to `digits` significant digits."""
+        plus = Context(prec=digits).plus
+        return Series(self.n, {key: plus(c) for key, c in self.terms.items()})
 
     def without_terms_below(self, bound: Decimal) -> Series:
         """The series less its terms whose coefficient is at most `bound` in magnitude."""
-        return Series(self.n, {key: c for key, c in self.terms.items() if abs(c) > bound})
+        return Series(self.n, {key: c for key, c in self.terms.items() if c.copy_abs() > bound})
 
 
 def total(series: Iterable[Series], n: int) -> Series:

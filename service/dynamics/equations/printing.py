@@ -17,7 +17,9 @@ from __future__ import annotations
 from collections import defaultdict
 from decimal import Decimal
 
-from service.dynamics.equations.series import COS, Key, Series
+from service.dynamics.equations.series import COS, Series, unpack_key
+
+Term = tuple[tuple[int, ...], tuple[int, ...], int]  # (k, e, kind) unpacked
 
 
 def _number(c: Decimal) -> str:
@@ -87,7 +89,7 @@ def _sum(products: list[str]) -> str:
     return out
 
 
-def _order(key: Key) -> tuple[int, tuple[int, ...], int]:
+def _order(key: Term) -> tuple[int, tuple[int, ...], int]:
     k, _, kind = key
     return (sum(abs(x) for x in k), tuple(-x for x in k), kind)
 
@@ -101,8 +103,9 @@ def render(series: Series, latex: bool = False) -> str:
     if series.is_zero():
         return "0"
     n = series.n
-    groups: dict[tuple[int, ...], list[tuple[Key, Decimal]]] = defaultdict(list)
-    for key, c in series.terms.items():
+    groups: dict[tuple[int, ...], list[tuple[Term, Decimal]]] = defaultdict(list)
+    for packed, c in series.terms.items():
+        key = unpack_key(packed, n)
         groups[key[1]].append((key, c))
     products: list[str] = []
     for e in sorted(groups, key=_monomial_order):

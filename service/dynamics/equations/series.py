@@ -22,9 +22,14 @@ import math
 from collections.abc import Iterable, Sequence
 from decimal import Context, Decimal
 
-# A term's key: (k, e, kind) with kind 0 = cos(k·q), 1 = sin(k·q).
-Key = tuple[tuple[int, ...], tuple[int, ...], int]
+# A term's key: (k, e, kind) with kind 0 = cos(k·q), 1 = sin(k·q), and the vectors k and e
+# packed into integers, digit i (most significant first) in base BASE: k = Σ kᵢ BASEⁿ⁻¹⁻ⁱ (digits
+# in −BASE/2 … BASE/2, so k's sign is the sign of its first non-zero entry), e likewise over
+# 2n non-negative digits. Adding or subtracting frequency vectors or monomial exponents is then
+# adding or subtracting integers.
+Key = tuple[int, int, int]
 COS, SIN = 0, 1
+BASE = 1024
 ZERO, HALF, ONE = Decimal(0), Decimal("0.5"), Decimal(1)
 
 # Significant digits of the coefficient arithmetic: a product of three model numbers (≤ 17
@@ -35,15 +40,29 @@ CONTEXT = Context(prec=PRECISION)
 _add, _mul, _neg = CONTEXT.add, CONTEXT.multiply, CONTEXT.minus
 
 
-def _canonical(k: tuple[int, ...], kind: int) -> tuple[tuple[int, ...], int]:
-    """(k, sign) with the first non-zero entry of k positive; sign 0 means the term vanishes
-    (sin 0)."""
-    for x in k:
-        if x > 0:
-            return k, 1
-        if x < 0:
-            return tuple(-y for y in k), (-1 if kind == SIN else 1)
-    return k, (0 if kind == SIN else 1)
+def pack(digits: Iterable[int]) -> int:
+    """The integer of a digit vector (most significant first), see `Key`."""
+    out = 0
+    for d in digits:
+        out = out * BASE + d
+    return out
+
+
+def unpack(value: int, size: int) -> tuple[int, ...]:
+    """The `size` balanced digits of a packed vector (inverse of `pack`)."""
+    digits = []
+    for _ in range(size):
+        d = value % BASE
+        if d >= BASE // 2:
+            d -= BASE
+        digits.append(d)
+        value = (value - d) // BASE
+    return tuple(reversed(digits))
+
+
+def unpack_key(key: Key, n: int) -> tuple[tuple[int, ...], tuple[int, ...], int]:
+    """(k, e, kind) of a key as plain tuples: k over the n coordinates, e over (q, dq)."""
+    return unpack(key[0], n), unpack(key[1], 2 * n), key[2]
 
 
 class Series:
@@ -61,19 +80,17 @@ class Series:
     def constant(cls, n: int, value: Decimal) -> Series:
         if value == 0:
             return cls(n)
-        return cls(n, {((0,) * n, (0,) * (2 * n), COS): Decimal(value)})
+        return cls(n, {(0, 0, COS): Decimal(value)})
 
     @classmethod
     def trig(cls, n: int, i: int, kind: int) -> Series:
         """cos(qᵢ) or sin(qᵢ) (i from 0)."""
-        k = tuple(1 if j == i else 0 for j in range(n))
-        return cls(n, {(k, (0,) * (2 * n), kind): ONE})
+        return cls(n, {(BASE ** (n - 1 - i), 0, kind): ONE})
 
     @classmethod
     def variable(cls, n: int, index: int) -> Series:
         """The polynomial variable x_index: q_index for index < n, dq_(index−n) after."""
-        e = tuple(1 if j == index else 0 for j in range(2 * n))
-        return cls(n, {((0,) * n, e, COS): ONE})
+        return cls(n, {(0, BASE ** (2 * n - 1 - index), COS): ONE})
 
     # -- algebra ---------------------------------------------------------------------------
     def is_zero(self) -> bool:
@@ -110,7 +127,7 @@ class Series:
             return ZERO
         if len(self.terms) == 1:
             (k, e, _), c = next(iter(self.terms.items()))
-            if not any(k) and not any(e):
+            if not k and not e:
                 return c
         return None
 
@@ -124,13 +141,14 @@ class Series:
         out: dict[Key, Decimal] = {}
         half = HALF
 
-        def put(k: tuple[int, ...], e: tuple[int, ...], kind: int, c: Decimal) -> None:
-            k, sign = _canonical(k, kind)
-            if sign == 0:
+        def put(k: int, e: int, kind: int, c: Decimal) -> None:
+            if k < 0:  # cos(−θ) = cos θ, sin(−θ) = −sin θ
+                k = -k
+                if kind == SIN:
+                    c = _neg(c)
+            elif k == 0 and kind == SIN:
                 return
             key = (k, e, kind)
-            if sign < 0:
-                c = _neg(c)
             s = _add(out[key], c) if key in out else c
             if s:
                 out[key] = s
@@ -138,18 +156,16 @@ class Series:
                 out.pop(key, None)
 
         for (ka, ea, ta), ca in self.terms.items():
-            a_flat = not any(ka)
             for (kb, eb, tb), cb in other.terms.items():
-                e = tuple(x + y for x, y in zip(ea, eb, strict=True))
-                if a_flat:  # cos 0 = 1
+                e = ea + eb
+                if not ka:  # cos 0 = 1
                     put(kb, e, tb, _mul(ca, cb))
                     continue
-                if not any(kb):
+                if not kb:
                     put(ka, e, ta, _mul(ca, cb))
                     continue
                 c = _mul(_mul(ca, cb), half)
-                ks = tuple(x + y for x, y in zip(ka, kb, strict=True))
-                kd = tuple(x - y for x, y in zip(ka, kb, strict=True))
+                ks, kd = ka + kb, ka - kb
                 if ta == COS and tb == COS:  # cos a cos b = ½ cos(a−b) + ½ cos(a+b)
                     put(kd, e, COS, c)
                     put(ks, e, COS, c)
@@ -168,17 +184,20 @@ class Series:
         """∂/∂x_index, x = (q₁ … qₙ, dq₁ … dqₙ) from 0: the trigonometric part for a
         revolute coordinate, the monomial part for every variable."""
         out: dict[Key, Decimal] = {}
+        n = self.n
+        unit = BASE ** (2 * n - 1 - index)
         for (k, e, kind), c in self.terms.items():
-            if index < self.n and k[index]:
+            ki = unpack(k, n)[index] if index < n and k else 0
+            if ki:
                 # d/dq cos(k·q) = −k_i sin(k·q); d/dq sin(k·q) = k_i cos(k·q)
                 new_kind = SIN if kind == COS else COS
-                dc = _mul(c, Decimal(-k[index] if kind == COS else k[index]))
+                dc = _mul(c, Decimal(-ki if kind == COS else ki))
                 key = (k, e, new_kind)
                 out[key] = _add(out[key], dc) if key in out else dc
-            if e[index]:
-                e2 = tuple(x - 1 if j == index else x for j, x in enumerate(e))
-                key = (k, e2, kind)
-                de = _mul(c, Decimal(e[index]))
+            ei = (e // unit) % BASE
+            if ei:
+                key = (k, e - unit, kind)
+                de = _mul(c, Decimal(ei))
                 out[key] = _add(out[key], de) if key in out else de
         return Series(self.n, {key: c for key, c in out.items() if c})
 
@@ -186,7 +205,8 @@ class Series:
     def coordinates(self) -> list[int]:
         """Indices (from 0) of the coordinates qᵢ the series depends on."""
         used = [False] * self.n
-        for k, e, _ in self.terms:
+        for key in self.terms:
+            k, e, _ = unpack_key(key, self.n)
             for i in range(self.n):
                 if k[i] or e[i]:
                     used[i] = True
@@ -196,7 +216,8 @@ class Series:
         """The value at joint positions q (rad or m) and velocities dq, in double precision."""
         x = [float(v) for v in q] + [float(v) for v in (dq if dq is not None else [0.0] * self.n)]
         out = 0.0
-        for (k, e, kind), c in self.terms.items():
+        for key, c in self.terms.items():
+            k, e, kind = unpack_key(key, self.n)
             angle = sum(ki * x[i] for i, ki in enumerate(k) if ki)
             value = float(c) * (math.cos(angle) if kind == COS else math.sin(angle))
             for i, ei in enumerate(e):

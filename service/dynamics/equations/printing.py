@@ -14,6 +14,7 @@ terms by increasing order of their frequency vector (cos before sin for the same
 
 from __future__ import annotations
 
+import functools
 from collections import defaultdict
 from decimal import Decimal
 
@@ -34,6 +35,7 @@ def _latex_number(c: Decimal) -> str:
     return text
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def _angle(k: tuple[int, ...], latex: bool) -> str:
     parts: list[str] = []
     for i, ki in enumerate(k):
@@ -49,7 +51,8 @@ def _angle(k: tuple[int, ...], latex: bool) -> str:
     return " ".join(parts)
 
 
-def _monomial(e: tuple[int, ...], n: int, latex: bool) -> list[str]:
+@functools.lru_cache(maxsize=1 << 12)
+def _monomial(e: tuple[int, ...], n: int, latex: bool) -> tuple[str, ...]:
     factors = []
     for i, ei in enumerate(e):
         if not ei:
@@ -61,15 +64,16 @@ def _monomial(e: tuple[int, ...], n: int, latex: bool) -> list[str]:
         else:
             base = f"q{j}" if i < n else f"dq{j}"
             factors.append(base if ei == 1 else f"{base}**{ei}")
-    return factors
+    return tuple(factors)
 
 
-def _trig(k: tuple[int, ...], kind: int, latex: bool) -> list[str]:
+@functools.lru_cache(maxsize=1 << 16)
+def _trig(k: tuple[int, ...], kind: int, latex: bool) -> tuple[str, ...]:
     if not any(k):
-        return []
+        return ()
     fn = "cos" if kind == COS else "sin"
     angle = _angle(k, latex)
-    return [rf"\{fn}\left({angle}\right)" if latex else f"{fn}({angle})"]
+    return (rf"\{fn}\left({angle}\right)" if latex else f"{fn}({angle})",)
 
 
 def _product(c: Decimal, factors: list[str], latex: bool) -> str:
@@ -113,9 +117,10 @@ def render(series: Series, latex: bool = False) -> str:
         mono = _monomial(e, n, latex)
         if len(terms) == 1 or not mono:
             for (k, _, kind), c in terms:
-                products.append(_product(c, mono + _trig(k, kind, latex), latex))
+                products.append(_product(c, [*mono, *_trig(k, kind, latex)], latex))
             continue
-        inner = _sum([_product(c, _trig(k, kind, latex), latex) for (k, _, kind), c in terms])
+        inner = _sum([_product(c, list(_trig(k, kind, latex)), latex)
+                      for (k, _, kind), c in terms])
         open_, close = (r"\left(", r"\right)") if latex else ("(", ")")
         products.append(_product(Decimal(1), [*mono, f"{open_}{inner}{close}"], latex))
     return _sum(products)

@@ -18,6 +18,7 @@ exact: ∂/∂qᵢ cos(k·q) = −kᵢ sin(k·q), ∂/∂qᵢ sin(k·q) = kᵢ c
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Sequence
 from decimal import Context, Decimal
@@ -48,6 +49,7 @@ def pack(digits: Iterable[int]) -> int:
     return out
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def unpack(value: int, size: int) -> tuple[int, ...]:
     """The `size` balanced digits of a packed vector (inverse of `pack`)."""
     digits = []

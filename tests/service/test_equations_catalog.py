@@ -216,3 +216,54 @@ def test_ur5_derives_well_within_its_budget(arms):
     (bench/equations.py measures it)."""
     model, _ = arms["ur5"]
     assert derive_equations(model).seconds < 10
+
+
+def _random_tree_urdf(kinds: str, parents: list[int], seed: int) -> str:
+    """Joints of `kinds` ("r" revolute, "p" prismatic), joint i attached to link parents[i]
+    (0 = the base), with random placements, rpy, unit axes, centres of mass and full inertias."""
+    rng = np.random.default_rng(seed)
+    links, joints = ['<link name="l0"/>'], []
+    for i, (kind, parent) in enumerate(zip(kinds, parents, strict=True), start=1):
+        ii = rng.uniform(0.01, 0.1, 3)
+        c, rpy = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1, 1, 3)
+        links.append(
+            f'<link name="l{i}"><inertial><origin xyz="{c[0]} {c[1]} {c[2]}" '
+            f'rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/><mass value="{rng.uniform(0.5, 3)}"/>'
+            f'<inertia ixx="{ii[0]}" ixy="0.001" ixz="-0.002" iyy="{ii[1]}" iyz="0.003" '
+            f'izz="{ii[2]}"/></inertial></link>')
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        p, rpy = rng.uniform(-0.3, 0.3, 3), rng.uniform(-2, 2, 3)
+        joints.append(
+            f'<joint name="j{i}" type="{"revolute" if kind == "r" else "prismatic"}">'
+            f'<parent link="l{parent}"/><child link="l{i}"/>'
+            f'<origin xyz="{p[0]} {p[1]} {p[2]}" rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/>'
+            f'<axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
+            f'<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>')
+    return f'<robot name="tree">{"".join(links + joints)}</robot>'
+
+
+@pytest.mark.parametrize(("kinds", "parents"), [
+    ("rpr", [0, 1, 2]),            # a slider between two skewed hinges
+    ("prp", [0, 1, 2]),
+    ("rrpr", [0, 1, 1, 3]),        # a branching tree: two limbs on link 1
+    ("rr", [0, 0]),                # two limbs on the base
+])
+def test_skewed_trees_with_sliders_equal_pinocchio(kinds, parents):
+    model = pin.buildModelFromXML(_random_tree_urdf(kinds, parents, seed=len(kinds)))
+    model.armature = np.linspace(0.01, 0.05, model.nv)  # added to M's diagonal, as crba does
+    eq = derive_equations(model)
+    data = model.createData()
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        q = random_configuration(model, rng)
+        v = rng.normal(size=model.nv)
+        _close(_values(eq.mass_matrix, q), pin.crba(model, data, q))
+        _close(_values(eq.gravity, q), pin.computeGeneralizedGravity(model, data, q))
+        _close(_values(eq.coriolis_matrix, q, v), pin.computeCoriolisMatrix(model, data, q, v))
+        # T = ½ vᵀ M v with M from crba: Pinocchio 4.1's computeKineticEnergy leaves out the
+        # armature of revolute joints with an unaligned axis (it keeps the others')
+        _close(_values(eq.kinetic_energy, q, v), 0.5 * v @ pin.crba(model, data, q) @ v)
+        _close(_values(eq.potential_energy, q), pin.computePotentialEnergy(model, data, q))
+    if parents == [0, 0]:  # two limbs on the base do not couple
+        assert eq.mass_matrix[0][1].is_zero() and eq.coriolis_matrix[0][1].is_zero()

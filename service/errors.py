@@ -1,6 +1,6 @@
 """Domain errors of robodyn, each with a stable machine-readable `code`.
 
-No HTTP in here: the one code → status table lives in `service.api.problems`. Every message is
+No HTTP in here: the one code → status table lives in `service.api.problems.handlers`. Every message is
 written for the user of the service: it says what was expected, never echoes raw input values
 that could be huge or non-finite, and never carries a backend path or C++ source location.
 

@@ -136,14 +136,21 @@ def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution
     return finite("impulse-dynamics", v=after, contact_impulses=impulses)
 
 
+def contact_size(options: dict[str, Any]) -> int:
+    """m, the numbers of a contact force vector: 3 per point contact, 6 per 6d contact."""
+    return sum(3 if c.get("type", "point") == "point" else 6 for c in options.get("contacts", ()))
+
+
 CONTACTS = (
     Quantity("contact-dynamics", ("q", "v", "tau"), contact_dynamics,
              "Constrained forward dynamics with rigid contacts: accelerations and contact "
-             "forces", joint_answers=("a",)),
+             "forces", joint_answers=("a",),
+             answer_size=lambda r, o, v: r.nv + contact_size(o)),
     Quantity("contact-inverse-dynamics", ("q", "v", "a"), contact_inverse_dynamics,
              "Contact-consistent inverse dynamics: actuated torques and minimum-norm contact "
-             "forces", joint_answers=("tau",)),
+             "forces", joint_answers=("tau",),
+             answer_size=lambda r, o, v: r.nv + contact_size(o) + 1),
     Quantity("impulse-dynamics", ("q", "v"), impulse_dynamics,
              "Rigid impact at contacts: velocities just after and contact impulses",
-             joint_answers=("v",)),
+             joint_answers=("v",), answer_size=lambda r, o, v: r.nv + contact_size(o)),
 )

@@ -19,8 +19,8 @@ import robodyn
 from robodyn import AsyncClient, Client, core, results
 
 from robots import CATALOG_DIR
-from service.api.dynamics import ANSWERS, REQUESTS
-from service.api.schemas_inertias import BodyInertia, Inertias
+from service.api.routes.dynamics import ANSWERS, REQUESTS
+from service.api.schemas.inertias import BodyInertia, Inertias
 from tests.beyond_helpers import RF, pinocchio_operational_space
 from tests.client.helpers import API_KEY, CATALOG, Reference
 

@@ -18,9 +18,9 @@ import pytest
 import robodyn
 from robodyn import core, errors
 
-from service.api.problems import STATUS_BY_CODE
-from service.api.schemas import ReduceRequest, UploadRequest
-from service.api.schemas_dynamics import REQUESTS
+from service.api.problems.handlers import STATUS_BY_CODE
+from service.api.schemas.robots import ReduceRequest, UploadRequest
+from service.api.schemas.common import REQUESTS
 from service.main import create_app
 from service.settings import Settings
 
@@ -180,7 +180,7 @@ def test_distribution_depends_on_httpx_numpy_and_stamina_only() -> None:
 
 
 def test_answers_are_numpy_and_match_the_server_answer_fields() -> None:
-    from service.api.schemas_dynamics import ANSWERS as ANSWER_BY_QUANTITY
+    from service.api.schemas.common import ANSWERS as ANSWER_BY_QUANTITY
 
     requests = sent_requests()
     paths = {core.ROUTES[name][1].rsplit("/", 1)[-1]: name for name in requests

@@ -16,7 +16,7 @@ import robodyn
 from fastapi.testclient import TestClient
 from robodyn import AsyncClient, Client
 
-from service.api.dynamics import REQUESTS
+from service.api.routes.dynamics import REQUESTS
 from tests.client.helpers import ATOL, RTOL, Reference
 
 

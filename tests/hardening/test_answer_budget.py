@@ -15,13 +15,13 @@ import pinocchio as pin
 import pytest
 
 from service import dynamics
-from service.api import answers
-from service.api.answer_size import (
+from service.api.encoding import answers
+from service.api.encoding.budget import (
     BINARY_BYTES_PER_NUMBER,
     JSON_BYTES_PER_NUMBER,
     NUMBERS_PER_STATE,
 )
-from service.api.binary import BINARY_MEDIA_TYPE
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.registry.catalog import load_catalog
 from service.states import prepare
 from tests.hardening.health_probe import health_latencies_during
@@ -76,7 +76,7 @@ def _inputs(robot, quantity: dynamics.Quantity, with_v: bool, n: int) -> dict:
 
 def test_every_quantity_has_an_answer_size() -> None:
     assert set(dynamics.QUANTITIES) <= set(NUMBERS_PER_STATE), (
-        "a new quantity needs its answer size in service/api/answer_size.py")
+        "a new quantity needs its answer size in service/api/encoding/budget.py")
 
 
 @pytest.mark.parametrize("path", sorted(dynamics.QUANTITIES))

@@ -15,7 +15,7 @@ import httpx
 import pytest
 import uvicorn
 
-from service.http_protocol import LINGER_S, HardenedHttpToolsProtocol
+from service.server.protocol import LINGER_S, HardenedHttpToolsProtocol
 from service.main import create_app
 from service.settings import Settings
 from tests.hardening.raw_http import (

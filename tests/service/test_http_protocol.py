@@ -1,4 +1,4 @@
-"""The HTTP protocol of `python -m service` (service/http_protocol.py): the writes of one
+"""The HTTP protocol of `python -m service` (service/server/protocol.py): the writes of one
 request within one event-loop step leave in one system call, in order; closing sends what is
 pending first; a real server answers keep-alive and pipelined requests in order. (WebSocket
 upgrades through it are exercised by the client's stream tests against `python -m service`.)"""
@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 import uvicorn
 
-from service.http_protocol import CoalescedWrites, CoalescingHttpToolsProtocol
+from service.server.protocol import CoalescedWrites, CoalescingHttpToolsProtocol
 
 
 class FakeTransport:

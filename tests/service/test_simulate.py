@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 
 from service import dynamics
-from service.api import dynamics as routes
+from service.api.routes import dynamics as routes
 from tests.helpers import random_state
 from tests.service.test_errors import assert_problem
 

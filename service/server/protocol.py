@@ -38,7 +38,7 @@ from typing import Any
 import orjson
 from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol, RequestResponseCycle
 
-from service.http_limits import (
+from service.server.limits import (
     CLOSED,
     LINGER_S,
     ConnectionLimits,

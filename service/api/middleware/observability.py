@@ -30,9 +30,9 @@ from prometheus_client.core import CounterMetricFamily
 from prometheus_client.registry import Collector
 from starlette.requests import ClientDisconnect
 
-from service.api.binary import BINARY_MEDIA_TYPE
-from service.api.problems import problem
-from service.http_limits import CLOSED as CONNECTIONS_CLOSED
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.problems.handlers import problem
+from service.server.limits import CLOSED as CONNECTIONS_CLOSED
 from service.logs import REQUEST_ID, sole_json_handler
 
 Scope = dict[str, Any]
@@ -106,7 +106,7 @@ class Metrics:
 
 class _ConnectionsClosed(Collector):
     """`robodyn_connections_closed_total{reason}`: connections the HTTP protocol closed
-    (service/http_protocol.py): header_timeout, body_timeout, send_timeout, evicted (past
+    (service/server/protocol.py): header_timeout, body_timeout, send_timeout, evicted (past
     the connection cap), refused (503 at the cap), bad_request (malformed HTTP)."""
 
     def collect(self) -> Iterator[CounterMetricFamily]:

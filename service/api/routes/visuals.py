@@ -20,10 +20,10 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from starlette.concurrency import run_in_threadpool
 
-from service.api.answers import JSONAnswer
+from service.api.encoding.answers import JSONAnswer
 from service.api.deps import RegistryDep
-from service.api.schemas import Problem
-from service.api.schemas_visuals import Visuals
+from service.api.schemas.common import Problem
+from service.api.schemas.visuals import Visuals
 from service.errors import AssetNotFound
 from service.registry import Registry
 from service.registry.robot import Robot

@@ -12,8 +12,8 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.requests import ClientDisconnect
 from starlette.responses import Response
 
-from service.api.binary import BINARY_MEDIA_TYPE
-from service.api.validation_errors import user_errors
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.problems.validation_errors import user_errors
 from service.errors import ALL_ERRORS, RobodynError
 
 log = logging.getLogger("robodyn.api")
@@ -100,7 +100,7 @@ def _body_schema(request: Request) -> tuple[dict[str, Any] | None, dict[str, Any
 def validation_details(exc: RequestValidationError, schema: dict[str, Any] | None = None,
                        schemas: dict[str, Any] | None = None) -> dict[str, Any]:
     """`detail` (the first mistake, located) and `errors` (up to 20, one per mistake) of a
-    validation failure (`service.api.validation_errors`; `schema`: the body's JSON schema)."""
+    validation failure (`service.api.problems.validation_errors`; `schema`: the body's JSON schema)."""
     errors = user_errors(list(exc.errors()), schema, schemas)
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
     detail = f"{first['loc']}: {first['msg']}"

@@ -1,4 +1,4 @@
-"""The limits of the server's HTTP connections (service/http_protocol.py): timeouts and the
+"""The limits of the server's HTTP connections (service/server/protocol.py): timeouts and the
 connection cap from the settings, counters of the connections the protocol closed, and the
 complete answers it writes itself. Kept apart from the protocol so that the metrics can read
 the counters without importing uvicorn's internals."""

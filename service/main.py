@@ -12,13 +12,14 @@ from typing import Any
 from fastapi import Depends, FastAPI
 
 from service import __version__, heap, unpin_this_thread
+from service.api.deps import require_api_key_for_all
+from service.api.middleware.body_limit import BodyLimitMiddleware
+from service.api.middleware.fast_path import DynamicsFastPath
+from service.api.middleware.observability import Metrics, ObservabilityMiddleware
+from service.api.problems.handlers import install_problem_handlers
+from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
 from service.api.routes import health, pages, robots, stream, visuals
-from service.api.deps import require_api_key_for_all
-from service.api.middleware.fast_path import DynamicsFastPath
-from service.api.middleware.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
-from service.api.problems.openapi import operation_id, problem_openapi
-from service.api.problems.handlers import install_problem_handlers
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import BuildSlots, build_slot_count

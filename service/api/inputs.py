@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from service.errors import DimensionMismatch, InvalidInput, did_you_mean
 from service.dynamics import Quantity
+from service.errors import DimensionMismatch, InvalidInput, did_you_mean
 from service.registry.robot import Robot
 from service.states import SPACES, States, prepare
 

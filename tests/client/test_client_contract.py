@@ -19,8 +19,8 @@ import robodyn
 from robodyn import core, errors
 
 from service.api.problems.handlers import STATUS_BY_CODE
-from service.api.schemas.robots import ReduceRequest, UploadRequest
 from service.api.schemas.common import REQUESTS
+from service.api.schemas.robots import ReduceRequest, UploadRequest
 from service.main import create_app
 from service.settings import Settings
 

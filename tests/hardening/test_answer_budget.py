@@ -16,12 +16,12 @@ import pytest
 
 from service import dynamics
 from service.api.encoding import answers
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.encoding.budget import (
     BINARY_BYTES_PER_NUMBER,
     JSON_BYTES_PER_NUMBER,
     NUMBERS_PER_STATE,
 )
-from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.registry.catalog import load_catalog
 from service.states import prepare
 from tests.hardening.health_probe import health_latencies_during

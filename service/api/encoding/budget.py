@@ -3,10 +3,11 @@
 An answer's size follows from the robot's dimensions, the request's options and the number of
 states alone (never from the values): each quantity's `answer_size(robot, options, with_v)`
 (`service.dynamics.Quantity`) counts the numbers of one state's answer, exactly as the quantity
-shapes it (tests check each formula against computed answers). The answer is estimated at `JSON_BYTES_PER_NUMBER` bytes
-per number in JSON (the longest text of a float64, `-2.2250738585072014e-308`, and its comma)
-and `BINARY_BYTES_PER_NUMBER` in the binary form (plus `key_bytes` with `"joint_names": true`,
-when the quantity has answers keyed by joint name); one over `ROBODYN_MAX_ANSWER_BYTES` is
+shapes it (tests check each formula against computed answers). The answer is estimated at
+`JSON_BYTES_PER_NUMBER` bytes per number in JSON (the longest text of a float64,
+`-2.2250738585072014e-308`, and its comma) and `BINARY_BYTES_PER_NUMBER` in the binary form
+(plus `key_bytes` with `"joint_names": true`, when the quantity has answers keyed by joint
+name); one over `ROBODYN_MAX_ANSWER_BYTES` is
 refused with 413 `payload_too_large` naming the largest batch that fits, before any work.
 """
 

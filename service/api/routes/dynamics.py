@@ -4,8 +4,8 @@ each derived from its spec (`service.api.quantities.SPECS`).
 This is the hot path, so each route is a plain ASGI endpoint without per-request dependency
 injection: the body is validated by the quantity's strict pydantic model straight from its bytes
 (`model_validate_json`), or decoded from the binary form (`service.api.encoding.binary`), and
-the answer is written by orjson or the binary encoder. The OpenAPI document describes these routes with
-the very same models (`openapi_routes`), and failures are the same problem+json answers.
+the answer is written by orjson or the binary encoder. The OpenAPI document describes these
+routes with the very same models (`openapi_routes`), and failures are the same problem+json answers.
 """
 
 # No `from __future__ import annotations`: FastAPI must see the closures' request models.

@@ -20,8 +20,8 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from starlette.concurrency import run_in_threadpool
 
-from service.api.encoding.answers import JSONAnswer
 from service.api.deps import RegistryDep
+from service.api.encoding.answers import JSONAnswer
 from service.api.schemas.common import Problem
 from service.api.schemas.visuals import Visuals
 from service.errors import AssetNotFound

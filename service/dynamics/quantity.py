@@ -114,7 +114,7 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) ->
     matrix, values beyond float64) is `SingularConfiguration` (422), never a 500."""
     try:
         if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
-            results = quantity.parallel(robot, s)
+            results = finite(quantity.name, **quantity.parallel(robot, s))
         else:
             results = quantity.compute(robot, s, **options)
     except np.linalg.LinAlgError as exc:

@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 import uvicorn
 
-from service.server.protocol import CoalescedWrites, CoalescingHttpToolsProtocol
+from service.server.protocol import CoalescedWrites, HardenedHttpToolsProtocol
 
 
 class FakeTransport:
@@ -91,7 +91,7 @@ def _read_answers(sock: socket.socket, count: int) -> list[bytes]:
 @pytest.mark.parametrize("pipelined", [False, True])
 def test_a_real_server_answers_in_order(pipelined: bool) -> None:
     async def run() -> list[bytes]:
-        config = uvicorn.Config(_app, port=0, http=CoalescingHttpToolsProtocol,
+        config = uvicorn.Config(_app, port=0, http=HardenedHttpToolsProtocol,
                                 log_level="warning", lifespan="off")
         server = uvicorn.Server(config)
         task = asyncio.create_task(server.serve())

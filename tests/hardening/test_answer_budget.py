@@ -22,10 +22,12 @@ from service.api.encoding.budget import (
     JSON_BYTES_PER_NUMBER,
 )
 from service.registry.catalog import load_catalog
+from service.settings import Settings
 from service.states import prepare
 from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 
+SETTINGS = Settings()  # the simulation limits, passed as the endpoint passes them
 ROBOTS = ("ur5", "talos", "double_pendulum")
 
 
@@ -79,7 +81,8 @@ def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -
     for robot in robots.values():
         for options, with_v in _options(path, robot):
             states = prepare(robot, _inputs(robot, quantity, with_v, 2), 100)
-            result = dynamics.run(robot, quantity, states, dict(options))
+            limits = {name: getattr(SETTINGS, name) for name in quantity.settings}
+            result = dynamics.run(robot, quantity, states, {**options, **limits})
             numbers = sum(np.asarray(value).size for value in result.values()
                           if np.asarray(value).dtype.kind == "f")  # names are sent once
             predicted = quantity.answer_size(robot, options, "v" in states.arrays)

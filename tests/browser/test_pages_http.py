@@ -107,7 +107,7 @@ def test_docs_page_loads_swagger_ui_from_the_installed_package(client) -> None:
 
 @pytest.mark.parametrize("path", [
     "/static/__init__.py", "/static/index.html", "/static/..%2f..%2fmain.py",
-    "/static/../api/pages.py", "/static/vendor/three/package.json",
+    "/static/../api/routes/pages.py", "/static/vendor/three/package.json",
     "/static/vendor/three/README.md", "/static/vendor%2F..%2Fpages.py",
     "/static/vendor/three/build/../../../__init__.py", "/docs/assets/index.html",
     "/docs/assets/swagger-initializer.js",

@@ -30,7 +30,7 @@ Compute = Callable[..., Results]
 Work = Callable[[Robot, States, dict[str, Any]], int]
 AnswerSize = Callable[[Robot, dict[str, Any], bool], int]
 """(robot, options, v given) -> how many numbers the answer of one state holds."""
-Fewer = Callable[[Robot, int], str]
+SmallerRequest = Callable[[Robot, int], str]
 """(robot, numbers that fit) -> what to ask for when even one state's answer is too large."""
 
 
@@ -44,8 +44,9 @@ class Quantity:
     fields, e.g. limits) that are passed to `compute` as keyword options too.
     `answer_size(robot, options, with_v)` counts the numbers of one state's answer exactly as
     `compute` shapes it (from the robot's dimensions and the options alone, never the values:
-    the answer budget refuses an answer too large before computing it); `fewer(robot, n)` says
-    what to ask for instead when not even one state's answer fits in n numbers.
+    the answer budget refuses an answer too large before computing it);
+    `smaller_request(robot, n)` says what to ask for instead when not even one state's answer
+    fits in n numbers.
     `joint_answers` names the answers that are joint-space vectors (last axis nq for an answer
     named "q", else nv), given keyed by joint name on request (`"joint_names": true`), and
     `named_options` the options that may be given keyed by joint name (a dotted path into the
@@ -67,7 +68,7 @@ class Quantity:
     named_options: tuple[tuple[str, str], ...] = ()
     settings: tuple[str, ...] = ()
     work: Work | None = None
-    fewer: Fewer | None = None
+    smaller_request: SmallerRequest | None = None
 
 
 @functools.cache

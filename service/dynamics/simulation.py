@@ -252,7 +252,7 @@ SIMULATION = (
     Quantity("simulate", ("q", "v"), simulate,
              "Simulate: integrate forward dynamics from (q, v) under torques or a PD controller",
              joint_answers=("q", "v"), settings=("max_simulation_steps", "max_simulation_work"),
-             work=simulation_work, answer_size=simulation_size, fewer=fewer_steps,
+             work=simulation_work, answer_size=simulation_size, smaller_request=fewer_steps,
              named_options=(("tau", "nv"), ("controller.q_target", "nq"),
                             ("controller.kp", "nv"), ("controller.kd", "nv"))),
 )

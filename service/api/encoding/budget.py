@@ -40,8 +40,8 @@ def check_answer_size(quantity: Quantity, robot: Any, options: dict[str, Any], w
         if form == "JSON":
             binary_fits = limit // (numbers * BINARY_BYTES_PER_NUMBER)
             hint += f" ({binary_fits:,} with the binary form)"
-    elif quantity.fewer is not None:
-        hint = quantity.fewer(robot, limit // bytes_per_number)
+    elif quantity.smaller_request is not None:
+        hint = quantity.smaller_request(robot, limit // bytes_per_number)
     else:
         hint = "even one state's answer does not fit"
     raise PayloadTooLarge(f"{what}: {hint}", largest_batch=fits)

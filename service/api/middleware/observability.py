@@ -1,9 +1,9 @@
 """Per-request observability (pure ASGI): Prometheus metrics by route and robot, one JSON
-access-log line per request, `X-Request-ID` and `Server-Timing` headers; and the request
-body-size limit.
+access-log line per request, `X-Request-ID` and `Server-Timing` headers. (The request body
+limits are `service.api.middleware.body_limit`.)
 
 What a route tells the middleware: a dynamics route puts
-`scope["robodyn"] = {"robot": id, "quantity": path name, "batch_size": N (1 for one state),
+`scope["robodyn"] = {"robot": id, "quantity": its name, "batch_size": N (1 for one state),
 "compute_seconds": float, "large": computed in a worker thread}` into the ASGI scope before it
 answers. The middleware reads it when the response starts (for `Server-Timing:
 compute;dur=<ms>`) and when the request ends (for the log line and the compute-time histogram).

@@ -150,6 +150,12 @@ _ELEMENTS = {  # model array prefix → (MuJoCo object type, MJCF element)
 }
 
 
+_GIVEN = frozenset(("pos", "quat", "mass", "inertia", "ipos", "iquat", "axis", "range",
+                    "size", "qpos", "qvel", "act", "ctrl", "mpos", "mquat", "time", "friction",
+                    "armature", "damping", "stiffness", "springref", "frictionloss", "gear",
+                    "margin", "ref"))
+
+
 def check_finite(mj: Any) -> None:
     """Refuse a compiled model holding a NaN or an infinity (MuJoCo's compiler accepts `nan` in
     any number, only warning): `<option gravity="nan 0 0">`, a keyframe's `qpos`, a body's
@@ -160,9 +166,11 @@ def check_finite(mj: Any) -> None:
             shown_name = name.removeprefix("o_")
             raise InvalidModel(f"<option {shown_name}> holds a non-finite number "
                                f"({_numbers(value)}); every number must be finite")
-    for field_name in dir(mj):
-        if field_name.startswith("_"):
-            continue
+    # attributes the MJCF gives first, so a NaN is named where it was written (a NaN position
+    # also spoils values derived from it, e.g. body_invweight0)
+    names = [n for n in dir(mj) if not n.startswith("_")]
+    names.sort(key=lambda n: n.partition("_")[2] not in _GIVEN)
+    for field_name in names:
         try:
             value = getattr(mj, field_name)
         except Exception:  # a property the binding cannot give for this model

@@ -1,8 +1,8 @@
 """Slow: MJCF and xacro uploads against a real server (`python -m service`): while hostile xacro
 runs into the builder's limits or its confinement, while a large MJCF with 173 meshes is
-compiled, and while a 44 MB XML asset is refused, /health/live keeps answering within 0.5 s, and the server stays alive. The 44 MB XML asset
-is never parsed by the serving process: its peak memory stays far below the ~1.4 GB a tree
-of it took."""
+compiled, and while a 44 MB XML asset is refused, /health/live keeps answering within 0.5 s,
+and the server stays alive. The 44 MB XML asset is never parsed by the serving process: its
+peak memory stays far below the ~1.4 GB a tree of it took."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.hardening.test_corpus_server import _health_latencies
 from tests.hardening.corpus import arm
+from tests.hardening.test_corpus_server import _health_latencies
 from tests.service.mjcf_reference import DM_SUITE, directory_assets, encoded
 from tests.service.test_xacro import HOSTILE, MARKER
 

@@ -164,7 +164,7 @@ def test_unreferenced_assets_by_file_name_in_linear_time() -> None:
     assert len(big) > 2_000_000
     many = ["/".join(["s"] * (MAX_KEY_SEGMENTS - 1)) + f"/k{i}.stl" for i in range(2000)]
     started = time.perf_counter()
-    assert unreferenced(many + ["q/m7.stl"], [big]) == many
+    assert unreferenced([*many, "q/m7.stl"], [big]) == many
     assert time.perf_counter() - started < 2.0
 
 

@@ -14,7 +14,8 @@ Runs only in the builder process (`service.registry.build_process`), never in th
   named when its file name is in that set. Time and memory are linear in the texts' size plus
   the number of keys (the former scan searched every tail of every key in every text).
 - `missing_meshes`: the mesh files a URDF's visuals reference that are not among the assets
-  (one entry per file, with the links that use it).
+  (one entry per file, with the links that use it), and `outside_meshes` those referenced by a
+  path no upload can hold (absolute, a `file://` URL, climbing out with `..`).
 """
 
 from __future__ import annotations
@@ -29,9 +30,9 @@ from defusedxml.ElementTree import DefusedXMLParser, ParseError
 
 from service.errors import InvalidModel
 from service.registry.assets import MESH_TYPES, extension
-from service.registry.safe_xml import shown
+from service.registry.safe_xml import parse_bounded, shown
 from service.registry.urdf_check import Limits
-from service.registry.visuals import urdf_visuals
+from service.registry.visuals import MAX_DEPTH, MAX_ELEMENTS, asset_key, urdf_visuals
 
 XML_TYPES = ("dae", "xml", "urdf", "xacro", "srdf", "mjcf")
 DESCRIPTION_XML_TYPES = ("xml", "urdf", "xacro", "srdf", "mjcf")
@@ -167,5 +168,21 @@ def asset_report(description_format: str, description: str, urdf: str | None,
     report: dict[str, Any] = {
         "unreferenced_assets": unreferenced(assets, asset_texts(description, assets, *more))}
     if description_format != "mjcf" and urdf is not None:  # MuJoCo refuses a missing mesh
-        report["missing_meshes"] = missing_meshes(urdf_visuals(urdf), assets)
+        report["missing_meshes"] = (missing_meshes(urdf_visuals(urdf), assets)
+                                    + outside_meshes(urdf))
     return report
+
+
+def outside_meshes(urdf: str) -> list[dict[str, Any]]:
+    """The visual meshes of a URDF named by a path no upload can hold (absolute, a URL other
+    than `package://`, climbing out with `..`): [{"file": the reference, "links": [...],
+    "outside": True}]; such a visual is left out of the picture."""
+    found: dict[str, list[str]] = {}
+    for link in parse_bounded(urdf, MAX_ELEMENTS, MAX_DEPTH).iter("link"):
+        for mesh in link.findall("visual/geometry/mesh"):
+            filename = mesh.get("filename", "")
+            if asset_key(filename) is None:
+                links = found.setdefault(filename, [])
+                if link.get("name", "") not in links:
+                    links.append(link.get("name", ""))
+    return [{"file": name, "links": links, "outside": True} for name, links in found.items()]

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from service.errors import InvalidModel
-from service.registry.assets import MESH_TYPES, AssetStore, digest, extension
+from service.registry.assets import MAX_KEY_LENGTH, MESH_TYPES, AssetStore, digest, extension
 from service.registry.build import Checked
 from service.registry.safe_xml import shown
 from service.registry.urdf_check import Finding, Limits
@@ -74,18 +74,32 @@ def asset_warnings(report: Mapping[str, Any]) -> list[dict[str, str]]:
             "message": f"asset '{shown(key)}' is not named by the description or its included "
                        "files; it is stored with the model"}
            for key in report.get("unreferenced_assets", [])]
-    for missing in report.get("missing_meshes", []):
+    all_missing = report.get("missing_meshes", [])
+    for missing in all_missing[:MAX_MISSING_MESH_WARNINGS]:
         links = missing["links"]
         named = ", ".join(f"'{shown(link)}'" for link in links[:5])
         more = f" and {len(links) - 5} more" if len(links) > 5 else ""
         plural = "s" if len(links) > 1 else ""
+        where = f"mesh '{shown(missing['file'])}' of link{plural} {named}{more}"
+        message = (f"{where} is a path outside the upload (absolute, a URL or climbing out "
+                   "with '..'): it is not drawn; name it by a relative or package:// path and "
+                   'upload it in "assets"' if missing.get("outside") else
+                   f"{where} is not among the upload's assets: it is not drawn and GET "
+                   '.../assets answers 404 for it; upload it in "assets" under that key')
+        exact = not missing.get("outside") and len(missing["file"]) <= MAX_KEY_LENGTH
         out.append({"code": "missing_mesh", "element": "link", "name": links[0],
-                    "file": missing["file"],
-                    "message": f"mesh '{shown(missing['file'])}' of link{plural} {named}{more} "
-                               "is not among the upload's assets: it is not "
-                               "drawn and GET .../assets answers 404 for it; upload it in "
-                               '"assets" under that key'})
+                    "file": missing["file"] if exact else shown(missing["file"]),
+                    "message": message})
+    if len(all_missing) > MAX_MISSING_MESH_WARNINGS:
+        rest = len(all_missing) - MAX_MISSING_MESH_WARNINGS
+        out.append({"code": "missing_mesh", "element": "link", "name": "",
+                    "message": f"and {rest} more mesh files the visuals name are missing "
+                               "from the upload (not listed one by one)"})
     return out
+
+
+MAX_MISSING_MESH_WARNINGS = 100
+"""At most this many `missing_mesh` warnings, one per file; one more says how many others."""
 
 
 def rebuild_inputs(record: Mapping[str, Any], store: AssetStore

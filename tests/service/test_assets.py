@@ -287,3 +287,30 @@ def test_a_mesh_is_streamed_from_its_file_in_chunks(tmp_path) -> None:
         again = client.get(url, headers={"If-None-Match": mesh.headers["etag"]})
         assert again.status_code == 304 and again.content == b""
         assert again.headers["etag"] == mesh.headers["etag"]
+
+
+def test_meshes_outside_the_upload_are_warned_and_the_list_is_bounded(client: TestClient
+                                                                        ) -> None:
+    """A mesh named by an absolute path, a file:// URL or a path climbing out can never be an
+    asset: warned as such (not drawn). 150 missing files give 100 warnings and one counting
+    the rest."""
+    urdf = MESHES_URDF.replace("package://pkg/meshes/a.stl", "file:///home/me/a.stl").replace(
+        "meshes/c.stl", "../../c.stl")
+    r = client.post("/v1/robots", json={"urdf": urdf, "assets": encoded(
+        {"pkg/meshes/b.stl": cube_stl()})})
+    assert r.status_code == 201, r.text
+    warned = [(w["code"], w["file"], w["name"]) for w in r.json()["warnings"]]
+    assert warned == [("missing_mesh", "file:///home/me/a.stl", "a"),
+                      ("missing_mesh", "../../c.stl", "c")], warned
+    assert all("outside the upload" in w["message"] for w in r.json()["warnings"])
+    links = "".join(f'<link name="l{i}"><visual><geometry><mesh filename="m/{i}.stl"/>'
+                    f'</geometry></visual></link><joint name="f{i}" type="fixed"><parent '
+                    f'link="a"/><child link="l{i}"/></joint>' for i in range(150))
+    many = URDF.replace("</robot>", links + "</robot>")
+    r = client.post("/v1/robots", json={"urdf": many})
+    assert r.status_code == 201, r.text
+    missing = [w for w in r.json()["warnings"] if w["code"] == "missing_mesh"]
+    # in document order: URDF's own link b (pkg/meshes/b.stl) first, then l0, l1, ...
+    assert [w.get("file") for w in missing[:100]] == ["pkg/meshes/b.stl"] + [
+        f"m/{i}.stl" for i in range(99)]
+    assert len(missing) == 101 and "and 51 more mesh files" in missing[-1]["message"]

@@ -46,8 +46,8 @@ KNOWN_TYPES = MESH_TYPES + TEXT_TYPES + IMAGE_TYPES + OTHER_TYPES
 
 
 def _shown(key: str) -> str:
-    key = "".join(c if c.isprintable() else "?" for c in key)
-    return key if len(key) <= 120 else key[:120] + "…"
+    shown = "".join(c if c.isprintable() else "?" for c in key[:120])
+    return shown if len(key) <= 120 else shown + "…"
 
 
 def normalize_key(key: str) -> str:

@@ -65,6 +65,7 @@ class Registry:
         self._summaries: dict[str, dict[str, Any]] = {}  # stored id → summary (read once)
         self._summaries_lock = threading.Lock()
         self._asset_shas: dict[str, frozenset[str]] = {}  # stored id → the assets it names
+        self._asset_shas_lock = threading.Lock()
 
     # -- start-up -------------------------------------------------------------------------
 
@@ -295,7 +296,7 @@ class Registry:
         reduced model). Records never change under their id, so each is read once."""
         ids = self.store.ids()
         named: set[str] = set()
-        with self._summaries_lock:
+        with self._asset_shas_lock:
             for model_id in ids:
                 shas = self._asset_shas.get(model_id)
                 if shas is None:

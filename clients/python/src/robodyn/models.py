@@ -33,7 +33,9 @@ def _limits(values: Any) -> tuple[float | None, ...]:
 @dataclass(frozen=True)
 class Finding:
     """A physical finding in a robot description (e.g. an inertia with a negative principal
-    moment): `code`, the `element` kind ("link" or "joint"), its `name`, and a `message`."""
+    moment) or a note on an upload's assets: `code`, the `element` kind ("link", "joint" or
+    "asset"), its `name`, and a `message`; `raw` has every member (a `missing_mesh`'s
+    `file`)."""
 
     code: str
     element: str

@@ -17,6 +17,13 @@ __version__ = "0.1.0"
 
 from robodyn.async_client import AsyncClient
 from robodyn.client import Client
+from robodyn.contacts import (
+    Contact,
+    ContactDynamics,
+    ContactInverseDynamics,
+    ContactTrajectory,
+    ImpulseDynamics,
+)
 from robodyn.errors import (
     APIError,
     AssetNotFoundError,
@@ -50,6 +57,7 @@ from robodyn.errors import (
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
+from robodyn.payloads import Payload
 from robodyn.progress import Progress, ProgressCallback
 from robodyn.request_options import (
     Fill,
@@ -89,6 +97,10 @@ __all__ = [
     "Centroidal",
     "Client",
     "ConflictError",
+    "Contact",
+    "ContactDynamics",
+    "ContactInverseDynamics",
+    "ContactTrajectory",
     "DimensionMismatchError",
     "Energy",
     "Fill",
@@ -96,6 +108,7 @@ __all__ = [
     "ForwardDynamicsDerivatives",
     "FrameInfo",
     "FrameJacobian",
+    "ImpulseDynamics",
     "InertiaCheck",
     "Inertias",
     "InputError",
@@ -111,6 +124,7 @@ __all__ = [
     "NotReadyError",
     "OperationalSpace",
     "OverloadedError",
+    "Payload",
     "PayloadTooLargeError",
     "Progress",
     "ProgressCallback",
@@ -138,15 +152,3 @@ __all__ = [
     "ValidationError",
     "__version__",
 ]
-
-# contacts (issue 19)
-from robodyn.contacts import (
-    Contact,
-    ContactDynamics,
-    ContactInverseDynamics,
-    ContactTrajectory,
-    ImpulseDynamics,
-)
-
-__all__ += ["Contact", "ContactDynamics", "ContactInverseDynamics", "ContactTrajectory",
-            "ImpulseDynamics"]

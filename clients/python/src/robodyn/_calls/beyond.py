@@ -48,7 +48,7 @@ def energy(robot_id: str, q: ArrayLike, v: ArrayLike, *,
 def center_of_mass(robot_id: str, q: ArrayLike, v: ArrayLike | None = None, *,
                    payloads: PayloadsLike | None = None) -> Call[CenterOfMass]:
     return request(robot_id, "center-of-mass", CenterOfMass.from_json, payloads=payloads,
-                   q=q, v=v)
+                   optional=("v",), q=q, v=v)
 
 
 def jacobian(robot_id: str, q: ArrayLike, frame: str, *,
@@ -56,7 +56,8 @@ def jacobian(robot_id: str, q: ArrayLike, frame: str, *,
              v: ArrayLike | None = None, payloads: PayloadsLike | None = None
              ) -> Call[FrameJacobian]:
     return request(robot_id, "jacobian", FrameJacobian.from_json,
-                   _frame(frame, reference_frame), payloads=payloads, q=q, v=v)
+                   _frame(frame, reference_frame), payloads=payloads, optional=("v",),
+                   q=q, v=v)
 
 
 def operational_space(robot_id: str, q: ArrayLike, frame: str, *, v: ArrayLike | None = None,
@@ -66,4 +67,4 @@ def operational_space(robot_id: str, q: ArrayLike, frame: str, *, v: ArrayLike |
     options = {**_frame(frame, reference_frame), "task": _choice("task", task, TASKS),
                "damping": nonnegative("damping", damping)}
     return request(robot_id, "operational-space", OperationalSpace.from_json, options,
-                   payloads=payloads, q=q, v=v)
+                   payloads=payloads, optional=("v",), q=q, v=v)

@@ -24,6 +24,7 @@ from robodyn.results import (
     Trajectory,
 )
 
+
 def mass_matrix(robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
                 ) -> Call[np.ndarray]:
     return request(robot_id, "mass-matrix", array("mass_matrix", 2), payloads=payloads, q=q)

@@ -1,6 +1,6 @@
 """The one request builder of the computing routes (`request`), and `route_call` for the others.
 
-`request(robot_id, quantity, read, options, payloads=..., q=q, v=v)` is
+`request(robot_id, quantity, read, options, payloads=..., optional=("v",), q=q, v=v)` is
 `POST /v1/robots/{robot_id}/{quantity}`: the joint-space inputs are checked together (one state
 or a batch of N), the other body members are `options`, `payloads` is added to them, the
 answer is read by `read(body, batched, rows)` — usually a result type's `from_json` — and a
@@ -46,13 +46,15 @@ def route_call(method: str, route: str, read: Callable[[int, Any], T],
 
 def request(robot_id: str, quantity: str, read: Read[T],
             options: Mapping[str, Any] | None = None, *, payloads: PayloadsLike | None = None,
-            binary_form: bool = True, **inputs: ArrayLike | None) -> Call[T]:
-    """`POST /v1/robots/{robot_id}/{quantity}` with the joint-space `inputs` (None: not sent),
-    the other body members `options` (checked by the caller) and `payloads`; the answer read
-    by `read`. `binary_form=False` keeps the request JSON however large."""
+            optional: tuple[str, ...] = (), binary_form: bool = True,
+            **inputs: ArrayLike | None) -> Call[T]:
+    """`POST /v1/robots/{robot_id}/{quantity}` with the joint-space `inputs` (those named in
+    `optional` are not sent when None), the other body members `options` (checked by the
+    caller) and `payloads`; the answer read by `read`. `binary_form=False` keeps the request
+    JSON however large."""
     fields = {**(options or {}), **payloads_body(payloads)}
     return _request(robot_id, quantity, read, fields, binary_form,
-                    {k: x for k, x in inputs.items() if x is not None})
+                    {k: x for k, x in inputs.items() if x is not None or k not in optional})
 
 
 def _request(robot_id: str, quantity: str, read: Read[T], fields: Mapping[str, Any],

@@ -8,6 +8,7 @@ the frame name; the client checks the shapes and that every number is finite.
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -61,7 +62,8 @@ def _payload_json(where: str, frame: Any, mass: Any, center_of_mass: Any, inerti
                   ) -> dict[str, Any]:
     if not isinstance(frame, str) or not frame:
         raise InputError(f"{where}: frame must be a frame name (a non-empty str)")
-    if isinstance(mass, bool) or not isinstance(mass, numbers.Real) or not np.isfinite(mass):
+    if (isinstance(mass, bool) or not isinstance(mass, numbers.Real)
+            or not math.isfinite(mass)):
         raise InputError(f"{where}: mass must be a finite number of kg, not {mass!r}")
     return {"frame": frame, "mass": float(mass),
             "center_of_mass": _numbers(f"{where}: center_of_mass", center_of_mass, (3,)),

@@ -29,8 +29,6 @@ and τ of missing joints are zero."""
 REFERENCE_FRAMES: tuple[str, ...] = get_args(ReferenceFrame)
 TASKS: tuple[str, ...] = get_args(Task)
 INTEGRATORS: tuple[str, ...] = get_args(Integrator)
-ROOT_JOINTS: tuple[str, ...] = get_args(RootJoint)
-INERTIA_CHECKS: tuple[str, ...] = get_args(InertiaCheck)
 
 
 def _json(value: Any) -> Any:

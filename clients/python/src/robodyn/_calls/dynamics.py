@@ -92,20 +92,22 @@ def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int
              tau: ArrayLike | Mapping[str, Any] | None = None,
              controller: Mapping[str, Any] | None = None, integrator: Integrator | None = None,
              contacts: ContactsLike | None = None, damping: float = 0.0,
-             payloads: PayloadsLike | None = None) -> Call[Any]:
+             payloads: PayloadsLike | None = None) -> Call[Trajectory | ContactTrajectory]:
     """Always JSON: a torque schedule is a body field, too big for a binary header. Without
     contacts, more than `progress.CHUNK_STEPS` steps can run in chunks of steps."""
     options = request_options.simulation(dt, steps, tau, controller, integrator)
+    call: Call[Trajectory | ContactTrajectory]
     if contacts is not None:  # a contact set holds its frames where the rollout starts
-        return request(robot_id, "simulate", ContactTrajectory.from_json,
+        call = request(robot_id, "simulate", ContactTrajectory.from_json,
                        {**options, **contact_options(contacts, damping)}, payloads=payloads,
                        binary_form=False, q=q, v=v)
+        return call
     call = request(robot_id, "simulate", Trajectory.from_json, options, payloads=payloads,
                    binary_form=False, q=q, v=v)
     if steps <= progress.CHUNK_STEPS:
         return call
 
-    def plan() -> progress.Plan[Trajectory]:
+    def plan() -> progress.Plan[Trajectory | ContactTrajectory]:
         return _simulation_chunks(robot_id, q, v, dt=dt, steps=steps, tau=tau,
                                   controller=controller, integrator=integrator,
                                   payloads=payloads)

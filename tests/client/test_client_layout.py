@@ -10,6 +10,7 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import robodyn
 from robodyn._calls import BUILDERS, STREAMED
 
@@ -71,3 +72,14 @@ def test_no_source_file_is_over_400_lines() -> None:
     for path in SOURCE.rglob("*.py"):
         lines = len(path.read_text().splitlines())
         assert lines <= 400, f"{path.relative_to(SOURCE)} has {lines} lines"
+
+
+def test_the_request_builder_chunks_batches_of_states_only() -> None:
+    from robodyn._calls.request import array, request
+
+    states = request("r", "gravity", array("gravity", 1), q=np.zeros((3000, 2)))
+    assert states.chunks is not None and states.chunks.total == 3000
+    path = request("r", "retime", array("q", 2), independent_rows=False,
+                   waypoints=np.zeros((3000, 2)))
+    assert path.chunks is None and path.route == "/v1/robots/{robot_id}/retime"
+    assert path.json_body() == {"waypoints": np.zeros((3000, 2)).tolist()}

@@ -9,8 +9,9 @@
 subclass of `APIError` named after their `code` (see `robodyn.errors` for the tree); requests
 a busy server could not answer are retried (`Retry`). Inputs are any array-like (numpy,
 torch, JAX, lists) or keyed by joint name (mappings, ROS JointState-like objects); answers are
-numpy arrays, or torch tensors with `Client(array_type="torch")`. Depends on httpx, numpy and
-stamina.
+numpy arrays, or torch tensors with `Client(array_type="torch")`. Every computing method takes
+`payloads=[Payload(frame, mass, ...)]`, rigid bodies the robot holds. Depends on httpx, numpy
+and stamina.
 """
 
 __version__ = "0.1.0"

@@ -11,27 +11,21 @@ from robodyn._calls.request import array, request
 from robodyn.arrays import ArrayLike
 from robodyn.contacts import nonnegative
 from robodyn.core import Call
-from robodyn.errors import InputError
 from robodyn.payloads import PayloadsLike
-from robodyn.request_options import REFERENCE_FRAMES, TASKS, ReferenceFrame, Task
+from robodyn.request_options import (
+    REFERENCE_FRAMES,
+    TASKS,
+    ReferenceFrame,
+    Task,
+    choice,
+    frame_name,
+)
 from robodyn.results import CenterOfMass, Energy, FrameJacobian, OperationalSpace
 
 
-def _choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
-    if not isinstance(value, str) or value not in allowed:
-        raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}, "
-                         f"not {value!r}")
-    return value
-
-
 def _frame(frame: Any, reference_frame: Any) -> dict[str, str]:
-    if not isinstance(frame, str):
-        raise TypeError(f"frame must be a str (a name from robot(id).frame_names), not "
-                        f"{type(frame).__name__}")
-    if not frame:
-        raise InputError("frame is empty; robot(id).frame_names lists the valid names")
-    return {"frame": frame,
-            "reference_frame": _choice("reference_frame", reference_frame, REFERENCE_FRAMES)}
+    return {"frame": frame_name(frame),
+            "reference_frame": choice("reference_frame", reference_frame, REFERENCE_FRAMES)}
 
 
 def mass_matrix_inverse(robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
@@ -64,7 +58,7 @@ def operational_space(robot_id: str, q: ArrayLike, frame: str, *, v: ArrayLike |
                       reference_frame: ReferenceFrame = "local_world_aligned",
                       task: Task = "full", damping: float = 0.0,
                       payloads: PayloadsLike | None = None) -> Call[OperationalSpace]:
-    options = {**_frame(frame, reference_frame), "task": _choice("task", task, TASKS),
+    options = {**_frame(frame, reference_frame), "task": choice("task", task, TASKS),
                "damping": nonnegative("damping", damping)}
     return request(robot_id, "operational-space", OperationalSpace.from_json, options,
                    payloads=payloads, optional=("v",), q=q, v=v)

@@ -47,30 +47,31 @@ def route_call(method: str, route: str, read: Callable[[int, Any], T],
 def request(robot_id: str, quantity: str, read: Read[T],
             options: Mapping[str, Any] | None = None, *, payloads: PayloadsLike | None = None,
             optional: tuple[str, ...] = (), binary_form: bool = True,
-            **inputs: ArrayLike | None) -> Call[T]:
+            independent_rows: bool = True, **inputs: ArrayLike | None) -> Call[T]:
     """`POST /v1/robots/{robot_id}/{quantity}` with the joint-space `inputs` (those named in
     `optional` are not sent when None), the other body members `options` (checked by the
     caller) and `payloads`; the answer read by `read`. `binary_form=False` keeps the request
-    JSON however large."""
+    JSON however large. `independent_rows=False`: the rows of 2-D inputs are one trajectory,
+    path or log rather than a batch of states, and are never sent in chunks."""
     fields = {**(options or {}), **payloads_body(payloads)}
-    return _request(robot_id, quantity, read, fields, binary_form,
+    return _request(robot_id, quantity, read, fields, binary_form, independent_rows,
                     {k: x for k, x in inputs.items() if x is not None or k not in optional})
 
 
 def _request(robot_id: str, quantity: str, read: Read[T], fields: Mapping[str, Any],
-             binary_form: bool, inputs: Mapping[str, Any]) -> Call[T]:
+             binary_form: bool, independent_rows: bool, inputs: Mapping[str, Any]) -> Call[T]:
     arrays, batched = joint_states(**inputs)
     rows = batch_rows(arrays, batched)
     call = route_call("POST", f"{ROBOT}/{quantity}",
                       lambda status, body: read(body, batched, rows), robot_id,
                       body=dict(fields) or None)
     call = replace(call, arrays=arrays, binary_form=binary_form)
-    if rows is not None and _splittable(arrays, fields):
+    if rows is not None and independent_rows and _splittable(arrays, fields):
         def plan() -> progress.Plan[T]:
             parts: list[T] = []
             for i in range(0, rows, progress.CHUNK_STATES):
                 j = min(i + progress.CHUNK_STATES, rows)
-                part = _request(robot_id, quantity, read, fields, binary_form,
+                part = _request(robot_id, quantity, read, fields, binary_form, True,
                                 {k: a[i:j] for k, a in arrays.items()})
                 parts.append((yield (part, j)))
             return outputs.join(parts)

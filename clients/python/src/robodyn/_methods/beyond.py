@@ -15,14 +15,14 @@ from robodyn.results import CenterOfMass, Energy, FrameJacobian, OperationalSpac
 
 
 class BeyondMethods(SyncSender):
-    """The beyond methods of `Client`."""
+    """The methods beyond the equation of motion of `Client`."""
 
     def mass_matrix_inverse(self, robot_id: str, q: ArrayLike, *,
                             payloads: PayloadsLike | None = None) -> np.ndarray:
         """M(q)⁻¹, the inverse joint-space inertia matrix (Pinocchio's computeMinverse, no
         numerical inversion): symmetric positive definite, 1/(kg·m²) (1/kg on prismatic rows),
         shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot
-        holds (`Payload`), in every term.
+        holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.mass_matrix_inverse(robot_id, q, payloads=payloads))
 
@@ -31,7 +31,7 @@ class BeyondMethods(SyncSender):
         """`Energy` with `kinetic_energy` T = ½ vᵀ M v, `potential_energy` U (zero at the world
         origin, g(q) = ∂U/∂q) and `mechanical_energy` T + U, in J: floats for one state, arrays of
         shape (N,) for a batch. Along any motion d(T + U)/dt = vᵀ τ (τ the applied torques).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.energy(robot_id, q, v, payloads=payloads))
 
@@ -39,8 +39,8 @@ class BeyondMethods(SyncSender):
                        payloads: PayloadsLike | None = None) -> CenterOfMass:
         """`CenterOfMass` of the whole robot in the world frame: `position` shape (3,) in m,
         `jacobian` ∂c/∂q shape (3, nv), and with v `velocity` shape (3,) in m/s (else None); a
-        leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`), in every
-        term.
+        leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
         """
         return self._send(calls.center_of_mass(robot_id, q, v, payloads=payloads))
 
@@ -52,7 +52,7 @@ class BeyondMethods(SyncSender):
         `reference_frame` ("local_world_aligned", "local" or "world"), so the frame's velocity is J
         v; with v also `jacobian_time_variation` J̇, shape (6, nv) (acceleration J a + J̇ v). A
         leading axis N for a batch. Raises `UnknownFrameError` for a name the robot lacks.
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.jacobian(robot_id, q, frame, reference_frame=reference_frame,
                                          v=v, payloads=payloads))
@@ -69,7 +69,7 @@ class BeyondMethods(SyncSender):
         N and N·m. A leading axis N for a batch. At a singular configuration (smallest singular
         value of J M⁻¹ Jᵀ at most 1e-8 times its largest) raises `SingularConfigurationError`
         unless `damping` λ > 0, which uses (J M⁻¹ Jᵀ + λ² I)⁻¹. `payloads`: rigid bodies the robot
-        holds (`Payload`), in every term.
+        holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.operational_space(robot_id, q, frame, v=v,
                                                   reference_frame=reference_frame, task=task,
@@ -77,14 +77,14 @@ class BeyondMethods(SyncSender):
 
 
 class AsyncBeyondMethods(AsyncSender):
-    """The beyond methods of `AsyncClient`."""
+    """The methods beyond the equation of motion of `AsyncClient`."""
 
     async def mass_matrix_inverse(self, robot_id: str, q: ArrayLike, *,
                                   payloads: PayloadsLike | None = None) -> np.ndarray:
         """M(q)⁻¹, the inverse joint-space inertia matrix (Pinocchio's computeMinverse, no
         numerical inversion): symmetric positive definite, 1/(kg·m²) (1/kg on prismatic rows),
         shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot
-        holds (`Payload`), in every term.
+        holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.mass_matrix_inverse(robot_id, q, payloads=payloads))
 
@@ -93,7 +93,7 @@ class AsyncBeyondMethods(AsyncSender):
         """`Energy` with `kinetic_energy` T = ½ vᵀ M v, `potential_energy` U (zero at the world
         origin, g(q) = ∂U/∂q) and `mechanical_energy` T + U, in J: floats for one state, arrays of
         shape (N,) for a batch. Along any motion d(T + U)/dt = vᵀ τ (τ the applied torques).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.energy(robot_id, q, v, payloads=payloads))
 
@@ -101,8 +101,8 @@ class AsyncBeyondMethods(AsyncSender):
                              payloads: PayloadsLike | None = None) -> CenterOfMass:
         """`CenterOfMass` of the whole robot in the world frame: `position` shape (3,) in m,
         `jacobian` ∂c/∂q shape (3, nv), and with v `velocity` shape (3,) in m/s (else None); a
-        leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`), in every
-        term.
+        leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
         """
         return await self._send(calls.center_of_mass(robot_id, q, v, payloads=payloads))
 
@@ -115,7 +115,7 @@ class AsyncBeyondMethods(AsyncSender):
         `reference_frame` ("local_world_aligned", "local" or "world"), so the frame's velocity is J
         v; with v also `jacobian_time_variation` J̇, shape (6, nv) (acceleration J a + J̇ v). A
         leading axis N for a batch. Raises `UnknownFrameError` for a name the robot lacks.
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.jacobian(robot_id, q, frame,
                                                reference_frame=reference_frame, v=v,
@@ -133,7 +133,7 @@ class AsyncBeyondMethods(AsyncSender):
         N and N·m. A leading axis N for a batch. At a singular configuration (smallest singular
         value of J M⁻¹ Jᵀ at most 1e-8 times its largest) raises `SingularConfigurationError`
         unless `damping` λ > 0, which uses (J M⁻¹ Jᵀ + λ² I)⁻¹. `payloads`: rigid bodies the robot
-        holds (`Payload`), in every term.
+        holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.operational_space(robot_id, q, frame, v=v,
                                                         reference_frame=reference_frame,

@@ -18,7 +18,7 @@ from robodyn.payloads import PayloadsLike
 
 
 class ContactMethods(SyncSender):
-    """The contacts methods of `Client`."""
+    """The contact methods of `Client`."""
 
     def contact_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
                          contacts: ContactsLike, *, damping: float = 0.0,
@@ -30,7 +30,7 @@ class ContactMethods(SyncSender):
         world's axes, in the order of `contacts`; a leading axis N for a batch. Raises
         `UnknownFrameError` for an unknown frame and `SingularConfigurationError` for a
         rank-deficient contact set unless `damping` μ > 0 (the regularized solution). `payloads`:
-        rigid bodies the robot holds (`Payload`), in every term.
+        rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.contact_dynamics(robot_id, q, v, tau, contacts, damping=damping,
                                                  payloads=payloads))
@@ -44,7 +44,7 @@ class ContactMethods(SyncSender):
         contacts can hold the motion). The shapes: τ (nv,), λ (m,), laid out as in
         `contact_dynamics`, residual a float; a leading axis N for a batch. No friction cone: λ may
         pull. For a fixed-base robot λ = 0 and τ = M a + h. Errors as `contact_dynamics`.
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.contact_inverse_dynamics(robot_id, q, v, a, contacts,
                                                          damping=damping, payloads=payloads))
@@ -56,7 +56,7 @@ class ContactMethods(SyncSender):
         `contacts`, M (v⁺ − v⁻) = Jcᵀ Λ with Jc v⁺ = −e Jc v⁻ (`restitution` e in [0, 1]), and the
         impulses Λ in N·s (N·m·s), laid out like contact forces. The shapes: v (nv,), Λ (m,); a
         leading axis N for a batch. Errors as `contact_dynamics`. `payloads`: rigid bodies the
-        robot holds (`Payload`), in every term.
+        robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.impulse_dynamics(robot_id, q, v, contacts,
                                                  restitution=restitution, damping=damping,
@@ -64,7 +64,7 @@ class ContactMethods(SyncSender):
 
 
 class AsyncContactMethods(AsyncSender):
-    """The contacts methods of `AsyncClient`."""
+    """The contact methods of `AsyncClient`."""
 
     async def contact_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
                                contacts: ContactsLike, *, damping: float = 0.0,
@@ -76,7 +76,7 @@ class AsyncContactMethods(AsyncSender):
         world's axes, in the order of `contacts`; a leading axis N for a batch. Raises
         `UnknownFrameError` for an unknown frame and `SingularConfigurationError` for a
         rank-deficient contact set unless `damping` μ > 0 (the regularized solution). `payloads`:
-        rigid bodies the robot holds (`Payload`), in every term.
+        rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.contact_dynamics(robot_id, q, v, tau, contacts,
                                                        damping=damping, payloads=payloads))
@@ -91,7 +91,7 @@ class AsyncContactMethods(AsyncSender):
         contacts can hold the motion). The shapes: τ (nv,), λ (m,), laid out as in
         `contact_dynamics`, residual a float; a leading axis N for a batch. No friction cone: λ may
         pull. For a fixed-base robot λ = 0 and τ = M a + h. Errors as `contact_dynamics`.
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.contact_inverse_dynamics(robot_id, q, v, a, contacts,
                                                                damping=damping, payloads=payloads))
@@ -104,7 +104,7 @@ class AsyncContactMethods(AsyncSender):
         `contacts`, M (v⁺ − v⁻) = Jcᵀ Λ with Jc v⁺ = −e Jc v⁻ (`restitution` e in [0, 1]), and the
         impulses Λ in N·s (N·m·s), laid out like contact forces. The shapes: v (nv,), Λ (m,); a
         leading axis N for a batch. Errors as `contact_dynamics`. `payloads`: rigid bodies the
-        robot holds (`Payload`), in every term.
+        robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.impulse_dynamics(robot_id, q, v, contacts,
                                                        restitution=restitution, damping=damping,

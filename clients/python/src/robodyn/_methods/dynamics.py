@@ -30,13 +30,14 @@ from robodyn.results import (
 
 
 class DynamicsMethods(SyncSender):
-    """The dynamics methods of `Client`."""
+    """The equation-of-motion methods of `Client`."""
 
     def mass_matrix(self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
                    ) -> np.ndarray:
         """M(q), the joint-space inertia matrix (CRBA): symmetric positive definite, kg·m² (kg on
         prismatic rows), shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). The kinetic energy
-        is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for
+        this call.
         """
         return self._send(calls.mass_matrix(robot_id, q, payloads=payloads))
 
@@ -44,7 +45,7 @@ class DynamicsMethods(SyncSender):
                ) -> np.ndarray:
         """g(q), the generalized gravity torques (the gradient of the potential energy), N·m or N,
         shape (nv,), or (N, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot holds
-        (`Payload`), in every term.
+        (`Payload`s), added to its model for this call.
         """
         return self._send(calls.gravity(robot_id, q, payloads=payloads))
 
@@ -52,16 +53,16 @@ class DynamicsMethods(SyncSender):
                  payloads: PayloadsLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(C, C v): the Coriolis/centrifugal matrix C(q, v) with Ṁ = C + Cᵀ, N·m·s, shape (nv,
         nv), and the forces C(q, v) v, N·m or N, shape (nv,); with a batch axis N for inputs of
-        shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`), in every
-        term.
+        shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
         """
         return self._send(calls.coriolis(robot_id, q, v, payloads=payloads))
 
     def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
                           payloads: PayloadsLike | None = None) -> np.ndarray:
         """h(q, v) = C(q, v) v + g(q) (gravity included, as in Pinocchio), N·m or N, shape (nv,),
-        or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`), in every
-        term.
+        or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to its
+        model for this call.
         """
         return self._send(calls.nonlinear_effects(robot_id, q, v, payloads=payloads))
 
@@ -73,7 +74,7 @@ class DynamicsMethods(SyncSender):
         wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
         "reference_frame": "local_world_aligned"}]` (N, N·m; a wrench may be (N, 6), one per
         state); then τ = M a + C v + g − Σ Jᵀ w. `payloads`: rigid bodies the robot holds
-        (`Payload`), in every term.
+        (`Payload`s), added to its model for this call.
         """
         return self._send(calls.inverse_dynamics(robot_id, q, v, a,
                                                  external_forces=external_forces,
@@ -85,7 +86,7 @@ class DynamicsMethods(SyncSender):
         """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) (ABA): the accelerations, rad/s² or m/s², that the
         generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch.
         `external_forces` as for `inverse_dynamics`: then a = M⁻¹ (τ − C v − g + Σ Jᵀ w).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.forward_dynamics(robot_id, q, v, tau,
                                                  external_forces=external_forces,
@@ -97,7 +98,7 @@ class DynamicsMethods(SyncSender):
         """(∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q)) of inverse dynamics (analytical RNEA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch. ∂/∂q is on the tangent space: nv columns, along
         q ⊕ δq (for a free-flyer, δq's first 6 entries are a displacement in the base frame).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.inverse_dynamics_derivatives(robot_id, q, v, a, payloads=payloads))
 
@@ -106,7 +107,7 @@ class DynamicsMethods(SyncSender):
                                     ) -> ForwardDynamicsDerivatives:
         """(∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹) of forward dynamics (analytical ABA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch; ∂/∂q on the tangent space (nv columns).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return self._send(calls.forward_dynamics_derivatives(robot_id, q, v, tau,
                                                              payloads=payloads))
@@ -116,8 +117,8 @@ class DynamicsMethods(SyncSender):
         """(momentum, momentum_matrix, center_of_mass): the centroidal momentum h = A(q) v, shape
         (6,), linear (kg·m/s) then angular (kg·m²/s) about the centre of mass in world-aligned
         axes; the centroidal momentum matrix A(q), shape (6, nv); the centre of mass, shape (3,),
-        m. A leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`), in
-        every term.
+        m. A leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`s),
+        added to its model for this call.
         """
         return self._send(calls.centroidal(robot_id, q, v, payloads=payloads))
 
@@ -140,7 +141,7 @@ class DynamicsMethods(SyncSender):
         `progress.CHUNK_STEPS` steps in chunks, each from the last state of the one before,
         reporting the steps done after each; the trajectory is bit for bit that of one request. A
         rollout with `contacts` is never chunked by steps. `payloads`: rigid bodies the robot holds
-        (`Payload`), in every term.
+        (`Payload`s), added to its model for this call.
         """
         return self._send(calls.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
                                          controller=controller, integrator=integrator,
@@ -149,13 +150,14 @@ class DynamicsMethods(SyncSender):
 
 
 class AsyncDynamicsMethods(AsyncSender):
-    """The dynamics methods of `AsyncClient`."""
+    """The equation-of-motion methods of `AsyncClient`."""
 
     async def mass_matrix(self, robot_id: str, q: ArrayLike, *,
                           payloads: PayloadsLike | None = None) -> np.ndarray:
         """M(q), the joint-space inertia matrix (CRBA): symmetric positive definite, kg·m² (kg on
         prismatic rows), shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). The kinetic energy
-        is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for
+        this call.
         """
         return await self._send(calls.mass_matrix(robot_id, q, payloads=payloads))
 
@@ -163,7 +165,7 @@ class AsyncDynamicsMethods(AsyncSender):
                      ) -> np.ndarray:
         """g(q), the generalized gravity torques (the gradient of the potential energy), N·m or N,
         shape (nv,), or (N, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot holds
-        (`Payload`), in every term.
+        (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.gravity(robot_id, q, payloads=payloads))
 
@@ -171,16 +173,16 @@ class AsyncDynamicsMethods(AsyncSender):
                        payloads: PayloadsLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(C, C v): the Coriolis/centrifugal matrix C(q, v) with Ṁ = C + Cᵀ, N·m·s, shape (nv,
         nv), and the forces C(q, v) v, N·m or N, shape (nv,); with a batch axis N for inputs of
-        shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`), in every
-        term.
+        shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
         """
         return await self._send(calls.coriolis(robot_id, q, v, payloads=payloads))
 
     async def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
                                 payloads: PayloadsLike | None = None) -> np.ndarray:
         """h(q, v) = C(q, v) v + g(q) (gravity included, as in Pinocchio), N·m or N, shape (nv,),
-        or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`), in every
-        term.
+        or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to its
+        model for this call.
         """
         return await self._send(calls.nonlinear_effects(robot_id, q, v, payloads=payloads))
 
@@ -192,7 +194,7 @@ class AsyncDynamicsMethods(AsyncSender):
         wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
         "reference_frame": "local_world_aligned"}]` (N, N·m; a wrench may be (N, 6), one per
         state); then τ = M a + C v + g − Σ Jᵀ w. `payloads`: rigid bodies the robot holds
-        (`Payload`), in every term.
+        (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.inverse_dynamics(robot_id, q, v, a,
                                                        external_forces=external_forces,
@@ -204,7 +206,7 @@ class AsyncDynamicsMethods(AsyncSender):
         """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) (ABA): the accelerations, rad/s² or m/s², that the
         generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch.
         `external_forces` as for `inverse_dynamics`: then a = M⁻¹ (τ − C v − g + Σ Jᵀ w).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.forward_dynamics(robot_id, q, v, tau,
                                                        external_forces=external_forces,
@@ -216,7 +218,7 @@ class AsyncDynamicsMethods(AsyncSender):
         """(∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q)) of inverse dynamics (analytical RNEA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch. ∂/∂q is on the tangent space: nv columns, along
         q ⊕ δq (for a free-flyer, δq's first 6 entries are a displacement in the base frame).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.inverse_dynamics_derivatives(robot_id, q, v, a,
                                                                    payloads=payloads))
@@ -226,7 +228,7 @@ class AsyncDynamicsMethods(AsyncSender):
                                           ) -> ForwardDynamicsDerivatives:
         """(∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹) of forward dynamics (analytical ABA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch; ∂/∂q on the tangent space (nv columns).
-        `payloads`: rigid bodies the robot holds (`Payload`), in every term.
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.forward_dynamics_derivatives(robot_id, q, v, tau,
                                                                    payloads=payloads))
@@ -236,8 +238,8 @@ class AsyncDynamicsMethods(AsyncSender):
         """(momentum, momentum_matrix, center_of_mass): the centroidal momentum h = A(q) v, shape
         (6,), linear (kg·m/s) then angular (kg·m²/s) about the centre of mass in world-aligned
         axes; the centroidal momentum matrix A(q), shape (6, nv); the centre of mass, shape (3,),
-        m. A leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`), in
-        every term.
+        m. A leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`s),
+        added to its model for this call.
         """
         return await self._send(calls.centroidal(robot_id, q, v, payloads=payloads))
 
@@ -260,7 +262,7 @@ class AsyncDynamicsMethods(AsyncSender):
         `progress.CHUNK_STEPS` steps in chunks, each from the last state of the one before,
         reporting the steps done after each; the trajectory is bit for bit that of one request. A
         rollout with `contacts` is never chunked by steps. `payloads`: rigid bodies the robot holds
-        (`Payload`), in every term.
+        (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
                                                controller=controller, integrator=integrator,

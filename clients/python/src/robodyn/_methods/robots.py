@@ -16,7 +16,7 @@ from robodyn.uploads import AssetValue, Source
 
 
 class RobotMethods(SyncSender):
-    """The robots methods of `Client`."""
+    """The service and robot methods of `Client`."""
 
     def health(self) -> dict[str, Any]:
         """Liveness: the server's `/health/live` answer, `{"status": "ok"}`."""
@@ -100,7 +100,7 @@ class RobotMethods(SyncSender):
 
 
 class AsyncRobotMethods(AsyncSender):
-    """The robots methods of `AsyncClient`."""
+    """The service and robot methods of `AsyncClient`."""
 
     async def health(self) -> dict[str, Any]:
         """Liveness: the server's `/health/live` answer, `{"status": "ok"}`."""

@@ -102,13 +102,28 @@ def test_stream_messages_carry_the_payloads() -> None:
     assert binary.decode(bytearray(message(large, None)))["payloads"] == SENT[1:]
 
 
+def test_a_payload_is_checked_when_made_and_compares_by_value() -> None:
+    assert Payload("tool0", 3, center_of_mass=np.array([0, 0, 0.05]),
+                   inertia=np.diag([0.01, 0.02, 0.03])) == TOOL
+    assert len({TOOL, Payload("tool0", 3.0, (0.0, 0.0, 0.05), np.diag([0.01, 0.02, 0.03]))}) == 1
+    assert TOOL.to_json() == SENT[0]
+    with pytest.raises(robodyn.InputError, match="Payload: mass must be a finite number"):
+        Payload("tool0", float("nan"))
+    with pytest.raises(robodyn.InputError, match="Payload: frame must be a frame name"):
+        Payload("", 1.0)
+    with pytest.raises(robodyn.InputError, match=r"center_of_mass must have shape \(3,\)"):
+        Payload("tool0", 1.0, center_of_mass=(0.0, 0.1))
+    with pytest.raises(robodyn.InputError, match="inertia must be finite"):
+        Payload("tool0", 1.0, inertia=np.full((3, 3), np.inf))
+
+
 @pytest.mark.parametrize(("payloads", "match"), [
     (TOOL, "a list of Payload"),
     ({"frame": "tool0", "mass": 1.0}, "a list of Payload"),
-    ([Payload("tool0", float("nan"))], r"payloads\[0\]: mass must be a finite number"),
-    ([Payload("", 1.0)], r"payloads\[0\]: frame must be a frame name"),
-    ([Payload("tool0", 1.0, center_of_mass=(0.0, 0.1))], r"center_of_mass must have shape"),
-    ([Payload("tool0", 1.0, inertia=np.full((3, 3), np.inf))], r"inertia must be finite"),
+    ([{"frame": "tool0", "mass": float("nan")}], r"payloads\[0\]: mass must be a finite"),
+    ([{"frame": "", "mass": 1.0}], r"payloads\[0\]: frame must be a frame name"),
+    ([{"frame": "tool0", "mass": 1.0, "center_of_mass": [0.0, 0.1]}], "must have shape"),
+    ([{"frame": "tool0", "mass": 1.0, "inertia": np.eye(2)}], r"inertia must have shape"),
     ([{"frame": "tool0"}], r"payloads\[0\] needs 'frame' and 'mass'"),
     ([{"frame": "tool0", "mass": 1.0, "color": "red"}], "nothing else"),
     ([3.0], r"payloads\[0\] must be a Payload or a mapping"),

@@ -34,9 +34,19 @@ class Payload:
     inertia: Sequence[Sequence[float]] | np.ndarray = field(
         default=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
 
+    def __post_init__(self) -> None:
+        """Check the payload (`InputError`) and keep its vectors as tuples of floats, so that
+        payloads compare and hash by value."""
+        body = _payload_json("Payload", self.frame, self.mass, self.center_of_mass,
+                             self.inertia)
+        object.__setattr__(self, "mass", body["mass"])
+        object.__setattr__(self, "center_of_mass", tuple(body["center_of_mass"]))
+        object.__setattr__(self, "inertia", tuple(tuple(row) for row in body["inertia"]))
+
     def to_json(self) -> dict[str, Any]:
-        """The payload as the server reads it (checked: see `payloads_body`)."""
-        return _payload_json("payload", self.frame, self.mass, self.center_of_mass,
+        """The payload as the server reads it: `{"frame", "mass", "center_of_mass",
+        "inertia"}`."""
+        return _payload_json("Payload", self.frame, self.mass, self.center_of_mass,
                              self.inertia)
 
 
@@ -82,8 +92,7 @@ def payloads_body(payloads: PayloadsLike | None) -> dict[str, Any]:
     for k, payload in enumerate(payloads):
         where = f"payloads[{k}]"
         if isinstance(payload, Payload):
-            out.append(_payload_json(where, payload.frame, payload.mass,
-                                     payload.center_of_mass, payload.inertia))
+            out.append(payload.to_json())  # checked when it was made
             continue
         if not isinstance(payload, Mapping):
             raise InputError(f"{where} must be a Payload or a mapping, not "
@@ -92,8 +101,7 @@ def payloads_body(payloads: PayloadsLike | None) -> dict[str, Any]:
         if unknown or "frame" not in payload or "mass" not in payload:
             raise InputError(f"{where} needs 'frame' and 'mass' and may have "
                              f"'center_of_mass' and 'inertia', nothing else")
-        default = Payload("", 0.0)
         out.append(_payload_json(where, payload["frame"], payload["mass"],
-                                 payload.get("center_of_mass", default.center_of_mass),
-                                 payload.get("inertia", default.inertia)))
+                                 payload.get("center_of_mass", np.zeros(3)),
+                                 payload.get("inertia", np.zeros((3, 3)))))
     return {"payloads": out} if out else {}

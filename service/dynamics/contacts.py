@@ -66,9 +66,15 @@ def root_rows(robot: Robot) -> int:
 def contact_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
     """The work of a contact request: states × one constrained evaluation of its contacts
     (`contacts_solve.evaluation_work`; contact-inverse-dynamics adds an RNEA, nv)."""
-    m = constraint_rows(options.get("contacts") or ())
-    return int(s.count * (evaluation_work(robot.nv, m, float(options.get("damping") or 0.0))
-                          + robot.nv))
+    return int(s.count * _state_work(robot, options.get("contacts") or (),
+                                     float(options.get("damping") or 0.0)))
+
+
+def _state_work(robot: Robot, contacts: Contacts, damping: float) -> float:
+    """One state of a contact quantity: a constrained evaluation (impacts iterate in Python,
+    counted for all three) and an RNEA."""
+    return evaluation_work(robot.nv, constraint_rows(contacts), damping,
+                           python_iterations=True) + robot.nv
 
 
 def _admit(name: str, robot: Robot, s: States, contacts: Contacts, damping: float,
@@ -76,7 +82,7 @@ def _admit(name: str, robot: Robot, s: States, contacts: Contacts, damping: floa
     """Validate the options (contacts, damping) and the work; answers μ."""
     mu = check_damping(damping)
     m = constraint_rows(contacts)
-    each = evaluation_work(robot.nv, m, mu) + robot.nv
+    each = _state_work(robot, contacts, mu)
     check_work(name, s.count * each, max_work,
                f"{s.count} states × {each:,.0f} (one evaluation of m = {m} constraint rows on "
                f"nv = {robot.nv}{', damped' if mu else ''})")

@@ -36,7 +36,7 @@ import pinocchio as pin
 from service.errors import InvalidInput, SingularConfiguration
 
 CONSTRAINT_ACCURACY = 1e-9  # relative to 1 + ‖r‖∞ (see the module)
-MAX_PROXIMAL_ITERATIONS = 200
+MAX_PROXIMAL_ITERATIONS = 100
 MAX_DAMPING = 1.0  # in the units of A: 1/kg on force rows, 1/(kg·m²) on torque rows
 EXACT_ACCURACY = 1e-12  # Pinocchio's settings of the one undamped solve
 
@@ -127,16 +127,18 @@ def root_balance(tau: np.ndarray, Jc: np.ndarray, k: int) -> tuple[np.ndarray, n
     return out, lam, float(np.linalg.norm(B @ lam - r))
 
 
-def evaluation_work(nv: int, m: int, damping: float) -> float:
+def evaluation_work(nv: int, m: int, damping: float, python_iterations: bool = False
+                    ) -> float:
     """The work of one constrained evaluation (constrained dynamics or an impact) of m
     constraint rows, in the service's work units (one unit ≈ one joint of ABA, about 0.3 µs;
     measured on Talos and Solo-12 with 1 to 64 contacts): the recursions (nv + m nv / 8), the
     factorization of the constraint rows (m³ / 4000) and, with damping, the worst case of
-    MAX_PROXIMAL_ITERATIONS solves of size m + nv ((m + nv)² / 800 each, plus Python's
-    overhead of 10)."""
+    MAX_PROXIMAL_ITERATIONS solves of size m + nv ((m + nv)² / 800 each, plus 10 for
+    Python's loop when the iterations are done here: `python_iterations`)."""
     work = nv + m * nv / 8.0 + m ** 3 / 4000.0
     if damping > 0.0:
-        work += MAX_PROXIMAL_ITERATIONS * (10.0 + (m + nv) ** 2 / 800.0)
+        each = (m + nv) ** 2 / 800.0 + (10.0 if python_iterations else 1.0)
+        work += MAX_PROXIMAL_ITERATIONS * each
     return work
 
 

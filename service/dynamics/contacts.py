@@ -112,7 +112,7 @@ def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
             pivots[i] = data.constraint_chol.D[: cs.size]
             if mu:
                 violation, accepted = forward_violation(data, settings)
-                if not violation <= accepted:
+                if not violation <= accepted and np.isfinite(a[i]).all():
                     cs.check_all(robot, pivots[i:i + 1], s.batched, mu, i)
                     raise not_converged("forces", violation, accepted, mu,
                                         i if s.batched else None, cs.names)

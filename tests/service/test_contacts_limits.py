@@ -21,8 +21,8 @@ from tests.service.test_contacts import contacts_of
 from tests.service.test_errors import assert_problem
 
 FEET = contacts_of("solo12")
-Q_SOLO = [0, 0, 0.235, 0, 0, 0, 1] + [0.1, 0.8, -1.6, -0.1, 0.8, -1.6,
-                                      0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
+Q_SOLO = [0, 0, 0.235, 0, 0, 0, 1,
+          0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
 
 
 @pytest.mark.parametrize("extra", [{"dt": 1e300}, {"dt": 1e-3, "controller": {

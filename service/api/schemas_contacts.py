@@ -116,7 +116,8 @@ class SimulateRequest(plain.SimulateRequest):
         "of the drift (see docs/contacts.md); a PD controller then acts on the actuated "
         "joints only (nothing on a floating root), and its gravity compensation is "
         "contact-consistent (contact-inverse-dynamics at v = a = 0). Forces are not bounded "
-        "by friction: the contacts never slip or lift off."))
+        "by friction: the contacts never slip or lift off. With contacts the estimated work "
+        "(states × steps × stages × one constrained evaluation) is at most ROBODYN_MAX_WORK."))
     damping: float = _damping_field()
 
 

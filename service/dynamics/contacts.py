@@ -26,7 +26,8 @@ LOCAL_WORLD_ALIGNED rows) and λ the contact forces (m, N and N·m, world axes a
 
 Every quantity here has a work estimate (`contact_work`): states × the work of one
 constrained evaluation (`contacts_solve.evaluation_work`: contacts, their kind, damping
-iterations), refused over `max_work` before computing.
+iterations), refused over `max_work` before computing; a batch asks `should_stop` every few
+milliseconds (`service.dynamics.stopping`).
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ from service.dynamics.contacts_solve import (
     root_balance,
 )
 from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.stopping import ShouldStop, Stopper
 from service.errors import InvalidInput
 from service.registry.robot import Robot
 from service.states import States
@@ -90,7 +92,8 @@ def _admit(name: str, robot: Robot, s: States, contacts: Contacts, damping: floa
 
 
 def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
-                     damping: float = 0.0, max_work: int | None = None) -> Results:
+                     damping: float = 0.0, max_work: int | None = None,
+                     should_stop: ShouldStop | None = None) -> Results:
     """Constrained forward dynamics M a + h = τ + Jcᵀ λ, Jc a + γ = 0: a (N, nv) in rad/s²
     and m/s², contact_forces λ (N, m) in N and N·m (LOCAL_WORLD_ALIGNED at each frame's
     origin, in the order of `contacts`). `SingularConfiguration` for a rank-deficient Jc
@@ -105,7 +108,9 @@ def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
     model, models = robot.model, cs.models
     with robot.data() as data:
         datas = cs.workspace(robot, data).datas
+        stop = Stopper(should_stop, "contact-dynamics", "state")
         for i in range(n):
+            stop.poll(i)
             a[i] = pin.constraintDynamics(model, data, q[i], v[i], tau[i], models, datas,
                                           settings)
             forces[i] = data.lambda_c
@@ -121,7 +126,8 @@ def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
 
 
 def contact_inverse_dynamics(robot: Robot, s: States, *, contacts: Contacts,
-                             damping: float = 0.0, max_work: int | None = None) -> Results:
+                             damping: float = 0.0, max_work: int | None = None,
+                             should_stop: ShouldStop | None = None) -> Results:
     """τ (N, nv), zero on a floating root's rows, contact_forces λ (N, m) and residual (N,)
     such that M a + h = τ + Jcᵀ λ on the actuated rows and, on the root rows, up to the
     residual wrench no λ can produce (see the module). λ is the minimum-norm solution."""
@@ -136,7 +142,9 @@ def contact_inverse_dynamics(robot: Robot, s: States, *, contacts: Contacts,
     zero = np.zeros(robot.nv)
     with robot.data() as data:
         work = cs.workspace(robot, data)
+        stop = Stopper(should_stop, "contact-inverse-dynamics", "state")
         for i in range(n):
+            stop.poll(i)
             rhs = np.array(pin.rnea(model, data, q[i], v[i], a[i]))
             if k == 0:
                 tau[i] = rhs
@@ -151,7 +159,8 @@ def contact_inverse_dynamics(robot: Robot, s: States, *, contacts: Contacts,
 
 
 def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution: float = 0.0,
-                     damping: float = 0.0, max_work: int | None = None) -> Results:
+                     damping: float = 0.0, max_work: int | None = None,
+                     should_stop: ShouldStop | None = None) -> Results:
     """Rigid impact at the contacts: v (N, nv) just after, M (v⁺ − v⁻) = Jcᵀ Λ with
     Jc v⁺ = −e Jc v⁻, and contact_impulses Λ (N, m) in N·s and N·m·s, laid out like
     contact forces. With μ > 0, to the tolerance of `contacts_solve`."""
@@ -167,7 +176,9 @@ def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution
     settings = proximal_settings(mu)
     with robot.data() as data:
         work = cs.workspace(robot, data)
+        stop = Stopper(should_stop, "impulse-dynamics", "state")
         for i in range(n):
+            stop.poll(i)
             after[i] = pin.impulseDynamics(robot.model, data, q[i], v[i], cs.models,
                                            work.datas, e, settings)
             impulses[i] = data.impulse_c

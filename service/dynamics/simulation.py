@@ -30,13 +30,12 @@ compensation is contact-consistent; the answer adds `constraint_drift` (m). All 
 Cost: states × steps × nv × stages (at most `max_simulation_work`), and with contacts
 states × steps × stages × the work of one constrained evaluation (contacts, their kind,
 damping iterations, the controller's compensation; at most `max_work`), both checked before
-anything is computed. A long rollout can be stopped: `should_stop()` is asked about every
-STOP_POLL_S seconds of computing, and a true answer raises `ComputationStopped`.
+anything is computed. A long rollout can be stopped: `should_stop()` is asked every few
+milliseconds of computing (`service.dynamics.stopping`).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -50,7 +49,8 @@ from service.dynamics.contacts_simulation import (
 )
 from service.dynamics.contacts_solve import check_work
 from service.dynamics.quantity import Quantity, Results, finite
-from service.errors import ComputationStopped, DimensionMismatch, InvalidInput, NonFiniteResult
+from service.dynamics.stopping import ShouldStop, Stopper
+from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
 from service.joint_names import from_names
 from service.registry.robot import Robot
 from service.states import States, as_array, configurations
@@ -58,7 +58,6 @@ from service.states import States, as_array, configurations
 STAGES = {"semi-implicit-euler": 1, "rk4": 4}
 MAX_STEPS = 100_000  # defaults of the settings of the same names
 MAX_WORK = 20_000_000
-STOP_POLL_S = 0.002  # how often a rollout asks `should_stop`, in seconds of computing
 
 Torque = Callable[[int, np.ndarray, np.ndarray, Any], np.ndarray]
 Acceleration = Callable[..., np.ndarray]  # (robot, q, v, tau, data) -> a
@@ -141,32 +140,12 @@ def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
     return int(s.count * int(options.get("steps", 1)) * stages * each)
 
 
-class _Stop:
-    """Ask `should_stop` at most every STOP_POLL_S seconds; raise `ComputationStopped`."""
-
-    def __init__(self, should_stop: Callable[[], bool] | None) -> None:
-        self.should_stop = should_stop
-        self.next = time.monotonic() + STOP_POLL_S
-
-    def poll(self, where: str, k: int) -> None:
-        if self.should_stop is None:
-            return
-        now = time.monotonic()
-        if now < self.next:
-            return
-        self.next = now + STOP_POLL_S
-        if self.should_stop():
-            raise ComputationStopped(f"simulate: {where}stopped at step {k} before the end "
-                                     "of the rollout (the client went away or the request's "
-                                     "deadline passed)")
-
-
 def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
              controller: Mapping[str, Any] | None = None,
              integrator: str = "semi-implicit-euler", max_simulation_steps: int = MAX_STEPS,
              max_simulation_work: int = MAX_WORK, contacts: Sequence[Mapping[str, Any]] | None
              = None, damping: float = 0.0, max_work: int | None = None,
-             should_stop: Callable[[], bool] | None = None) -> Results:
+             should_stop: ShouldStop | None = None) -> Results:
     """The trajectory from (q, v) over `steps` steps of `dt` s: t (N, steps+1) in s, q
     (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J; with
     `contacts` (a fixed contact set, `service.dynamics.contacts_simulation`) also
@@ -180,7 +159,7 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
         check_work("simulate", simulation_work(robot, s, options), max_work,
                    f"states × steps × stages × one constrained evaluation = {s.count} × "
                    f"{steps} × {STAGES[integrator]} × {each:,.0f}")
-    stop = _Stop(should_stop)
+    stop = Stopper(should_stop, "simulate", "step")
     # contacts: the PD's gravity compensation is replaced by a contact-consistent one
     contact = (ContactRollout(robot, contacts, dt, damping) if contacts is not None else None)
     plain_controller = (controller if contact is None or controller is None
@@ -202,6 +181,7 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
             where = f"state {i}: " if s.batched else ""
             if contact is not None:
                 contact.start(data, s["q"][i], i if s.batched else None)
+            stop.where = where
             rollout(robot, data, torque, dt, s["q"][i], s["v"][i], qs[i], vs[i], energy[i],
                     where, accel, stop)
             if contact is not None and drift is not None:
@@ -233,13 +213,13 @@ def _diverged(where: str, k: int, dt: float) -> NonFiniteResult:
 
 def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray,
                          v: np.ndarray, qs: np.ndarray, vs: np.ndarray, energy: np.ndarray,
-                         where: str, accel: Acceleration = _aba, stop: _Stop | None = None
+                         where: str, accel: Acceleration = _aba, stop: Stopper | None = None
                          ) -> None:
     model, normalize = robot.model, bool(robot.unit_joints)
-    stop = stop or _Stop(None)
+    stop = stop or Stopper(None, "simulate", "step")
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
     for k in range(qs.shape[0] - 1):
-        stop.poll(where, k)
+        stop.poll(k)
         a = accel(robot, q, v, torque(k, q, v, data), data)
         v = v + dt * a
         q = pin.integrate(model, q, dt * v)
@@ -253,7 +233,7 @@ def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: 
 
 def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: np.ndarray,
          qs: np.ndarray, vs: np.ndarray, energy: np.ndarray, where: str,
-         accel: Acceleration = _aba, stop: _Stop | None = None) -> None:
+         accel: Acceleration = _aba, stop: Stopper | None = None) -> None:
     """Runge–Kutta–Munthe-Kaas RK4: stage configurations q ⊕ θ, and q's stage slopes are the
     velocities mapped to the tangent space at q by the inverse right Jacobian of ⊕,
     dθ/dt = Jr(θ)⁻¹ v = ∂ difference(q, q ⊕ θ) / ∂(q ⊕ θ) · v (the identity for
@@ -269,10 +249,10 @@ def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: n
         return (pin.dDifference(model, q, at, arg1) @ v if lie else v), a
 
     half = 0.5 * dt
-    stop = stop or _Stop(None)
+    stop = stop or Stopper(None, "simulate", "step")
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
     for k in range(qs.shape[0] - 1):
-        stop.poll(where, k)
+        stop.poll(k)
         a1 = np.array(accel(robot, q, v, torque(k, q, v, data), data))
         v2 = v + half * a1
         t2, a2 = stage(k, half * v, v2)

@@ -13,7 +13,8 @@ import pytest
 
 from service.dynamics import QUANTITIES
 from service.dynamics.contacts import contact_work
-from service.dynamics.simulation import STOP_POLL_S, simulate, simulation_work
+from service.dynamics.simulation import simulate, simulation_work
+from service.dynamics.stopping import POLL_S
 from service.errors import ComputationStopped
 from service.settings import Settings
 from service.states import States
@@ -134,7 +135,7 @@ def _solo_rollout(catalog_registry, steps: int, **kw):
 
 
 def test_should_stop_stops_a_rollout_within_milliseconds(catalog_registry):
-    """A rollout asks `should_stop` at most every STOP_POLL_S of computing: answering true
+    """A rollout asks `should_stop` at most every POLL_S of computing: answering true
     stops it with ComputationStopped (a 503 `overloaded` code) at once; answering false
     changes nothing."""
     asked: list[float] = []
@@ -148,11 +149,36 @@ def test_should_stop_stops_a_rollout_within_milliseconds(catalog_registry):
         _solo_rollout(catalog_registry, 100_000, should_stop=should_stop)
     assert time.monotonic() - started < 1.0  # 100,000 RK4 steps would take about a minute
     assert stopped.value.code == "overloaded" and "stopped at step" in stopped.value.detail
-    assert len(asked) == 3 and np.diff(asked).min() >= STOP_POLL_S * 0.99
+    assert len(asked) == 3 and np.diff(asked).min() >= POLL_S * 0.99
     full = _solo_rollout(catalog_registry, 50, should_stop=lambda: False)
     plain = _solo_rollout(catalog_registry, 50)
     for name, value in plain.items():
         np.testing.assert_array_equal(full[name], value)
+
+
+@pytest.mark.parametrize("quantity", ["contact-dynamics", "contact-inverse-dynamics",
+                                      "impulse-dynamics"])
+def test_should_stop_stops_a_contact_batch(catalog_registry, quantity):
+    """The contact quantities ask `should_stop` between states of a batch the same way."""
+    r = catalog_registry.catalog["talos"]
+    n = 20_000
+    q = np.repeat(r.default_configuration[None], n, 0)
+    zero = np.zeros((n, r.nv))
+    arrays = {"q": q, "v": zero, "tau": zero, "a": zero}
+    spec = QUANTITIES[quantity]
+    s = States({k: arrays[k] for k in spec.inputs}, True)
+    asked: list[float] = []
+
+    def should_stop() -> bool:
+        asked.append(time.monotonic())
+        return len(asked) == 2
+
+    started = time.monotonic()
+    with pytest.raises(ComputationStopped) as stopped:
+        spec.compute(r, s, contacts=contacts_of("talos"), should_stop=should_stop)
+    assert time.monotonic() - started < 1.0  # 20,000 states take seconds
+    assert "stopped at state" in stopped.value.detail and quantity in stopped.value.detail
+    assert np.diff(asked).min() >= POLL_S * 0.99
 
 
 @pytest.mark.slow

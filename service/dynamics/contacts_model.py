@@ -11,6 +11,10 @@ point contact, all 6 for a 6d one) and the contact forces λ (m) are expressed a
 origin with the world's axes: [fx, fy, fz] in N for a point contact, [fx, fy, fz, τx, τy, τz]
 in N and N·m for a 6d one, concatenated in the order of the contacts (Pinocchio's `lambda_c`).
 
+A contact set's values (1 to 64 contacts, each a frame name and a kind) are checked here and
+only here (`contact_key`), so scripts and the service get the same errors; a frame name shared
+by a joint and a link means the link's body frame (`frame_id`), on every route.
+
 The constraint models depend only on the robot and the contact set, so they are built once
 and cached (`constraint_models`); the matching `RigidConstraintData` and the `pin.Data` belong
 to one computation (`ContactWorkspace`).

@@ -148,6 +148,6 @@ def check_work(quantity: str, work: float, max_work: float | None, factors: str)
     if max_work is not None and work > max_work:
         raise InvalidInput(
             f"{quantity}: the estimated work of this request, {factors} = {work:,.0f} units, is "
-            f"over the limit of {max_work:,} (ROBODYN_MAX_WORK; a unit is about 0.3 µs): send "
+            f"over the limit of {max_work:,} (ROBODYN_MAX_WORK; a unit is about 0.3–0.4 µs): send "
             "fewer states, steps or contacts, or no damping", work=int(work),
             max_work=int(max_work))

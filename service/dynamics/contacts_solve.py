@@ -36,6 +36,7 @@ import pinocchio as pin
 from service.errors import InvalidInput, SingularConfiguration
 
 CONSTRAINT_ACCURACY = 1e-9  # relative to 1 + ‖r‖∞ (see the module)
+ROLLOUT_ACCURACY = 1e-6  # the same within simulate's rollouts (see contacts_simulation)
 MAX_PROXIMAL_ITERATIONS = 100
 MAX_DAMPING = 1.0  # in the units of A: 1/kg on force rows, 1/(kg·m²) on torque rows
 EXACT_ACCURACY = 1e-12  # Pinocchio's settings of the one undamped solve
@@ -66,9 +67,9 @@ def proximal_settings(damping: float) -> Any:
                                 MAX_PROXIMAL_ITERATIONS)
 
 
-def tolerance(r: np.ndarray) -> float:
+def tolerance(r: np.ndarray, accuracy: float = CONSTRAINT_ACCURACY) -> float:
     """The largest constraint violation accepted for right-hand side r (see the module)."""
-    return CONSTRAINT_ACCURACY * (1.0 + float(np.abs(r).max(initial=0.0)))
+    return accuracy * (1.0 + float(np.abs(r).max(initial=0.0)))
 
 
 def not_converged(what: str, violation: float, accepted: float, damping: float,
@@ -84,11 +85,12 @@ def not_converged(what: str, violation: float, accepted: float, damping: float,
         contacts=contacts, residual=violation, **extra)
 
 
-def forward_violation(data: Any, settings: Any) -> tuple[float, float]:
+def forward_violation(data: Any, settings: Any, accuracy: float = CONSTRAINT_ACCURACY
+                      ) -> tuple[float, float]:
     """(violation ‖Jc a − r‖∞, tolerance) of the constrained dynamics just computed in `data`
     with damped `settings` (Pinocchio's last ‖λₖ₊₁ − λₖ‖∞ times μ)."""
     return (settings.mu * settings.relative_residual,
-            tolerance(np.asarray(data.primal_rhs_contact)))
+            tolerance(np.asarray(data.primal_rhs_contact), accuracy))
 
 
 def converge_impulse(data: Any, v_before: np.ndarray, v_after: np.ndarray, damping: float

@@ -111,3 +111,35 @@ def test_the_openapi_document_shows_the_bounds_checked_by_the_physics(api):
     assert contact["type"]["enum"] == ["point", "6d"]
     restitution = schemas["ImpulseDynamicsRequest"]["properties"]["restitution"]
     assert (restitution["minimum"], restitution["maximum"]) == (0.0, 1.0)
+
+
+def test_a_damped_rollout_on_a_nearly_singular_set(api, catalog_registry):
+    """solo8's four point feet (legs without abduction joints: Jc nearly rank-deficient),
+    perturbed joint velocities, PD with compensation, 300 steps: with μ = 1e-6 the rollout
+    holds its feet (drift under 1 mm, recomputed from q); with μ = 1e-3, too large for its
+    nearly singular directions, the iterations miss the rollout tolerance: a 422 giving the
+    residual, where an unconverged trajectory was answered before."""
+    r = catalog_registry.catalog["solo8"]
+    model, data = r.model, r.model.createData()
+    feet = [{"frame": f, "type": "point"} for f in ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")]
+    q0 = r.default_configuration
+    v0 = np.zeros(r.nv)
+    v0[6:] = np.random.default_rng(0).normal(scale=0.5, size=r.nv - 6)
+    body = {"q": q0.tolist(), "v": v0.tolist(), "dt": 1e-3, "steps": 300, "contacts": feet,
+            "controller": {"type": "pd", "kp": 5.0, "kd": 0.1, "q_target": q0.tolist(),
+                           "gravity_compensation": True}}
+    out = post(api, "solo8", "simulate", damping=1e-6, **body)
+    fids = [model.getFrameId(c["frame"]) for c in feet]
+    pin.framesForwardKinematics(model, data, q0)
+    start = [data.oMf[f].translation.copy() for f in fids]
+    moved = []
+    for q in out["q"]:
+        pin.framesForwardKinematics(model, data, q)
+        moved.append(max(np.linalg.norm(data.oMf[f].translation - s)
+                         for f, s in zip(fids, start, strict=True)))
+    assert max(moved) < 1e-3
+    np.testing.assert_allclose(out["constraint_drift"], moved, atol=1e-12)
+    problem = assert_problem(api.post("/v1/robots/solo8/simulate", json={**body,
+                                                                         "damping": 1e-3}),
+                             422, "singular_configuration")
+    assert "did not converge" in problem["detail"] and problem["residual"] > 0

@@ -9,6 +9,7 @@ from pydantic import BaseModel, Field
 
 from service.api.schemas.common import JointsByName, JointVector, Number, QVRequest, StrictRequest
 from service.api.schemas.contacts import Contact, damping_field
+from service.dynamics.contacts_model import MAX_CONTACTS
 
 Gain = Number | list[Number] | JointsByName
 
@@ -43,13 +44,14 @@ class SimulateRequest(QVRequest):
     integrator: Literal["semi-implicit-euler", "rk4"] = Field(
         "semi-implicit-euler", description="semi-implicit Euler (v first, then q with the new "
         "v) or classical RK4; q is always integrated on the configuration manifold.")
-    contacts: list[Contact] | None = Field(None, max_length=64, description=(
+    contacts: list[Contact] | None = Field(None, max_length=MAX_CONTACTS, description=(
         "Optional fixed contact set for the whole rollout (e.g. all feet on the ground): the "
         "contacts hold their frames at their initial placement, with Baumgarte stabilisation "
         "of the drift (see docs/contacts.md); a PD controller then acts on the actuated "
         "joints only (nothing on a floating root), and its gravity compensation is "
         "contact-consistent (contact-inverse-dynamics at v = a = 0). Forces are not bounded "
-        "by friction: the contacts never slip or lift off."))
+        "by friction: the contacts never slip or lift off. With contacts the estimated work "
+        "(states × steps × stages × one constrained evaluation) is at most ROBODYN_MAX_WORK."))
     damping: float = damping_field()
 
 

@@ -34,7 +34,7 @@ def skewed_arm(joints: int, seed: int = 1) -> object:
     rng = np.random.default_rng(seed)
     links, chain = ['<link name="l0"/>'], []
     for i in range(1, joints + 1):
-        ii = rng.uniform(0.01, 0.1, 3)
+        ii = rng.uniform(0.06, 0.1, 3)  # principal moments: triangle inequality
         c, rpy = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1, 1, 3)
         links.append(
             f'<link name="l{i}"><inertial><origin xyz="{c[0]} {c[1]} {c[2]}" '

@@ -172,6 +172,7 @@ ALL_ERRORS: tuple[type[RobodynError], ...] = (
     UnknownFrame,
     SingularConfiguration,
     NonFiniteResult,
+    UnsupportedModel,
     PayloadTooLarge,
     Unauthorized,
     NotReady,

@@ -27,7 +27,7 @@ def skewed_arm_urdf(joints: int, seed: int = 1) -> str:
     rng = np.random.default_rng(seed)
     links, chain = ['<link name="l0"/>'], []
     for i in range(1, joints + 1):
-        ii = rng.uniform(0.01, 0.1, 3)
+        ii = rng.uniform(0.06, 0.1, 3)  # principal moments: triangle inequality
         c, rpy = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1, 1, 3)
         links.append(
             f'<link name="l{i}"><inertial><origin xyz="{c[0]} {c[1]} {c[2]}" '
@@ -76,10 +76,10 @@ def counted(monkeypatch):
     """Count the derivations the cache starts (the real child process still runs)."""
     calls: list[str] = []
 
-    def counting(model, time_limit_s):
+    def counting(model, time_limit_s, memory_mb):
         calls.append(model.name)
         time.sleep(0.2)  # long enough for concurrent callers to find it pending
-        return derive_isolated(model, time_limit_s)
+        return derive_isolated(model, time_limit_s, memory_mb)
 
     monkeypatch.setattr(cache_module, "derive_isolated", counting)
     return calls

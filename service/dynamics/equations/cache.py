@@ -25,7 +25,7 @@ from collections import OrderedDict
 from concurrent.futures import Future
 from pathlib import Path
 
-from service.dynamics.equations.isolated import derive_isolated
+from service.dynamics.equations.isolated import MEMORY_MB, derive_isolated
 from service.dynamics.equations.model_numbers import moving_joints
 from service.errors import UnsupportedModel
 from service.registry.build_slots import BuildSlots
@@ -41,9 +41,10 @@ class EquationsCache:
     """See the module docstring. `time_limit_s` bounds one derivation."""
 
     def __init__(self, data_dir: Path | None, time_limit_s: float, slots: BuildSlots,
-                 max_bytes: int = 256 * 1024 * 1024) -> None:
+                 max_bytes: int = 256 * 1024 * 1024, memory_mb: int = MEMORY_MB) -> None:
         self.dir = None if data_dir is None else Path(data_dir) / "equations" / FORMAT_VERSION
         self.time_limit_s = time_limit_s
+        self.memory_mb = memory_mb
         self.slots = slots
         self.max_bytes = max_bytes
         self._memory: OrderedDict[str, bytes] = OrderedDict()
@@ -107,7 +108,7 @@ class EquationsCache:
             return pending.result()
         try:
             with self.slots.slot():
-                body = derive_isolated(robot.model, self.time_limit_s)
+                body = derive_isolated(robot.model, self.time_limit_s, self.memory_mb)
         except UnsupportedModel as exc:
             with self._lock:
                 self._refused[robot.id] = exc

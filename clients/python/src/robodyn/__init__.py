@@ -25,6 +25,7 @@ from robodyn.contacts import (
     ContactTrajectory,
     ImpulseDynamics,
 )
+from robodyn.equations import EntryStructure, Equations, EquationsStructure, Expressions
 from robodyn.errors import (
     APIError,
     AssetNotFoundError,
@@ -54,6 +55,7 @@ from robodyn.errors import (
     UnknownFrameError,
     UnprocessableError,
     UnsupportedMediaTypeError,
+    UnsupportedModelError,
     ValidationError,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
@@ -104,6 +106,10 @@ __all__ = [
     "ContactTrajectory",
     "DimensionMismatchError",
     "Energy",
+    "EntryStructure",
+    "Equations",
+    "EquationsStructure",
+    "Expressions",
     "Fill",
     "Finding",
     "ForwardDynamicsDerivatives",
@@ -150,6 +156,7 @@ __all__ = [
     "UnknownFrameError",
     "UnprocessableError",
     "UnsupportedMediaTypeError",
+    "UnsupportedModelError",
     "ValidationError",
     "__version__",
 ]

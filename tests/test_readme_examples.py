@@ -26,7 +26,7 @@ def _blocks(lang: str) -> list[str]:
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with running_server(tmp_path_factory.mktemp("readme"), catalog="ur5,solo12") as url:
+    with running_server(tmp_path_factory.mktemp("readme"), catalog="ur5,solo12,planar_arm") as url:
         yield url
 
 
@@ -74,7 +74,7 @@ def _curl_commands() -> list[str]:
 
 def test_the_curl_examples_run(server: str) -> None:
     commands = _curl_commands()
-    assert len(commands) == 3
+    assert len(commands) == 4
     host = server.removeprefix("http://")
     answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
                for c in commands]
@@ -83,4 +83,9 @@ def test_the_curl_examples_run(server: str) -> None:
     assert standing["tau"][:6] == [0.0] * 6 and standing["residual"] < 1e-9
     mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
     assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
-    assert answers[2]["id"].startswith("u-") and answers[2]["name"] == "my arm"
+    equations = answers[2]  # the planar arm's M(q) as the README shows it
+    assert equations["mass_matrix"]["expressions"] == [
+        ["4.235 + 2.1*cos(q2)", "0.735 + 1.05*cos(q2)"], ["0.735 + 1.05*cos(q2)", "0.735"]]
+    assert equations["gravity"]["expressions"] == [
+        "34.335*cos(q1) + 10.3005*cos(q1 + q2)", "10.3005*cos(q1 + q2)"]
+    assert answers[3]["id"].startswith("u-") and answers[3]["name"] == "my arm"

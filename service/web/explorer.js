@@ -1,6 +1,7 @@
 // robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+import { EquationsView } from "./equations_view.js";
 import { ViewPanel } from "./view_panel.js";
 
 const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
@@ -22,6 +23,7 @@ const state = {
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
   view: null, // the 3-D view panel (view_panel.js)
+  equations: null, // the "Equations" view (equations_view.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -277,6 +279,7 @@ async function compute() {
     renderBars(el("gravity-chart"), g.gravity, "f");
     renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
     state.view.colour(g.gravity, c.coriolis_forces);
+    state.equations.update({ M: mm.mass_matrix, g: g.gravity, C: c.coriolis_matrix });
     renderEnergy(mm.mass_matrix, v);
     setStatus("Computed by the service for the state set on the left.");
   } catch (err) {
@@ -557,6 +560,7 @@ async function selectRobot(id) {
   }
   posture.value = "default";
   renderFacts(info);
+  state.equations.setRobot(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
   if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
@@ -653,6 +657,7 @@ async function upload(ev) {
 async function start() {
   state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
                                onError: (err) => setStatus(err.message, true) });
+  state.equations = new EquationsView({ api, robotPath, fmt });
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });

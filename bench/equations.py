@@ -2,14 +2,17 @@
 
     .venv/bin/python bench/equations.py            # catalog arms and skewed arms up to 5 joints
     .venv/bin/python bench/equations.py --worst    # also the skewed 6-joint arm (~20 s)
+    .venv/bin/python bench/equations.py --http     # GET /v1/robots/ur5/equations on a server
 
 For each robot: the derivation (M, U, then g, Christoffel symbols, C, T), the rendering of the
 answer (text and LaTeX of every entry), its JSON size, and the whole of it in a child process
 as the service runs it (`derive_isolated`: process start, model transfer, derivation, JSON) —
-every figure from a cold start (nothing is cached between runs). The requirement: a 6-DoF arm
-like the UR5 within 60 s on a 2-core machine. A "skewed" arm has random joint placements,
-axes and full inertia tensors (no two axes parallel): the worst case for the size of the
-explicit form.
+every figure from a cold start (nothing is cached between runs). `--http` starts
+`python -m service` and times `GET /v1/robots/{id}/equations`: the first request (cold: the
+forkserver starts, the child derives) and the cached answer (median of 50). The requirement:
+a 6-DoF arm like the UR5 within 60 s on a 2-core machine, a cached answer within 50 ms. A
+"skewed" arm has random joint placements, axes and full inertia tensors (no two axes
+parallel): the worst case for the size of the explicit form.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from __future__ import annotations
 import argparse
 import platform
 import statistics
+import tempfile
 import time
 
 import numpy as np
@@ -69,11 +73,40 @@ def measure(model: object, repeats: int) -> dict[str, float]:
             "isolated": statistics.median(isolated), "kB": size / 1e3}
 
 
+def http_figures(robots: list[str]) -> None:
+    import httpx
+
+    from bench.run import server
+
+    with tempfile.TemporaryDirectory() as data, server(
+            ["-m", "service"], env={"ROBODYN_CATALOG": ",".join(robots),
+                                    "ROBODYN_DATA_DIR": data}) as url, \
+            httpx.Client(base_url=url, timeout=120) as http:
+        print(f"{'GET …/equations':<22} {'cold s':>9} {'cached ms':>10} {'JSON kB':>9}")
+        for robot in robots:
+            t0 = time.perf_counter()
+            first = http.get(f"/v1/robots/{robot}/equations")
+            cold = time.perf_counter() - t0
+            first.raise_for_status()
+            cached = []
+            for _ in range(50):
+                t0 = time.perf_counter()
+                http.get(f"/v1/robots/{robot}/equations").raise_for_status()
+                cached.append(time.perf_counter() - t0)
+            print(f"{robot:<22} {cold:>9.3f} {1e3 * statistics.median(cached):>10.2f} "
+                  f"{len(first.content) / 1e3:>9.0f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--worst", action="store_true", help="include the skewed 6-joint arm")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--http", action="store_true",
+                        help="time the route on a real server (cold and cached) instead")
     args = parser.parse_args()
+    if args.http:
+        http_figures(["ur5", "planar_arm", "ur10"])
+        return
     robots, _ = load_catalog(CATALOG)
     cases: list[tuple[str, object, int]] = [
         (name, robots[name].model, args.repeats) for name in CATALOG]

@@ -1,7 +1,7 @@
-"""Client methods beyond the equation of motion — mass_matrix_inverse, energy, center_of_mass,
-jacobian, operational_space, inertias — sync against a real server and async against the app
-in process, single and batch, checked against in-process Pinocchio; their errors and local
-input checks."""
+"""Client methods of the Lagrangian, frame and task-space quantities — mass_matrix_inverse,
+energy, center_of_mass, jacobian, operational_space, inertias — sync against a real server and
+async against the app in process, single and batch, checked against in-process Pinocchio; their
+errors and local input checks."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The sweep (issue 16): every dynamics endpoint × many robots × valid and hostile bodies
+"""The sweep: every dynamics endpoint × many robots × valid and hostile bodies
 answers 2xx, or 4xx problem+json — never 5xx.
 
 Endpoints are the app's POST routes under /v1/robots/{robot_id}/ (new ones are swept without

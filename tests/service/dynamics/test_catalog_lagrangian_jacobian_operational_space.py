@@ -42,7 +42,8 @@ def _single_equals_batch(api, name, quantity, batch, **inputs):
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_new_quantities_on_every_catalog_robot(api, catalog_registry, name):
+def test_lagrangian_jacobian_and_operational_space_on_every_catalog_robot(api, catalog_registry,
+                                                                         name):
     robot = catalog_registry.catalog[name]
     model = robot.model
     q, v = _states(model, name)

@@ -1,6 +1,7 @@
 """Robots with one degree of freedom, shared frame names, and the numerical inputs that used to
-give 500s (issue 16, items 1–2): every answer is shaped from nv and the task, whatever the
-Pinocchio binding hands back, and failures of linear algebra or of shapes are 422s."""
+give 500s (answers shaped by the binding, failed solves, ragged or oversized inputs): every
+answer is shaped from nv and the task, whatever the Pinocchio binding hands back, and failures
+of linear algebra or of shapes are 422s."""
 
 from __future__ import annotations
 

@@ -99,7 +99,8 @@ def _one_hinge(joint: str = "", default: str = "", body: str = "", geoms: str = 
             "</worldbody></mujoco>")
 
 
-# The measurements: a joint position from a default class and visual geoms count.
+# Two rules where a naive reading of MJCF differs from MuJoCo's compiler: a joint position from
+# a default class counts, and visual geoms weigh (they have mass and inertia).
 def test_joint_position_from_a_default_class_counts(client: TestClient) -> None:
     on_joint = _upload(client, mjcf=_one_hinge(joint='pos="0.05 0.02 0"'))
     for text in (_one_hinge(default='<joint pos="0.05 0.02 0"/>'),

@@ -1,4 +1,4 @@
-"""Inputs that are refused at upload (issue 16, item 9): names longer than the cap
+"""Inputs that are refused at upload: names longer than the cap
 (ROBODYN_MAX_NAME_LENGTH, default 256 characters) in URDF and MJCF, and broken mimic graphs (a
 joint mimicking itself, a fixed joint, or a cycle), each a 422 `invalid_model` naming the
 element."""

@@ -1,4 +1,4 @@
-"""Store records are read through a schema (issue 16, item 7): a record that is valid JSON but
+"""Store records are read through a schema: a record that is valid JSON but
 incomplete or mistyped is skipped with one log line, like a corrupt one, and the listing and
 lookups never answer 500."""
 

@@ -1,4 +1,5 @@
-"""Error answers of the endpoints beyond the equation of motion: unknown_frame,
+"""Error answers of the frame, task-space and Lagrangian endpoints (jacobian,
+operational-space, mass-matrix-inverse, energy, center-of-mass): unknown_frame,
 singular_configuration, invalid options, and the frame list of RobotInfo they point to."""
 
 from __future__ import annotations

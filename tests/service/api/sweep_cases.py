@@ -1,4 +1,4 @@
-"""What the sweep (tests/service/test_sweep.py) sends: the robots, the routes and the bodies.
+"""What the sweep (tests/service/api/test_sweep.py) sends: the robots, the routes and the bodies.
 
 Routes are read from the app (every POST route under /v1/robots/{robot_id}/), and each route's
 request fields from its OpenAPI request schema, so an endpoint added later is swept without

@@ -3,7 +3,7 @@ either refused with a message (MuJoCo's own or robodyn's) or builds, in the isol
 without a crash, a hang or a failure without a reason; what builds has MuJoCo's mass matrix and
 bias forces at a random state.
 
-Run with `pytest -m slow tests/service/test_mjcf_fuzz.py` (about 2 minutes).
+Run with `pytest -m slow tests/service/registry/test_mjcf_fuzz.py` (about 2 minutes).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from service.dynamics.equations import derive_equations, equations_answer
 from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
-from tests.service.test_equations_isolated import skewed_arm_urdf
+from tests.helpers import skewed_arm_urdf
 
 CATALOG = "ur5,planar_arm,talos_arm,double_pendulum_continuous,solo12"
 

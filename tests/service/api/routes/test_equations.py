@@ -134,3 +134,22 @@ def test_health_stays_fast_while_a_derivation_runs(tmp_path):
     assert result["response"].status_code == 200
     assert result["seconds"] > 0.2 and len(latencies) >= 10, (result, len(latencies))
     assert max(latencies) < 0.1 and statistics.median(latencies) < 0.02, latencies
+
+
+@pytest.mark.slow  # a real server: with the other latency probes of the slow suite
+def test_a_real_server_answers_health_while_it_derives(tmp_path):
+    """`python -m service`: /health/live probed every 5 ms while a skewed 5-joint arm (a few
+    seconds of derivation in a child process) is derived."""
+    import httpx
+
+    from tests.hardening.health_probe import health_latencies_during
+    from tests.servers import running_server
+
+    with running_server(tmp_path, catalog="planar_arm") as url, \
+            httpx.Client(base_url=url, timeout=120) as http:
+        robot_id = http.post("/v1/robots", json={"urdf": skewed_arm_urdf(5)}).json()["id"]
+        answer, latencies = health_latencies_during(
+            url, lambda: http.get(f"/v1/robots/{robot_id}/equations"))
+    assert answer.status_code == 200, answer.text
+    assert len(latencies) >= 20, latencies
+    assert max(latencies) < 0.5 and statistics.median(latencies) < 0.05, latencies

@@ -8,6 +8,8 @@ symbolically from the model's own numbers (see docs/equations.md).
     explicit_form   g, Christoffel symbols, C, T from M and U; the noise cut; `derive_equations`
     printing        text SymPy parses, and LaTeX
     answer          the JSON answer with the structure of M and g
+    isolated        the derivation in a child process with a time limit
+    cache           each robot's answer, in memory and on disk, derived once
 """
 
 from service.dynamics.equations.answer import equations_answer

@@ -240,10 +240,3 @@ class Series:
         """The series less its terms whose coefficient is at most `bound` in magnitude."""
         return Series(self.n, {key: c for key, c in self.terms.items() if c.copy_abs() > bound})
 
-
-def total(series: Iterable[Series], n: int) -> Series:
-    """The sum of `series` (zero when empty)."""
-    out = Series(n)
-    for s in series:
-        out = out + s
-    return out

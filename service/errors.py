@@ -19,6 +19,7 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── Unauthorized                  unauthorized
     ├── NotReady                      not_ready
     ├── Overloaded                    overloaded
+    │   └── ComputationStopped        overloaded
     └── UnsupportedMediaType          unsupported_media_type
 """
 
@@ -127,6 +128,13 @@ class NotReady(RobodynError):
 class Overloaded(RobodynError):
     code = "overloaded"
     title = "Overloaded"
+
+
+class ComputationStopped(Overloaded):
+    """A long computation stopped by its caller's `should_stop` (the client went away, or
+    the request's deadline passed) before it finished."""
+
+    title = "Computation stopped"
 
 
 class UnsupportedMediaType(RobodynError):

@@ -25,6 +25,7 @@ is a 422 naming the fault and never an allocation. docs/binary-format.md describ
 
 from __future__ import annotations
 
+import json
 import math
 import struct
 from collections.abc import Mapping
@@ -59,7 +60,10 @@ def decode(body: bytes | bytearray) -> tuple[dict[str, Any], dict[str, np.ndarra
     if len(body) < _LENGTH.size:
         raise _bad("shorter than its 8-byte header length")
     (header_size,) = _LENGTH.unpack_from(body)
-    if header_size > min(MAX_HEADER_BYTES, len(body) - _LENGTH.size):
+    if header_size > MAX_HEADER_BYTES:
+        raise _bad(f"the header length {header_size} is over the cap of {MAX_HEADER_BYTES} "
+                   "bytes")
+    if header_size > len(body) - _LENGTH.size:
         raise _bad(f"the header length {header_size} runs past the body")
     raw = bytes(body[_LENGTH.size:_LENGTH.size + header_size])
     if not raw.startswith(b"{"):
@@ -70,6 +74,7 @@ def decode(body: bytes | bytearray) -> tuple[dict[str, Any], dict[str, np.ndarra
         raise _bad("the header is not valid JSON") from None
     if not isinstance(header, dict):
         raise _bad("the header must be a JSON object")
+    _refuse_duplicate_keys(raw)
     fields = _fields(header.pop(METADATA, {}))
     start = _LENGTH.size + header_size
     data = memoryview(body)[start:]
@@ -80,6 +85,26 @@ def decode(body: bytes | bytearray) -> tuple[dict[str, Any], dict[str, np.ndarra
     if overlap:
         raise _bad(f"{sorted(overlap)[0]} is both in __metadata__ and a tensor")
     return fields, arrays
+
+
+def _refuse_duplicate_keys(raw: bytes) -> None:
+    """A name given twice in the header (or in `__metadata__`, or in a tensor's entry) is a
+    422: JSON parsers keep the last one silently. `raw` parsed as JSON already (≤ 1 MiB)."""
+
+    def pairs(items: list[tuple[str, Any]]) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, value in items:
+            if key in out:
+                raise _bad(f"the name {key[:64]!r} is given twice in the header")
+            out[key] = value
+        return out
+
+    try:
+        json.loads(raw, object_pairs_hook=pairs)
+    except RecursionError:
+        raise _bad("the header is nested too deeply") from None
+    except ValueError:  # orjson read it; the standard parser's own disagreements are not ours
+        pass
 
 
 def _fields(metadata: Any) -> dict[str, Any]:

@@ -81,5 +81,5 @@ async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep
                           409: {"model": Problem, "description": "catalog_robot"}},
                summary="Delete an uploaded model")
 async def delete_robot(robot_id: str, registry: RegistryDep) -> Response:
-    registry.delete(robot_id)
+    await run_in_threadpool(registry.delete, robot_id)  # it sweeps unnamed asset files
     return Response(status_code=204)

@@ -153,8 +153,10 @@ class RobotInfo(RobotSummary):
     default_configuration: list[float] = Field(description="The posture example-robot-data's "
                                                "loader used as q0 (neutral when none).")
     reference_configurations: dict[str, list[float]]
-    warnings: list[dict[str, str]] = Field(description="Physical findings in the description, "
-                                           "each with code, element (link/joint), name, message.")
+    warnings: list[dict[str, str]] = Field(
+        description="Physical findings in the description and notes on its assets, each with "
+        "code, element (link, joint or asset), name, message; `missing_mesh` (a mesh the "
+        "visuals name that the upload lacks) adds `file`, the asset key it would have.")
     contact_frames: list[ContactFrame] = Field(
         default_factory=list, description="Suggested contacts for contact-dynamics, "
         "contact-inverse-dynamics, impulse-dynamics and simulate: the robot's feet (a list to "

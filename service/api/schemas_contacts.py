@@ -4,17 +4,23 @@ option of simulate.
 
 `REQUESTS` and `ANSWERS` map each endpoint path to its models (merged into the tables of
 `service.api.dynamics`). Option defaults equal the keyword defaults of the computing functions.
+
+The values of a contact set (at least one contact, its type, its frame name, `damping`,
+`restitution`) are checked once, by the physics (`service.dynamics.contacts_model`,
+`contacts_solve`); these models declare the JSON shape and show the same bounds in the
+OpenAPI document, read from the same constants. Only the number of contacts is also enforced
+while parsing (`maxItems`), so that an oversized list is refused before its items are built.
 """
 
 from __future__ import annotations
-
-from typing import Literal
 
 from pydantic import BaseModel, Field
 
 from service.api import schemas_simulation as plain
 from service.api.schemas_dynamics import QVARequest, QVRequest, QVTauRequest, StrictRequest
 from service.api.schemas_options import JointVector
+from service.dynamics.contacts_model import KINDS, MAX_CONTACTS, MAX_FRAME_NAME
+from service.dynamics.contacts_solve import MAX_DAMPING
 
 FORCES_LAYOUT = (
     "expressed at each contact frame's origin with the world's axes (local_world_aligned): 3 "
@@ -25,29 +31,34 @@ FORCES_LAYOUT = (
 class Contact(StrictRequest):
     """A rigid contact at a frame of the model."""
 
-    frame: str = Field(min_length=1, max_length=256, description=(
+    frame: str = Field(json_schema_extra={"minLength": 1, "maxLength": MAX_FRAME_NAME},
+                       description=(
         "A frame of the robot (link, joint or fixed frame); the names are under `frames` and "
         "suggested feet under `contact_frames` in GET /v1/robots/{id}. An unknown name is a "
         "422 `unknown_frame`; a frame attached to the world is a 422 "
         "`singular_configuration`."))
-    type: Literal["point", "6d"] = Field("point", description=(
+    type: str = Field("point", json_schema_extra={"enum": list(KINDS)}, description=(
         "`point`: the frame's origin does not move (its classical linear acceleration is "
         "zero), 3 force components; `6d`: the frame neither moves nor turns (its spatial "
         "acceleration in its LOCAL frame is zero), 3 force and 3 torque components."))
 
 
 def _contacts_field() -> list[Contact]:
-    return Field(min_length=1, max_length=64, description=(
+    return Field(max_length=MAX_CONTACTS, json_schema_extra={"minItems": 1}, description=(
         "The contact set, the same for every state of a batch. Contact forces are "
         + FORCES_LAYOUT + "."))
 
 
 def _damping_field() -> float:
-    return Field(0.0, ge=0.0, allow_inf_nan=False, description=(
-        "Damping μ ≥ 0 for a rank-deficient contact Jacobian Jc (e.g. two contacts at one "
-        "point). With 0 (default) a contact set whose Delassus matrix Jc M⁻¹ Jcᵀ has a pivot "
-        "at most 1e-8 times its largest is a 422 `singular_configuration`; with μ > 0 the "
-        "regularized (proximal) solution is answered: see docs/contacts.md."))
+    return Field(0.0, allow_inf_nan=False,
+                 json_schema_extra={"minimum": 0.0, "maximum": MAX_DAMPING}, description=(
+        "Damping μ in [0, 1] (1/kg, the units of Jc M⁻¹ Jcᵀ) for a rank-deficient contact "
+        "Jacobian Jc (e.g. two contacts at one point). With 0 (default) a contact set whose "
+        "Delassus matrix Jc M⁻¹ Jcᵀ has a pivot at most 1e-8 times its largest is a 422 "
+        "`singular_configuration`; with μ > 0 the regularized (proximal) solution is iterated "
+        "until the constraints hold to 1e-9 (1 + the size of their right-hand side), or the "
+        "answer is a 422 `singular_configuration` giving the residual reached: see "
+        "docs/contacts.md."))
 
 
 class ContactDynamicsRequest(QVTauRequest):
@@ -62,7 +73,8 @@ class ContactInverseDynamicsRequest(QVARequest):
 
 class ImpulseDynamicsRequest(QVRequest):
     contacts: list[Contact] = _contacts_field()
-    restitution: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False, description=(
+    restitution: float = Field(0.0, allow_inf_nan=False,
+                               json_schema_extra={"minimum": 0.0, "maximum": 1.0}, description=(
         "Coefficient of restitution e in [0, 1]: Jc v⁺ = −e Jc v⁻ (0: the contacts stop, "
         "perfectly inelastic; 1: they bounce back, elastic)."))
     damping: float = _damping_field()
@@ -98,13 +110,14 @@ class ImpulseDynamicsAnswer(BaseModel):
 
 
 class SimulateRequest(plain.SimulateRequest):
-    contacts: list[Contact] | None = Field(None, max_length=64, description=(
+    contacts: list[Contact] | None = Field(None, max_length=MAX_CONTACTS, description=(
         "Optional fixed contact set for the whole rollout (e.g. all feet on the ground): the "
         "contacts hold their frames at their initial placement, with Baumgarte stabilisation "
         "of the drift (see docs/contacts.md); a PD controller then acts on the actuated "
         "joints only (nothing on a floating root), and its gravity compensation is "
         "contact-consistent (contact-inverse-dynamics at v = a = 0). Forces are not bounded "
-        "by friction: the contacts never slip or lift off."))
+        "by friction: the contacts never slip or lift off. With contacts the estimated work "
+        "(states × steps × stages × one constrained evaluation) is at most ROBODYN_MAX_WORK."))
     damping: float = _damping_field()
 
 

@@ -6,6 +6,7 @@ looking `path` up in the robot's own `asset_paths` (exactly the files its visual
 the request never becomes part of a filesystem path, so no `..`, absolute path or encoded trick
 reaches anything else, and collision meshes or description files are simply not in the table.
 Answers carry a content-derived ETag and may be cached for a week; `If-None-Match` gives 304.
+The file is streamed from disk in chunks (never read whole into memory).
 World placements of the frames come from `POST /v1/robots/{id}/frame-placements`, a dynamics
 endpoint (`service.dynamics.placements`).
 """
@@ -13,11 +14,14 @@ endpoint (`service.dynamics.placements`).
 from __future__ import annotations
 
 import hashlib
+import os
 import threading
+from collections.abc import AsyncIterator
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from fastapi import APIRouter, Request, Response
+from fastapi.responses import StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from service.api.answers import JSONAnswer
@@ -35,6 +39,7 @@ MEDIA_TYPES = {".stl": "model/stl", ".obj": "model/obj", ".dae": "model/vnd.coll
                ".glb": "model/gltf-binary"}
 MAX_AGE_S = 7 * 24 * 3600  # a week; the ETag makes a revalidation cheap after that
 _SHOWN = 64
+CHUNK_BYTES = 256 * 1024  # a mesh is sent from its file this many bytes at a time
 
 _etags: dict[tuple[Path, int, int], str] = {}  # (file, size, mtime_ns) → ETag
 _etags_lock = threading.Lock()
@@ -45,16 +50,36 @@ def media_type(path: str) -> str:
     return MEDIA_TYPES.get(Path(path).suffix.lower(), "application/octet-stream")
 
 
-def _read_with_etag(file: Path) -> tuple[bytes, str]:
-    """The file's bytes and its ETag (a quoted prefix of its SHA-256). Blocking."""
-    stat = file.stat()
-    content = file.read_bytes()
-    key = (file, stat.st_size, stat.st_mtime_ns)
-    with _etags_lock:
-        etag = _etags.get(key)
+def _open_with_etag(file: Path) -> tuple[BinaryIO, int, str]:
+    """The file opened for reading, its size and its ETag (a quoted prefix of its SHA-256,
+    computed once per file version by reading it in chunks). Blocking. An open file stays
+    readable if the file is removed meanwhile (a deleted upload's assets being collected)."""
+    fh = file.open("rb")
+    try:
+        stat = os.fstat(fh.fileno())
+        key = (file, stat.st_size, stat.st_mtime_ns)
+        with _etags_lock:
+            etag = _etags.get(key)
         if etag is None:
-            etag = _etags[key] = f'"{hashlib.sha256(content).hexdigest()[:32]}"'
-    return content, etag
+            etag = f'"{hashlib.file_digest(fh, "sha256").hexdigest()[:32]}"'
+            fh.seek(0)
+            with _etags_lock:
+                _etags[key] = etag
+    except BaseException:
+        fh.close()
+        raise
+    return fh, stat.st_size, etag
+
+
+async def _chunks(fh: BinaryIO) -> AsyncIterator[bytes]:
+    """The file's bytes, `CHUNK_BYTES` at a time, each read off the event loop; closes it. The
+    next chunk is read only once the previous one was handed to the connection, so a client
+    that does not read holds at most about a chunk and the socket's buffers, not the file."""
+    try:
+        while chunk := await run_in_threadpool(fh.read, CHUNK_BYTES):
+            yield chunk
+    finally:
+        fh.close()
 
 
 def _known_etag(file: Path) -> str | None:
@@ -127,7 +152,9 @@ async def _file_answer(request: Request, file: Path, path: str) -> Response:
         known = await run_in_threadpool(_known_etag, file)
         if known is not None and _matches(if_none_match, known):
             return Response(status_code=304, headers={**headers, "ETag": known})
-    content, etag = await run_in_threadpool(_read_with_etag, file)
+    fh, size, etag = await run_in_threadpool(_open_with_etag, file)
     if if_none_match and _matches(if_none_match, etag):
+        fh.close()
         return Response(status_code=304, headers={**headers, "ETag": etag})
-    return Response(content, media_type=media_type(path), headers={**headers, "ETag": etag})
+    return StreamingResponse(_chunks(fh), media_type=media_type(path),
+                             headers={**headers, "ETag": etag, "Content-Length": str(size)})

@@ -16,7 +16,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import robodyn
-from robodyn import AsyncClient, Client, core, results
+from robodyn import AsyncClient, Client, results
+from robodyn._calls import BUILDERS
 
 from robots import CATALOG_DIR
 from service.api.dynamics import ANSWERS, REQUESTS
@@ -285,4 +286,5 @@ def test_result_fields_are_the_server_answer_fields() -> None:
     body_fields = {f.name for f in dataclasses.fields(results.BodyInertia)} - {"raw"}
     assert body_fields == set(BodyInertia.model_fields)
     assert {f.name for f in dataclasses.fields(results.Inertias)} == set(Inertias.model_fields)
-    assert core.ROUTES["inertias"] == ("GET", "/v1/robots/{robot_id}/inertias")
+    call = BUILDERS["inertias"]("r")
+    assert (call.method, call.route) == ("GET", "/v1/robots/{robot_id}/inertias")

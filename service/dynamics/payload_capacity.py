@@ -20,9 +20,9 @@ coordinate i with an effort limit Lᵢ > 0 (N·m or N), |τ₀ᵢ + m τ₁ᵢ| 
 and the capacity is m* = min mᵢ over the limited coordinates, the limiting joint the one that
 owns the minimizing coordinate (where several are over their limit already, the one furthest
 over, |τ₀ᵢ| / Lᵢ largest), and τ(m*) = τ₀ + m* τ₁ the torques at capacity. Coordinates with no
-effort limit (0, or none in the model) and a free-flyer root's 6 coordinates (the wrench that
-holds the base, no motor's) are not limits; nor are limits a description does not give
-(Pinocchio's largest double). When nothing limits, m* is none and τ is τ₀.
+effort limit (0, or none in the model, or Pinocchio's largest double where a description gives
+none) and a floating root's coordinates (a free-flyer's 6, a planar root's 3: the wrench that
+holds the base, no motor's) are not limits. When nothing limits, m* is none and τ is τ₀.
 """
 
 from __future__ import annotations
@@ -102,7 +102,8 @@ def velocity_owners(robot: Robot) -> tuple[str, ...]:
 
 def limits(robot: Robot, effort_limits: np.ndarray | None) -> np.ndarray:
     """The effort limit of each velocity coordinate (nv), 0 where none: the model's or the
-    given ones (≥ 0; 0 = no limit), with a free-flyer root's 6 coordinates always 0."""
+    given ones (≥ 0; 0 = no limit), with a floating root's coordinates (a free-flyer's 6, a
+    planar root's 3) always 0."""
     if effort_limits is None:
         out = np.array(robot.model.effortLimit, dtype=float, copy=True)
         # none: 0, or the largest double (Pinocchio's value when the description gives none)
@@ -114,9 +115,7 @@ def limits(robot: Robot, effort_limits: np.ndarray | None) -> np.ndarray:
                                     f"has nv = {robot.nv}")
         if not np.isfinite(out).all() or (out < 0).any():
             raise InvalidInput("effort_limits must be finite and ≥ 0 (N·m or N; 0 = no limit)")
-    model = robot.model
-    if model.njoints > 1 and robot.joint_types[model.names[1]] == "free_flyer":
-        out[:6] = 0.0
+    out[:robot.root_nv] = 0.0  # a floating root's rows: the wrench holding the base
     return out
 
 

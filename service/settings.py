@@ -108,7 +108,7 @@ class Settings(BaseSettings):
         "beyond it (or with more than 4 uploads per builder waiting) the answer is 503 "
         "overloaded with Retry-After. The build timeout starts when the build does.")
 
-    # -- connections and answers (service/http_protocol.py; see docs/security.md) --
+    # -- connections and answers (service/server/protocol.py; see docs/security.md) --
     max_answer_bytes: int = Field(
         256 * 1024 * 1024, ge=1024, description="Largest answer of a dynamics request, in "
         "bytes, estimated before computing from the answer's shape (25 bytes a number in "

@@ -194,14 +194,22 @@ def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution
     return finite("impulse-dynamics", v=after, contact_impulses=impulses)
 
 
+def contact_size(options: dict[str, Any]) -> int:
+    """m, the numbers of a contact force vector: 3 per point contact, 6 per 6d contact."""
+    return sum(3 if c.get("type", "point") == "point" else 6 for c in options.get("contacts", ()))
+
+
 CONTACTS = (
     Quantity("contact-dynamics", ("q", "v", "tau"), contact_dynamics,
              "Constrained forward dynamics with rigid contacts: accelerations and contact "
-             "forces", joint_answers=("a",), settings=("max_work",), work=contact_work),
+             "forces", joint_answers=("a",), settings=("max_work",), work=contact_work,
+             answer_size=lambda r, o, v: r.nv + contact_size(o)),
     Quantity("contact-inverse-dynamics", ("q", "v", "a"), contact_inverse_dynamics,
              "Contact-consistent inverse dynamics: actuated torques and minimum-norm contact "
-             "forces", joint_answers=("tau",), settings=("max_work",), work=contact_work),
+             "forces", joint_answers=("tau",), settings=("max_work",), work=contact_work,
+             answer_size=lambda r, o, v: r.nv + contact_size(o) + 1),
     Quantity("impulse-dynamics", ("q", "v"), impulse_dynamics,
              "Rigid impact at contacts: velocities just after and contact impulses",
-             joint_answers=("v",), settings=("max_work",), work=contact_work),
+             joint_answers=("v",), settings=("max_work",), work=contact_work,
+             answer_size=lambda r, o, v: r.nv + contact_size(o)),
 )

@@ -51,20 +51,17 @@ from service.dynamics.contacts_solve import check_work
 from service.dynamics.quantity import Quantity, Results, finite
 from service.dynamics.stopping import ShouldStop, Stopper
 from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
-from service.joint_names import from_names
 from service.registry.robot import Robot
 from service.states import States, as_array, configurations
 
 STAGES = {"semi-implicit-euler": 1, "rk4": 4}
-MAX_STEPS = 100_000  # defaults of the settings of the same names
-MAX_WORK = 20_000_000
 
 Torque = Callable[[int, np.ndarray, np.ndarray, Any], np.ndarray]
 Acceleration = Callable[..., np.ndarray]  # (robot, q, v, tau, data) -> a
 
 
 def _vector(robot: Robot, field: str, value: Any, dim: str) -> np.ndarray:
-    arr = np.asarray(from_names(robot, field, value, dim), dtype=np.float64)
+    arr = np.asarray(value, dtype=np.float64)
     if arr.shape != (getattr(robot, dim),):
         raise DimensionMismatch(f"{field} has shape {list(arr.shape)}; robot '{robot.id}' "
                                 f"needs {dim} = {getattr(robot, dim)} numbers")
@@ -101,7 +98,7 @@ def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, A
     if tau is None:
         zero = np.zeros(robot.nv)
         return lambda k, q, v, data: zero
-    schedule = as_array("tau", from_names(robot, "tau", tau, "nv"),
+    schedule = as_array("tau", tau,
                         "(a constant torque) or 2-D (a schedule [steps][nv])")
     if schedule.ndim == 1:
         constant = _vector(robot, "tau", schedule, "nv")
@@ -142,15 +139,17 @@ def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
 
 def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
              controller: Mapping[str, Any] | None = None,
-             integrator: str = "semi-implicit-euler", max_simulation_steps: int = MAX_STEPS,
-             max_simulation_work: int = MAX_WORK, contacts: Sequence[Mapping[str, Any]] | None
-             = None, damping: float = 0.0, max_work: int | None = None,
-             should_stop: ShouldStop | None = None) -> Results:
+             max_simulation_steps: int, max_simulation_work: int,
+             integrator: str = "semi-implicit-euler",
+             contacts: Sequence[Mapping[str, Any]] | None = None, damping: float = 0.0,
+             max_work: int | None = None, should_stop: ShouldStop | None = None) -> Results:
     """The trajectory from (q, v) over `steps` steps of `dt` s: t (N, steps+1) in s, q
     (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J; with
     `contacts` (a fixed contact set, `service.dynamics.contacts_simulation`) also
     constraint_drift (N, steps+1) in m. `should_stop()` (optional) is asked every few ms;
     true stops the rollout with `ComputationStopped`."""
+    # max_simulation_steps and max_simulation_work: the service's settings of those names;
+    # tau and the controller's gains and target are arrays (the API converts name-keyed ones)
     check_limits(robot, s, steps, integrator, max_simulation_steps, max_simulation_work)
     if contacts is not None:
         options = {"steps": steps, "integrator": integrator, "contacts": contacts,
@@ -270,10 +269,24 @@ def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: n
         energy[k + 1] = _mechanical_energy(robot, data, q, v)
 
 
+def simulation_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
+    """t, q, v and the energy at each of the steps + 1 samples, and the drift with contacts."""
+    drift = 1 if options.get("contacts") else 0
+    return (int(options.get("steps", 1)) + 1) * (robot.nq + robot.nv + 2 + drift)
+
+
+def fewer_steps(robot: Robot, numbers: int) -> str:
+    """How many steps fit in an answer of `numbers` numbers."""
+    steps = numbers // (robot.nq + robot.nv + 2) - 1
+    return f"simulate at most {max(steps, 0):,} steps per request"
+
+
 SIMULATION = (
     Quantity("simulate", ("q", "v"), simulate,
              "Simulate: integrate forward dynamics from (q, v) under torques or a PD controller",
              joint_answers=("q", "v"),
              settings=("max_simulation_steps", "max_simulation_work", "max_work"),
-             work=simulation_work),
+             work=simulation_work, answer_size=simulation_size, smaller_request=fewer_steps,
+             named_options=(("tau", "nv"), ("controller.q_target", "nq"),
+                            ("controller.kp", "nv"), ("controller.kd", "nv"))),
 )

@@ -12,7 +12,7 @@ import numpy as np
 import orjson
 import pytest
 
-from service.api.binary import BINARY_MEDIA_TYPE, encode
+from service.api.encoding.binary import BINARY_MEDIA_TYPE, encode
 from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 

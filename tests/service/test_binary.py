@@ -17,7 +17,7 @@ import safetensors.numpy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from service.api import binary
+from service.api.encoding import binary
 from service.errors import InvalidInput
 from tests.helpers import random_state
 

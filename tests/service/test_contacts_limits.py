@@ -131,7 +131,10 @@ def test_the_limit_is_a_setting(small_app_factory):
 def _solo_rollout(catalog_registry, steps: int, **kw):
     r = catalog_registry.catalog["solo12"]
     s = States({"q": np.array(Q_SOLO, dtype=float)[None], "v": np.zeros((1, r.nv))}, False)
-    return simulate(r, s, dt=1e-3, steps=steps, contacts=FEET, integrator="rk4", **kw)
+    settings = Settings()  # the step limits, passed as the endpoint passes them
+    return simulate(r, s, dt=1e-3, steps=steps, contacts=FEET, integrator="rk4",
+                    max_simulation_steps=settings.max_simulation_steps,
+                    max_simulation_work=settings.max_simulation_work, **kw)
 
 
 def test_should_stop_stops_a_rollout_within_milliseconds(catalog_registry):
@@ -191,6 +194,8 @@ def test_the_largest_admitted_contact_simulation_takes_seconds_not_hours(catalog
     options = {"steps": 1, "integrator": "rk4", "contacts": contacts, "damping": 0.1}
     steps = int(Settings().max_work // simulation_work(r, one, options))
     started = time.perf_counter()
+    settings = Settings()
     simulate(r, one, dt=1e-3, steps=steps, contacts=contacts, damping=0.1, integrator="rk4",
-             max_work=Settings().max_work)
+             max_work=settings.max_work, max_simulation_steps=settings.max_simulation_steps,
+             max_simulation_work=settings.max_simulation_work)
     assert time.perf_counter() - started < 15.0

@@ -7,10 +7,11 @@ from typing import Any
 from fastapi import APIRouter, Depends, Response
 from starlette.concurrency import run_in_threadpool
 
-from service.api.answers import JSONAnswer
 from service.api.deps import RegistryDep, require_api_key
-from service.api.schemas import Problem, ReduceRequest, RobotInfo, RobotList, UploadRequest
-from service.api.schemas_inertias import Inertias
+from service.api.encoding.answers import JSONAnswer
+from service.api.schemas.common import Problem
+from service.api.schemas.inertias import Inertias
+from service.api.schemas.robots import ReduceRequest, RobotInfo, RobotList, UploadRequest
 from service.dynamics.body_inertias import body_inertias
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from service.api.schemas_dynamics import Matrix, QVARequest, QVRequest, QVTauRequest, Vector
+from service.api.schemas.common import Matrix, Vector
 
 _TANGENT = ("∂/∂q is on the tangent space: nv columns, the derivative along "
             "q ⊕ δq = integrate(q, δq) (for a free-flyer, δq's first 6 entries are a linear then "
@@ -33,15 +33,3 @@ class CentroidalAnswer(BaseModel):
                                     "(h_G = A_G v); (N, 6, nv) for a batch.")
     center_of_mass: Vector = Field(description="Centre of mass c(q), 3 entries, m, world frame.")
 
-
-REQUESTS: dict[str, type[BaseModel]] = {
-    "inverse-dynamics-derivatives": QVARequest,
-    "forward-dynamics-derivatives": QVTauRequest,
-    "centroidal": QVRequest,
-}
-
-ANSWERS: dict[str, type[BaseModel]] = {
-    "inverse-dynamics-derivatives": InverseDynamicsDerivativesAnswer,
-    "forward-dynamics-derivatives": ForwardDynamicsDerivativesAnswer,
-    "centroidal": CentroidalAnswer,
-}

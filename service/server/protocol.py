@@ -38,7 +38,8 @@ from typing import Any
 import orjson
 from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol, RequestResponseCycle
 
-from service.http_limits import (
+from service.errors import problem_document
+from service.server.limits import (
     CLOSED,
     LINGER_S,
     ConnectionLimits,
@@ -100,9 +101,8 @@ class GuardedCycle(RequestResponseCycle):
     async def send_500_response(self) -> None:
         """uvicorn's last-resort 500 (the application failed before answering), as
         problem+json; the app's own middleware normally answers first."""
-        body = orjson.dumps({"type": "about:blank", "title": "Internal error", "status": 500,
-                             "detail": "the service failed to answer this request",
-                             "code": "internal_error"})
+        body = orjson.dumps(problem_document("internal_error", "Internal error", 500,
+                                             "the service failed to answer this request"))
         await self.send({"type": "http.response.start", "status": 500, "headers": [
             (b"content-type", b"application/problem+json"),
             (b"content-length", str(len(body)).encode()), (b"connection", b"close")]})
@@ -290,7 +290,5 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             self.transport.abort()
 
 
-CoalescingHttpToolsProtocol = HardenedHttpToolsProtocol  # the name `python -m service` used
-
-__all__ = ["CLOSED", "LINGER_S", "CoalescedWrites", "CoalescingHttpToolsProtocol",
-           "ConnectionLimits", "GuardedCycle", "HardenedHttpToolsProtocol", "connection_limits"]
+__all__ = ["CLOSED", "LINGER_S", "CoalescedWrites", "ConnectionLimits", "GuardedCycle",
+           "HardenedHttpToolsProtocol", "connection_limits"]

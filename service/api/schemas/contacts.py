@@ -1,9 +1,7 @@
 """Request and answer schemas of the contact endpoints: contact-dynamics,
-contact-inverse-dynamics and impulse-dynamics (`service.dynamics.contacts`), and the `contacts`
-option of simulate.
-
-`REQUESTS` and `ANSWERS` map each endpoint path to its models (merged into the tables of
-`service.api.dynamics`). Option defaults equal the keyword defaults of the computing functions.
+contact-inverse-dynamics and impulse-dynamics (`service.dynamics.contacts`); `Contact` and the
+damping field are also simulate's (`service.api.schemas.simulation`). Option defaults equal the
+keyword defaults of the computing functions.
 
 The values of a contact set (at least one contact, its type, its frame name, `damping`,
 `restitution`) are checked once, by the physics (`service.dynamics.contacts_model`,
@@ -16,9 +14,13 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from service.api import schemas_simulation as plain
-from service.api.schemas_dynamics import QVARequest, QVRequest, QVTauRequest, StrictRequest
-from service.api.schemas_options import JointVector
+from service.api.schemas.common import (
+    JointVector,
+    QVARequest,
+    QVRequest,
+    QVTauRequest,
+    StrictRequest,
+)
 from service.dynamics.contacts_model import KINDS, MAX_CONTACTS, MAX_FRAME_NAME
 from service.dynamics.contacts_solve import MAX_DAMPING
 
@@ -49,7 +51,7 @@ def _contacts_field() -> list[Contact]:
         + FORCES_LAYOUT + "."))
 
 
-def _damping_field() -> float:
+def damping_field() -> float:
     return Field(0.0, allow_inf_nan=False,
                  json_schema_extra={"minimum": 0.0, "maximum": MAX_DAMPING}, description=(
         "Damping μ in [0, 1] (1/kg, the units of Jc M⁻¹ Jcᵀ) for a rank-deficient contact "
@@ -63,12 +65,12 @@ def _damping_field() -> float:
 
 class ContactDynamicsRequest(QVTauRequest):
     contacts: list[Contact] = _contacts_field()
-    damping: float = _damping_field()
+    damping: float = damping_field()
 
 
 class ContactInverseDynamicsRequest(QVARequest):
     contacts: list[Contact] = _contacts_field()
-    damping: float = _damping_field()
+    damping: float = damping_field()
 
 
 class ImpulseDynamicsRequest(QVRequest):
@@ -77,7 +79,7 @@ class ImpulseDynamicsRequest(QVRequest):
                                json_schema_extra={"minimum": 0.0, "maximum": 1.0}, description=(
         "Coefficient of restitution e in [0, 1]: Jc v⁺ = −e Jc v⁻ (0: the contacts stop, "
         "perfectly inelastic; 1: they bounce back, elastic)."))
-    damping: float = _damping_field()
+    damping: float = damping_field()
 
 
 class ContactDynamicsAnswer(BaseModel):
@@ -107,36 +109,3 @@ class ImpulseDynamicsAnswer(BaseModel):
     contact_impulses: list[float] | list[list[float]] = Field(
         description="Contact impulses Λ, N·s and N·m·s, laid out like contact forces: "
         + FORCES_LAYOUT + "; (N, m) for a batch.")
-
-
-class SimulateRequest(plain.SimulateRequest):
-    contacts: list[Contact] | None = Field(None, max_length=MAX_CONTACTS, description=(
-        "Optional fixed contact set for the whole rollout (e.g. all feet on the ground): the "
-        "contacts hold their frames at their initial placement, with Baumgarte stabilisation "
-        "of the drift (see docs/contacts.md); a PD controller then acts on the actuated "
-        "joints only (nothing on a floating root), and its gravity compensation is "
-        "contact-consistent (contact-inverse-dynamics at v = a = 0). Forces are not bounded "
-        "by friction: the contacts never slip or lift off. With contacts the estimated work "
-        "(states × steps × stages × one constrained evaluation) is at most ROBODYN_MAX_WORK."))
-    damping: float = _damping_field()
-
-
-class SimulateAnswer(plain.SimulateAnswer):
-    constraint_drift: list[float] | list[list[float]] | None = Field(None, description=(
-        "Only with contacts: at each sample, the largest distance (m) of a contact frame's "
-        "origin from where it started; (N, steps + 1) for a batch."))
-
-
-REQUESTS: dict[str, type[BaseModel]] = {
-    "contact-dynamics": ContactDynamicsRequest,
-    "contact-inverse-dynamics": ContactInverseDynamicsRequest,
-    "impulse-dynamics": ImpulseDynamicsRequest,
-    "simulate": SimulateRequest,
-}
-
-ANSWERS: dict[str, type[BaseModel]] = {
-    "contact-dynamics": ContactDynamicsAnswer,
-    "contact-inverse-dynamics": ContactInverseDynamicsAnswer,
-    "impulse-dynamics": ImpulseDynamicsAnswer,
-    "simulate": SimulateAnswer,
-}

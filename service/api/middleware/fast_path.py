@@ -15,8 +15,8 @@ from typing import Any
 from starlette.requests import ClientDisconnect, HTTPConnection, Request
 from starlette.types import Message, Receive, Scope, Send
 
-from service.api.binary import BINARY_MEDIA_TYPE
-from service.api.dynamics import ENDPOINTS, PREFIX
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.routes.dynamics import ENDPOINTS, PREFIX
 from service.errors import InvalidInput
 
 _START = PREFIX + "/"

@@ -1,13 +1,13 @@
 """WebSocket stream of dynamics requests: `/v1/robots/{robot_id}/stream`.
 
-One connection serves one robot. Each message is a request object with a `quantity` member,
-e.g. `{"quantity": "inverse-dynamics", "q": [...], "v": [...], "a": [...]}`, and is answered,
-in order, by the object the HTTP endpoint of that quantity gives. A text message is JSON and
-is answered in JSON; a binary message is the binary form (`service.api.binary`, `quantity` in
-its `__metadata__`) and is answered in the binary form. An error is answered by a problem object
-(JSON text) and the stream stays open. An unknown robot refuses the handshake with a 404
-problem+json answer (on servers without the ASGI denial-response extension: the problem object
-as the first message, then close code 4404).
+One connection serves one robot. Each message is a request object with a `quantity` member, e.g.
+`{"quantity": "gravity", "q": [...]}`, and is answered, in order, by the object the HTTP
+endpoint of that quantity gives (the quantities are those of `service.api.quantities`). A text
+message is JSON and is answered in JSON; a binary message is the binary form
+(`service.api.encoding.binary`, `quantity` in its `__metadata__`) and is answered in the binary
+form. An error is answered by a problem object (JSON text) and the stream stays open. An unknown
+robot refuses the handshake with a 404 problem+json answer (on servers without the ASGI
+denial-response extension: the problem object as the first message, then close code 4404).
 """
 
 from __future__ import annotations
@@ -21,11 +21,11 @@ from fastapi.exceptions import RequestValidationError
 from starlette.routing import WebSocketRoute
 from starlette.websockets import WebSocket
 
-from service.api import binary
-from service.api.answers import json_bytes
 from service.api.deps import check_api_key_for_all
-from service.api.dynamics import ENDPOINTS, INLINE_BODY_BYTES, PREFIX, Endpoint, off_loop
-from service.api.problems import error_response, problem_body, validation_details
+from service.api.encoding import binary
+from service.api.encoding.answers import json_bytes
+from service.api.problems.handlers import error_response, problem_body, validation_details
+from service.api.routes.dynamics import ENDPOINTS, INLINE_BODY_BYTES, PREFIX, Endpoint, off_loop
 from service.errors import InvalidInput, RobodynError
 
 log = logging.getLogger("robodyn.api")

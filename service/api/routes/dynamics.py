@@ -1,10 +1,11 @@
-"""Routes of the dynamics quantities: POST /v1/robots/{id}/<quantity>, one per quantity.
+"""Routes of the dynamics quantities: POST /v1/robots/{id}/<quantity>, one per quantity,
+each derived from its spec (`service.api.quantities.SPECS`).
 
 This is the hot path, so each route is a plain ASGI endpoint without per-request dependency
 injection: the body is validated by the quantity's strict pydantic model straight from its bytes
-(`model_validate_json`), or decoded from the binary form (`service.api.binary`), and the answer
-is written by orjson or the binary encoder. The OpenAPI document describes these routes with
-the very same models (`openapi_routes`), and failures are the same problem+json answers.
+(`model_validate_json`), or decoded from the binary form (`service.api.encoding.binary`), and
+the answer is written by orjson or the binary encoder. The OpenAPI document describes these
+routes with the very same models (`openapi_routes`), and failures are the same problem+json answers.
 """
 
 # No `from __future__ import annotations`: FastAPI must see the closures' request models.
@@ -20,40 +21,23 @@ from starlette.concurrency import run_in_threadpool
 from starlette.requests import HTTPConnection
 from starlette.routing import Route
 
-from service import dynamics, joint_names
-from service.api import (
-    binary,
-    schemas_contacts,
-    schemas_derivatives,
-    schemas_dynamics,
-    schemas_operational,
-    schemas_options,
-    schemas_placements,
-    schemas_simulation,
-)
-from service.api.answer_size import (
+from service import dynamics
+from service.api import inputs
+from service.api.deps import check_api_key_for_all
+from service.api.encoding import binary
+from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
+from service.api.encoding.budget import (
     BINARY_BYTES_PER_NUMBER,
     JSON_BYTES_PER_NUMBER,
     check_answer_size,
     key_bytes,
 )
-from service.api.answers import JSONAnswer, json_bytes, json_pieces
-from service.api.deps import check_api_key_for_all
-from service.api.schemas import Problem
+from service.api.quantities import SPECS, Spec
+from service.api.schemas.common import Problem
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
-from service.states import prepare
 
 T = TypeVar("T")
 PREFIX = "/v1/robots"
-REQUESTS: dict[str, type[BaseModel]] = {
-    path: schemas_options.with_joint_names(model) for path, model in {
-        **schemas_dynamics.REQUESTS, **schemas_options.REQUESTS, **schemas_operational.REQUESTS,
-        **schemas_derivatives.REQUESTS, **schemas_simulation.REQUESTS,
-        **schemas_contacts.REQUESTS, **schemas_placements.REQUESTS}.items()}
-ANSWERS: dict[str, type[BaseModel]] = {
-    **schemas_dynamics.ANSWERS, **schemas_options.ANSWERS, **schemas_operational.ANSWERS,
-    **schemas_derivatives.ANSWERS, **schemas_simulation.ANSWERS,
-    **schemas_contacts.ANSWERS, **schemas_placements.ANSWERS}
 
 # Batches bigger than this (states × nv) are validated, computed and encoded in a worker thread,
 # and JSON bodies bigger than INLINE_BODY_BYTES parsed there: on the event loop they would
@@ -92,17 +76,6 @@ def _rows(arrays: dict[str, Any]) -> int:
     return len(q) if isinstance(q, list) and q and isinstance(q[0], list | dict) else 1
 
 
-def _prepare(robot: Any, arrays: dict[str, Any], max_batch: int, fill: str | None = None
-             ) -> Any:
-    """The validated `States` of the inputs; name-keyed ones become arrays first (missing
-    joints filled from the configuration named `fill`, if given)."""
-    if joint_names.any_named(arrays):  # a type check: plain arrays pay nothing measurable
-        arrays = joint_names.arrays_from_names(robot, arrays, fill)
-    elif fill is not None:
-        joint_names.fill_values(robot, fill, "nq")  # an unknown name is an error all the same
-    return prepare(robot, arrays, max_batch)
-
-
 def _media_types(headers: list[tuple[bytes, bytes]]) -> tuple[str, str]:
     """(Content-Type, Accept) of raw ASGI headers, "" where absent: one pass over the list
     (Starlette's `Headers.get` scans it once per name)."""
@@ -122,11 +95,11 @@ def _invalid(exc: ValidationError) -> RequestValidationError:
 class Endpoint:
     """The endpoint of one quantity: `answer` takes the Starlette request."""
 
-    def __init__(self, quantity: dynamics.Quantity) -> None:
-        self.quantity = quantity
-        self.route = Route(f"{PREFIX}/{{robot_id}}/{quantity.path}", self.answer,
-                           methods=["POST"], name=quantity.path)
-        self.model = REQUESTS[quantity.path]
+    def __init__(self, spec: Spec) -> None:
+        self.quantity = quantity = spec.quantity
+        self.route = Route(f"{PREFIX}/{{robot_id}}/{quantity.name}", self.answer,
+                           methods=["POST"], name=quantity.name)
+        self.model = spec.request
         self.joint_inputs = (*quantity.inputs, *quantity.optional)
         fields: dict[str, Any] = {
             name: (info.annotation, info) for name, info in self.model.model_fields.items()
@@ -165,7 +138,7 @@ class Endpoint:
         if unknown or missing:
             wrong = (f"unknown array {unknown[0]!r}" if unknown else
                      f"missing array {missing[0]!r}")
-            raise InvalidInput(f"binary body: {wrong}; {self.quantity.path} takes "
+            raise InvalidInput(f"binary body: {wrong}; {self.quantity.name} takes "
                                f"the arrays {', '.join(self.joint_inputs)}")
         try:
             options = self.options_model.model_validate(fields)
@@ -178,13 +151,18 @@ class Endpoint:
                       options: dict[str, Any],
                       bytes_per_number: int = JSON_BYTES_PER_NUMBER) -> dict[str, Any]:
         """Validate the states, check the answer's size against the budget
-        (`service.api.answer_size`, at `bytes_per_number`) and compute: inline when small, in a
-        worker thread when large. Name-keyed inputs become arrays first (`fill` fills missing
-        joints); with `"joint_names": true` the joint-space answers are keyed by joint name.
+        (`service.api.encoding.budget`, at `bytes_per_number`) and compute: inline when small,
+        in a worker thread when large. Name-keyed inputs and options become arrays first
+        (`fill` fills missing joints); with `"joint_names": true` the joint-space answers are
+        keyed by joint name. The robot computed with is `inputs.robot_for(robot, options)`.
         Records what was computed in the ASGI scope (`scope["robodyn"]`) for logs and
         Server-Timing."""
         named = options.pop("joint_names", False) if options else False
         fill = options.pop("fill", None) if options else None
+        if options:
+            robot = inputs.robot_for(robot, options)
+            if self.quantity.named_options:
+                options = inputs.options_from_names(robot, self.quantity, options)
         settings = request.app.state.settings
         for setting in self.quantity.settings:
             options[setting] = getattr(settings, setting)
@@ -198,7 +176,7 @@ class Endpoint:
             states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
                                              options, settings.max_batch, budget, fill)
         else:
-            states = _prepare(robot, arrays, settings.max_batch, fill)
+            states = inputs.prepare_states(robot, arrays, settings.max_batch, fill)
             self._check_size(robot, states, options, budget)
             large = (states.count * robot.nv if work is None else work(robot, states, options)
                      ) > INLINE_WORK
@@ -208,16 +186,16 @@ class Endpoint:
             else:
                 result = dynamics.run(robot, self.quantity, states, options)
         request.scope["robodyn"] = {
-            "robot": robot.id, "quantity": self.quantity.path, "batch_size": states.count,
+            "robot": robot.id, "quantity": self.quantity.name, "batch_size": states.count,
             "compute_seconds": time.perf_counter() - started, "large": large}
         if named:
-            result = joint_names.by_name(robot, result, self.quantity.joint_answers)
+            result = inputs.by_name(robot, result, self.quantity.joint_answers)
         return result
 
     def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
                          max_batch: int, budget: tuple[int, int], fill: str | None = None
                          ) -> tuple[Any, dict[str, Any]]:
-        states = _prepare(robot, arrays, max_batch, fill)
+        states = inputs.prepare_states(robot, arrays, max_batch, fill)
         self._check_size(robot, states, options, budget)
         return states, dynamics.run(robot, self.quantity, states, options)
 
@@ -226,7 +204,7 @@ class Endpoint:
         """413 before computing an answer over `ROBODYN_MAX_ANSWER_BYTES` (single states of
         fixed-size quantities are far below it: not checked, the hot path stays as it was)."""
         if states.count > 1 or self.quantity.work is not None:
-            check_answer_size(self.quantity.path, robot, options, "v" in states.arrays,
+            check_answer_size(self.quantity, robot, options, "v" in states.arrays,
                               states.count, *budget)
 
     async def handle(self, request: HTTPConnection, body: bytes | bytearray
@@ -262,7 +240,7 @@ class Endpoint:
         return content, media_type
 
     async def answer(self, request: Request) -> Response:
-        """The Starlette endpoint (`service.api.fast_path` calls `handle` directly)."""
+        """The Starlette endpoint (`service.api.middleware.fast_path` calls `handle` directly)."""
         request.scope["route"] = self.route  # FastAPI's router records only its own routes
         content, media_type = await self.handle(request, await request.body())
         return Response(content if isinstance(content, bytes) else b"".join(content),
@@ -270,7 +248,7 @@ class Endpoint:
 
 
 # Built once: an endpoint holds no per-app state (it reads the app from each request).
-ENDPOINTS: dict[str, Endpoint] = {q.path: Endpoint(q) for q in dynamics.QUANTITIES.values()}
+ENDPOINTS: dict[str, Endpoint] = {name: Endpoint(spec) for name, spec in SPECS.items()}
 
 
 def routes() -> list[Route]:
@@ -281,22 +259,23 @@ def routes() -> list[Route]:
 def openapi_routes() -> APIRouter:
     """Routes that only describe the serving routes in the OpenAPI document (never mounted)."""
     router = APIRouter(prefix=PREFIX, tags=["dynamics"])
-    for quantity in dynamics.QUANTITIES.values():
+    for spec in SPECS.values():
+        quantity = spec.quantity
         router.add_api_route(
-            f"/{{robot_id}}/{quantity.path}", _describe(quantity), methods=["POST"],
-            response_model=ANSWERS[quantity.path], responses=_PROBLEMS,
-            summary=quantity.summary, name=quantity.path,
+            f"/{{robot_id}}/{quantity.name}", _describe(spec), methods=["POST"],
+            response_model=spec.answer, responses=_PROBLEMS,
+            summary=quantity.summary, name=quantity.name,
             openapi_extra={"x-binary-media-type": binary.BINARY_MEDIA_TYPE})
     return router
 
 
-def _describe(quantity: dynamics.Quantity) -> Any:
-    request_model = REQUESTS[quantity.path]
+def _describe(spec: Spec) -> Any:
+    quantity, request_model = spec.quantity, spec.request
 
     async def endpoint(robot_id: str, body: request_model) -> None:  # type: ignore[valid-type]
         raise NotImplementedError  # documentation only: Endpoint serves the route
 
-    endpoint.__name__ = quantity.path.replace("-", "_")
+    endpoint.__name__ = quantity.name.replace("-", "_")
     endpoint.__doc__ = (f"{quantity.compute.__doc__}\n\nThe body may also be sent, and the answer "
                         f"asked for, in the binary form ({binary.BINARY_MEDIA_TYPE}, see "
                         "docs/binary-format.md).")

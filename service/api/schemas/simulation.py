@@ -1,4 +1,5 @@
-"""Request and answer schemas of `simulate`: a rollout of forward dynamics from (q, v)."""
+"""Request and answer schemas of `simulate`: a rollout of forward dynamics from (q, v), under
+torques or a PD controller, optionally with a fixed set of rigid contacts."""
 
 from __future__ import annotations
 
@@ -6,8 +7,9 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from service.api.schemas_dynamics import JointsByName, Number, QVRequest, StrictRequest
-from service.api.schemas_options import JointVector
+from service.api.schemas.common import JointsByName, JointVector, Number, QVRequest, StrictRequest
+from service.api.schemas.contacts import Contact, damping_field
+from service.dynamics.contacts_model import MAX_CONTACTS
 
 Gain = Number | list[Number] | JointsByName
 
@@ -42,6 +44,15 @@ class SimulateRequest(QVRequest):
     integrator: Literal["semi-implicit-euler", "rk4"] = Field(
         "semi-implicit-euler", description="semi-implicit Euler (v first, then q with the new "
         "v) or classical RK4; q is always integrated on the configuration manifold.")
+    contacts: list[Contact] | None = Field(None, max_length=MAX_CONTACTS, description=(
+        "Optional fixed contact set for the whole rollout (e.g. all feet on the ground): the "
+        "contacts hold their frames at their initial placement, with Baumgarte stabilisation "
+        "of the drift (see docs/contacts.md); a PD controller then acts on the actuated "
+        "joints only (nothing on a floating root), and its gravity compensation is "
+        "contact-consistent (contact-inverse-dynamics at v = a = 0). Forces are not bounded "
+        "by friction: the contacts never slip or lift off. With contacts the estimated work "
+        "(states × steps × stages × one constrained evaluation) is at most ROBODYN_MAX_WORK."))
+    damping: float = damping_field()
 
 
 class SimulateAnswer(BaseModel):
@@ -54,7 +65,6 @@ class SimulateAnswer(BaseModel):
     mechanical_energy: list[float] | list[list[float]] = Field(
         description="T + U at each sample, J: T = ½ vᵀ M v (armature included), U the "
         "potential energy of gravity; (N, steps + 1) for a batch.")
-
-
-REQUESTS: dict[str, type[BaseModel]] = {"simulate": SimulateRequest}
-ANSWERS: dict[str, type[BaseModel]] = {"simulate": SimulateAnswer}
+    constraint_drift: list[float] | list[list[float]] | None = Field(None, description=(
+        "Only with contacts: at each sample, the largest distance (m) of a contact frame's "
+        "origin from where it started; (N, steps + 1) for a batch."))

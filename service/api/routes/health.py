@@ -6,10 +6,10 @@ from fastapi import APIRouter, Request, Response
 from fastapi.responses import PlainTextResponse
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
-from service.api.answers import JSONAnswer
-from service.api.problems import problem
-from service.api.schemas import Problem
-from service.api.schemas_health import Liveness, Readiness
+from service.api.encoding.answers import JSONAnswer
+from service.api.problems.handlers import problem
+from service.api.schemas.common import Problem
+from service.api.schemas.health import Liveness, Readiness
 
 router = APIRouter(tags=["operations"])
 

@@ -1,17 +1,12 @@
-"""Request and response schemas: the OpenAPI document, with sizes and units in every field."""
+"""Schemas of the robot routes: uploads, reductions, the robot list and a robot's description."""
 
 from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, Field, model_validator
 
-Number = Annotated[float, Field(allow_inf_nan=False)]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True)
-
+from service.api.schemas.common import Number, StrictRequest
 
 LockedJointValue = Number | Annotated[list[Number], Field(min_length=1, max_length=64)]
 LOCKED_DESC = (
@@ -26,7 +21,7 @@ LOCKED_DESC = (
 DESCRIPTION_LIMIT = 8 * 1024 * 1024
 
 
-class UploadRequest(_Strict):
+class UploadRequest(StrictRequest):
     urdf: str | None = Field(None, description="The URDF text (XML). Give exactly one of "
                              "`urdf`, `mjcf` and `xacro`; meshes (for the 3-D view) as "
                              "`assets`.", max_length=DESCRIPTION_LIMIT)
@@ -76,7 +71,7 @@ class UploadRequest(_Strict):
         return self
 
 
-class ReduceRequest(_Strict):
+class ReduceRequest(StrictRequest):
     locked_joints: dict[str, LockedJointValue] = Field(
         min_length=1, max_length=1000, description=LOCKED_DESC)
     name: str | None = Field(None, max_length=200, description="Optional label; defaults to "
@@ -87,16 +82,6 @@ class ReducedFrom(BaseModel):
     robot: str = Field(description="Id of the robot this one was reduced from.")
     locked_joints: dict[str, list[float]] = Field(description="Each locked joint's entries of "
                                                   "the base robot's q.")
-
-
-class Problem(BaseModel):
-    """RFC 9457 problem details with a stable machine-readable `code`."""
-
-    type: str = "about:blank"
-    title: str
-    status: int
-    detail: str
-    code: str
 
 
 class JointInfo(BaseModel):

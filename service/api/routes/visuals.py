@@ -24,10 +24,10 @@ from fastapi import APIRouter, Request, Response
 from fastapi.responses import StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
-from service.api.answers import JSONAnswer
 from service.api.deps import RegistryDep
-from service.api.schemas import Problem
-from service.api.schemas_visuals import Visuals
+from service.api.encoding.answers import JSONAnswer
+from service.api.schemas.common import Problem
+from service.api.schemas.visuals import Visuals
 from service.errors import AssetNotFound
 from service.registry import Registry
 from service.registry.robot import Robot

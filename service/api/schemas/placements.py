@@ -6,7 +6,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, Field
 
-from service.api.schemas_dynamics import QRequest
+from service.api.schemas.common import QRequest
 
 FrameName = Annotated[str, Field(min_length=1, max_length=1000)]
 
@@ -33,6 +33,3 @@ class FramePlacementsAnswer(BaseModel):
         "world coordinates, so a point x of the frame is at p + R x); (N, F, 3, 3) for a "
         "batch.")
 
-
-REQUESTS: dict[str, type[QRequest]] = {"frame-placements": FramePlacementsRequest}
-ANSWERS: dict[str, type[BaseModel]] = {"frame-placements": FramePlacementsAnswer}

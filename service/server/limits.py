@@ -1,4 +1,4 @@
-"""The limits of the server's HTTP connections (service/http_protocol.py): timeouts and the
+"""The limits of the server's HTTP connections (service/server/protocol.py): timeouts and the
 connection cap from the settings, counters of the connections the protocol closed, and the
 complete answers it writes itself. Kept apart from the protocol so that the metrics can read
 the counters without importing uvicorn's internals."""
@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import orjson
 
+from service.errors import problem_document
+
 FD_RESERVE = 64  # file descriptors kept for other than connections
 LINGER_S = 2.0  # how long a closing connection keeps reading (and discarding) what still comes
 
@@ -21,12 +23,13 @@ CLOSED: dict[str, int] = {"header_timeout": 0, "body_timeout": 0, "send_timeout"
 
 @dataclass(frozen=True)
 class ConnectionLimits:
-    """The connection settings of this process (from `Settings`, read once)."""
+    """The connection settings of this process (from `Settings`, read once: the defaults
+    are the settings' own)."""
 
-    header_timeout_s: float = 10.0
-    body_timeout_s: float = 30.0
-    send_timeout_s: float = 60.0
-    max_connections: int = 1024
+    header_timeout_s: float
+    body_timeout_s: float
+    send_timeout_s: float
+    max_connections: int
 
 
 @functools.cache
@@ -51,8 +54,7 @@ def _descriptors_for_connections() -> int:
 def problem_answer(status: int, reason: bytes, code: str, title: str, detail: str,
                     extra_headers: bytes = b"") -> bytes:
     """A complete HTTP/1.1 problem+json answer that closes the connection."""
-    body = orjson.dumps({"type": "about:blank", "title": title, "status": status,
-                         "detail": detail, "code": code})
+    body = orjson.dumps(problem_document(code, title, status, detail))
     return (b"HTTP/1.1 %d %s\r\ncontent-type: application/problem+json\r\n"
             b"content-length: %d\r\nconnection: close\r\n%s\r\n" % (
                 status, reason, len(body), extra_headers)) + body

@@ -9,8 +9,8 @@ treatment:
 - **Errors** are RFC 9457 problem+json: every documented error response gets the `Problem`
   schema, every operation a `default` problem response (400 malformed body, 401 with API keys,
   413, 415, 500, 503 may answer any of them). `Problem.code` is an enum of every code of the
-  code → status table (`service.api.problems.STATUS_BY_CODE`), and its extension members are
-  typed.
+  code → status table (`service.api.problems.handlers.STATUS_BY_CODE`), and its extension
+  members are typed.
 - **Request fields with a default are optional.** They are never `required`; besides, in
   schemas used only in request bodies the `default` keyword is moved into the description and
   `examples`, because generators such as openapi-typescript (default settings) type every
@@ -31,8 +31,8 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.routing import APIRoute
 from starlette.routing import BaseRoute
 
-from service.api.binary import BINARY_MEDIA_TYPE
-from service.api.problems import STATUS_BY_CODE
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.problems.handlers import STATUS_BY_CODE
 
 PROBLEM_MEDIA_TYPE = "application/problem+json"
 PROBLEM_REF = {"$ref": "#/components/schemas/Problem"}

@@ -12,9 +12,9 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.requests import ClientDisconnect
 from starlette.responses import Response
 
-from service.api.binary import BINARY_MEDIA_TYPE
-from service.api.validation_errors import user_errors
-from service.errors import ALL_ERRORS, RobodynError
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.problems.validation_errors import user_errors
+from service.errors import ALL_ERRORS, RobodynError, problem_document
 
 log = logging.getLogger("robodyn.api")
 
@@ -52,8 +52,7 @@ def problem(code: str, title: str, detail: str, headers: dict[str, str] | None =
             status: int | None = None, **extra: Any) -> Response:
     """A problem+json response with the status of `code` (or an explicit `status`)."""
     status = status or STATUS_BY_CODE[code]
-    body = {"type": "about:blank", "title": title, "status": status, "detail": detail,
-            "code": code, **extra}
+    body = problem_document(code, title, status, detail, **extra)
     return Response(orjson.dumps(body), status_code=status, headers=headers,
                     media_type="application/problem+json")
 
@@ -100,7 +99,8 @@ def _body_schema(request: Request) -> tuple[dict[str, Any] | None, dict[str, Any
 def validation_details(exc: RequestValidationError, schema: dict[str, Any] | None = None,
                        schemas: dict[str, Any] | None = None) -> dict[str, Any]:
     """`detail` (the first mistake, located) and `errors` (up to 20, one per mistake) of a
-    validation failure (`service.api.validation_errors`; `schema`: the body's JSON schema)."""
+    validation failure (`service.api.problems.validation_errors`; `schema`: the body's JSON
+    schema)."""
     errors = user_errors(list(exc.errors()), schema, schemas)
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
     detail = f"{first['loc']}: {first['msg']}"
@@ -111,8 +111,7 @@ def validation_details(exc: RequestValidationError, schema: dict[str, Any] | Non
 
 def problem_body(code: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:
     """The problem+json object of `code` (for channels other than an HTTP answer)."""
-    return {"type": "about:blank", "title": title, "status": STATUS_BY_CODE[code],
-            "detail": detail, "code": code, **extra}
+    return problem_document(code, title, STATUS_BY_CODE[code], detail, **extra)
 
 
 _BODY_PARSE_FAILURE = "There was an error parsing the body"  # FastAPI's 400 for a JSON body

@@ -1,8 +1,7 @@
 """Request and answer schemas beyond the equation of motion: M⁻¹, energy, centre of mass, frame
 Jacobians and operational-space dynamics, with sizes and units in every field.
 
-`REQUESTS` and `ANSWERS` map each endpoint path to its models (merged into the tables of
-`service.api.dynamics`). Option defaults equal the keyword defaults of the computing functions
+Option defaults equal the keyword defaults of the computing functions
 (`service.dynamics.frames`, `service.dynamics.operational_space`).
 """
 
@@ -12,17 +11,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from service.api.schemas_dynamics import (
-    Q_DESC,
-    V_DESC,
-    JointArray,
-    Matrix,
-    QRequest,
-    QVRequest,
-    StrictRequest,
-    Vector,
-    joint_field,
-)
+from service.api.schemas.common import Matrix, OptionalVRequest, Vector
 
 Scalar = float | list[float]
 
@@ -34,14 +23,8 @@ REFERENCE_DESC = (
     "(default) the world's axes at the frame's origin, linear part = velocity of the frame's "
     "origin in world coordinates; `local` the frame's own axes; `world` the world frame, linear "
     "part = velocity of the body point at the world origin (spatial velocity). As in Pinocchio.")
-OPTIONAL_V_DESC = "Optional. " + V_DESC
 
 ReferenceFrameField = Literal["world", "local", "local_world_aligned"]
-
-
-class OptionalVRequest(StrictRequest):
-    q: JointArray = joint_field(Q_DESC)
-    v: JointArray | None = joint_field(OPTIONAL_V_DESC, None)
 
 
 class JacobianRequest(OptionalVRequest):
@@ -115,14 +98,3 @@ class OperationalSpaceAnswer(BaseModel):
                                     "centrifugal force μ = J̄ᵀ C v − Λ J̇ v, length k. With "
                                     "ẍ = J a + J̇ v and τ = Jᵀ F: Λ ẍ + μ + p = F.")
 
-
-REQUESTS: dict[str, type[StrictRequest]] = {
-    "mass-matrix-inverse": QRequest, "energy": QVRequest, "center-of-mass": OptionalVRequest,
-    "jacobian": JacobianRequest, "operational-space": OperationalSpaceRequest,
-}
-
-ANSWERS: dict[str, type[BaseModel]] = {
-    "mass-matrix-inverse": MassMatrixInverseAnswer, "energy": EnergyAnswer,
-    "center-of-mass": CenterOfMassAnswer, "jacobian": JacobianAnswer,
-    "operational-space": OperationalSpaceAnswer,
-}

@@ -1,4 +1,6 @@
-"""Joint-space vectors keyed by joint name, in requests and (on request) in answers.
+"""The request layer's inputs: joint-space vectors keyed by joint name, converted once, here;
+the states of a request validated (`prepare_states`); and the robot a request computes with
+(`robot_for`).
 
 Instead of an array, a joint-space input may be an object keyed by joint name, in any order,
 as a ROS `sensor_msgs/JointState` holds it: each joint takes its entries of that space — a
@@ -16,7 +18,9 @@ gives a missing joint's q from that configuration; a missing joint's v, a and τ
 objects for a batch (or a trajectory).
 
 Conversion is done here once, in the layer that parses requests; the rest of the service only
-sees arrays. Plain-array requests never reach this module (`any_named` is a type check).
+sees arrays. Plain-array requests pay only a type check (`any_named`). Options that may be
+keyed by joint name are declared by their quantity (`Quantity.named_options`, e.g. simulate's
+`tau` and controller gains) and converted by `options_from_names`.
 """
 
 from __future__ import annotations
@@ -27,9 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from service.dynamics import Quantity
 from service.errors import DimensionMismatch, InvalidInput, did_you_mean
 from service.registry.robot import Robot
-from service.states import SPACES
+from service.states import SPACES, States, prepare
 
 _SHOWN = 20  # names listed at most in an error
 _NAME_CHARS = 64  # characters of an unknown name shown at most
@@ -169,3 +174,36 @@ def _keyed(values: np.ndarray, parts: list[tuple[str, int, int]]) -> Any:
         return [_keyed(row, parts) for row in values]
     return {name: float(values[start]) if size == 1 else values[start:start + size].tolist()
             for name, start, size in parts}
+
+
+def prepare_states(robot: Robot, arrays: dict[str, Any], max_batch: int,
+                   fill: str | None = None) -> States:
+    """The validated `States` of a request's joint-space inputs; name-keyed ones become arrays
+    first (missing joints filled from the configuration named `fill`, if given)."""
+    if any_named(arrays):  # a type check: plain arrays pay nothing measurable
+        arrays = arrays_from_names(robot, arrays, fill)
+    elif fill is not None:
+        fill_values(robot, fill, "nq")  # an unknown name is an error all the same
+    return prepare(robot, arrays, max_batch)
+
+
+def options_from_names(robot: Robot, quantity: Quantity, options: dict[str, Any]
+                       ) -> dict[str, Any]:
+    """`options` with the quantity's `named_options` given keyed by joint name as arrays
+    (every joint named: `fill` applies to the joint-space inputs only)."""
+    for path, dim in quantity.named_options:
+        *parents, leaf = path.split(".")
+        holder: Any = options
+        for part in parents:
+            holder = holder.get(part) if isinstance(holder, dict) else None
+        if isinstance(holder, dict) and is_named(holder.get(leaf)):
+            holder[leaf] = from_names(robot, path, holder[leaf], dim)
+    return options
+
+
+def robot_for(robot: Robot, options: dict[str, Any]) -> Robot:
+    """The robot a request computes with: `robot` itself today. The one place where an
+    option that modifies the model for every quantity alike (e.g. payloads attached to
+    links) turns the stored robot into the one computed with, before any quantity runs;
+    such an option is popped from `options` here, so `compute` never sees it."""
+    return robot

@@ -37,10 +37,11 @@ import pinocchio as pin
 from service.dynamics import parallel
 from service.dynamics.frames import frame_id
 from service.dynamics.payloads import PayloadLike, RobotCache, robot_with_payloads
-from service.dynamics.quantity import finite
+from service.dynamics.quantity import Quantity, Results, finite
 from service.errors import DimensionMismatch, InvalidInput
 from service.registry.payloads import derived
 from service.registry.robot import Robot
+from service.states import States
 
 ZERO_REL = 1e-10  # |τ₁ᵢ| at most this times max |τ₁| of the state counts as zero
 PARALLEL_FROM = 64  # states from which the batch RNEA runs on every core
@@ -172,11 +173,11 @@ def capacity_from_torques(tau0: np.ndarray, tau1: np.ndarray, limit: np.ndarray
     return mass, index, per, tau
 
 
-def payload_capacity(robot: Robot, q: np.ndarray, frame: str, *,
-                     center_of_mass: Sequence[float] | None = None,
-                     v: np.ndarray | None = None, a: np.ndarray | None = None,
-                     payloads: Sequence[PayloadLike] | None = None,
-                     effort_limits: np.ndarray | None = None) -> Capacity:
+def capacity(robot: Robot, q: np.ndarray, frame: str, *,
+             center_of_mass: Sequence[float] | None = None,
+             v: np.ndarray | None = None, a: np.ndarray | None = None,
+             payloads: Sequence[PayloadLike] | None = None,
+             effort_limits: np.ndarray | None = None) -> Capacity:
     """The heaviest point mass `robot` can hold at `center_of_mass` (m, in `frame`, default its
     origin) for each of N states: q (N, nq) in Pinocchio's order, v and a (N, nv; rad/s, rad/s²
     or m/s, m/s²; default zero: holding still), already carrying `payloads`, within
@@ -196,3 +197,38 @@ def payload_capacity(robot: Robot, q: np.ndarray, frame: str, *,
     mass, index, per, tau = capacity_from_torques(tau0, tau1, limit)
     finite("payload-capacity", tau=tau)
     return Capacity(mass, index, per, tau, velocity_owners(robot))
+
+
+def payload_capacity(robot: Robot, s: States, *, frame: str,
+                     center_of_mass: Sequence[float] | None = None,
+                     effort_limits: Any = None) -> Results:
+    """The heaviest point mass (kg) the robot can hold at `center_of_mass` (m, in `frame`;
+    default its origin) without any joint torque exceeding its effort limit, per state (q; v
+    and a default zero: holding still): τ(m) = τ₀ + m τ₁ is affine in m, so the answer is
+    exact (no search). Answers `mass` (N,) kg, null where nothing limits; `limiting_joint`;
+    `mass_per_joint` (N, nv) kg, the largest mass each velocity coordinate alone allows (null
+    where it never limits, 0 where it is over its limit already); `tau` (N, nv), N·m or N, the
+    torques at that mass; for a batch `minimum`: {mass, state, limiting_joint}, the smallest
+    capacity and the first state that has it. `effort_limits` (nv, ≥ 0, 0 = no limit) replaces
+    the model's; a floating root's rows are never limits. Payloads already carried count in
+    τ₀ (the request's `payloads`)."""
+    cap = capacity(robot, s["q"], frame, center_of_mass=center_of_mass, v=s.arrays.get("v"),
+                   a=s.arrays.get("a"),
+                   effort_limits=None if effort_limits is None else np.asarray(effort_limits,
+                                                                               dtype=float))
+    names = [cap.limiting_joint(i) for i in range(cap.mass.shape[0])]
+    out: dict[str, Any] = {"mass": cap.mass, "limiting_joint": names if s.batched else names[0],
+                           "mass_per_joint": cap.mass_per_joint, "tau": cap.tau}
+    if s.batched:
+        out["minimum"] = cap.minimum()
+    return out
+
+
+PAYLOADS = (
+    Quantity("payload-capacity", ("q",), payload_capacity,
+             "Payload capacity: the heaviest point mass a frame can hold within the effort "
+             "limits, and the joint that limits it", optional=("v", "a"),
+             joint_answers=("tau",), named_options=(("effort_limits", "nv"),),
+             work=lambda r, s, o: 2 * s.count * r.nv,
+             answer_size=lambda r, o, v: 1 + 2 * r.nv),
+)

@@ -8,7 +8,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from service.dynamics.payload_capacity import payload_capacity, unit_mass_robot
+from service.dynamics.payload_capacity import capacity as payload_capacity
+from service.dynamics.payload_capacity import unit_mass_robot
 from service.dynamics.payloads import robot_with_payloads
 from service.errors import DimensionMismatch, InvalidInput, UnknownFrame
 from service.registry.robot import Robot

@@ -89,7 +89,7 @@ async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep
              dependencies=[Depends(require_api_key)],
              summary="Store a variant of any robot (payloads and/or locked joints): 201 new, "
              "200 stored")
-async def variant_robot(robot_id: str, body: VariantRequest, registry: RegistryDep) -> Response:
+async def create_variant(robot_id: str, body: VariantRequest, registry: RegistryDep) -> Response:
     """Store robot `robot_id` (catalog, upload or variant) carrying `payloads`, then with
     `locked_joints` locked, under an id derived from the parent's id and the modifications
     (`v-` + 24 hex digits; `r-` for locked joints alone, as `reduce` gives). Its RobotInfo has

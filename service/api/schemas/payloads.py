@@ -81,11 +81,11 @@ class CapacityMinimum(BaseModel):
 
 
 class PayloadCapacityAnswer(BaseModel):
-    mass: float | None | list[float | None] = Field(
+    mass: float | list[float | None] | None = Field(
         description="The heaviest point mass the frame can hold, kg (one per state for a "
         "batch); 0 when a joint is over its limit with no payload; null when no joint limits "
         "it (a frame fixed to the world, no effort limits).")
-    limiting_joint: str | None | list[str | None] = Field(
+    limiting_joint: str | list[str | None] | None = Field(
         description="The joint whose limit sets it (where several are over their limit with "
         "no payload, the one furthest over); null when nothing limits.")
     mass_per_joint: list[float | None] | list[list[float | None]] = Field(

@@ -68,6 +68,7 @@ export class PayloadPanel {
       status.classList.remove("error");
       status.textContent = "Computed by the service for this state and payload.";
       this.render(p, bare.gravity, carried.gravity, cap);
+      el("payload-view").dataset.q = JSON.stringify(q); // what the drawing was computed for
     } catch (err) {
       if (seq !== this.seq) return;
       status.textContent = err.message;
@@ -105,6 +106,12 @@ export class PayloadPanel {
     }
     el("payload-summary").dataset.limiting = cap.limiting_joint || "";
     renderBars(el("payload-gravity-chart"), carried, "f");
+    const owners = this.info.joints.flatMap((j) => Array(j.nv).fill(j.name));
+    for (const row of el("payload-gravity-chart").querySelectorAll(".bar-row")) {
+      const limiting = owners[Number(row.dataset.index)] === cap.limiting_joint;
+      row.classList.toggle("limiting", limiting);
+      if (limiting) row.title = "This joint limits the payload";
+    }
     this.table(bare, carried, cap, rows(), fmt);
   }
 

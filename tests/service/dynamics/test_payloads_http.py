@@ -15,8 +15,8 @@ from service.dynamics.payload_capacity import capacity
 from service.dynamics.payloads import robot_with_payloads
 from service.states import prepare
 from tests.helpers import random_state
-from tests.service.test_binary import decode_answer, encode_request
-from tests.service.test_payloads import BAD
+from tests.service.api.encoding.test_binary import decode_answer, encode_request
+from tests.service.dynamics.test_payloads import BAD
 
 G = 9.81
 PAYLOADS = {  # robot -> payloads it holds

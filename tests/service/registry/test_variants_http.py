@@ -100,3 +100,23 @@ def test_variant_mistakes_are_named_4xx(small_app_factory):
     ]:
         r = api.post(f"/v1/robots/{robot}/variants", json=body)
         assert (r.status_code, r.json()["code"]) == (status, code), (body, r.text)
+
+
+def test_a_real_server_restarted_on_its_data_serves_the_variant(tmp_path):
+    """`python -m service` stores a variant; a second process on the same data directory (a
+    restart, or a replica) serves it with the same answers, and finds it again by its id."""
+    import httpx
+
+    from tests.servers import running_server
+
+    body = {"payloads": [TOOL, WRIST], "name": "ur5 with a tool"}
+    with running_server(tmp_path / "data", catalog="ur5") as url:
+        made = httpx.post(f"{url}/v1/robots/ur5/variants", json=body)
+        assert made.status_code == 201, made.text
+        g = httpx.post(f"{url}/v1/robots/{made.json()['id']}/gravity", json={"q": Q}).json()
+    with running_server(tmp_path / "data", catalog="ur5") as url:
+        info = httpx.get(f"{url}/v1/robots/{made.json()['id']}").json()
+        assert info == made.json()
+        assert httpx.post(f"{url}/v1/robots/{info['id']}/gravity", json={"q": Q}).json() == g
+        again = httpx.post(f"{url}/v1/robots/ur5/variants", json=body)
+        assert again.status_code == 200 and again.json()["id"] == info["id"]

@@ -49,35 +49,9 @@ export class EquationsView {
     this.rendered = null; // the robot id whose equations are on screen
     this.values = null; // { M, g, C, labels } at the sliders' state
     this.seq = 0;
-    this.tabs = [...document.querySelectorAll("#result-tabs [role=tab]")];
-    for (const tab of this.tabs) {
-      tab.addEventListener("click", () => this.select(tab));
-      tab.addEventListener("keydown", (ev) => this.keydown(ev, tab));
-    }
     const box = el("equations-view");
     box.addEventListener("mousemove", (ev) => this.hover(ev));
     box.addEventListener("mouseleave", () => { el("equations-tooltip").hidden = true; });
-  }
-
-  /** Tabs (WAI-ARIA tabs pattern): one panel shown; arrows move between tabs. */
-  select(tab) {
-    for (const t of this.tabs) {
-      const on = t === tab;
-      t.setAttribute("aria-selected", String(on));
-      t.tabIndex = on ? 0 : -1;
-      el(t.getAttribute("aria-controls")).hidden = !on;
-    }
-    if (tab.id === "tab-equations") this.show();
-  }
-
-  keydown(ev, tab) {
-    const k = this.tabs.indexOf(tab);
-    const next = ev.key === "ArrowRight" ? k + 1 : ev.key === "ArrowLeft" ? k - 1 : null;
-    if (next === null) return;
-    const target = this.tabs[(next + this.tabs.length) % this.tabs.length];
-    target.focus();
-    this.select(target);
-    ev.preventDefault();
   }
 
   get visible() { return !el("equations-view").hidden; }

@@ -15,7 +15,7 @@ from tests.browser.test_explorer import open_explorer, set_slider, shown_state, 
 
 def open_equations(page, server: str, robot: str) -> None:
     open_explorer(page, server, robot)
-    page.click("#tab-equations")
+    page.click("#equations-view-button")
     page.wait_for_function("""() => document.querySelector('#equations-status')
         .textContent.match(/coordinates|No explicit form|Error/)""")
 
@@ -32,7 +32,8 @@ def entries(page, quantity: str) -> list[dict]:
 def test_planar_arm_equations_are_typeset_and_tinted_by_dependence(page, server, api) -> None:
     open_equations(page, server, "planar_arm")
     assert page.locator("#equations-view").is_visible()
-    assert page.locator("#numbers-view").is_hidden()
+    assert page.locator("#mass-matrix-figure").is_hidden()  # the dynamics view's figures
+    assert page.locator("#payload-view").is_hidden()
     M = entries(page, "mass_matrix")
     assert len(M) == 4 and all(e["katex"] for e in M)
     by = {(e["row"], e["col"]): e for e in M}
@@ -54,7 +55,7 @@ def test_planar_arm_equations_are_typeset_and_tinted_by_dependence(page, server,
 
 def test_hover_shows_the_value_at_the_sliders(page, server, api) -> None:
     open_equations(page, server, "ur5")
-    page.click("#tab-numbers")
+    page.click("#dynamics-view-button")
     set_slider(page, "#q-1", -0.7)
     set_slider(page, "#v-2", 1.3)
     page.wait_for_function("""() => {
@@ -62,7 +63,7 @@ def test_hover_shows_the_value_at_the_sliders(page, server, api) -> None:
         return JSON.parse(box.q)[1] === -0.7 && JSON.parse(box.v)[2] === 1.3 }""")
     wait_computed(page)
     q, v = shown_state(page)
-    page.click("#tab-equations")
+    page.click("#equations-view-button")
     page.wait_for_selector(".eq-block[data-quantity='coriolis_matrix']")
     M = api.post("/v1/robots/ur5/mass-matrix", json={"q": q}).json()["mass_matrix"]
     C = api.post("/v1/robots/ur5/coriolis", json={"q": q, "v": v}).json()["coriolis_matrix"]
@@ -99,20 +100,20 @@ def test_an_unsupported_robot_says_why(page, server) -> None:
     assert "free-flyer root joint" in status.inner_text()
     assert page.locator(".eq-block").count() == 0
     # choosing an arm again shows its equations
-    page.click("#tab-numbers")
+    page.click("#dynamics-view-button")
     open_equations(page, server, "planar_arm")
     assert page.locator("table.eq-matrix").count() == 3  # short entries: matrices
 
 
 def test_tabs_follow_the_keyboard(page, server) -> None:
     open_explorer(page, server, "planar_arm")
-    page.focus("#tab-numbers")
-    page.keyboard.press("ArrowRight")
-    assert page.locator("#tab-equations").get_attribute("aria-selected") == "true"
-    assert page.evaluate("document.activeElement.id") == "tab-equations"
+    page.focus("#dynamics-view-button")
+    page.keyboard.press("ArrowLeft")  # wraps around to the last tab: Equations
+    assert page.locator("#equations-view-button").get_attribute("aria-selected") == "true"
+    assert page.evaluate("document.activeElement.id") == "equations-view-button"
     page.wait_for_selector(".eq-block[data-quantity='mass_matrix']")
-    page.keyboard.press("ArrowLeft")
-    assert page.locator("#numbers-view").is_visible()
+    page.keyboard.press("ArrowRight")  # back to Dynamics
+    assert page.locator("#mass-matrix-figure").is_visible()
     assert page.locator("#equations-view").is_hidden()
 
 

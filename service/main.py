@@ -13,6 +13,7 @@ from fastapi import Depends, FastAPI
 
 from service import __version__, heap, unpin_this_thread
 from service.api.deps import require_api_key_for_all
+from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.middleware.body_limit import BodyLimitMiddleware
 from service.api.middleware.fast_path import DynamicsFastPath
 from service.api.middleware.observability import Metrics, ObservabilityMiddleware
@@ -73,6 +74,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
     app.state.batches_in_flight = 0
+    app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
     app.openapi = lambda: problem_openapi(app, described)  # type: ignore[method-assign]

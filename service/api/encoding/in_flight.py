@@ -14,6 +14,7 @@ piece) or the request ends otherwise (an error, a disconnect). Past
 from __future__ import annotations
 
 import threading
+from typing import Any
 
 from service.errors import Overloaded
 
@@ -47,6 +48,14 @@ class AnswerBytesInFlight:
                     "shortly", answer_bytes=size, answer_bytes_in_flight=held)
             self.held += size
         return size
+
+    def resize(self, scope: dict[str, Any], key: str, size: int) -> None:
+        """Lower the reservation held under `scope[key]` to `size` bytes, the answer as
+        encoded (the estimate is an upper bound: JSON numbers are shorter than the longest)."""
+        held = scope.get(key, 0)
+        if 0 < size < held:
+            self.release(held - size)
+            scope[key] = size
 
     def release(self, size: int) -> None:
         if size:

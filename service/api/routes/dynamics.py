@@ -261,6 +261,9 @@ class Endpoint:
             content: bytes | list[bytes] = await off_loop(request, encode_large, result)
         else:
             content = binary.encode(result) if as_binary else json_bytes(result)
+        if request.scope.get(ANSWER_BYTES):  # from the estimate to what is really held
+            sent = (sum(len(p) for p in content) if isinstance(content, list) else len(content))
+            request.app.state.answers_in_flight.resize(request.scope, ANSWER_BYTES, sent)
         return content, media_type
 
     async def answer(self, request: Request) -> Response:

@@ -1,0 +1,141 @@
+"""What a request may cost while it runs: a long computation stops at the request's deadline
+(ROBODYN_REQUEST_DEADLINE_S) and when its client disconnects — rollouts between steps,
+contact batches between states, other batches between chunks — with a 503 `overloaded`; and
+the bytes of large answers held for their clients are bounded in total
+(ROBODYN_MAX_ANSWER_BYTES_IN_FLIGHT)."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+import numpy as np
+import orjson
+import pytest
+
+from service.api.cancellation import STOPPED
+from service.api.encoding.in_flight import LARGE_ANSWER_BYTES
+from tests.service.test_contacts import contacts_of
+from tests.service.test_errors import assert_problem
+
+UR5_Q = [0.1, -1.0, 1.2, 0.3, 0.5, -0.2]
+SOLO_Q = [0, 0, 0.235, 0, 0, 0, 1,
+          0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
+# Each takes seconds on one core (measured: 2-10 s), far past the deadlines set below.
+LONG = {
+    "simulate": ("ur5", {"q": UR5_Q, "v": [0.0] * 6, "dt": 1e-4, "steps": 100_000,
+                         "integrator": "rk4"}),
+    "contact-dynamics": ("solo12", {"q": [SOLO_Q] * 60_000, "v": [[0.0] * 18] * 60_000,
+                                    "tau": [[0.0] * 18] * 60_000,
+                                    "contacts": contacts_of("solo12")}),
+    "forward-dynamics-derivatives": ("ur5", {"q": [UR5_Q] * 90_000,
+                                             "v": [[0.1] * 6] * 90_000,
+                                             "tau": [[0.0] * 6] * 90_000}),
+}
+
+
+@pytest.fixture(scope="module")
+def bodies() -> dict[str, bytes]:
+    return {quantity: orjson.dumps(body) for quantity, (_, body) in LONG.items()}
+
+
+@pytest.mark.parametrize("quantity", list(LONG))
+def test_a_long_computation_stops_at_the_request_deadline(small_app_factory, bodies,
+                                                          quantity):
+    api = small_app_factory(catalog="ur5,solo12", request_deadline_s=0.2)
+    robot = LONG[quantity][0]
+    before = STOPPED["deadline"]
+    started = time.perf_counter()
+    r = api.post(f"/v1/robots/{robot}/{quantity}", content=bodies[quantity],
+                 headers={"content-type": "application/json"})
+    elapsed = time.perf_counter() - started
+    problem = assert_problem(r, 503, "overloaded")
+    assert r.headers["retry-after"] == "1"
+    assert "ROBODYN_REQUEST_DEADLINE_S" in problem["detail"] and problem["deadline_s"] == 0.2
+    assert STOPPED["deadline"] == before + 1
+    assert elapsed < 3.0  # parsing the body and 0.2 s of computing; the whole takes seconds
+
+
+def test_a_short_computation_is_not_concerned_by_the_deadline(small_app_factory):
+    api = small_app_factory(catalog="ur5", request_deadline_s=5.0)
+    r = api.post("/v1/robots/ur5/simulate", json={**LONG["simulate"][1], "steps": 2_000})
+    assert r.status_code == 200, r.text
+    assert len(r.json()["q"]) == 2_001
+    chunked = api.post("/v1/robots/ur5/inverse-dynamics", json={
+        "q": [UR5_Q] * 30_000, "v": [[0.1] * 6] * 30_000, "a": [[0.2] * 6] * 30_000})
+    assert chunked.status_code == 200  # computed in chunks: the same answer for every state
+    tau = np.array(chunked.json()["tau"])
+    assert tau.shape == (30_000, 6) and np.ptp(tau, axis=0).max() == 0.0
+
+
+def _scope(path: str, body: bytes) -> dict:
+    return {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1",
+            "method": "POST", "scheme": "http", "path": path, "raw_path": path.encode(),
+            "root_path": "", "query_string": b"", "server": ("testserver", 80),
+            "client": ("127.0.0.1", 5000), "headers": [
+                (b"host", b"testserver"), (b"content-type", b"application/json"),
+                (b"content-length", str(len(body)).encode())]}
+
+
+async def _call_then_disconnect(app, path: str, body: bytes, after_s: float) -> tuple:
+    """Call the ASGI app with `body`, the client disconnecting `after_s` s after the body
+    was read: (seconds the app took, messages it sent)."""
+    gone = asyncio.Event()
+    sent: list[dict] = []
+    read = False
+
+    async def receive() -> dict:
+        nonlocal read
+        if not read:
+            read = True
+            asyncio.get_running_loop().call_later(after_s, gone.set)
+            return {"type": "http.request", "body": body, "more_body": False}
+        await gone.wait()
+        return {"type": "http.disconnect"}
+
+    async def send(message: dict) -> None:
+        sent.append(message)
+
+    started = time.perf_counter()
+    await app(_scope(path, body), receive, send)
+    return time.perf_counter() - started, sent
+
+
+@pytest.mark.parametrize("quantity", list(LONG))
+def test_a_disconnect_stops_the_computation(small_app_factory, bodies, quantity):
+    """The client goes away 0.3 s after sending: the worker stops (the counter of stopped
+    computations says so) and the app returns well before the computation would end."""
+    api = small_app_factory(catalog="ur5,solo12")  # the default deadline: 60 s
+    robot = LONG[quantity][0]
+    before = STOPPED["disconnect"]
+    elapsed, sent = asyncio.run(_call_then_disconnect(
+        api.app, f"/v1/robots/{robot}/{quantity}", bodies[quantity], 0.3))
+    assert STOPPED["disconnect"] == before + 1
+    assert elapsed < 3.0, elapsed
+    assert api.app.state.batches_in_flight == 0 and api.app.state.answers_in_flight.held == 0
+    assert sent[0]["status"] == 503  # (written to a connection that is gone)
+
+
+def test_answer_bytes_in_flight_are_bounded_in_total(small_app_factory):
+    """Large answers reserve their size until sent: past the limit in total a request is
+    503 overloaded with Retry-After before computing; once the others are sent it passes."""
+    limit = 8 * LARGE_ANSWER_BYTES
+    api = small_app_factory(catalog="ur5", max_answer_bytes_in_flight=limit)
+    in_flight = api.app.state.answers_in_flight
+    body = {"q": [UR5_Q] * 20_000}  # mass matrices: 720,000 numbers, ~18 MB of JSON
+    small = {"q": [UR5_Q] * 2_000}  # ~1.8 MB
+    held = in_flight.reserve(limit - LARGE_ANSWER_BYTES)  # answers not read by their clients
+    try:
+        problem = assert_problem(api.post("/v1/robots/ur5/mass-matrix", json=small), 503,
+                                 "overloaded")
+        assert "ROBODYN_MAX_ANSWER_BYTES_IN_FLIGHT" in problem["detail"]
+        assert problem["answer_bytes_in_flight"] == held
+        assert problem["answer_bytes"] >= 2_000 * 36 * 20  # at least 20 bytes a number
+    finally:
+        in_flight.release(held)
+    for request in (small, body):  # alone, even one over the limit passes (it is bounded
+        r = api.post("/v1/robots/ur5/mass-matrix", json=request)  # by the answer budget)
+        assert r.status_code == 200
+        assert in_flight.held == 0  # released once sent
+    bad = api.post("/v1/robots/ur5/mass-matrix", json={"q": [[0.0] * 5] * 20_000})
+    assert bad.status_code == 422 and in_flight.held == 0

@@ -139,3 +139,33 @@ def test_answer_bytes_in_flight_are_bounded_in_total(small_app_factory):
         assert in_flight.held == 0  # released once sent
     bad = api.post("/v1/robots/ur5/mass-matrix", json={"q": [[0.0] * 5] * 20_000})
     assert bad.status_code == 422 and in_flight.held == 0
+
+
+def test_a_refused_work_names_what_fits_and_that_passes(small_app_factory):
+    """Over ROBODYN_MAX_WORK (contacts) or ROBODYN_MAX_SIMULATION_WORK (a plain rollout), the
+    422 names the limit and the steps or states that fit; those are admitted, one more not."""
+    contact_api = small_app_factory(catalog="solo12", max_work=200_000)
+    plain_api = small_app_factory(catalog="solo12", max_simulation_work=20_000)
+    start = {"q": SOLO_Q, "v": [0.0] * 18, "dt": 1e-3, "integrator": "rk4"}
+    for api, extra, limit in (
+            (contact_api, {"contacts": contacts_of("solo12")}, "ROBODYN_MAX_WORK"),
+            (plain_api, {}, "ROBODYN_MAX_SIMULATION_WORK")):
+        body = {**start, **extra, "steps": 50_000}
+        problem = assert_problem(api.post("/v1/robots/solo12/simulate", json=body), 422,
+                                 "validation_error")
+        fits = problem["largest_steps"]
+        assert limit in problem["detail"] and f"at most {fits:,} steps" in problem["detail"]
+        assert 1 <= fits < 50_000 and problem["work"] > problem["max_work"]
+        ok = api.post("/v1/robots/solo12/simulate", json={**body, "steps": fits})
+        assert ok.status_code == 200, ok.text[:300]
+        assert api.post("/v1/robots/solo12/simulate", json={**body, "steps": fits + 1}
+                        ).status_code == 422
+    batch = {"q": [SOLO_Q] * 5_000, "v": [[0.0] * 18] * 5_000, "tau": [[0.0] * 18] * 5_000,
+             "contacts": contacts_of("solo12")}
+    problem = assert_problem(contact_api.post("/v1/robots/solo12/contact-dynamics",
+                                              json=batch), 422, "validation_error")
+    fits = problem["largest_batch"]
+    assert 1 <= fits < 5_000 and f"at most {fits:,} states" in problem["detail"]
+    assert contact_api.post("/v1/robots/solo12/contact-dynamics", json={
+        k: v[:fits] if isinstance(v, list) and k != "contacts" else v for k, v in batch.items()
+    }).status_code == 200

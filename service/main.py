@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio
 import inspect
 import logging
+import os
 import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -74,6 +76,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
     app.state.batches_in_flight = 0
+    app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
@@ -94,6 +97,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,
                        catalog_ids=lambda: registry.catalog)  # outermost: sees every answer
     return app
+
+
+def _usable_cpus() -> int:
+    """The CPUs this process may run on: how many large batches are computed at once."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return max(1, len(affinity(0)) if affinity is not None else os.cpu_count() or 1)
 
 
 def app_from_environment() -> FastAPI:

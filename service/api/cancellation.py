@@ -7,7 +7,7 @@ states (`service.dynamics.run`). It stops the computation (`ComputationStopped`,
 `overloaded`) when
 
 - the request's deadline passed: `ROBODYN_REQUEST_DEADLINE_S` seconds after the computation
-  was admitted, or
+  started (its first question; time waiting for a worker is not counted), or
 - the client closed its connection: `watch_disconnect` waits on the request's ASGI `receive`
   (whose next message, once the body is read, is `http.disconnect`) while it computes.
 
@@ -34,10 +34,12 @@ class Cancellation:
 
     def __init__(self, quantity: str, deadline_s: float) -> None:
         self.quantity, self.deadline_s = quantity, deadline_s
-        self.deadline = time.monotonic() + deadline_s
+        self.deadline = 0.0  # from the first question: when the computation started
         self.disconnected = False  # set on the event loop, read by the worker thread
 
     def __call__(self) -> bool:
+        if not self.deadline:
+            self.deadline = time.monotonic() + self.deadline_s
         if self.disconnected:
             STOPPED["disconnect"] += 1
             raise ComputationStopped(f"{self.quantity}: stopped, the client closed the "

@@ -51,15 +51,18 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 
 
 async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) -> T:
-    """Run `fn(*args)` (a large batch's work) in a worker thread; shed load (503 overloaded)
-    past `max_pending_batches` in flight."""
+    """Run `fn(*args)` (a large batch's work) in a worker thread, at most as many at once as
+    the process has CPUs (the others wait their turn on the event loop: Python code and
+    Pinocchio hold the GIL, so more threads would only take turns with the event loop's);
+    shed load (503 overloaded) past `max_pending_batches` computed or waiting."""
     state = request.app.state
     if state.batches_in_flight >= state.settings.max_pending_batches:
         raise Overloaded(f"{state.batches_in_flight} large batches are already being computed; "
                          "retry shortly")
     state.batches_in_flight += 1  # only touched on the event loop: no lock needed
     try:
-        return await run_in_threadpool(fn, *args)
+        async with state.off_loop_slots:  # a few at once: the loop keeps its share of the GIL
+            return await run_in_threadpool(fn, *args)
     finally:
         state.batches_in_flight -= 1
 

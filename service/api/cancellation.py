@@ -3,13 +3,14 @@
 A computation run off the event loop (a large batch, a simulation, a contact batch) gets a
 `Cancellation` as its `should_stop` (`service.dynamics.stopping`): rollouts and contact batches
 ask it every few milliseconds, between steps or states, and other batches between chunks of
-states (`service.dynamics.run`). It stops the computation (`ComputationStopped`, 503
-`overloaded`) when
+states (`service.dynamics.run`). It stops the computation when
 
 - the request's deadline passed: `ROBODYN_REQUEST_DEADLINE_S` seconds after the computation
-  started (its first question; time waiting for a worker is not counted), or
+  started (its first question; time waiting for a worker is not counted): `DeadlineExceeded`,
+  504 `deadline_exceeded` (not retried by clients: the same request would stop again), or
 - the client closed its connection: `watch_disconnect` waits on the request's ASGI `receive`
-  (whose next message, once the body is read, is `http.disconnect`) while it computes.
+  (whose next message, once the body is read, is `http.disconnect`) while it computes:
+  `ComputationStopped` (503 `overloaded`, an answer nobody reads).
 
 `STOPPED` counts the stops by reason, exported as `robodyn_computations_stopped_total`.
 """
@@ -22,7 +23,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
-from service.errors import ComputationStopped
+from service.errors import ComputationStopped, DeadlineExceeded
 
 STOPPED: dict[str, int] = {"deadline": 0, "disconnect": 0}
 
@@ -46,7 +47,7 @@ class Cancellation:
                                      "connection")
         if time.monotonic() > self.deadline:
             STOPPED["deadline"] += 1
-            raise ComputationStopped(
+            raise DeadlineExceeded(
                 f"{self.quantity}: stopped after {self.deadline_s:g} s of computing, the "
                 "request deadline (ROBODYN_REQUEST_DEADLINE_S); send fewer states or steps "
                 "per request", deadline_s=self.deadline_s)

@@ -111,9 +111,8 @@ def test_an_admitted_long_rollout_stops_at_the_deadline(base) -> None:
         return r, time.perf_counter() - started
 
     (r, elapsed), latencies = health_latencies_during(base, post)
-    assert r.status_code == 503 and r.json()["code"] == "overloaded", r.text[:300]
+    assert r.status_code == 504 and r.json()["code"] == "deadline_exceeded", r.text[:300]
     assert "ROBODYN_REQUEST_DEADLINE_S" in r.json()["detail"]
-    assert r.headers["retry-after"] == "1"
     assert elapsed < DEADLINE_S + 2
     _assert_live(latencies)
 

@@ -1,6 +1,6 @@
 """What a request may cost while it runs: a long computation stops at the request's deadline
-(ROBODYN_REQUEST_DEADLINE_S) and when its client disconnects — rollouts between steps,
-contact batches between states, other batches between chunks — with a 503 `overloaded`; and
+(ROBODYN_REQUEST_DEADLINE_S, 504 `deadline_exceeded`) and when its client disconnects —
+rollouts between steps, contact batches between states, other batches between chunks; and
 the bytes of large answers held for their clients are bounded in total
 (ROBODYN_MAX_ANSWER_BYTES_IN_FLIGHT)."""
 
@@ -49,11 +49,11 @@ def test_a_long_computation_stops_at_the_request_deadline(small_app_factory, bod
     r = api.post(f"/v1/robots/{robot}/{quantity}", content=bodies[quantity],
                  headers={"content-type": "application/json"})
     elapsed = time.perf_counter() - started
-    problem = assert_problem(r, 503, "overloaded")
-    assert r.headers["retry-after"] == "1"
+    problem = assert_problem(r, 504, "deadline_exceeded")
+    assert "retry-after" not in r.headers  # the same request would stop again
     assert "ROBODYN_REQUEST_DEADLINE_S" in problem["detail"] and problem["deadline_s"] == 0.2
     assert STOPPED["deadline"] == before + 1
-    assert elapsed < 3.0  # parsing the body and 0.2 s of computing; the whole takes seconds
+    assert elapsed < 10.0  # parsing the body and 0.2 s of computing (a loaded machine: slower)
 
 
 def test_a_short_computation_is_not_concerned_by_the_deadline(small_app_factory):
@@ -110,8 +110,8 @@ def test_a_disconnect_stops_the_computation(small_app_factory, bodies, quantity)
     before = STOPPED["disconnect"]
     elapsed, sent = asyncio.run(_call_then_disconnect(
         api.app, f"/v1/robots/{robot}/{quantity}", bodies[quantity], 0.3))
-    assert STOPPED["disconnect"] == before + 1
-    assert elapsed < 3.0, elapsed
+    assert STOPPED["disconnect"] == before + 1  # asked while computing: it had not finished
+    assert elapsed < 10.0, elapsed
     assert api.app.state.batches_in_flight == 0 and api.app.state.answers_in_flight.held == 0
     assert sent[0]["status"] == 503  # (written to a connection that is gone)
 

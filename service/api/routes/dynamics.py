@@ -47,6 +47,7 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
     422: {"model": Problem, "description": "validation_error, dimension_mismatch, "
           "invalid_configuration, non_finite_result (and the quantity's own codes)"},
     503: {"model": Problem, "description": "not_ready, overloaded"},
+    504: {"model": Problem, "description": "deadline_exceeded"},
 }
 
 

@@ -65,11 +65,11 @@ class Settings(BaseSettings):
         "start of its computation; past it the computation stops between chunks or steps and "
         "the answer is 503 overloaded (it also stops at once when the client disconnects).")
     max_answer_bytes_in_flight: int = Field(
-        1024 * 1024 * 1024, ge=1024, description="Largest total of the large answers (over "
-        "max(1 MiB, 1% of max_answer_bytes), by their size estimate) held by one process "
-        "between admission and their last byte handed to the client's connection, in bytes; "
-        "a request whose answer would pass it is answered 503 overloaded with Retry-After "
-        "before computing. It bounds the memory held by clients that do not read.")
+        1024 * 1024 * 1024, ge=1024, description="Largest total of the large HTTP answers (1 "
+        "MiB or more, by their size estimate, then their encoded size) held by one process "
+        "from admission until their clients have read them, in bytes; a request whose answer "
+        "would pass it is answered 503 overloaded with Retry-After before computing (one "
+        "answer alone always passes). It bounds the memory held for clients that do not read.")
     data_pool_mb: int = Field(
         1024, ge=0, description="Memory kept for idle Pinocchio Data between computations, "
         "over all robots, in MB (a Data takes about 80·nv³ bytes; the whole catalog needs "

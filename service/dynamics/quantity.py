@@ -54,7 +54,9 @@ class Quantity:
     `named_options` the options that may be given keyed by joint name (a dotted path into the
     option, "nq" or "nv") pairs, turned into arrays by the request layer before `compute` runs.
     `work(robot, states, options)` estimates the cost in state×dof units (default: states ×
-    nv); larger work than the inline limit is computed off the event loop.
+    nv); larger work than the inline limit is computed off the event loop. A `compute` that
+    takes `should_stop` (`stoppable`) asks it between its steps or states; any other batch is
+    stopped between chunks by `run`.
     """
 
     name: str

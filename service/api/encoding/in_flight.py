@@ -14,6 +14,7 @@ piece) or the request ends otherwise (an error, a disconnect). Past
 from __future__ import annotations
 
 import threading
+from collections.abc import MutableMapping
 from typing import Any
 
 from service.errors import Overloaded
@@ -21,6 +22,17 @@ from service.errors import Overloaded
 LARGE_ANSWER_BYTES = 1 << 20
 """Answers below this size are not counted (the hot path stays free of it); at most
 `ROBODYN_MAX_CONNECTIONS` such answers are held at once anyway."""
+
+
+ANSWER_BYTES = "robodyn_answer_bytes"
+"""The ASGI scope's key of the answer bytes its request reserved."""
+
+
+def release_answer_bytes(scope: MutableMapping[str, Any], app: Any) -> None:
+    """Give back the answer bytes the request of `scope` reserved (once)."""
+    size = scope.pop(ANSWER_BYTES, 0)
+    if size:
+        app.state.answers_in_flight.release(size)
 
 
 class AnswerBytesInFlight:
@@ -49,7 +61,7 @@ class AnswerBytesInFlight:
             self.held += size
         return size
 
-    def resize(self, scope: dict[str, Any], key: str, size: int) -> None:
+    def resize(self, scope: MutableMapping[str, Any], key: str, size: int) -> None:
         """Lower the reservation held under `scope[key]` to `size` bytes, the answer as
         encoded (the estimate is an upper bound: JSON numbers are shorter than the longest)."""
         held = scope.get(key, 0)

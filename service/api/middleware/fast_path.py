@@ -16,7 +16,8 @@ from starlette.requests import ClientDisconnect, Request
 from starlette.types import Message, Receive, Scope, Send
 
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
-from service.api.routes.dynamics import ENDPOINTS, PREFIX, release_answer_bytes
+from service.api.encoding.in_flight import release_answer_bytes
+from service.api.routes.dynamics import ENDPOINTS, PREFIX
 from service.errors import InvalidInput
 
 _START = PREFIX + "/"

@@ -28,6 +28,7 @@ from service.api.deps import check_api_key_for_all
 from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
+from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
 from service.api.quantities import SPECS, Spec
 from service.api.schemas.common import Problem
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
@@ -68,10 +69,6 @@ async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) ->
         state.batches_in_flight -= 1
 
 
-ANSWER_BYTES = "robodyn_answer_bytes"
-"""The scope's key of the answer bytes a request reserved (`encoding.in_flight`)."""
-
-
 class _Sizing(NamedTuple):
     """How a request's answer is sized: its connection, the answer budget, its form."""
 
@@ -79,13 +76,6 @@ class _Sizing(NamedTuple):
     limit: int
     binary: bool
     named: bool
-
-
-def release_answer_bytes(scope: Any, app: Any) -> None:
-    """Give back the answer bytes the request of `scope` reserved (once)."""
-    size = scope.pop(ANSWER_BYTES, 0)
-    if size:
-        app.state.answers_in_flight.release(size)
 
 
 def _rows(arrays: dict[str, Any]) -> int:

@@ -17,6 +17,7 @@ import pytest
 from service.api.cancellation import STOPPED
 from service.api.encoding.in_flight import LARGE_ANSWER_BYTES
 from service.registry.catalog import load_catalog
+from tests.service.test_binary import BIN, encode_request
 from tests.service.test_contacts import contacts_of
 from tests.service.test_errors import assert_problem
 
@@ -178,3 +179,23 @@ def test_a_refused_work_names_what_fits_and_that_passes(small_app_factory):
     assert contact_api.post("/v1/robots/solo12/contact-dynamics", json={
         k: v[:fits] if isinstance(v, list) and k != "contacts" else v for k, v in batch.items()
     }).status_code == 200
+
+
+def test_a_100000_state_contact_batch_is_refused_at_once(api, catalog_registry):
+    """100,000 Solo-12 states with 16 damped 6d contacts (minutes of computing; its answer
+    fits the answer budget in the binary form): refused by its estimated work before anything
+    is computed, naming the states that fit."""
+    solo = catalog_registry.catalog["solo12"]
+    n = 100_000
+    q = np.repeat(np.array(SOLO_Q, dtype=float)[None], n, 0)
+    six_d = [{"frame": f.name, "type": "6d"} for f in solo.model.frames
+             if f.type == pin.FrameType.BODY and f.parentJoint > 1]
+    body = encode_request({"q": q, "v": np.zeros((n, 18)), "tau": np.zeros((n, 18))},
+                          {"contacts": (six_d * 16)[:16], "damping": 0.1})
+    started = time.perf_counter()
+    r = api.post("/v1/robots/solo12/contact-dynamics", content=body,
+                 headers={"content-type": BIN, "accept": BIN})
+    problem = assert_problem(r, 422, "validation_error")
+    assert "ROBODYN_MAX_WORK" in problem["detail"] and "100000 states" in problem["detail"]
+    assert 0 < problem["largest_batch"] < 100_000 and problem["work"] > problem["max_work"]
+    assert time.perf_counter() - started < 5.0

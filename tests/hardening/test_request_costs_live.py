@@ -31,6 +31,7 @@ SOLO_Q = [0, 0, 0.235, 0, 0, 0, 1,
           0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
 IN_FLIGHT = 300_000_000  # one 7,000-state Talos mass-matrix answer (~250 MB estimated)
 DEADLINE_S = 2.0
+REPEAT = 4  # a refusal takes milliseconds: repeated, so that p99 is not one probe's worst
 
 
 @pytest.fixture(scope="module")
@@ -73,11 +74,13 @@ def test_a_contact_heavy_simulation_is_refused_at_once(base, robots) -> None:
             "steps": 100_000, "integrator": "rk4", "contacts": _six_d(talos, 64),
             "damping": 0.1}
     started = time.perf_counter()
-    r, latencies = health_latencies_during(
-        base, lambda: httpx.post(base + "/v1/robots/talos/simulate", json=body, timeout=60))
-    assert r.status_code == 422 and "ROBODYN_MAX_WORK" in r.json()["detail"]
-    assert r.json()["largest_steps"] >= 0
-    assert time.perf_counter() - started < 5
+    answers, latencies = health_latencies_during(base, lambda: [  # a few, for enough probes
+        httpx.post(base + "/v1/robots/talos/simulate", json=body, timeout=60)
+        for _ in range(REPEAT)])
+    for r in answers:
+        assert r.status_code == 422 and "ROBODYN_MAX_WORK" in r.json()["detail"]
+        assert r.json()["largest_steps"] >= 0
+    assert time.perf_counter() - started < 5 * REPEAT
     _assert_live(latencies)
 
 
@@ -91,11 +94,12 @@ def test_a_100000_state_contact_batch_is_refused_at_once(base, robots) -> None:
     """100,000 states with 16 damped 6d contacts (minutes of computing; the answer, 91 MB in
     the binary form, is within the answer budget): refused by its work at once."""
     body = _solo_batch(100_000, _six_d(robots["solo12"], 16), damping=0.1)
-    r, latencies = health_latencies_during(base, lambda: httpx.post(
+    answers, latencies = health_latencies_during(base, lambda: [httpx.post(
         base + "/v1/robots/solo12/contact-dynamics", content=body,
-        headers={"content-type": BIN, "accept": BIN}, timeout=60))
-    assert r.status_code == 422, r.text[:300]
-    assert "ROBODYN_MAX_WORK" in r.json()["detail"] and r.json()["largest_batch"] < 100_000
+        headers={"content-type": BIN, "accept": BIN}, timeout=60) for _ in range(REPEAT)])
+    for r in answers:
+        assert r.status_code == 422, r.text[:300]
+        assert "ROBODYN_MAX_WORK" in r.json()["detail"] and r.json()["largest_batch"] < 100_000
     _assert_live(latencies)
 
 

@@ -32,6 +32,7 @@ from service.api.encoding.budget import (
     check_answer_size,
     key_bytes,
 )
+from service.api.problems.validation_errors import json_prefix, pydantic_errors
 from service.api.quantities import SPECS, Spec
 from service.api.schemas.common import Problem
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
@@ -88,8 +89,13 @@ def _media_types(headers: list[tuple[bytes, bytes]]) -> tuple[str, str]:
     return content_type or "", accept or ""
 
 
-def _invalid(exc: ValidationError) -> RequestValidationError:
-    return RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in exc.errors()])
+def _invalid(exc: ValidationError, model: type[BaseModel], data: Callable[[], Any],
+             partial: bool = False) -> RequestValidationError:
+    """The request error of a failed validation by `model`, with at most a few hundred error
+    objects built whatever the number of mistakes (`pydantic_errors`; `data()`: the body, or
+    with `partial` its beginning, as decoded JSON, read again only then)."""
+    return RequestValidationError([{**e, "loc": ("body", *e["loc"])}
+                                   for e in pydantic_errors(exc, model, data, partial)])
 
 
 class Endpoint:
@@ -113,7 +119,7 @@ class Endpoint:
         try:
             parsed = self.model.model_validate_json(body)
         except ValidationError as exc:
-            raise _invalid(exc) from None
+            raise _invalid(exc, self.model, lambda: json_prefix(body), partial=True) from None
         return self._split(parsed)
 
     def parse_object(self, body: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -121,7 +127,7 @@ class Endpoint:
         try:
             parsed = self.model.model_validate(body)
         except ValidationError as exc:
-            raise _invalid(exc) from None
+            raise _invalid(exc, self.model, lambda: body) from None
         return self._split(parsed)
 
     def _split(self, parsed: BaseModel) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -143,7 +149,7 @@ class Endpoint:
         try:
             options = self.options_model.model_validate(fields)
         except ValidationError as exc:
-            raise _invalid(exc) from None
+            raise _invalid(exc, self.options_model, lambda: fields) from None
         given = options.model_fields_set
         return arrays, (options.model_dump(include=given) if given else {})
 

@@ -118,11 +118,12 @@ def _truncated(value: Any, keep: frozenset[str], depth: int = 0) -> Any:
 # `function-after[...]`, ...) as opposed to field names, keys and indices.
 _MEMBER = re.compile(r"^(float|int|str|bool|bytes|none|list|dict|set|tuple|union|literal|model|"
                      r"nullable|tagged-union|lax-or-strict|json-or-python|is-instance|"
-                     r"constrained-\w+|function-\w+)(\[.*\])?$")
+                     r"constrained-\w+|function-\w+|JointState)(\[.*\])?$")
 _KINDS = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true or false",
           "none": "null", "list": "an array", "dict": "an object", "tuple": "an array"}
 _PLURALS = {"a number": "numbers", "an integer": "integers", "a string": "strings",
             "true or false": "booleans", "an object": "objects", "an array": "arrays"}
+_NOT_ITS_MEMBERS = ("missing", "extra_forbidden")
 _REWORDED = {"extra_forbidden": "is not a field of this request"}
 
 
@@ -228,14 +229,17 @@ def _resolve(errors: list[_Error]) -> list[_Error]:
 def _best(prefix: tuple[Any, ...], members: dict[str, list[_Error]]) -> list[_Error]:
     """The errors of the member matching best, or one error listing what the field takes."""
     def misfit(errs: list[_Error]) -> bool:  # the value itself is not of the member's type
-        return any(e.wrong_type and len(e.loc) == len(prefix) for e in errs)
+        return any((e.wrong_type and len(e.loc) == len(prefix))  # (nor an object lacking a
+                   or (e.type == "missing" and len(e.loc) == len(prefix) + 1)  # model's field)
+                   for e in errs)
 
     fitting = {name: errs for name, errs in members.items() if not misfit(errs)}
     if not fitting:
         accepted = _alternatives([_describe(name) for name in members])
         return [_Error(prefix, "union_type", f"must be {accepted}")]
-    best = min(fitting.values(), key=lambda errs: (
-        sum(e.wrong_type for e in errs), -max(len(e.loc) for e in errs), len(errs)))
+    best = min(fitting.values(), key=lambda errs: (  # a member missing, or not having, a
+        sum(e.wrong_type or e.type in _NOT_ITS_MEMBERS for e in errs),  # model's field fits less
+        -max(len(e.loc) for e in errs), len(errs)))
     return best
 
 

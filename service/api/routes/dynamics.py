@@ -120,7 +120,16 @@ class Endpoint:
             parsed = self.model.model_validate_json(body)
         except ValidationError as exc:
             raise _invalid(exc, self.model, lambda: json_prefix(body), partial=True) from None
-        return self._split(parsed)
+        arrays, options = self._split(parsed)
+        self.refuse_repeated_names(body, arrays, options)
+        return arrays, options
+
+    def refuse_repeated_names(self, body: bytes | bytearray | str, arrays: dict[str, Any],
+                              options: dict[str, Any]) -> None:
+        """422 for a joint named twice in a name-keyed input of the JSON `body` (checked only
+        when some input is keyed by name)."""
+        if inputs.names_keyed(self.quantity, arrays, options):
+            inputs.refuse_repeated_names(body)
 
     def parse_object(self, body: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
         """(joint-space arrays, options) of an already decoded JSON object."""

@@ -50,7 +50,9 @@ def _parse_text(text: str) -> tuple[Endpoint, dict[str, Any], dict[str, Any]]:
     if not isinstance(body, dict):
         raise InvalidInput("the message must be a JSON object with a 'quantity' member")
     endpoint = _endpoint(body.pop("quantity", None))
-    return (endpoint, *endpoint.parse_object(body))
+    arrays, options = endpoint.parse_object(body)
+    endpoint.refuse_repeated_names(text, arrays, options)
+    return endpoint, arrays, options
 
 
 async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) -> None:

@@ -22,9 +22,9 @@ from pydantic import (
 from pydantic_core import PydanticCustomError, core_schema
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
+JointName = Annotated[str, Field(max_length=256)]
 # A joint-space vector keyed by joint name (see service.api.inputs): a number or a list per joint.
-JointsByName = dict[Annotated[str, Field(max_length=256)], Number | list[Number]]
-JointArray = list[Number] | list[list[Number]] | JointsByName | list[JointsByName]
+JointsByName = dict[JointName, Number | list[Number]]
 
 
 def joint_field(desc: str, default: Any = ...) -> Any:
@@ -33,7 +33,9 @@ def joint_field(desc: str, default: Any = ...) -> Any:
                  "Instead of an array, an object keyed by joint name (every joint named once, "
                  "or some left out with `fill`; a number or a 1-list for a 1-dof joint, the "
                  "angle θ or [cos θ, sin θ] for a continuous joint's q, the joint's entries "
-                 "for others), or a list of such objects for a batch.")
+                 "for others), or a list of such objects for a batch; or a ROS JointState "
+                 "as JSON ({\"name\": [...], \"position\": [...], \"velocity\": [...], "
+                 "\"effort\": [...]}: q takes its positions, v its velocities, τ its efforts).")
 
 
 Q_DESC = ("Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "
@@ -116,6 +118,23 @@ class RoutedRequest(StrictRequest):
     @classmethod
     def _many_unknown_members(cls, data: Any) -> Any:
         return _refuse_many_unknown(frozenset(cls.model_fields), data)
+
+
+class JointState(StrictRequest):
+    """A ROS `sensor_msgs/JointState` as JSON (what rosbridge and `json.dumps` of a message
+    give): joint names with their positions (rad or m), velocities (rad/s or m/s) and efforts
+    (N·m or N), one number per name; empty lists where not measured. Taken as q (`position`),
+    v (`velocity`) or τ (`effort`) wherever a joint-space input may be keyed by joint name."""
+
+    name: list[JointName] = Field(max_length=10_000, description="Joint names, each once.")
+    position: list[Number] = Field([], description="One per name, rad or m (q).")
+    velocity: list[Number] = Field([], description="One per name, rad/s or m/s (v).")
+    effort: list[Number] = Field([], description="One per name, N·m or N (τ).")
+    header: dict[str, Any] | None = Field(None, description="The message's header: ignored.")
+
+
+JointArray = (list[Number] | list[list[Number]] | JointState | JointsByName | list[JointState]
+              | list[JointsByName])
 
 
 class QRequest(StrictRequest):

@@ -47,15 +47,16 @@ def pydantic_errors(exc: ValidationError, model: type[BaseModel] | None = None,
     beginning of the body (`json_prefix`), so members and items it cut off are not errors."""
     count = exc.error_count()
     if count <= MAX_ERRORS_READ:
-        return list(exc.errors(include_url=False, include_context=False, include_input=False))
+        return [dict(e) for e in exc.errors(include_url=False, include_context=False,
+                                            include_input=False)]
     sample: list[dict[str, Any]] = []
     if model is not None and data is not None:
         try:
             model.model_validate(_truncated(data(), _field_names(model)))
         except ValidationError as again:
             if again.error_count() <= MAX_ERRORS_READ:
-                sample = [e for e in again.errors(include_url=False, include_context=False,
-                                                  include_input=False)
+                sample = [dict(e) for e in again.errors(include_url=False, include_context=False,
+                                                        include_input=False)
                           if not (partial and e["type"] in _CUT_OFF)]
         except Exception:
             sample = []
@@ -88,7 +89,8 @@ def _field_names(model: type[BaseModel]) -> frozenset[str]:
 
 
 def _models_in(annotation: Any) -> list[Any]:
-    out, todo = [], [annotation]
+    out: list[Any] = []
+    todo = [annotation]
     while todo and len(out) < 64:
         t = todo.pop()
         if isinstance(t, type) and issubclass(t, BaseModel):

@@ -34,7 +34,7 @@ from service.api.encoding.budget import (
 )
 from service.api.problems.validation_errors import json_prefix, pydantic_errors
 from service.api.quantities import SPECS, Spec
-from service.api.schemas.common import Problem
+from service.api.schemas.common import Problem, StrictRequest
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
 
 T = TypeVar("T")
@@ -111,7 +111,7 @@ class Endpoint:
             name: (info.annotation, info) for name, info in self.model.model_fields.items()
             if name not in self.joint_inputs}
         self.options_model = create_model(  # the non-array fields, for binary bodies
-            f"{self.model.__name__}Options", __config__=self.model.model_config, **fields)
+            f"{self.model.__name__}Options", __base__=StrictRequest, **fields)
 
     def parse_json(self, body: bytes | bytearray | str
                    ) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -56,7 +56,7 @@ def _errors(model: type[BaseModel], body: bytes) -> ValidationError:
 
 
 @pytest.mark.parametrize("name", sorted(SPECS))
-def test_100000_wrong_numbers_are_as_many_errors_as_2(name):
+def test_20000_wrong_numbers_are_as_many_errors_as_2(name):
     """Before: one error per string and per member of q's union, 300,000 objects (8.6 s).
     Now each member of the union stops at its first wrong item: as many errors as for a body
     with two wrong numbers."""
@@ -64,7 +64,7 @@ def test_100000_wrong_numbers_are_as_many_errors_as_2(name):
         body = orjson.dumps({"q": ["x"] * n, "v": [["x"] * 3] * n})
         return _errors(SPECS[name].request, body).error_count()
 
-    assert count(100_000) == count(2) <= 20
+    assert count(20_000) == count(2) <= 20
 
 
 class _Counting:

@@ -54,6 +54,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if not injected and not registry.ready:
             threading.Thread(target=registry.load, name="catalog-loader", daemon=True).start()
+        # The OpenAPI document (~0.5 s to build) is read by the first validation error, for
+        # close-match suggestions: built now, not on the event loop under that request.
+        app.openapi()
         yield
 
     options: dict[str, Any] = {}

@@ -34,7 +34,12 @@ from service.api.encoding.budget import (
 )
 from service.api.problems.validation_errors import json_prefix, pydantic_errors
 from service.api.quantities import SPECS, Spec
-from service.api.schemas.common import Problem, StrictRequest
+from service.api.schemas.common import (
+    MAX_UNKNOWN_MEMBERS,
+    Problem,
+    StrictRequest,
+    shortened,
+)
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
 
 T = TypeVar("T")
@@ -155,6 +160,12 @@ class Endpoint:
                      f"missing array {missing[0]!r}")
             raise InvalidInput(f"binary body: {wrong}; {self.quantity.name} takes "
                                f"the arrays {', '.join(self.joint_inputs)}")
+        allowed = self.options_model.model_fields
+        if len(fields) > len(allowed) + MAX_UNKNOWN_MEMBERS:  # counted, not one error each
+            unknown = [name for name in fields if name not in allowed]
+            raise InvalidInput(f"binary body: __metadata__ has {len(unknown)} names that are not "
+                               f"fields of this request (the first: {shortened(unknown[0])!r}); "
+                               f"{self.quantity.name} takes {', '.join(allowed)}")
         try:
             options = self.options_model.model_validate(fields)
         except ValidationError as exc:

@@ -34,12 +34,7 @@ from service.api.encoding.budget import (
 )
 from service.api.problems.validation_errors import json_prefix, pydantic_errors
 from service.api.quantities import SPECS, Spec
-from service.api.schemas.common import (
-    MAX_UNKNOWN_MEMBERS,
-    Problem,
-    StrictRequest,
-    shortened,
-)
+from service.api.schemas.common import Problem, StrictRequest, many_unknown_members
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
 
 T = TypeVar("T")
@@ -138,6 +133,10 @@ class Endpoint:
 
     def parse_object(self, body: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
         """(joint-space arrays, options) of an already decoded JSON object."""
+        many = many_unknown_members(self.model.model_fields, body)  # counted, not listed
+        if many is not None:
+            raise InvalidInput(f"the message has {many[0]} members that are not fields of "
+                               f"{self.quantity.name} (the first: {many[1]!r})")
         try:
             parsed = self.model.model_validate(body)
         except ValidationError as exc:
@@ -161,10 +160,10 @@ class Endpoint:
             raise InvalidInput(f"binary body: {wrong}; {self.quantity.name} takes "
                                f"the arrays {', '.join(self.joint_inputs)}")
         allowed = self.options_model.model_fields
-        if len(fields) > len(allowed) + MAX_UNKNOWN_MEMBERS:  # counted, not one error each
-            unknown = [name for name in fields if name not in allowed]
-            raise InvalidInput(f"binary body: __metadata__ has {len(unknown)} names that are not "
-                               f"fields of this request (the first: {shortened(unknown[0])!r}); "
+        many = many_unknown_members(allowed, fields)  # counted, not one error each
+        if many is not None:
+            raise InvalidInput(f"binary body: __metadata__ has {many[0]} names that are not "
+                               f"fields of this request (the first: {many[1]!r}); "
                                f"{self.quantity.name} takes {', '.join(allowed)}")
         try:
             options = self.options_model.model_validate(fields)

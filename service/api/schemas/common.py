@@ -8,7 +8,6 @@ every error answer.
 from __future__ import annotations
 
 import functools
-import itertools
 from typing import Annotated, Any
 
 from pydantic import (
@@ -95,16 +94,24 @@ def shortened(name: Any, chars: int = _NAME_CHARS) -> str:
     return text if len(text) <= chars else text[:chars] + "…"
 
 
-def _refuse_many_unknown(fields: frozenset[str], data: Any) -> Any:
-    if isinstance(data, dict) and len(data) > len(fields) + MAX_UNKNOWN_MEMBERS:
-        unknown = len(data) - len(data.keys() & fields)
+def many_unknown_members(allowed: Any, data: Any) -> tuple[int, str] | None:
+    """(how many, the first) of the members of the object `data` not among `allowed` (a
+    mapping or set of names) when there are more than `MAX_UNKNOWN_MEMBERS`; else None.
+    Work: constant unless there are that many (then a pass over the member names)."""
+    if isinstance(data, dict) and len(data) > len(allowed) + MAX_UNKNOWN_MEMBERS:
+        unknown = len(data) - len(data.keys() & set(allowed))
         if unknown > MAX_UNKNOWN_MEMBERS:
-            first = [shortened(k) for k in itertools.islice(
-                (k for k in data if k not in fields), 3)]
-            raise PydanticCustomError(
-                "too_many_unknown_members",
-                "has {count} members that are not fields of this request (the first: {first})",
-                {"count": unknown, "first": ", ".join(repr(k) for k in first)})
+            return unknown, shortened(next(k for k in data if k not in allowed))
+    return None
+
+
+def _refuse_many_unknown(fields: frozenset[str], data: Any) -> Any:
+    many = many_unknown_members(fields, data)
+    if many is not None:
+        raise PydanticCustomError(
+            "too_many_unknown_members",
+            "has {count} members that are not fields of this request (the first: '{first}')",
+            {"count": many[0], "first": many[1]})
     return data
 
 

@@ -148,3 +148,13 @@ def test_a_stream_message_flood_is_a_small_problem(api):
         assert len(orjson.dumps(problem)) < 2000
         ws.send_text(orjson.dumps({"quantity": "gravity", "q": [0] * 6}).decode())
         assert "gravity" in orjson.loads(ws.receive_text())
+
+
+def test_the_sample_of_a_flood_does_not_blame_what_its_prefix_cut_off(api):
+    """The sample comes from the body's first 64 kB: `q`, sent after 100,000 unknown members,
+    is not reported missing."""
+    body = {**{f"m{i}": 1 for i in range(100_000)}, "q": [0] * 6}
+    problem = api.post("/v1/robots/ur5/gravity", json=body).json()
+    locs = [e["loc"] for e in problem["errors"]]
+    assert "q" not in locs and locs[:2] == ["m0", "m1"], locs
+    assert problem["errors"][-1]["msg"].startswith("has 100000 mistakes in all")

@@ -26,7 +26,7 @@ def _blocks(lang: str) -> list[str]:
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with running_server(tmp_path_factory.mktemp("readme"), catalog="ur5,solo12") as url:
+    with running_server(tmp_path_factory.mktemp("readme"), catalog="ur5,solo12,planar_arm") as url:
         yield url
 
 
@@ -74,7 +74,7 @@ def _curl_commands() -> list[str]:
 
 def test_the_curl_examples_run(server: str) -> None:
     commands = _curl_commands()
-    assert len(commands) == 3
+    assert len(commands) == 6
     host = server.removeprefix("http://")
     answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
                for c in commands]
@@ -88,4 +88,27 @@ def test_the_curl_examples_run(server: str) -> None:
         shown, standing["residual"])  # the README shows what the server answers, roughly
     mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
     assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
-    assert answers[2]["id"].startswith("u-") and answers[2]["name"] == "my arm"
+    _check_payload_examples(server, answers[2], answers[3])
+    equations = answers[4]  # the planar arm's M(q) as the README shows it
+    assert equations["mass_matrix"]["expressions"] == [
+        ["4.235 + 2.1*cos(q2)", "0.735 + 1.05*cos(q2)"], ["0.735 + 1.05*cos(q2)", "0.735"]]
+    assert equations["gravity"]["expressions"] == [
+        "34.335*cos(q1) + 10.3005*cos(q1 + q2)", "10.3005*cos(q1 + q2)"]
+    assert answers[5]["id"].startswith("u-") and answers[5]["name"] == "my arm"
+
+
+def _check_payload_examples(server: str, holding: dict, capacity: dict) -> None:
+    """The UR5 holding 3 kg needs more shoulder and elbow torque than without it (about 3 kg ×
+    g × a 0.39 m lever); at its capacity the shoulder is exactly at its 150 N·m, and the
+    capacity is where the affine τ(m) = τ₀ + m τ₁ of the two answers meets that limit."""
+    import httpx
+
+    q = [0, -1.57, 1.57, 0, 0, 0]
+    bare = httpx.post(f"{server}/v1/robots/ur5/gravity", json={"q": q}).json()["gravity"]
+    per_kg = [(h - b) / 3.0 for h, b in zip(holding["gravity"], bare, strict=True)]
+    assert per_kg[1] < -3.0 and per_kg[2] < -3.0  # N·m/kg: a lever of over 0.3 m
+    assert capacity["limiting_joint"] == "shoulder_lift_joint" and capacity["tau"][1] == -150.0
+    assert abs(capacity["mass"] - (-150.0 - bare[1]) / per_kg[1]) < 1e-9 * capacity["mass"]
+    at = httpx.post(f"{server}/v1/robots/ur5/gravity", json={
+        "q": q, "payloads": [{"frame": "tool0", "mass": capacity["mass"]}]}).json()["gravity"]
+    assert abs(at[1] + 150.0) < 1e-9 and abs(at[2]) <= 150.0

@@ -40,6 +40,7 @@ import numpy as np
 
 from service.api.schemas.common import JointState
 from service.dynamics import Quantity
+from service.dynamics.payloads import robot_with_payloads
 from service.errors import DimensionMismatch, InvalidInput, did_you_mean
 from service.registry.robot import Robot
 from service.states import SPACES, States, prepare
@@ -222,6 +223,20 @@ def by_name(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]) -> 
     return out
 
 
+def joint_layout(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]
+                 ) -> dict[str, Any]:
+    """`results` as they are (the joint-space vectors stay arrays), with `joint_names`: for
+    each of `fields` present, its joints as `[name, start, size]` over the last axis (nq
+    for "q", else nv). The binary form's answer with `"joint_names": true`: the names once,
+    not per row (a 40,000-step trajectory keyed per row made a header of 100 MB)."""
+    out = dict(results)
+    out["joint_names"] = {
+        field: [[name, start, size] for name, (start, size, _) in
+                _layout(robot, "nq" if field == "q" else "nv").items()]
+        for field in fields if field in out}
+    return out
+
+
 def _keyed(values: np.ndarray, parts: list[tuple[str, int, int]]) -> Any:
     if values.ndim > 1:
         return [_keyed(row, parts) for row in values]
@@ -297,8 +312,10 @@ def names_keyed(quantity: Quantity, arrays: Mapping[str, Any], options: Mapping[
 
 
 def robot_for(robot: Robot, options: dict[str, Any]) -> Robot:
-    """The robot a request computes with: `robot` itself today. The one place where an
-    option that modifies the model for every quantity alike (e.g. payloads attached to
-    links) turns the stored robot into the one computed with, before any quantity runs;
-    such an option is popped from `options` here, so `compute` never sees it."""
-    return robot
+    """The robot a request computes with. The one place where an option that modifies the
+    model for every quantity alike turns the stored robot into the one computed with, before
+    any quantity runs; such an option is popped from `options` here, so `compute` never sees
+    it. `payloads`: the robot carrying them (`service.dynamics.payloads`: checked, composed
+    into a copy of the model, cached per robot and payload set)."""
+    payloads = options.pop("payloads", None)
+    return robot_with_payloads(robot, payloads) if payloads else robot

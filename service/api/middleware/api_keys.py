@@ -13,15 +13,34 @@ from typing import Any
 
 from starlette.requests import HTTPConnection
 
-from service.api.deps import check_api_key, check_api_key_for_all
+from service.api.deps import check_api_key, check_api_key_for_all, require_api_key
 from service.api.problems.handlers import error_response
 from service.errors import Unauthorized
 
 Scope = dict[str, Any]
-# The routes that need a key whenever keys are set (`require_api_key` in the routers).
-_ALWAYS_GUARDED = (("POST", re.compile(r"^/v1/robots/?$")),
-                   ("POST", re.compile(r"^/v1/robots/[^/]+/reduce/?$")),
-                   ("DELETE", re.compile(r"^/v1/robots/[^/]+/?$")))
+
+
+def _guarded_routes(app: Any) -> list[tuple[set[str], re.Pattern[str]]]:
+    """(methods, path pattern) of the app's routes that depend on `require_api_key` (uploads,
+    reductions, variants, deletions): read from the routers, so a new guarded route is
+    guarded here too."""
+    out = []
+    routes = list(getattr(app, "routes", ()))
+    while routes:
+        route = routes.pop()
+        included = getattr(route, "original_router", None)  # FastAPI's included routers
+        if included is not None:
+            routes.extend(included.routes)
+            continue
+        dependant = getattr(route, "dependant", None)
+        todo = list(getattr(dependant, "dependencies", ()))
+        while todo:
+            dependency = todo.pop()
+            if dependency.call is require_api_key:
+                out.append((set(route.methods), route.path_regex))
+                break
+            todo.extend(dependency.dependencies)
+    return out
 
 
 class KeyBeforeBody:
@@ -30,15 +49,18 @@ class KeyBeforeBody:
 
     def __init__(self, app: Any) -> None:
         self.app = app
+        self.guarded: list[tuple[set[str], re.Pattern[str]]] | None = None
 
     async def __call__(self, scope: Scope, receive: Any, send: Any) -> None:
         if (scope["type"] == "http" and scope["path"].startswith("/v1/")
                 and scope["app"].state.api_keys):
+            if self.guarded is None:
+                self.guarded = _guarded_routes(scope["app"])
             connection = HTTPConnection(scope)
             try:
                 check_api_key_for_all(connection)
-                if any(scope["method"] == method and pattern.match(scope["path"])
-                       for method, pattern in _ALWAYS_GUARDED):
+                if any(scope["method"] in methods and pattern.match(scope["path"])
+                       for methods, pattern in self.guarded):
                     check_api_key(connection)
             except Unauthorized as exc:
                 await error_response(exc)(scope, receive, send)

@@ -25,12 +25,14 @@ from robodyn.contacts import (
     ContactTrajectory,
     ImpulseDynamics,
 )
+from robodyn.equations import EntryStructure, Equations, EquationsStructure, Expressions
 from robodyn.errors import (
     APIError,
     AssetNotFoundError,
     BadRequestError,
     CatalogRobotError,
     ConflictError,
+    DeadlineExceededError,
     DimensionMismatchError,
     InputError,
     InternalServerError,
@@ -54,11 +56,12 @@ from robodyn.errors import (
     UnknownFrameError,
     UnprocessableError,
     UnsupportedMediaTypeError,
+    UnsupportedModelError,
     ValidationError,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
-from robodyn.payloads import Payload
+from robodyn.payloads import CapacityMinimum, Payload, PayloadCapacity
 from robodyn.progress import Progress, ProgressCallback
 from robodyn.request_options import (
     Fill,
@@ -93,6 +96,7 @@ __all__ = [
     "AsyncStream",
     "BadRequestError",
     "BodyInertia",
+    "CapacityMinimum",
     "CatalogRobotError",
     "CenterOfMass",
     "Centroidal",
@@ -102,8 +106,13 @@ __all__ = [
     "ContactDynamics",
     "ContactInverseDynamics",
     "ContactTrajectory",
+    "DeadlineExceededError",
     "DimensionMismatchError",
     "Energy",
+    "EntryStructure",
+    "Equations",
+    "EquationsStructure",
+    "Expressions",
     "Fill",
     "Finding",
     "ForwardDynamicsDerivatives",
@@ -126,6 +135,7 @@ __all__ = [
     "OperationalSpace",
     "OverloadedError",
     "Payload",
+    "PayloadCapacity",
     "PayloadTooLargeError",
     "Progress",
     "ProgressCallback",
@@ -150,6 +160,7 @@ __all__ = [
     "UnknownFrameError",
     "UnprocessableError",
     "UnsupportedMediaTypeError",
+    "UnsupportedModelError",
     "ValidationError",
     "__version__",
 ]

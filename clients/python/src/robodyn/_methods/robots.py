@@ -1,5 +1,6 @@
 """Client methods of the service and its robots: health, the robot list, one robot,
-uploads, reductions, deletions and body inertias (`Client` and `AsyncClient` inherit them)."""
+uploads, reductions, variants, deletions, body inertias and the equations of motion in explicit
+form (`Client` and `AsyncClient` inherit them)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,9 @@ from typing import Any
 from robodyn._calls import robots as calls
 from robodyn._client import AsyncSender, SyncSender
 from robodyn.arrays import ArrayLike
+from robodyn.equations import Equations
 from robodyn.models import RobotInfo, RobotList
+from robodyn.payloads import PayloadsLike
 from robodyn.request_options import InertiaCheck, RootJoint
 from robodyn.results import Inertias
 from robodyn.uploads import AssetValue, Source
@@ -98,6 +101,38 @@ class RobotMethods(SyncSender):
         """
         return self._send(calls.inertias(robot_id))
 
+    def equations(self, robot_id: str) -> Equations:
+        """The equations of motion in explicit form, M(q) q̈ + C(q, q̇) q̇ + g(q) = τ, derived
+        symbolically by the server from the model's own numbers, for a fixed-base robot with at
+        most 6 moving joints, each revolute or prismatic: `Equations` with M(q), g(q), C(q, q̇),
+        the Christoffel symbols c_ijk and the energies T and U, each as text SymPy parses
+        (`.expressions`), LaTeX (`.latex`) and, with SymPy installed (the `sympy` extra),
+        SymPy objects (`.sympy()`); and the structure of M and g (per entry: the coordinates
+        it depends on, constant, zero). Coordinates q1 … qn follow `joints` (rad or m).
+
+        The server derives a robot's equations on its first request (a UR5: about 0.3 s; at
+        most its ROBODYN_EQUATIONS_TIMEOUT_S, 60 s by default) and keeps them. Raises
+        `RobotNotFoundError` for an unknown id, `UnsupportedModelError` for a model out of scope
+        (a floating base, a continuous or multi-DoF joint, more than 6 moving joints, or a
+        derivation past the server's time limit), the detail saying which.
+        """
+        return self._send(calls.equations(robot_id))
+
+    def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
+                locked_joints: Mapping[str, ArrayLike] | None = None,
+                name: str | None = None) -> RobotInfo:
+        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
+        the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
+        that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
+        one of the two. Its id derives from the parent's id and the modifications (the same on
+        every server, whatever the payloads' order; `created` tells whether it is new), its
+        `parent` and `modifications` say what it derives from, and it works on after the parent
+        is deleted. Locked joints alone give `reduce`'s model and id. Raises `ValidationError`
+        for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
+        frame the robot lacks.
+        """
+        return self._send(calls.variant(robot_id, payloads=payloads,
+                                        locked_joints=locked_joints, name=name))
 
 class AsyncRobotMethods(AsyncSender):
     """The service and robot methods of `AsyncClient`."""
@@ -182,3 +217,36 @@ class AsyncRobotMethods(AsyncSender):
         the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
         """
         return await self._send(calls.inertias(robot_id))
+
+    async def equations(self, robot_id: str) -> Equations:
+        """The equations of motion in explicit form, M(q) q̈ + C(q, q̇) q̇ + g(q) = τ, derived
+        symbolically by the server from the model's own numbers, for a fixed-base robot with at
+        most 6 moving joints, each revolute or prismatic: `Equations` with M(q), g(q), C(q, q̇),
+        the Christoffel symbols c_ijk and the energies T and U, each as text SymPy parses
+        (`.expressions`), LaTeX (`.latex`) and, with SymPy installed (the `sympy` extra),
+        SymPy objects (`.sympy()`); and the structure of M and g (per entry: the coordinates
+        it depends on, constant, zero). Coordinates q1 … qn follow `joints` (rad or m).
+
+        The server derives a robot's equations on its first request (a UR5: about 0.3 s; at
+        most its ROBODYN_EQUATIONS_TIMEOUT_S, 60 s by default) and keeps them. Raises
+        `RobotNotFoundError` for an unknown id, `UnsupportedModelError` for a model out of scope
+        (a floating base, a continuous or multi-DoF joint, more than 6 moving joints, or a
+        derivation past the server's time limit), the detail saying which.
+        """
+        return await self._send(calls.equations(robot_id))
+
+    async def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
+                      locked_joints: Mapping[str, ArrayLike] | None = None,
+                      name: str | None = None) -> RobotInfo:
+        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
+        the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
+        that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
+        one of the two. Its id derives from the parent's id and the modifications (the same on
+        every server, whatever the payloads' order; `created` tells whether it is new), its
+        `parent` and `modifications` say what it derives from, and it works on after the parent
+        is deleted. Locked joints alone give `reduce`'s model and id. Raises `ValidationError`
+        for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
+        frame the robot lacks.
+        """
+        return await self._send(calls.variant(robot_id, payloads=payloads,
+                                              locked_joints=locked_joints, name=name))

@@ -37,6 +37,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
+from pydantic import ValidationError
 
 from service.api.schemas.common import JointState
 from service.dynamics import Quantity
@@ -67,7 +68,10 @@ def _joint_state(value: Any) -> JointState | None:
         return value
     if (type(value) is dict and type(value.get("name")) is list
             and value.keys() <= _JOINT_STATE_KEYS):
-        return JointState.model_validate(value)
+        try:
+            return JointState.model_validate(value)
+        except ValidationError:  # e.g. joints called "name" and "position": keyed by name
+            return None
     return None
 
 

@@ -139,3 +139,12 @@ def test_keys_repeated_outside_name_keyed_inputs_are_not_scanned(api):
     r = api.post("/v1/robots/ur5/gravity", content=text,
                  headers={"content-type": "application/json"})
     assert r.status_code == 200
+
+
+def test_joints_called_name_and_position_are_still_keyed_by_name():
+    """An object whose keys look like a JointState's but whose values are joint values (a
+    robot with joints called "name" and "position") is read as keyed by joint name."""
+    from service.api.inputs import _joint_state
+
+    assert _joint_state({"name": [0.1], "position": [0.2]}) is None
+    assert _joint_state({"name": ["j"], "position": [0.2]}) is not None

@@ -30,7 +30,7 @@ def _print(value: Any, printer: Callable[[sp.Expr], str]) -> Any:
     return printer(value)
 
 
-def _entry(value: Any, n: int) -> dict[str, Any]:
+def printed_entry(value: Any, n: int) -> dict[str, Any]:
     """{"expressions": SymPy's text, "latex": SymPy's LaTeX} of a Series or nested lists."""
     exprs = _convert(value)
     return {"expressions": _print(exprs, text),
@@ -51,12 +51,12 @@ def equations_answer(eq: Equations) -> dict[str, Any]:
         "joints": list(eq.joints),
         "coordinates": [f"q{i + 1}" for i in range(n)],
         "velocities": [f"dq{i + 1}" for i in range(n)],
-        "mass_matrix": _entry(eq.mass_matrix, n),
-        "gravity": _entry(eq.gravity, n),
-        "coriolis_matrix": _entry(eq.coriolis_matrix, n),
-        "christoffel": _entry(eq.christoffel, n),
-        "kinetic_energy": _entry(eq.kinetic_energy, n),
-        "potential_energy": _entry(eq.potential_energy, n),
+        "mass_matrix": printed_entry(eq.mass_matrix, n),
+        "gravity": printed_entry(eq.gravity, n),
+        "coriolis_matrix": printed_entry(eq.coriolis_matrix, n),
+        "christoffel": printed_entry(eq.christoffel, n),
+        "kinetic_energy": printed_entry(eq.kinetic_energy, n),
+        "potential_energy": printed_entry(eq.potential_energy, n),
         "structure": {
             "mass_matrix": [[entry_structure(s) for s in row] for row in eq.mass_matrix],
             "gravity": [entry_structure(s) for s in eq.gravity],

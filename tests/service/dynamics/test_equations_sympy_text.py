@@ -8,6 +8,7 @@ import pinocchio as pin
 import sympy as sp
 
 from service.dynamics.equations import derive_equations, equations_answer
+from service.dynamics.equations.answer import printed_entry
 from service.dynamics.equations.series import Series
 from service.registry.catalog import load_catalog
 from tests.helpers import skewed_arm_urdf
@@ -34,7 +35,7 @@ def _names(n: int) -> tuple[dict[str, sp.Symbol], dict[sp.Symbol, str]]:
 
 def _check_round_trip(model, quantities) -> None:
     eq = derive_equations(model)
-    answer = equations_answer(eq)
+    answer = _answer(eq, quantities)
     locals_, latex_names = _names(model.nv)
     for quantity in quantities:
         texts = _flat(answer[quantity]["expressions"], [])
@@ -53,6 +54,14 @@ def _check_round_trip(model, quantities) -> None:
             assert floats == {x for x in derived if not x.is_integer()}
             integers = {abs(int(x)) for x in parsed.atoms(sp.Integer)} | {1}
             assert {int(x) for x in derived if x.is_integer()} <= integers
+
+
+def _answer(eq, quantities) -> dict:
+    """The service's answer, or for the UR5 (whose whole answer takes seconds to print) the
+    same printing of the chosen quantities only."""
+    if len(quantities) == len(QUANTITIES):
+        return equations_answer(eq)
+    return {q: printed_entry(getattr(eq, q), len(eq.joints)) for q in quantities}
 
 
 def test_text_round_trips_through_sympy_for_textbook_and_skewed_arms():

@@ -357,7 +357,7 @@ def test_the_examples_of_the_client_guide_run(server: str,
     out = capsys.readouterr().out
     assert "6000/6000 steps" in out and "422 dimension_mismatch ['panda_joint2'" in out
     assert "34.87 shoulder_lift_joint" in out
-    assert "4.235 + 2.1*cos(q2)" in out  # the equations example
+    assert "2.1*cos(q2) + 4.235" in out  # the equations example
 
 
 def test_a_request_stopped_at_the_server_deadline_is_not_retried(real_retries: Any) -> None:

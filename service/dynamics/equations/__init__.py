@@ -2,11 +2,12 @@
 the energies of a fixed-base robot with at most six revolute or prismatic joints, derived
 symbolically from the model's own numbers (see docs/equations.md).
 
-    series          exact trigonometric polynomials (the algebra)
+    series          exact trigonometric polynomials (the algebra; see docs/equations.md,
+                    "Why not trigsimp", for why it is not SymPy's)
     model_numbers   the model's joints, placements, axes and inertias as exact decimals; scope
     derivation      M(q) and U(q) by the composite-rigid-body recursion on series
     explicit_form   g, Christoffel symbols, C, T from M and U; the noise cut; `derive_equations`
-    printing        text SymPy parses, and LaTeX
+    printing        each entry as a SymPy expression; its text (sp.sstr) and LaTeX (sp.latex)
     answer          the JSON answer with the structure of M and g
     isolated        the derivation in a child process with a time limit
     cache           each robot's answer, in memory and on disk, derived once

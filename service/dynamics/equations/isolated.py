@@ -39,7 +39,7 @@ from service.registry.build_process import (
 
 log = logging.getLogger("robodyn.equations")
 
-MEMORY_MB = 2048  # address space of the child (a skewed 6-joint arm peaks near 300 MB)
+MEMORY_MB = 2048  # address space of the child (a skewed 6-joint arm's derivation: ~300 MB)
 GRACE_S = 2.0  # the parent waits this much longer than the child's own time limit
 
 

@@ -1,126 +1,104 @@
-"""A `Series` as text SymPy parses and as LaTeX.
+"""A `Series` as a SymPy expression, and its text and LaTeX by SymPy's own printers.
 
-Names: the coordinates are q1 … qn and the velocities dq1 … dqn, in the order of the model's
-joints (q and v). Numbers are written to round-trip precision: the coefficient is rounded to the
-nearest double and written as Python's `repr` of it (the shortest decimal that reads back to the
-same double, at most 17 significant digits), so `0.7` stays `0.7`.
+Names: the coordinates are the symbols q1 … qn and the velocities dq1 … dqn, in the order of the
+model's joints (q and v). A term a · x^e · cos(k·q) becomes `a * x1**e1 * … * cos(k1*q1 + …)`
+with `sp.cos`/`sp.sin` of the integer combination of the q symbols (SymPy may flip the sign of
+the angle to its own canonical one, sin(−θ) = −sin θ, which changes nothing).
 
-Layout: the terms are grouped by their monomial in the prismatic coordinates and velocities
-(dq1*dq2, q3**2, …): a group of one term is written as one product, a larger group as the
-monomial times its trigonometric polynomial in parentheses, e.g.
-`dq2*(-0.5*sin(q2) + 0.25*sin(2*q2 + q3))`. Within a group the constant comes first, then the
-terms by increasing order of their frequency vector (cos before sin for the same angle).
+Numbers: each coefficient is rounded to the nearest double and taken as the shortest decimal that
+reads back to it (Python's `repr`, at most 17 significant digits), as a SymPy `Float` of
+`FLOAT_DIGITS` = 17 significant digits — or as an exact `Integer` when that double is a whole
+number below 2⁵³ (`cos(q2)`, not `1.0*cos(q2)`). SymPy's printers then write 0.7 as `0.7`.
+
+Layout: the terms are grouped by their monomial in the prismatic coordinates and velocities:
+a group of several terms is the monomial times their sum, e.g. `dq2*(-0.5*sin(q2) + 0.25*sin(2*q2
++ q3))` (SymPy keeps a symbol times a sum unexpanded); the order of the terms is SymPy's.
+
+Text: `sp.sstr(expr, full_prec=False)` — what `sympify` reads back to the same expression
+(`text(sympify(t)) == t`); `full_prec=False` so that a constant entry reads `0.735`, not
+`0.735000000000000`. LaTeX: `sp.latex(expr)`, the velocities written \\dot{q}_{i}.
 """
 
 from __future__ import annotations
 
 import functools
-from collections import defaultdict
 from decimal import Decimal
+
+import sympy as sp
 
 from service.dynamics.equations.series import COS, Series, unpack_key
 
-Term = tuple[tuple[int, ...], tuple[int, ...], int]  # (k, e, kind) unpacked
+FLOAT_DIGITS = 17
+_EXACT_INTEGERS = 2 ** 53
 
 
-def _number(c: Decimal) -> str:
-    return repr(float(c))
+@functools.lru_cache(maxsize=64)
+def coordinate(i: int) -> sp.Symbol:
+    """The symbol q{i+1} of coordinate i (from 0): rad or m."""
+    return sp.Symbol(f"q{i + 1}")
 
 
-def _latex_number(c: Decimal) -> str:
-    text = repr(float(c))
-    if "e" in text:
-        mantissa, exponent = text.split("e")
-        return rf"{mantissa} \cdot 10^{{{int(exponent)}}}"
-    return text
+@functools.lru_cache(maxsize=64)
+def velocity(i: int) -> sp.Symbol:
+    """The symbol dq{i+1} of velocity i (from 0): rad/s or m/s."""
+    return sp.Symbol(f"dq{i + 1}")
 
 
-@functools.lru_cache(maxsize=1 << 16)
-def _angle(k: tuple[int, ...], latex: bool) -> str:
-    parts: list[str] = []
-    for i, ki in enumerate(k):
-        if not ki:
-            continue
-        name = f"q_{{{i + 1}}}" if latex else f"q{i + 1}"
-        size = abs(ki)
-        factor = name if size == 1 else (f"{size} {name}" if latex else f"{size}*{name}")
-        if not parts:
-            parts.append(factor if ki > 0 else f"-{factor}")
-        else:
-            parts.append(f"{'+' if ki > 0 else '-'} {factor}")
-    return " ".join(parts)
-
-
-@functools.lru_cache(maxsize=1 << 12)
-def _monomial(e: tuple[int, ...], n: int, latex: bool) -> tuple[str, ...]:
-    factors = []
-    for i, ei in enumerate(e):
-        if not ei:
-            continue
-        j = i % n + 1
-        if latex:
-            base = f"q_{{{j}}}" if i < n else rf"\dot{{q}}_{{{j}}}"
-            factors.append(base if ei == 1 else f"{base}^{{{ei}}}")
-        else:
-            base = f"q{j}" if i < n else f"dq{j}"
-            factors.append(base if ei == 1 else f"{base}**{ei}")
-    return tuple(factors)
-
-
-@functools.lru_cache(maxsize=1 << 16)
-def _trig(k: tuple[int, ...], kind: int, latex: bool) -> tuple[str, ...]:
-    if not any(k):
-        return ()
-    fn = "cos" if kind == COS else "sin"
-    angle = _angle(k, latex)
-    return (rf"\{fn}\left({angle}\right)" if latex else f"{fn}({angle})",)
-
-
-def _product(c: Decimal, factors: list[str], latex: bool) -> str:
-    """c times the factors, the sign first: '-0.5*dq1*sin(q2)'."""
-    joiner = " " if latex else "*"
-    magnitude = c.copy_abs()
-    parts = list(factors)
-    if magnitude != 1 or not parts:
-        parts.insert(0, _latex_number(magnitude) if latex else _number(magnitude))
-    return ("-" if c < 0 else "") + joiner.join(parts)
-
-
-def _sum(products: list[str]) -> str:
-    out = products[0]
-    for p in products[1:]:
-        out += f" - {p[1:]}" if p.startswith("-") else f" + {p}"
+def symbols(n: int) -> dict[str, sp.Symbol]:
+    """The names the text uses for n joints, as `sympify(..., locals=symbols(n))` takes them."""
+    out = {f"q{i + 1}": coordinate(i) for i in range(n)}
+    out.update({f"dq{i + 1}": velocity(i) for i in range(n)})
     return out
 
 
-def _order(key: Term) -> tuple[int, tuple[int, ...], int]:
-    k, _, kind = key
-    return (sum(abs(x) for x in k), tuple(-x for x in k), kind)
+def number(c: Decimal) -> sp.Expr:
+    """The coefficient c as the nearest double: an `Integer` when it is a whole number, else a
+    17-digit `Float` of its shortest round-trip decimal."""
+    x = float(c)
+    if x.is_integer() and abs(x) < _EXACT_INTEGERS:
+        return sp.Integer(int(x))
+    return sp.Float(repr(x), FLOAT_DIGITS)
 
 
-def _monomial_order(e: tuple[int, ...]) -> tuple[int, tuple[int, ...]]:
-    return (sum(e), tuple(-x for x in e))
+@functools.lru_cache(maxsize=1 << 16)
+def _trig(k: tuple[int, ...], kind: int) -> sp.Expr:
+    angle = sp.Add(*[ki * coordinate(i) for i, ki in enumerate(k) if ki])
+    return sp.cos(angle) if kind == COS else sp.sin(angle)
 
 
-def render(series: Series, latex: bool = False) -> str:
-    """The series as SymPy-parsable text (`latex=False`) or as LaTeX; "0" when it is zero."""
-    if series.is_zero():
-        return "0"
+@functools.lru_cache(maxsize=1 << 12)
+def _monomial(e: tuple[int, ...], n: int) -> sp.Expr:
+    factors = []
+    for i, ei in enumerate(e):
+        if ei:
+            base = coordinate(i) if i < n else velocity(i - n)
+            factors.append(base if ei == 1 else sp.Pow(base, ei))
+    return sp.Mul(*factors)
+
+
+def to_sympy(series: Series) -> sp.Expr:
+    """The series as a SymPy expression in the symbols q1 … qn, dq1 … dqn (see the module
+    docstring); `sp.Integer(0)` when it is zero."""
     n = series.n
-    groups: dict[tuple[int, ...], list[tuple[Term, Decimal]]] = defaultdict(list)
+    groups: dict[tuple[int, ...], list[sp.Expr]] = {}
     for packed, c in series.terms.items():
-        key = unpack_key(packed, n)
-        groups[key[1]].append((key, c))
-    products: list[str] = []
-    for e in sorted(groups, key=_monomial_order):
-        terms = sorted(groups[e], key=lambda t: _order(t[0]))
-        mono = _monomial(e, n, latex)
-        if len(terms) == 1 or not mono:
-            for (k, _, kind), c in terms:
-                products.append(_product(c, [*mono, *_trig(k, kind, latex)], latex))
-            continue
-        inner = _sum([_product(c, list(_trig(k, kind, latex)), latex)
-                      for (k, _, kind), c in terms])
-        open_, close = (r"\left(", r"\right)") if latex else ("(", ")")
-        products.append(_product(Decimal(1), [*mono, f"{open_}{inner}{close}"], latex))
-    return _sum(products)
+        k, e, kind = unpack_key(packed, n)
+        term = number(c) if not any(k) else sp.Mul(number(c), _trig(k, kind))
+        groups.setdefault(e, []).append(term)
+    parts = []
+    for e, terms in groups.items():
+        mono = _monomial(e, n)
+        inner = sp.Add(*terms)
+        parts.append(inner if not any(e) else sp.Mul(mono, inner))
+    return sp.Add(*parts)
+
+
+def text(expr: sp.Expr) -> str:
+    """The expression as text `sympify` reads back to it (SymPy's str printer)."""
+    return sp.sstr(expr, full_prec=False)
+
+
+def latex(expr: sp.Expr, n: int) -> str:
+    """The expression as LaTeX (SymPy's printer), dq_i written \\dot{q}_{i}."""
+    names = {velocity(i): rf"\dot{{q}}_{{{i + 1}}}" for i in range(n)}
+    return sp.latex(expr, symbol_names=names)

@@ -1,5 +1,5 @@
 """The algebra of exact trigonometric polynomials: products, derivatives and the canonical form
-against numbers, and the text against SymPy."""
+against numbers, and their SymPy expressions, text and LaTeX."""
 
 from __future__ import annotations
 
@@ -10,10 +10,18 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from service.dynamics.equations.printing import render
+from service.dynamics.equations.printing import latex, symbols, text, to_sympy
 from service.dynamics.equations.series import COS, SIN, Series, pack, unpack
 
 N = 3
+
+
+def render(series: Series) -> str:
+    return text(to_sympy(series))
+
+
+def render_latex(series: Series) -> str:
+    return latex(to_sympy(series), series.n)
 
 
 def _random_series(rng: np.random.Generator, terms: int = 4) -> Series:
@@ -66,7 +74,7 @@ def test_canonical_form_collects_equal_expressions():
     assert (c12 - (c2 * c1 - s2 * s1)).is_zero()
     # sin² q2 = ½ − ½ cos 2q2
     assert render(s2 * s2) == "0.5 - 0.5*cos(2*q2)"
-    assert render(s2 * s2, latex=True) == r"0.5 - 0.5 \cos\left(2 q_{2}\right)"
+    assert render_latex(s2 * s2) == r"0.5 - 0.5 \cos{\left(2 q_{2} \right)}"
 
 
 def test_text_layout_and_numbers():
@@ -75,19 +83,20 @@ def test_text_layout_and_numbers():
     s2 = Series.trig(n, 1, SIN)
     expr = (dq1 * s2).scale(Decimal("-1.05")) + (dq2 * dq2).scale(Decimal("0.3675")) + (
         dq1 * (Series.constant(n, Decimal("2")) + Series.trig(n, 1, COS)))
-    assert render(expr) == "dq1*(2.0 + cos(q2) - 1.05*sin(q2)) + 0.3675*dq2**2"
-    assert render(expr, latex=True) == (
-        r"\dot{q}_{1} \left(2.0 + \cos\left(q_{2}\right) - 1.05 \sin\left(q_{2}\right)\right)"
+    # grouped by the monomial in the velocities; a whole coefficient is an exact integer
+    assert render(expr) == "dq1*(-1.05*sin(q2) + cos(q2) + 2) + 0.3675*dq2**2"
+    assert render_latex(expr) == (
+        r"\dot{q}_{1} \left(- 1.05 \sin{\left(q_{2} \right)} + \cos{\left(q_{2} \right)} + 2\right)"
         r" + 0.3675 \dot{q}_{2}^{2}")
     tiny = Series.constant(n, Decimal("1.5e-12")) * s2
     assert render(tiny) == "1.5e-12*sin(q2)"
-    assert render(tiny, latex=True) == r"1.5 \cdot 10^{-12} \sin\left(q_{2}\right)"
+    assert render_latex(tiny) == r"1.5 \cdot 10^{-12} \sin{\left(q_{2} \right)}"
     assert render(Series(n)) == "0"
     # a coefficient beyond double precision is written as the nearest double, round trip
     third = Series.constant(n, Decimal(1) / Decimal(3))
     assert float(render(third)) == 1 / 3 and render(third) == repr(1 / 3)
     q1, q2, d1, d2 = sp.symbols("q1 q2 dq1 dq2")
-    parsed = sp.sympify(render(expr), locals={"q1": q1, "q2": q2, "dq1": d1, "dq2": d2})
+    parsed = sp.sympify(render(expr), locals=symbols(n))
     x = {q1: 0.3, q2: -1.1, d1: 0.7, d2: 2.0}
     assert float(parsed.subs(x)) == pytest.approx(expr.evaluate([0.3, -1.1], [0.7, 2.0]))
 

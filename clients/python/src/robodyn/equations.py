@@ -7,7 +7,7 @@ and velocities `dq1 … dqn`, in the order of `joints`. With SymPy installed
 (`pip install 'robodyn[sympy]'`), `.sympy()` turns any quantity into SymPy objects:
 
     eq = client.equations("planar_arm")
-    eq.mass_matrix.expressions[0][0]      # '4.235 + 2.1*cos(q2)'
+    eq.mass_matrix.expressions[0][0]      # '2.1*cos(q2) + 4.235'
     M = eq.mass_matrix.sympy()            # sympy.Matrix 2×2 in the symbols q1, q2
     eq.structure.mass_matrix[1][1].constant   # True
 """

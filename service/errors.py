@@ -19,7 +19,9 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── Unauthorized                  unauthorized
     ├── NotReady                      not_ready
     ├── Overloaded                    overloaded
-    └── UnsupportedMediaType          unsupported_media_type
+    ├── UnsupportedMediaType          unsupported_media_type
+    ├── UnsupportedModel              unsupported_model
+    └── InfeasiblePath                infeasible_path
 """
 
 from __future__ import annotations
@@ -134,6 +136,25 @@ class UnsupportedMediaType(RobodynError):
     title = "Unsupported media type"
 
 
+class UnsupportedModel(RobodynError):
+    """The computation needs what this model lacks (e.g. joints that are all revolute or
+    prismatic)."""
+
+    code = "unsupported_model"
+    title = "Unsupported model"
+
+
+class InfeasiblePath(RobodynError):
+    """No timing can follow the geometric path within the limits; `extra` names the joint
+    (`joint`), the waypoint the path segment starts at (`waypoint`) and the path fraction
+    (`path_fraction`, 0 at the first waypoint, 1 at the last)."""
+
+    code = "infeasible_path"
+    title = "Infeasible path"
+
+
+# (UnsupportedModel and InfeasiblePath join this table with their HTTP status: the table in
+# service.api.problems must map every code listed here.)
 ALL_ERRORS: tuple[type[RobodynError], ...] = (
     RobotNotFound,
     AssetNotFound,

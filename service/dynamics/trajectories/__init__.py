@@ -3,6 +3,6 @@ geometric path optimally under velocity, acceleration and torque limits, with ev
 between the samples too (`retime`). See docs/trajectories.md."""
 
 from service.dynamics.trajectories.check import TrajectoryCheck, check_trajectory
-from service.dynamics.trajectories.retime import Retimed, retime
+from service.dynamics.trajectories.retiming import Retimed, retime
 
 __all__ = ["Retimed", "TrajectoryCheck", "check_trajectory", "retime"]

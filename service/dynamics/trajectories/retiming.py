@@ -57,6 +57,7 @@ VERIFY_POINTS = 8  # V: points per interval (a multiple of m) where the timing i
 INITIAL_MARGIN = 1e-6  # the solver sees every limit × (1 − this)
 RESOLVE_ABOVE = 1.01  # an overshoot ratio above this re-runs TOPP-RA; below, slow down
 MAX_RESOLVES = 3
+ROW_GROUP = 24  # solver rows per toppra constraint object
 MAX_SAMPLES = 100_000  # samples of the answer
 MAX_PATH_SPEED2 = 1e7  # ṡ² this large means no limit bounds the speed (toppra caps at 1e8)
 
@@ -119,7 +120,7 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     limits = joint_limits(robot, effort_scale, velocity_scale)
     grid = gridpoints(path, intervals)
     dense = sample_path(robot, path, grid, VERIFY_POINTS)
-    _require_followable(path, dense, limits)
+    _require_followable(robot, path, dense, limits)
     fams = families(dense, limits, accel)
     if not fams:
         raise InvalidInput(f"robot '{robot.id}' has no velocity or effort limits; give "
@@ -141,34 +142,41 @@ def _where(path: WaypointPath, s: float) -> str:
     return (f"at path fraction {fraction:.4g} (between waypoints {k} and {k + 1})")
 
 
-def _require_followable(path: WaypointPath, dense: PathSamples,
+def _require_followable(robot: Robot, path: WaypointPath, dense: PathSamples,
                         limits: list[JointLimit]) -> None:
-    """InfeasiblePath where the path leaves a position limit, or gravity alone exceeds a
-    torque limit (the first such place along the path)."""
+    """InfeasiblePath at the first place along the path where it leaves a joint's position
+    limits, or gravity alone needs more than a joint's torque limit (estimated over each
+    interval by its envelope, so a crossing between points is found too)."""
+    found: list[tuple[float, JointLimit, str, float]] = []  # (s, joint, kind, value)
     for lim in limits:
-        q = dense.q[..., lim.iq]
-        checks = [("position", upper_envelope(q), lim.upper, 1.0),
-                  ("position", lower_envelope(q), lim.lower, -1.0)]
+        series = [("position", dense.q[..., lim.iq], lim.lower, lim.upper)]
         if lim.effort is not None:
-            g = dense.C[..., lim.iv]
-            checks += [("effort", upper_envelope(g), lim.effort, 1.0),
-                       ("effort", lower_envelope(g), -lim.effort, -1.0)]
-        for kind, envelope, bound, sign in checks:
-            if bound is None:
-                continue
-            beyond = np.flatnonzero(sign * (envelope - bound) >= 0)
-            if not beyond.size:
-                continue
-            i = int(beyond[0])
-            s = float(dense.s[i, np.argmax(sign * (dense.q[i, :, lim.iq] if kind == "position"
-                                                    else dense.C[i, :, lim.iv]))])
-            k, fraction = path.where(s)
-            what = (f"leaves its position limits [{lim.lower}, {lim.upper}]"
-                    if kind == "position" else
-                    f"needs more than its torque limit {lim.effort:.6g} against gravity alone")
-            raise InfeasiblePath(f"no timing can follow this path: joint '{lim.name}' {what} "
-                                 f"{_where(path, s)}", joint=lim.name, waypoint=k,
-                                 path_fraction=fraction, kind=kind)
+            series.append(("effort", dense.C[..., lim.iv], -lim.effort, lim.effort))
+        for kind, f, lower, upper in series:
+            for bound, sign, envelope in ((upper, 1.0, upper_envelope(f)),
+                                          (lower, -1.0, lower_envelope(f))):
+                if bound is None:
+                    continue
+                beyond = np.flatnonzero(sign * (envelope - bound) >= 0)
+                if beyond.size:
+                    i = int(beyond[0])
+                    over = np.flatnonzero(sign * (f[i] - bound) >= 0)
+                    j = int(over[0]) if over.size else int(np.argmax(sign * f[i]))
+                    found.append((float(dense.s[i, j]), lim, kind, float(f[i, j])))
+    if not found:
+        return
+    s, lim, kind, value = min(found, key=lambda item: item[0])
+    k, fraction = path.where(s)
+    unit = "N" if robot.joint_types.get(lim.name) == "prismatic" else "N·m"
+    low = "-inf" if lim.lower is None else f"{lim.lower:.6g}"
+    high = "inf" if lim.upper is None else f"{lim.upper:.6g}"
+    what = (f"leaves its position limits [{low}, {high}]"
+            if kind == "position" else
+            f"needs {abs(value):.4g} {unit} against gravity alone, more than its torque limit "
+            f"{lim.effort:.4g} {unit}")
+    raise InfeasiblePath(f"no timing can follow this path: joint '{lim.name}' {what} "
+                         f"{_where(path, s)}", joint=lim.name, waypoint=k,
+                         path_fraction=fraction, kind=kind)
 
 
 def _toppra(path: WaypointPath, grid: np.ndarray, fams: list[Family],
@@ -183,7 +191,12 @@ def _toppra(path: WaypointPath, grid: np.ndarray, fams: list[Family],
     a, b, c = (np.concatenate([r[i] for r in rows], axis=1) for i in range(3))
     toppra_path = toppra.SplineInterpolator(path.knots, path.spline(path.knots),
                                             bc_type="clamped")
-    instance = toppra.algorithm.TOPPRA([SampledRows(a, b, c)], toppra_path, gridpoints=grid,
+    # Rows in groups of at most ROW_GROUP: toppra's seidel solver multiplies each constraint's
+    # rows by its F (here the identity, R × R); at R ≥ ~50 numpy's BLAS runs that product on
+    # every thread, which on a busy machine took 30–90 ms instead of well under 1 ms.
+    parts = [SampledRows(a[:, i:i + ROW_GROUP], b[:, i:i + ROW_GROUP], c[:, i:i + ROW_GROUP])
+             for i in range(0, a.shape[1], ROW_GROUP)]
+    instance = toppra.algorithm.TOPPRA(parts, toppra_path, gridpoints=grid,
                                        solver_wrapper="seidel")
     _, sd, _, K = instance.compute_parameterization(0.0, 0.0, return_data=True)
     if sd is None or not np.isfinite(sd).all():

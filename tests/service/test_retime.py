@@ -261,3 +261,33 @@ def test_repeated_waypoints_are_skipped(robots):
     doubled = np.insert(waypoints, 1, waypoints[1], axis=0)
     a, b = retime(robot, waypoints), retime(robot, doubled)
     assert a.duration == pytest.approx(b.duration, rel=1e-12)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot_id", ["ur5", "panda"])
+def test_many_random_paths_never_over_a_limit(robots, robot_id):
+    """2 to 11 waypoints inside the position limits, with and without acceleration limits,
+    effort scales 0.5 to 1; re-checked at 49 points per interval."""
+    robot = robots.get(robot_id)
+    model = robot.model
+    low, high = model.lowerPositionLimit, model.upperPositionLimit
+    middle, half = (low + high) / 2, np.minimum((high - low) / 2, 3.0)
+    checked = 0
+    for seed in range(8):
+        rng = np.random.default_rng(100 + seed)
+        waypoints = middle + 0.8 * half * rng.uniform(-1, 1, (rng.integers(2, 12), robot.nq))
+        if robot_id == "panda":
+            waypoints[:, 7:] = 0.02
+        acceleration = None if seed % 2 else np.full(robot.nv, 3.0)
+        scale = [1.0, 0.7, 0.5, 1.0][seed % 4]
+        try:
+            result = retime(robot, waypoints, acceleration=acceleration, effort_scale=scale)
+        except InfeasiblePath:
+            continue  # gravity needs more than the scaled limit somewhere on this path
+        v, a, tau = _recheck(robot, waypoints, result.profile.gridpoints, result.profile.x, 48)
+        assert _within(tau, scale * model.effortLimit) <= 1 + TOLERANCE
+        assert _within(v, model.velocityLimit) <= 1 + TOLERANCE
+        if acceleration is not None:
+            assert _within(a, acceleration) <= 1 + TOLERANCE
+        checked += 1
+    assert checked >= 5

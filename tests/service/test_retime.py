@@ -22,7 +22,8 @@ TOLERANCE = 1e-6  # the guarantee: every limit within 1e-6 relative
 @pytest.fixture(scope="module")
 def robots(tmp_path_factory: pytest.TempPathFactory) -> Registry:
     registry = Registry(tmp_path_factory.mktemp("retime"),
-                        ["ur5", "panda", "solo12", "double_pendulum_continuous"])
+                        ["ur5", "panda", "solo12", "double_pendulum_continuous",
+                         "double_pendulum"])
     registry.load()
     return registry
 
@@ -247,12 +248,43 @@ def test_other_joints_are_unsupported(robots, robot_id):
     (dict(acceleration=[1.0] * 5), DimensionMismatch, "limits.acceleration has 5"),
     (dict(sample_dt=0.0), InvalidInput, "sample_dt"),
     (dict(sample_dt=1e-7), InvalidInput, "sample_dt: the motion lasts"),
+    (dict(waypoints=np.zeros((1001, 6))), InvalidInput, "waypoints has 1001 rows; at most 1000"),
 ])
 def test_bad_input_names_the_field(robots, change, error, words):
     args = dict(waypoints=_waypoints(3, 6, 0))
     args.update(change)
     with pytest.raises(error, match=words):
         retime(robots.get("ur5"), args.pop("waypoints"), **args)
+
+
+def test_a_path_that_turns_back_stops_where_it_turns(robots):
+    """Waypoints A, B, A: the path's derivative vanishes at B (by symmetry), so the joints come
+    to rest there, halfway in time; the limits hold on both legs, which take the same time."""
+    robot = robots.get("ur5")
+    a = np.array([0.1, -1.0, 1.0, 0.0, 0.5, 0.0])
+    waypoints = np.array([a, a + 0.8, a])
+    result = retime(robot, waypoints)
+    v, _, tau = _recheck(robot, waypoints, result.profile.gridpoints, result.profile.x)
+    assert _within(tau, robot.model.effortLimit) <= 1 + TOLERANCE
+    assert _within(v, robot.model.velocityLimit) <= 1 + TOLERANCE
+    halves = retime(robot, waypoints, sample_dt=result.duration / 2 * (1 - 1e-12))
+    # (halfway to within the solver's numbers: the forward pass makes the profile not quite
+    # symmetric)
+    np.testing.assert_allclose(halves.q[1], a + 0.8, atol=1e-6)
+    assert np.abs(halves.v[1]).max() < 1e-4 * np.abs(result.v).max()
+    one_leg = retime(robot, waypoints[:2])
+    assert result.duration == pytest.approx(2 * one_leg.duration, rel=1e-3)
+
+
+def test_a_robot_without_limits_needs_acceleration_limits(robots):
+    robot = robots.get("double_pendulum")  # URDF limits all 0: no limit at all
+    waypoints = np.array([[0.0, 0.0], [1.0, -0.5]])
+    with pytest.raises(InvalidInput, match="limits.acceleration"):
+        retime(robot, waypoints)
+    limit = np.array([2.0, 3.0])
+    result = retime(robot, waypoints, acceleration=limit)
+    _, a, _ = _recheck(robot, waypoints, result.profile.gridpoints, result.profile.x)
+    assert 0.99 < _within(a, limit) <= 1 + TOLERANCE
 
 
 def test_repeated_waypoints_are_skipped(robots):

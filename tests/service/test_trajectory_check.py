@@ -17,7 +17,8 @@ from service.registry import Registry
 @pytest.fixture(scope="module")
 def robots(tmp_path_factory: pytest.TempPathFactory) -> Registry:
     registry = Registry(tmp_path_factory.mktemp("trajectories"),
-                        ["ur5", "panda", "solo12", "double_pendulum_continuous"])
+                        ["ur5", "panda", "solo12", "double_pendulum_continuous",
+                         "double_pendulum"])
     registry.load()
     return registry
 
@@ -181,6 +182,20 @@ def test_continuous_joints_have_no_position(robots: Registry) -> None:
         assert joint["min_position"] is None and joint["lower"] is None
         assert joint["effort_limit"] is None and joint["effort_ratio"] is None  # URDF's 0
     assert result.feasible
+
+
+def test_urdf_unset_limits_are_no_limits(robots: Registry) -> None:
+    """A URDF <limit> without values gives effort 0, velocity 0 and positions (0, 0): none of
+    them is a limit, so nothing is flagged and every ratio is null."""
+    robot = robots.get("double_pendulum")
+    t = np.linspace(0, 1, 5)
+    q = np.outer(t, [2.0, -1.0])
+    result = check_trajectory(robot, t, q)
+    assert result.feasible
+    for joint in result.joints:
+        assert joint["lower"] is None and joint["upper"] is None
+        assert joint["velocity_ratio"] is None and joint["effort_ratio"] is None
+        assert joint["max_position"] > 0 or joint["min_position"] < 0  # positions still given
 
 
 @pytest.mark.parametrize(("change", "error", "words"), [

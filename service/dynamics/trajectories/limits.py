@@ -4,7 +4,7 @@ A limit belongs to a 1-DoF joint (nv = 1: revolute, prismatic, continuous): its 
 |τ| ≤ τ_max (N·m or N), velocity limit |v| ≤ v_max (rad/s or m/s) and position limits
 lower ≤ q ≤ upper (rad or m; none for a continuous joint, whose q is (cos θ, sin θ)). A model
 value that is not a usable bound (non-finite, ≤ 0 for effort and velocity, |x| ≥ 1e300 for
-positions: URDF's "unset" conventions) is no limit (None).
+positions, or lower = upper: URDF's "unset" conventions) is no limit (None).
 """
 
 from __future__ import annotations
@@ -60,12 +60,14 @@ def joint_limits(robot: Robot, effort_scale: float = 1.0,
             continue
         iq, iv = int(joint.idx_q), int(joint.idx_v)
         positioned = joint.nq == 1 and joint_type(joint) != "continuous"
+        lower, upper = float(m.lowerPositionLimit[iq]), float(m.upperPositionLimit[iq])
+        bounded = positioned and lower < upper  # equal bounds: URDF's unset <limit> (0, 0)
         out.append(JointLimit(
             name=str(m.names[jid]), iq=iq, iv=iv,
             effort=_magnitude_limit(float(m.effortLimit[iv]), effort_scale),
             velocity=_magnitude_limit(float(m.velocityLimit[iv]), velocity_scale),
-            lower=_position_bound(float(m.lowerPositionLimit[iq])) if positioned else None,
-            upper=_position_bound(float(m.upperPositionLimit[iq])) if positioned else None,
+            lower=_position_bound(lower) if bounded else None,
+            upper=_position_bound(upper) if bounded else None,
             positioned=positioned))
     return out
 

@@ -19,13 +19,18 @@ from service.dynamics.trajectories.inputs import samples
 from service.errors import InvalidInput
 
 _SAME_POINT = 1e-12  # rad or m: consecutive waypoints closer than this are the same point
+MAX_WAYPOINTS = 1000  # each spline segment gets at least one TOPP-RA interval
 
 
 class WaypointPath:
     """q(s) and its path derivatives q'(s), q''(s) (s in the units of q)."""
 
     def __init__(self, waypoints: Any, nq: int) -> None:
-        w = samples("waypoints", waypoints, _count(waypoints), nq, "nq", "waypoints")
+        count = _count(waypoints)
+        if count > MAX_WAYPOINTS:
+            raise InvalidInput(f"waypoints has {count} rows; at most {MAX_WAYPOINTS} are timed "
+                               "in one request")
+        w = samples("waypoints", waypoints, count, nq, "nq", "waypoints")
         if w.shape[0] < 2:
             raise InvalidInput(f"waypoints has {w.shape[0]} row(s); a path needs at least 2")
         steps = np.linalg.norm(np.diff(w, axis=0), axis=1)

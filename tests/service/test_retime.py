@@ -279,7 +279,7 @@ def test_a_path_that_turns_back_stops_where_it_turns(robots):
 def test_a_robot_without_limits_needs_acceleration_limits(robots):
     robot = robots.get("double_pendulum")  # URDF limits all 0: no limit at all
     waypoints = np.array([[0.0, 0.0], [1.0, -0.5]])
-    with pytest.raises(InvalidInput, match="limits.acceleration"):
+    with pytest.raises(InvalidInput, match=r"limits\.acceleration"):
         retime(robot, waypoints)
     limit = np.array([2.0, 3.0])
     result = retime(robot, waypoints, acceleration=limit)

@@ -55,8 +55,9 @@ class TrajectoryCheck:
     tau_eval: np.ndarray = field(repr=False)
 
     def answer(self) -> dict[str, Any]:
-        """The contract's answer: feasible, tau, joints, violations, work."""
-        return {"feasible": self.feasible, "tau": self.tau, "joints": self.joints,
+        """The contract's answer — feasible, tau, joints, violations, work — and the velocities
+        `v` at the samples (as given, or the spline's)."""
+        return {"feasible": self.feasible, "tau": self.tau, "v": self.v, "joints": self.joints,
                 "violations": self.violations, "work": self.work}
 
 

@@ -23,11 +23,12 @@ def inverse_dynamics(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) 
     n = q.shape[0]
     if n >= PARALLEL_FROM:
         states = States(arrays={"q": q, "v": v, "a": a}, batched=True)
-        return parallel.inverse_dynamics(robot, states)["tau"]
-    out = np.empty((n, robot.nv))
-    with robot.data() as data:
-        for i in range(n):
-            out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
+        out = parallel.inverse_dynamics(robot, states)["tau"]
+    else:
+        out = np.empty((n, robot.nv))
+        with robot.data() as data:
+            for i in range(n):
+                out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
     return finite("inverse-dynamics", tau=out)["tau"]
 
 

@@ -171,8 +171,6 @@ class InfeasiblePath(RobodynError):
     title = "Infeasible path"
 
 
-# (UnsupportedModel and InfeasiblePath join this table with their HTTP status: the table in
-# service.api.problems must map every code listed here.)
 ALL_ERRORS: tuple[type[RobodynError], ...] = (
     RobotNotFound,
     AssetNotFound,
@@ -189,4 +187,6 @@ ALL_ERRORS: tuple[type[RobodynError], ...] = (
     NotReady,
     Overloaded,
     UnsupportedMediaType,
+    UnsupportedModel,
+    InfeasiblePath,
 )

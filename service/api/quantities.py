@@ -59,6 +59,12 @@ from service.api.schemas.operational_space import (
 )
 from service.api.schemas.placements import FramePlacementsAnswer, FramePlacementsRequest
 from service.api.schemas.simulation import SimulateAnswer, SimulateRequest
+from service.api.schemas.trajectories import (
+    RetimeAnswer,
+    RetimeRequest,
+    TrajectoryCheckAnswer,
+    TrajectoryCheckRequest,
+)
 
 
 @dataclass(frozen=True)
@@ -90,6 +96,8 @@ _SCHEMAS: dict[str, tuple[type[BaseModel], type[BaseModel]]] = {
     "contact-inverse-dynamics": (ContactInverseDynamicsRequest, ContactInverseDynamicsAnswer),
     "impulse-dynamics": (ImpulseDynamicsRequest, ImpulseDynamicsAnswer),
     "frame-placements": (FramePlacementsRequest, FramePlacementsAnswer),
+    "trajectory-check": (TrajectoryCheckRequest, TrajectoryCheckAnswer),
+    "retime": (RetimeRequest, RetimeAnswer),
 }
 
 

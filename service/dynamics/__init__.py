@@ -14,9 +14,10 @@ from service.dynamics.operational_space import OPERATIONAL_SPACE
 from service.dynamics.placements import PLACEMENTS
 from service.dynamics.quantity import Quantity, Results, finite, run
 from service.dynamics.simulation import SIMULATION
+from service.dynamics.trajectories.quantities import TRAJECTORIES
 
 QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
-    *SIMULATION, *CONTACTS, *PLACEMENTS)}
+    *SIMULATION, *CONTACTS, *PLACEMENTS, *TRAJECTORIES)}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

@@ -82,9 +82,22 @@ def check_trajectory(robot: Robot, t: Any, q: Any, v: Any = None, a: Any = None,
     qs = configurations(robot, samples("q", q, n, robot.nq, "nq", "t"))
     vs = None if v is None else samples("v", v, n, robot.nv, "nv", "t")
     acc = None if a is None else samples("a", a, n, robot.nv, "nv", "t")
+    return check_samples(robot, times, qs, vs, acc, effort_scale=effort_scale,
+                         velocity_scale=velocity_scale,
+                         samples_per_interval=samples_per_interval, friction=friction)
+
+
+def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarray | None,
+                  acc: np.ndarray | None, *, effort_scale: float = 1.0,
+                  velocity_scale: float = 1.0, samples_per_interval: int = 4,
+                  friction: Friction | None = None) -> TrajectoryCheck:
+    """`check_trajectory` of checked samples: times (N,) strictly increasing, qs (N, nq) in
+    Pinocchio's order, vs and acc (N, nv) or None."""
+    n = times.shape[0]
     effort_scale = positive("effort_scale", effort_scale)
     velocity_scale = positive("velocity_scale", velocity_scale)
     k = _samples_per_interval(samples_per_interval)
+    given_v, given_a = vs, acc
     if vs is None or acc is None:
         if robot.nq != robot.nv:
             raise InvalidInput(
@@ -96,7 +109,7 @@ def check_trajectory(robot: Robot, t: Any, q: Any, v: Any = None, a: Any = None,
             vs = spline(times, 1)
         if acc is None:
             acc = spline(times, 2)
-    if v is None and a is None and k > 1:
+    if given_v is None and given_a is None and k > 1:
         if (n - 1) * k + 1 > MAX_EVALUATED_POINTS:
             raise InvalidInput(f"samples_per_interval: {n} samples × {k} points per interval "
                                f"exceed the {MAX_EVALUATED_POINTS} points one check evaluates")
@@ -115,9 +128,10 @@ def check_trajectory(robot: Robot, t: Any, q: Any, v: Any = None, a: Any = None,
     power = np.einsum("ij,ij->i", tau_eval, v_eval)
     work = {"positive": float(np.trapezoid(np.maximum(power, 0.0), t_eval)),
             "negative": float(np.trapezoid(np.minimum(power, 0.0), t_eval))}
-    return TrajectoryCheck(feasible=not violations, tau=tau_eval[at_samples], v=vs, a=acc,
-                           joints=joints, violations=violations, work=work, t_eval=t_eval,
-                           q_eval=q_eval, v_eval=v_eval, tau_eval=tau_eval)
+    tau = np.ascontiguousarray(tau_eval[at_samples])  # (orjson writes C-contiguous arrays)
+    return TrajectoryCheck(feasible=not violations, tau=tau, v=vs, a=acc, joints=joints,
+                           violations=violations, work=work, t_eval=t_eval, q_eval=q_eval,
+                           v_eval=v_eval, tau_eval=tau_eval)
 
 
 def _samples_per_interval(value: Any) -> int:

@@ -58,7 +58,7 @@ INITIAL_MARGIN = 1e-6  # the solver sees every limit × (1 − this)
 RESOLVE_ABOVE = 1.01  # an overshoot ratio above this re-runs TOPP-RA; below, slow down
 MAX_RESOLVES = 3
 ROW_GROUP = 24  # solver rows per toppra constraint object
-MAX_SAMPLES = 100_000  # samples of the answer
+MAX_SAMPLES = 20_000  # samples of the answer (200 s every 0.01 s)
 MAX_PATH_SPEED2 = 1e7  # ṡ² this large means no limit bounds the speed (toppra caps at 1e8)
 
 
@@ -99,9 +99,13 @@ def gridpoints(path: WaypointPath, intervals: int = INTERVALS) -> np.ndarray:
     return np.concatenate([*pieces, path.knots[-1:]])
 
 
+class TooManySamples(InvalidInput):
+    """The motion, sampled every sample_dt, would have more samples than allowed."""
+
+
 def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
            effort_scale: float = 1.0, acceleration: Any = None, sample_dt: float = 0.01,
-           intervals: int = INTERVALS) -> Retimed:
+           intervals: int = INTERVALS, max_samples: int = MAX_SAMPLES) -> Retimed:
     """Time the path through `waypoints` [K, nq] (K ≥ 2) as fast as the limits allow: the
     model's velocity limits × `velocity_scale`, effort limits × `effort_scale`, and the joint
     accelerations `acceleration` [nv] where given; from rest to rest. Raises UnsupportedModel
@@ -130,7 +134,7 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     worst = max(float(ratios(f, profile, dense.theta).max()) for f in fams)
     if worst > 1.0:
         profile, factor, worst = _slow_down(path, profile, dense, fams, limits)
-    t, q, v, a, tau = _samples(robot, path, profile, sample_dt)
+    t, q, v, a, tau = _samples(robot, path, profile, sample_dt, max_samples)
     check = check_trajectory(robot, t, q, v, a, effort_scale=effort_scale,
                              velocity_scale=velocity_scale)
     return Retimed(profile.duration, t, q, v, a, tau, check, toppra_duration, resolves,
@@ -272,14 +276,15 @@ def _no_timing(path: WaypointPath, grid: np.ndarray, dense: PathSamples, K: np.n
                           waypoint=k, path_fraction=fraction, kind="effort")
 
 
-def _samples(robot: Robot, path: WaypointPath, profile: Profile, dt: float
-             ) -> tuple[np.ndarray, ...]:
+def _samples(robot: Robot, path: WaypointPath, profile: Profile, dt: float,
+             max_samples: int) -> tuple[np.ndarray, ...]:
     """The motion every dt from 0, and at its end: t, q, v = q' ṡ, a = q' s̈ + q'' ṡ², τ."""
     duration = profile.duration
     count = int(np.floor(duration / dt)) + 1
-    if count + 1 > MAX_SAMPLES:
-        raise InvalidInput(f"sample_dt: the motion lasts {duration:.6g} s, so this step gives "
-                           f"more than {MAX_SAMPLES} samples")
+    if count + 1 > max_samples:
+        raise TooManySamples(f"sample_dt: the motion lasts {duration:.6g} s, so this step "
+                             f"gives more than {max_samples} samples; give a larger "
+                             "sample_dt")
     t = np.arange(count) * dt
     if duration - t[-1] > 1e-9 * max(duration, 1.0):
         t = np.append(t, duration)

@@ -53,6 +53,8 @@ def _options(quantity: str, robot) -> list[tuple[dict, bool]]:
                 ({"dt": 0.001, "steps": 3, "contacts": _contacts(robot), "damping": 1e-3}, True)]
     if quantity.startswith(("contact-", "impulse-")):
         return [({"contacts": _contacts(robot), "damping": 1e-3}, True)]
+    if quantity == "trajectory-check":  # two samples with their v and a
+        return [({"t": [0.0, 1.0]}, True)]
     if quantity == "frame-placements":
         return [({}, False), ({"frames": [frame, robot.model.frames[1].name]}, False)]
     return [({}, True)]
@@ -78,6 +80,9 @@ def _inputs(robot, quantity: dynamics.Quantity, with_v: bool, n: int) -> dict:
 
 @pytest.mark.parametrize("path", sorted(dynamics.QUANTITIES))
 def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -> None:
+    if path == "retime":
+        pytest.skip("retime's sample count follows from the duration, known only after "
+                    "solving: it checks the budget itself (test_trajectories_http.py)")
     quantity = dynamics.QUANTITIES[path]
     for robot in robots.values():
         for options, with_v in _options(path, robot):

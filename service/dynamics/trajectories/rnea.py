@@ -29,7 +29,7 @@ def inverse_dynamics(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) 
         with robot.data() as data:
             for i in range(n):
                 out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
-    return finite("inverse-dynamics", tau=out)["tau"]
+    return finite("the motion's torques", tau=out)["tau"]
 
 
 def path_coefficients(robot: Robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray

@@ -27,7 +27,9 @@ nothing of robodyn can still catch them (`except LookupError`, `except ValueErro
         │   ├── InvalidModelError                 422 invalid_model
         │   ├── UnknownFrameError (LookupError)   422 unknown_frame
         │   ├── SingularConfigurationError        422 singular_configuration
-        │   └── NonFiniteResultError (ArithmeticError)  422 non_finite_result
+        │   ├── NonFiniteResultError (ArithmeticError)  422 non_finite_result
+        │   ├── UnsupportedModelError             422 unsupported_model
+        │   └── InfeasiblePathError               422 infeasible_path
         └── ServerError                           5xx
             ├── InternalServerError               500 internal_error
             └── ServiceUnavailableError           503
@@ -211,6 +213,19 @@ class NonFiniteResultError(UnprocessableError, ArithmeticError):
     """The computed result is not finite (e.g. a moving body without mass)."""
 
     error_code = "non_finite_result"
+
+
+class UnsupportedModelError(UnprocessableError):
+    """The route needs what this model lacks (e.g. retime: joints all revolute or prismatic)."""
+
+    error_code = "unsupported_model"
+
+
+class InfeasiblePathError(UnprocessableError):
+    """No timing can follow the path within the limits (retime); the problem's `joint`,
+    `waypoint` and `path_fraction` say where (in `body`)."""
+
+    error_code = "infeasible_path"
 
 
 class ServerError(APIError):

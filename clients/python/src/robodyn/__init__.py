@@ -83,6 +83,7 @@ from robodyn.results import (
     Trajectory,
 )
 from robodyn.stream import AsyncStream, Stream
+from robodyn.trajectories import JointCheck, Retimed, TrajectoryCheck, Violation, Work
 from robodyn.transport import DEFAULT_RETRY, DEFAULT_TIMEOUT, Retry
 
 __all__ = [
@@ -121,6 +122,7 @@ __all__ = [
     "InvalidConfigurationError",
     "InvalidModelError",
     "InverseDynamicsDerivatives",
+    "JointCheck",
     "JointInfo",
     "MethodNotAllowedError",
     "NonFiniteResultError",
@@ -134,6 +136,7 @@ __all__ = [
     "ProgressCallback",
     "ReferenceFrame",
     "ResponseFormatError",
+    "Retimed",
     "Retry",
     "RobodynError",
     "RobotInfo",
@@ -148,6 +151,7 @@ __all__ = [
     "Task",
     "TimeoutError",
     "Trajectory",
+    "TrajectoryCheck",
     "TransportError",
     "UnauthorizedError",
     "UnknownFrameError",
@@ -155,5 +159,7 @@ __all__ = [
     "UnsupportedMediaTypeError",
     "UnsupportedModelError",
     "ValidationError",
+    "Violation",
+    "Work",
     "__version__",
 ]

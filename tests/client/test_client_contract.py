@@ -65,6 +65,13 @@ ANSWERS.update({"contact_forces": [0.0], "residual": 0.0, "contact_impulses": [0
 ARGS.update({"contact_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
              "contact_inverse_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
              "impulse_dynamics": ("r", [0.0], [0.0], ["f"])})
+# trajectories
+CHECK = {"feasible": True, "tau": [[0.0], [0.0]], "v": [[0.0], [0.0]], "joints": [],
+         "violations": [], "work": {"positive": 0.0, "negative": 0.0}}
+RETIMED = {"duration": 1.0, "t": [0.0, 1.0], "q": [[0.0], [1.0]], "v": [[0.0], [0.0]],
+           "a": [[0.0], [0.0]], "tau": [[0.0], [0.0]], "check": CHECK}
+ARGS.update({"trajectory_check": ("r", [0.0, 1.0], [[0.0], [1.0]]),
+             "retime": ("r", [[0.0], [1.0]])})
 
 
 def sent_requests() -> dict[str, httpx.Request]:
@@ -73,7 +80,10 @@ def sent_requests() -> dict[str, httpx.Request]:
 
     def handler(request: httpx.Request) -> httpx.Response:
         seen.append(request)
-        simulate = request.url.path.endswith("/simulate")
+        path = request.url.path
+        if path.endswith(("/trajectory-check", "/retime")):
+            return httpx.Response(200, json=CHECK if path.endswith("-check") else RETIMED)
+        simulate = path.endswith("/simulate")
         return httpx.Response(200, json={**ANSWERS, **TRAJECTORY} if simulate else ANSWERS)
 
     out = {}
@@ -115,6 +125,8 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
         assert tuple(body) == fields
         # strict: no extra or mistyped field
         SPECS[name.replace("_", "-")].request.model_validate(body)
+    for name in ("trajectory_check", "retime"):  # arrays and options alike
+        SPECS[name.replace("_", "-")].request.model_validate(json.loads(requests[name].content))
 
 
 def test_every_server_code_has_a_client_class_with_its_status() -> None:

@@ -18,8 +18,8 @@ class TrajectoryMethods(SyncSender):
                          effort_scale: float = 1.0, velocity_scale: float = 1.0,
                          samples_per_interval: int = 4,
                          payloads: PayloadsLike | None = None) -> TrajectoryCheck:
-        """`TrajectoryCheck`: does the motion sampled at times `t` (N,) s, strictly
-        increasing) with configurations `q` (N, nq) stay within the robot's effort, velocity
+        """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
+        increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
         and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
         `v` and `a` (N, nv): where absent, the derivatives of the not-a-knot cubic spline
         through (t, q) (robots with nq = nv), and `samples_per_interval` − 1 points inside
@@ -39,7 +39,8 @@ class TrajectoryMethods(SyncSender):
                effort_scale: float = 1.0, acceleration: ArrayLike | None = None,
                sample_dt: float = 0.01, payloads: PayloadsLike | None = None) -> Retimed:
         """`Retimed`: the time-optimal motion, from rest to rest, along the clamped cubic
-        spline through `waypoints` (K, nq) (parameterised by cumulative joint-space distance),
+        spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
+        distance),
         under the velocity limits × `velocity_scale`, the effort limits × `effort_scale` and
         the joint `acceleration` limits (nv,) where given: `duration` (s), samples every
         `sample_dt` s and at the end — `t` (M,), `q` (M, nq), `v`, `a`, `tau` (M, nv) — and
@@ -63,7 +64,19 @@ class AsyncTrajectoryMethods(AsyncSender):
                                effort_scale: float = 1.0, velocity_scale: float = 1.0,
                                samples_per_interval: int = 4,
                                payloads: PayloadsLike | None = None) -> TrajectoryCheck:
-        """`TrajectoryCheck` of the motion (t, q[, v, a]): as `Client.trajectory_check`."""
+        """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
+        increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
+        and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
+        `v` and `a` (N, nv): where absent, the derivatives of the not-a-knot cubic spline
+        through (t, q) (robots with nq = nv), and `samples_per_interval` − 1 points inside
+        every interval are evaluated too, so that a limit broken between samples is found.
+        τ = M(q) a + C(q, v) v + g(q) at every evaluated point. The answer: `feasible`, `tau`
+        and `v` at the samples (N, nv), `joints` (`JointCheck`: limits, peaks, ratios),
+        `violations` (`Violation`: joint, kind, t_start, t_end, worst, limit) and `work`
+        (`Work`: positive and negative, J). Raises `ValidationError` for non-increasing
+        times, `DimensionMismatchError` for rows that do not match. `payloads`: rigid bodies
+        the robot holds (`Payload`s), added to its model for this call.
+        """
         return await self._send(calls.trajectory_check(
             robot_id, t, q, v=v, a=a, effort_scale=effort_scale, velocity_scale=velocity_scale,
             samples_per_interval=samples_per_interval, payloads=payloads))
@@ -72,7 +85,19 @@ class AsyncTrajectoryMethods(AsyncSender):
                      velocity_scale: float = 1.0, effort_scale: float = 1.0,
                      acceleration: ArrayLike | None = None, sample_dt: float = 0.01,
                      payloads: PayloadsLike | None = None) -> Retimed:
-        """`Retimed`, the time-optimal motion through `waypoints`: as `Client.retime`."""
+        """`Retimed`: the time-optimal motion, from rest to rest, along the clamped cubic
+        spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
+        distance),
+        under the velocity limits × `velocity_scale`, the effort limits × `effort_scale` and
+        the joint `acceleration` limits (nv,) where given: `duration` (s), samples every
+        `sample_dt` s and at the end — `t` (M,), `q` (M, nq), `v`, `a`, `tau` (M, nv) — and
+        its `check` (a `TrajectoryCheck`). The motion is within every limit everywhere, not
+        only at samples (1e-6 relative; docs/trajectories.md says how). Raises
+        `InfeasiblePathError` for a path no timing can follow (its `body` names the joint,
+        the waypoint and the path fraction) and `UnsupportedModelError` for a robot with
+        joints other than revolute or prismatic. `payloads`: rigid bodies the robot holds
+        (`Payload`s), added to its model for this call.
+        """
         return await self._send(calls.retime(robot_id, waypoints, velocity_scale=velocity_scale,
                                              effort_scale=effort_scale,
                                              acceleration=acceleration, sample_dt=sample_dt,

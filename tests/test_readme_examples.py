@@ -74,7 +74,7 @@ def _curl_commands() -> list[str]:
 
 def test_the_curl_examples_run(server: str) -> None:
     commands = _curl_commands()
-    assert len(commands) == 3
+    assert len(commands) == 5
     host = server.removeprefix("http://")
     answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
                for c in commands]
@@ -83,4 +83,11 @@ def test_the_curl_examples_run(server: str) -> None:
     assert standing["tau"][:6] == [0.0] * 6 and standing["residual"] < 1e-9
     mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
     assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
-    assert answers[2]["id"].startswith("u-") and answers[2]["name"] == "my arm"
+    check, retimed = answers[2], answers[3]  # a violation between samples; a timed path
+    assert not check["feasible"] and len(check["violations"]) == 1
+    violation = check["violations"][0]
+    assert violation["joint"] == "shoulder_pan_joint" and violation["kind"] == "velocity"
+    assert 0.5 < violation["t_start"] <= violation["t_end"] < 1.0
+    assert abs(retimed["duration"] - 0.5804) < 1e-4 and retimed["check"]["feasible"]
+    assert retimed["t"][-1] == retimed["duration"] and len(retimed["q"]) == len(retimed["t"])
+    assert answers[4]["id"].startswith("u-") and answers[4]["name"] == "my arm"

@@ -1,6 +1,7 @@
 // robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+import { TrajectoryView } from "./trajectory_view.js";
 import { ViewPanel } from "./view_panel.js";
 
 const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
@@ -22,6 +23,7 @@ const state = {
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
   view: null, // the 3-D view panel (view_panel.js)
+  trajectory: null, // the trajectory tab (trajectory_view.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -557,6 +559,7 @@ async function selectRobot(id) {
   }
   posture.value = "default";
   renderFacts(info);
+  state.trajectory.setRobot(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
   if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
@@ -648,11 +651,40 @@ async function upload(ev) {
   }
 }
 
+// ---- Tabs ---------------------------------------------------------------------------------
+
+function selectTab(button) {
+  for (const tab of document.querySelectorAll('#tabs [role="tab"]')) {
+    const mine = tab === button;
+    tab.setAttribute("aria-selected", String(mine));
+    tab.tabIndex = mine ? 0 : -1;
+    el(tab.getAttribute("aria-controls")).hidden = !mine;
+  }
+  if (button.id === "tab-trajectory-button") state.trajectory.shown();
+  else if (state.view.view) state.view.view.resize();
+}
+
+function setUpTabs() {
+  const tabs = [...document.querySelectorAll('#tabs [role="tab"]')];
+  for (const [k, tab] of tabs.entries()) {
+    tab.addEventListener("click", () => selectTab(tab));
+    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
+      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
+      if (!step) return;
+      const next = tabs[(k + step + tabs.length) % tabs.length];
+      next.focus();
+      selectTab(next);
+    });
+  }
+}
+
 // ---- Start --------------------------------------------------------------------------------
 
 async function start() {
   state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
                                onError: (err) => setStatus(err.message, true) });
+  state.trajectory = new TrajectoryView({ api, robotPath, fmt });
+  setUpTabs();
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });

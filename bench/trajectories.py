@@ -1,9 +1,10 @@
 """Benchmarks of the trajectory routes (comparison 7 of bench/run.py), each against an
 in-process baseline measured in the same run:
 
-- trajectory-check of 10,000 samples of a 7-DoF arm (xArm7) with their v and a, against a
-  Python loop over `pin.rnea` on the same samples (states/s; target ≥ 0.8); and, for
-  information, the same samples without v and a (the spline, 4 points per interval);
+- trajectory-check of 10,000 samples of a 7-DoF arm (xArm7) with their v and a, through the
+  client (the binary form), against a Python loop over `pin.rnea` on the same samples
+  (states/s; target ≥ 0.8); and, for information, the same samples without v and a (the
+  spline: 4 evaluated points per interval, so 4 × the states);
 - retime of a 6-waypoint UR5 path, against plain toppra on the same path (its velocity and
   torque constraints on RNEA, its automatic grid, its output sampled every 0.01 s), including
   robodyn's correction and dense check (s; target ≤ 2 ×).
@@ -47,8 +48,8 @@ def ur5_waypoints() -> np.ndarray:
 
 def check(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]], float],
           row: Callable[..., None]) -> None:
-    import httpx
     import pinocchio as pin
+    import robodyn
 
     print("7a. trajectory-check (xArm7, 10,000 samples)", flush=True)
     model = _registry([ARM]).get(ARM).model
@@ -62,23 +63,23 @@ def check(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]],
             out[i] = pin.rnea(model, data, motion["q"][i], motion["v"][i], motion["a"][i])
         return time.perf_counter() - start
 
-    bodies = {"with v and a": {k: motion[k].tolist() for k in ("t", "q", "v", "a")},
-              "spline, 4 points per interval": {k: motion[k].tolist() for k in ("t", "q")}}
-    with httpx.Client(base_url=url, timeout=300) as client:
-        def served(body: dict[str, Any]) -> Callable[[], float]:
+    variants = {"with v and a": {"v": motion["v"], "a": motion["a"]},
+                "spline, 4 points per interval": {}}
+    with robodyn.Client(url, timeout=300) as client:
+        def served(arrays: dict[str, Any]) -> Callable[[], float]:
             def once() -> float:
                 start = time.perf_counter()
-                response = client.post(f"/v1/robots/{ARM}/trajectory-check", json=body)
-                response.raise_for_status()
+                client.trajectory_check(ARM, motion["t"], motion["q"], **arrays)
                 return time.perf_counter() - start
             return once
 
         base = SAMPLES / median_of(rounds, loop)
-        for what, body in bodies.items():
+        for what, arrays in variants.items():
+            served(arrays)()  # warm-up: the robot's model pool, the first batch
             target = "≥ 0.8" if what == "with v and a" else "info"
-            row(f"trajectory-check of {SAMPLES:,} xArm7 samples ({what}) vs in-process loop "
-                "over pin.rnea", SAMPLES / median_of(rounds, served(body)), base, "states/s",
-                target)
+            row(f"trajectory-check of {SAMPLES:,} xArm7 samples ({what}) via client vs "
+                "in-process loop over pin.rnea", SAMPLES / median_of(rounds, served(arrays)),
+                base, "states/s", target)
 
 
 def plain_toppra(model: Any, waypoints: np.ndarray) -> float:
@@ -126,6 +127,8 @@ def retime(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]]
                                    json={"waypoints": waypoints.tolist()})
             response.raise_for_status()
             return time.perf_counter() - start
+
+        served(), baseline()  # warm-up of both sides (imports, the model pool)
 
         row("retime of a 6-waypoint UR5 path (with the correction and check) vs plain toppra "
             "in-process", 1e3 * median_of(rounds, served), 1e3 * median_of(rounds, baseline),

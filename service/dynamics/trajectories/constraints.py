@@ -18,16 +18,15 @@ this for θ = 0 and θ = 1; here it is written for θ = 0, 1/m, …, 1 (m + 1 po
 interval), so the solver itself keeps the limits inside the intervals. Each row is divided by
 its limit (f / f_max ≤ 1): rows of every unit then weigh alike in the solver's tolerances.
 A `Family` holds one limited quantity of every joint at those points; `tightening` (≤ 1) per
-joint shrinks the limit the solver sees, for the correction `retime` makes.
+joint shrinks the limit the solver sees, for the correction `retime` makes. The rows go to
+toppra as `toppra_rows.SampledRows`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
-from toppra.constraint import DiscretizationType, LinearConstraint
 
 
 @dataclass(frozen=True)
@@ -69,29 +68,3 @@ class Family:
                 parts.append(-f / (-self.lower * tightening))
             out.append(np.concatenate(parts, axis=2).reshape(f.shape[0], -1))
         return out[0], out[1], out[2]
-
-
-class SampledRows(LinearConstraint):  # type: ignore[misc]
-    """A toppra canonical linear constraint given directly by its rows: at stage i,
-    a[i] u + b[i] x + c[i] ≤ 1 (F = I, g = 1, the same at every stage), a, b, c (N + 1, R)."""
-
-    def __init__(self, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> None:
-        super().__init__()
-        # Each row divided by ‖(a, b)‖ (the same half-plane): the seidel solver's tolerances
-        # are absolute (1e-10), and rows of the size of q'² near a path's ends would fall
-        # under them. Rows with a = b = 0 (c ≤ 1, a constant) stay as they are.
-        norm = np.hypot(a, b)
-        scale = np.where(norm > 0.0, 1.0 / np.where(norm > 0.0, norm, 1.0), 1.0)
-        self.a, self.b = a * scale, b * scale
-        self.c = (c - 1.0) * scale + 1.0
-        self.identical = True
-        self.set_discretization_type(DiscretizationType.Collocation)
-        rows = a.shape[1]
-        self.F = np.eye(rows)
-        self.g = np.ones(rows)
-
-    def compute_constraint_params(self, path: Any, gridpoints: np.ndarray, *args: Any,
-                                  **kwargs: Any) -> tuple[Any, ...]:
-        if len(gridpoints) != self.a.shape[0]:
-            raise ValueError("the rows were made for another grid")
-        return self.a, self.b, self.c, self.F, self.g, None, None

@@ -27,12 +27,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import toppra
-import toppra.algorithm
 
 from service.dynamics.trajectories import rnea
 from service.dynamics.trajectories.check import TrajectoryCheck, check_trajectory
-from service.dynamics.trajectories.constraints import Family, SampledRows
+from service.dynamics.trajectories.constraints import Family
 from service.dynamics.trajectories.envelope import lower_envelope, upper_envelope
 from service.dynamics.trajectories.families import (
     PathSamples,
@@ -49,7 +47,8 @@ from service.dynamics.trajectories.profile import Profile
 from service.errors import InfeasiblePath, InvalidInput, UnsupportedModel
 from service.registry.robot import Robot
 
-logging.getLogger("toppra").setLevel(logging.ERROR)  # its warnings are our decisions here
+# toppra's warnings (a re-run, a slowdown) are decisions taken here, not news for the log
+logging.getLogger("toppra").setLevel(logging.ERROR)
 
 INTERVALS = 200  # TOPP-RA intervals along the path
 SOLVE_POINTS = 8  # m: points per interval (besides its start) where the solver keeps limits
@@ -187,6 +186,11 @@ def _toppra(path: WaypointPath, grid: np.ndarray, fams: list[Family],
             tightening: list[np.ndarray]) -> tuple[np.ndarray | None, np.ndarray]:
     """Run TOPP-RA with every family's rows at the solver's points; (x at the gridpoints, or
     None when it finds no timing; the controllable sets K)."""
+    import toppra  # here, not at import: it imports matplotlib (see toppra_rows)
+    import toppra.algorithm
+
+    from service.dynamics.trajectories.toppra_rows import SampledRows
+
     every = VERIFY_POINTS // SOLVE_POINTS
     theta = np.linspace(0.0, 1.0, SOLVE_POINTS + 1)
     deltas = np.diff(grid)

@@ -82,7 +82,7 @@ def _inputs(robot, quantity: dynamics.Quantity, with_v: bool, n: int) -> dict:
 def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -> None:
     if path == "retime":
         pytest.skip("retime's sample count follows from the duration, known only after "
-                    "solving: it checks the budget itself (test_trajectories_http.py)")
+                    "solving: it checks the budget itself (dynamics/trajectories/test_http.py)")
     quantity = dynamics.QUANTITIES[path]
     for robot in robots.values():
         for options, with_v in _options(path, robot):

@@ -51,6 +51,7 @@ from service.registry.robot import Robot
 logging.getLogger("toppra").setLevel(logging.ERROR)
 
 INTERVALS = 200  # TOPP-RA intervals along the path
+MIN_SEGMENT_INTERVALS = 3  # per spline segment (waypoints close together get a finer grid)
 SOLVE_POINTS = 8  # m: points per interval (besides its start) where the solver keeps limits
 VERIFY_POINTS = 8  # V: points per interval (a multiple of m) where the timing is verified
 INITIAL_MARGIN = 1e-6  # the solver sees every limit × (1 − this)
@@ -89,11 +90,11 @@ class Retimed:
 
 def gridpoints(path: WaypointPath, intervals: int = INTERVALS) -> np.ndarray:
     """About `intervals` intervals of [0, L], evenly spaced within each spline segment (each
-    segment gets a share by its length, at least one), so every knot is a gridpoint and the
-    path is one cubic polynomial on every interval."""
+    segment gets a share by its length, at least MIN_SEGMENT_INTERVALS), so every knot is a
+    gridpoint and the path is one cubic polynomial on every interval."""
     pieces = []
     for s0, s1 in zip(path.knots[:-1], path.knots[1:], strict=True):
-        count = max(1, round(intervals * (s1 - s0) / path.length))
+        count = max(MIN_SEGMENT_INTERVALS, round(intervals * (s1 - s0) / path.length))
         pieces.append(np.linspace(s0, s1, count + 1)[:-1])
     return np.concatenate([*pieces, path.knots[-1:]])
 

@@ -171,7 +171,7 @@ export class TrajectoryView {
       }
       if (this.info !== info) return; // another robot was chosen meanwhile
       const check = kind === "check" ? answer : answer.check;
-      const v = kind === "check" ? answer.v : answer.v;
+      const v = answer.v; // the check's: given or the spline's; the retimed motion's
       el("trajectory-plots").result = { kind, answer }; // for the tests and the console
       this.summarise(kind, answer, check);
       this.plot(t, answer.tau, v, check);

@@ -91,8 +91,12 @@ def retime(robot: Robot, s: States, *, limits: dict[str, Any] | None = None,
             raise InvalidInput(str(exc)) from None
         raise PayloadTooLarge(f"{exc} (the answer would exceed ROBODYN_MAX_ANSWER_BYTES)"
                               ) from None
+    # The check is a nested object: its arrays as lists (the binary form carries only the
+    # top-level arrays as tensors, and everything else as JSON).
+    check = {k: v.tolist() if hasattr(v, "tolist") else v
+             for k, v in result.check.answer().items()}
     return {"duration": result.duration, "t": result.t, "q": robot.api_q(result.q),
-            "v": result.v, "a": result.a, "tau": result.tau, "check": result.check.answer()}
+            "v": result.v, "a": result.a, "tau": result.tau, "check": check}
 
 
 def retime_work(robot: Robot, s: States, options: dict[str, Any]) -> int:

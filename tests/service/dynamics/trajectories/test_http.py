@@ -166,3 +166,24 @@ def test_retime_over_the_answer_budget_is_a_413(tmp_path: Path) -> None:
         coarse = client.post("/v1/robots/ur5/retime",
                              json={"waypoints": WAYPOINTS.tolist(), "sample_dt": 0.2})
         assert coarse.status_code == 200, coarse.text
+
+
+def test_both_routes_speak_the_binary_form(api) -> None:
+    """A safetensors body and answer (the check's arrays as tensors; retime's nested check as
+    JSON in the metadata), the same numbers as JSON."""
+    from robodyn import binary
+
+    headers = {"content-type": binary.MEDIA_TYPE, "accept": binary.MEDIA_TYPE}
+    t, q = _motion()
+    for route, arrays, fields in (("retime", {"waypoints": WAYPOINTS}, {}),
+                                  ("trajectory-check", {"q": q}, {"t": t.tolist()})):
+        r = api.post(f"/v1/robots/ur5/{route}", content=binary.encode(arrays, fields),
+                     headers=headers)
+        assert r.status_code == 200, r.text
+        answer = binary.decode(r.content)
+        as_json = api.post(f"/v1/robots/ur5/{route}",
+                           json={**{k: a.tolist() for k, a in arrays.items()}, **fields}).json()
+        np.testing.assert_array_equal(answer["tau"], as_json["tau"])
+        check = answer["check"] if route == "retime" else answer
+        assert check["feasible"] == (as_json["check"] if route == "retime"
+                                     else as_json)["feasible"]

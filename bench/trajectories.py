@@ -1,4 +1,4 @@
-"""Benchmarks of the trajectory routes (comparison 7 of bench/run.py), each against an
+"""Benchmarks of the trajectory routes (comparison 8 of bench/run.py), each against an
 in-process baseline measured in the same run:
 
 - trajectory-check of 10,000 samples of a 7-DoF arm (xArm7) with their v and a, through the
@@ -51,7 +51,7 @@ def check(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]],
     import pinocchio as pin
     import robodyn
 
-    print("7a. trajectory-check (xArm7, 10,000 samples)", flush=True)
+    print("8a. trajectory-check (xArm7, 10,000 samples)", flush=True)
     model = _registry([ARM]).get(ARM).model
     motion = arm_motion(model)
     data = model.createData()
@@ -111,7 +111,7 @@ def retime(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]]
            row: Callable[..., None]) -> None:
     import httpx
 
-    print("7b. retime (UR5, 6 waypoints)", flush=True)
+    print("8b. retime (UR5, 6 waypoints)", flush=True)
     model = _registry(["ur5"]).get("ur5").model
     waypoints = ur5_waypoints()
 

@@ -57,6 +57,7 @@ from service.api.schemas.operational_space import (
     OperationalSpaceAnswer,
     OperationalSpaceRequest,
 )
+from service.api.schemas.payloads import PayloadCapacityAnswer, PayloadCapacityRequest
 from service.api.schemas.placements import FramePlacementsAnswer, FramePlacementsRequest
 from service.api.schemas.simulation import SimulateAnswer, SimulateRequest
 from service.api.schemas.trajectories import (
@@ -96,6 +97,7 @@ _SCHEMAS: dict[str, tuple[type[BaseModel], type[BaseModel]]] = {
     "contact-inverse-dynamics": (ContactInverseDynamicsRequest, ContactInverseDynamicsAnswer),
     "impulse-dynamics": (ImpulseDynamicsRequest, ImpulseDynamicsAnswer),
     "frame-placements": (FramePlacementsRequest, FramePlacementsAnswer),
+    "payload-capacity": (PayloadCapacityRequest, PayloadCapacityAnswer),
     "trajectory-check": (TrajectoryCheckRequest, TrajectoryCheckAnswer),
     "retime": (RetimeRequest, RetimeAnswer),
 }

@@ -11,6 +11,7 @@ from service.dynamics.equation_of_motion import EQUATION_OF_MOTION
 from service.dynamics.frames import FRAMES
 from service.dynamics.lagrangian import LAGRANGIAN
 from service.dynamics.operational_space import OPERATIONAL_SPACE
+from service.dynamics.payload_capacity import PAYLOADS
 from service.dynamics.placements import PLACEMENTS
 from service.dynamics.quantity import Quantity, Results, finite, run
 from service.dynamics.simulation import SIMULATION
@@ -18,6 +19,6 @@ from service.dynamics.trajectories.quantities import TRAJECTORIES
 
 QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
-    *SIMULATION, *CONTACTS, *PLACEMENTS, *TRAJECTORIES)}
+    *SIMULATION, *CONTACTS, *PLACEMENTS, *PAYLOADS, *TRAJECTORIES)}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

@@ -1,6 +1,7 @@
 // robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+import { PayloadPanel } from "./payload_panel.js";
 import { TrajectoryView } from "./trajectory_view.js";
 import { ViewPanel } from "./view_panel.js";
 
@@ -24,6 +25,7 @@ const state = {
   chooseScale: false,
   view: null, // the 3-D view panel (view_panel.js)
   trajectory: null, // the trajectory tab (trajectory_view.js)
+  payload: null, // the payload view (payload_panel.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -281,6 +283,7 @@ async function compute() {
     state.view.colour(g.gravity, c.coriolis_forces);
     renderEnergy(mm.mass_matrix, v);
     setStatus("Computed by the service for the state set on the left.");
+    state.payload.compute();
   } catch (err) {
     if (seq === state.seq) setStatus(err.message, true);
   } finally {
@@ -560,6 +563,7 @@ async function selectRobot(id) {
   posture.value = "default";
   renderFacts(info);
   state.trajectory.setRobot(info);
+  state.payload.setRobot(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
   if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
@@ -651,7 +655,20 @@ async function upload(ev) {
   }
 }
 
-// ---- Tabs ---------------------------------------------------------------------------------
+// ---- Tabs (the page's views: robot and dynamics, trajectory) ----------------------------
+
+function arrowKeys(tabs, select) {
+  for (const [k, tab] of tabs.entries()) {
+    tab.addEventListener("click", () => select(tab));
+    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
+      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
+      if (!step) return;
+      const next = tabs[(k + step + tabs.length) % tabs.length];
+      next.focus();
+      select(next);
+    });
+  }
+}
 
 function selectTab(button) {
   for (const tab of document.querySelectorAll('#tabs [role="tab"]')) {
@@ -665,17 +682,25 @@ function selectTab(button) {
 }
 
 function setUpTabs() {
-  const tabs = [...document.querySelectorAll('#tabs [role="tab"]')];
-  for (const [k, tab] of tabs.entries()) {
-    tab.addEventListener("click", () => selectTab(tab));
-    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
-      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
-      if (!step) return;
-      const next = tabs[(k + step + tabs.length) % tabs.length];
-      next.focus();
-      selectTab(next);
-    });
+  arrowKeys([...document.querySelectorAll('#tabs [role="tab"]')], selectTab);
+}
+
+// ---- Views of the results (dynamics, payload) -----------------------------------------------
+
+function showView(button) {
+  const tabs = [...document.querySelectorAll('#result-views [role="tab"]')];
+  for (const tab of tabs) {
+    tab.setAttribute("aria-selected", String(tab === button));
+    tab.tabIndex = tab === button ? 0 : -1;
   }
+  const payload = button.id === "payload-view-button";
+  el("payload-view").hidden = !payload;
+  el("results").classList.toggle("payload-shown", payload);
+  if (payload) state.payload.compute();
+}
+
+function setUpViews() {
+  arrowKeys([...document.querySelectorAll('#result-views [role="tab"]')], showView);
 }
 
 // ---- Start --------------------------------------------------------------------------------
@@ -683,6 +708,10 @@ function setUpTabs() {
 async function start() {
   state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
                                onError: (err) => setStatus(err.message, true) });
+  state.payload = new PayloadPanel({ api, robotPath, currentQ, fmt, renderBars,
+                                     rows: () => state.rows,
+                                     onError: (err) => setStatus(err.message, true) });
+  setUpViews();
   state.trajectory = new TrajectoryView({ api, robotPath, fmt });
   setUpTabs();
   el("robot").addEventListener("change", (ev) => {

@@ -60,7 +60,7 @@ from robodyn.errors import (
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
-from robodyn.payloads import Payload
+from robodyn.payloads import CapacityMinimum, Payload, PayloadCapacity
 from robodyn.progress import Progress, ProgressCallback
 from robodyn.request_options import (
     Fill,
@@ -96,6 +96,7 @@ __all__ = [
     "AsyncStream",
     "BadRequestError",
     "BodyInertia",
+    "CapacityMinimum",
     "CatalogRobotError",
     "CenterOfMass",
     "Centroidal",
@@ -131,6 +132,7 @@ __all__ = [
     "OperationalSpace",
     "OverloadedError",
     "Payload",
+    "PayloadCapacity",
     "PayloadTooLargeError",
     "Progress",
     "ProgressCallback",

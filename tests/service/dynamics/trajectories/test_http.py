@@ -187,3 +187,25 @@ def test_both_routes_speak_the_binary_form(api) -> None:
         check = answer["check"] if route == "retime" else answer
         assert check["feasible"] == (as_json["check"] if route == "retime"
                                      else as_json)["feasible"]
+
+
+def test_payloads_apply_to_both_routes(api, setup) -> None:
+    """With a 5 kg payload at the flange the routes answer for the robot carrying it: equal
+    to the in-process computation on that robot, and a heavier load than without it."""
+    from service.dynamics.payloads import robot_with_payloads
+
+    payloads = [{"frame": "tool0", "mass": 5.0}]
+    carrying = robot_with_payloads(setup[1].get("ur5"), payloads)
+    t, q = _motion()
+    r = api.post("/v1/robots/ur5/trajectory-check",
+                 json={"t": t.tolist(), "q": q.tolist(), "payloads": payloads})
+    assert r.status_code == 200, r.text
+    expected = check_trajectory(carrying, t, q)
+    np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
+    bare = api.post("/v1/robots/ur5/trajectory-check", json={"t": t.tolist(), "q": q.tolist()})
+    assert r.json()["joints"][1]["peak_effort"] > bare.json()["joints"][1]["peak_effort"]
+    timed = api.post("/v1/robots/ur5/retime",
+                     json={"waypoints": WAYPOINTS.tolist(), "payloads": payloads})
+    assert timed.status_code == 200, timed.text
+    assert timed.json()["duration"] == retime(carrying, WAYPOINTS).duration
+    assert timed.json()["duration"] > retime(setup[1].get("ur5"), WAYPOINTS).duration

@@ -104,7 +104,9 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
         if count == 0:
             raise DimensionMismatch("the batch is empty; send at least one state")
         if count > max_batch:
-            raise DimensionMismatch(f"the batch has {count} states; the limit is {max_batch}")
+            first = next(iter(sizes))
+            raise DimensionMismatch(f"{first} has {count} rows (states); the limit is "
+                                    f"{max_batch} (ROBODYN_MAX_BATCH)")
     else:
         arrays = {n: a[np.newaxis, :] for n, a in arrays.items()}
     for name, arr in arrays.items():

@@ -101,7 +101,8 @@ def test_retime_answer_equals_the_in_process_retime(api, setup) -> None:
     ({"velocity_scale": -1.0}, "velocity_scale"),
     ({"samples_per_interval": 0}, "samples_per_interval"),
     ({"samples_per_interval": 65}, "samples_per_interval"),
-    ({"t": list(range(5001)), "q": [[0.0] * 6] * 5001}, "the limit is 5000"),
+    ({"t": list(range(5001)), "q": [[0.0] * 6] * 5001}, "q has 5001 rows (states); the limit is "
+     "5000"),
 ])
 def test_bad_check_input_is_a_422_naming_the_field(api, body: dict, field: str) -> None:
     request = {"t": [0.0, 1.0, 2.0], "q": [[0.0] * 6] * 3, **body}

@@ -221,7 +221,7 @@ def _solve_and_correct(path: WaypointPath, grid: np.ndarray, dense: PathSamples,
     tightening = [np.full(len(f.joints), 1.0 - INITIAL_MARGIN) for f in fams]
     x, K = _toppra(path, grid, fams, tightening)
     if x is None:
-        raise _no_timing(path, grid, dense, K, limits)
+        raise _no_timing(path, dense, K, limits)
     if x.max() > MAX_PATH_SPEED2:
         raise InvalidInput("the limits do not bound the speed along this path (a joint that "
                            "moves has no velocity limit): give limits.acceleration")
@@ -246,39 +246,47 @@ def _slow_down(path: WaypointPath, profile: Profile, dense: PathSamples, fams: l
     limits (step 5's last resort); (profile, factor, worst ratio)."""
     factor = 1.0
     for _ in range(50):
-        need = max(float(slowdown(f, profile, dense.theta, 1.0 - 1e-9).max()) for f in fams)
-        if not np.isfinite(need):
-            raise InfeasiblePath("no timing can follow this path: gravity leaves a joint no "
-                                 "torque to move it", joint=None, waypoint=None,
-                                 path_fraction=None, kind="effort")
+        needs = [slowdown(f, profile, dense.theta, 1.0 - 1e-9) for f in fams]
+        need = max(float(n.max()) for n in needs)
+        if not np.isfinite(need):  # gravity alone is at the limit somewhere: no slower fixes it
+            family, j = next((f, int(np.argmax(~np.isfinite(n)))) for f, n in
+                             zip(fams, needs, strict=True) if not np.isfinite(n).all())
+            lim = next(x for x in limits if x.name == family.joints[j])
+            spare = (lim.effort or np.inf) - np.abs(dense.C[..., lim.iv]).max(axis=1)
+            raise _stuck(path, dense, int(np.argmin(spare)), [lim])
         step = max(need, 1.0 + 1e-6)
         profile, factor = profile.slowed(step), factor * step
         worst = max(float(ratios(f, profile, dense.theta).max()) for f in fams)
         if worst <= 1.0:
             return profile, factor, worst
-    raise InfeasiblePath("no timing found within the limits after slowing down",
-                         joint=None, waypoint=None, path_fraction=None, kind="effort")
+    raise _stuck(path, dense, 0, limits)
 
 
-def _no_timing(path: WaypointPath, grid: np.ndarray, dense: PathSamples, K: np.ndarray,
+def _no_timing(path: WaypointPath, dense: PathSamples, K: np.ndarray,
                limits: list[JointLimit]) -> InfeasiblePath:
     """The InfeasiblePath for a path TOPP-RA finds no timing for: where its controllable
-    sets end (the last gridpoint from which it could not reach the end), and the joint with
-    the least torque to spare against gravity there."""
+    sets end (the last gridpoint from which it could not reach the end)."""
     failed = np.flatnonzero(~np.isfinite(np.asarray(K, dtype=float)).all(axis=1))
-    i = int(failed.max()) if failed.size else 0
-    i = min(i, len(grid) - 2)
+    return _stuck(path, dense, int(failed.max()) if failed.size else 0, limits)
+
+
+def _stuck(path: WaypointPath, dense: PathSamples, i: int, limits: list[JointLimit]
+           ) -> InfeasiblePath:
+    """The InfeasiblePath at interval i of the grid: the joint (of `limits`) with the least
+    torque to spare against gravity there."""
+    i = min(max(i, 0), dense.s.shape[0] - 1)
     strong = [lim for lim in limits if lim.effort is not None]
     joint = None
     if strong:
         spare = [(lim.effort - np.abs(dense.C[i, :, lim.iv]).max()) / lim.effort
                  for lim in strong]
         joint = strong[int(np.argmin(spare))].name
-    k, fraction = path.where(float(grid[i]))
+    s = float(dense.s[i, 0])
+    k, fraction = path.where(s)
     named = f"joint '{joint}' " if joint else ""
     return InfeasiblePath(f"no timing can follow this path within the limits: {named}cannot "
-                          f"be held and moved {_where(path, float(grid[i]))}", joint=joint,
-                          waypoint=k, path_fraction=fraction, kind="effort")
+                          f"be held and moved {_where(path, s)}", joint=joint, waypoint=k,
+                          path_fraction=fraction, kind="effort")
 
 
 def _samples(robot: Robot, path: WaypointPath, profile: Profile, dt: float,

@@ -17,13 +17,14 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── UnknownFrame                  unknown_frame
     ├── SingularConfiguration         singular_configuration
     ├── NonFiniteResult               non_finite_result
+    ├── UnsupportedModel              unsupported_model
     ├── PayloadTooLarge               payload_too_large
     ├── Unauthorized                  unauthorized
     ├── NotReady                      not_ready
     ├── Overloaded                    overloaded
     │   └── ComputationStopped        overloaded
+    ├── DeadlineExceeded              deadline_exceeded
     ├── UnsupportedMediaType          unsupported_media_type
-    ├── UnsupportedModel              unsupported_model
     └── InfeasiblePath                infeasible_path
 """
 
@@ -122,6 +123,15 @@ class NonFiniteResult(RobodynError):
     title = "Non-finite result"
 
 
+class UnsupportedModel(RobodynError):
+    """The route needs what this model lacks: e.g. a fixed base and 1-DoF joints for the
+    equations of motion in explicit form, or a size their derivation can finish in time, or
+    joints that are all revolute or prismatic for retiming."""
+
+    code = "unsupported_model"
+    title = "Unsupported model"
+
+
 class PayloadTooLarge(RobodynError):
     code = "payload_too_large"
     title = "Payload too large"
@@ -149,17 +159,17 @@ class ComputationStopped(Overloaded):
     title = "Computation stopped"
 
 
+class DeadlineExceeded(RobodynError):
+    """A long computation stopped at the request's deadline (ROBODYN_REQUEST_DEADLINE_S).
+    Not `overloaded`: the same request would stop again, so clients do not retry it."""
+
+    code = "deadline_exceeded"
+    title = "Deadline exceeded"
+
+
 class UnsupportedMediaType(RobodynError):
     code = "unsupported_media_type"
     title = "Unsupported media type"
-
-
-class UnsupportedModel(RobodynError):
-    """The computation needs what this model lacks (e.g. joints that are all revolute or
-    prismatic)."""
-
-    code = "unsupported_model"
-    title = "Unsupported model"
 
 
 class InfeasiblePath(RobodynError):
@@ -182,11 +192,12 @@ ALL_ERRORS: tuple[type[RobodynError], ...] = (
     UnknownFrame,
     SingularConfiguration,
     NonFiniteResult,
+    UnsupportedModel,
     PayloadTooLarge,
     Unauthorized,
     NotReady,
     Overloaded,
+    DeadlineExceeded,
     UnsupportedMediaType,
-    UnsupportedModel,
     InfeasiblePath,
 )

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio
 import inspect
 import logging
+import os
 import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -13,13 +15,15 @@ from fastapi import Depends, FastAPI
 
 from service import __version__, heap, unpin_this_thread
 from service.api.deps import require_api_key_for_all
+from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.middleware.body_limit import BodyLimitMiddleware
 from service.api.middleware.fast_path import DynamicsFastPath
 from service.api.middleware.observability import Metrics, ObservabilityMiddleware
 from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
-from service.api.routes import health, pages, robots, stream, visuals
+from service.api.routes import equations, health, pages, robots, stream, visuals
+from service.dynamics.equations.cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import BuildSlots, build_slot_count
@@ -73,6 +77,14 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
     app.state.batches_in_flight = 0
+    # Each robot's equations in explicit form, derived once in a child process (sharing the
+    # builders' slots: both are CPU-bound child processes) and kept in memory and on disk.
+    app.state.equations = EquationsCache(
+        settings.data_dir, settings.equations_timeout_s, registry.build_slots,
+        max_bytes=settings.equations_cache_mb * 1024 * 1024,
+        memory_mb=settings.equations_memory_mb)
+    app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
+    app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
     app.openapi = lambda: problem_openapi(app, described)  # type: ignore[method-assign]
@@ -82,6 +94,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     private = [Depends(require_api_key_for_all)]
     app.include_router(robots.router, dependencies=private)
     app.include_router(visuals.router, dependencies=private)
+    app.include_router(equations.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
     app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
     app.include_router(pages.router)
@@ -92,6 +105,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,
                        catalog_ids=lambda: registry.catalog)  # outermost: sees every answer
     return app
+
+
+def _usable_cpus() -> int:
+    """The CPUs this process may run on: how many large batches are computed at once."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return max(1, len(affinity(0)) if affinity is not None else os.cpu_count() or 1)
 
 
 def app_from_environment() -> FastAPI:

@@ -59,6 +59,17 @@ class Settings(BaseSettings):
         "the work of one constrained evaluation, which grows with the contacts (m³ for m "
         "constraint rows) and, with damping, the worst case of its iterations. The default "
         "admits about 10 s of computing on one core.")
+    request_deadline_s: float = Field(
+        60.0, gt=0, description="Longest time a dynamics request computed off the event loop "
+        "(a large batch, a simulation, a contact batch) may compute, in seconds from the "
+        "start of its computation; past it the computation stops between chunks or steps and "
+        "the answer is 503 overloaded (it also stops at once when the client disconnects).")
+    max_answer_bytes_in_flight: int = Field(
+        1024 * 1024 * 1024, ge=1024, description="Largest total of the large HTTP answers (1 "
+        "MiB or more, by their size estimate, then their encoded size) held by one process "
+        "from admission until their clients have read them, in bytes; a request whose answer "
+        "would pass it is answered 503 overloaded with Retry-After before computing (one "
+        "answer alone always passes). It bounds the memory held for clients that do not read.")
     data_pool_mb: int = Field(
         1024, ge=0, description="Memory kept for idle Pinocchio Data between computations, "
         "over all robots, in MB (a Data takes about 80·nv³ bytes; the whole catalog needs "
@@ -107,6 +118,18 @@ class Settings(BaseSettings):
         30.0, gt=0, description="How long an upload may wait for a free builder, in seconds; "
         "beyond it (or with more than 4 uploads per builder waiting) the answer is 503 "
         "overloaded with Retry-After. The build timeout starts when the build does.")
+    equations_timeout_s: float = Field(
+        60.0, gt=0, description="Time limit of deriving one robot's equations of motion in "
+        "explicit form (GET /v1/robots/{id}/equations), in seconds of wall clock and of CPU "
+        "time, in a child process; past it the answer is 422 unsupported_model. A UR5 takes "
+        "about 0.3 s.")
+    equations_memory_mb: int = Field(
+        2048, ge=256, description="Address-space limit of the process deriving a robot's "
+        "equations, in MB.")
+    equations_cache_mb: int = Field(
+        256, ge=1, description="Memory kept for derived equations (JSON answers), per server "
+        "process, in MB; the least recently used are dropped beyond it (stored models keep "
+        "theirs on disk in the data directory).")
 
     # -- connections and answers (service/server/protocol.py; see docs/security.md) --
     max_answer_bytes: int = Field(

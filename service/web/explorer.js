@@ -1,6 +1,7 @@
 // robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+import { EquationsView } from "./equations_view.js";
 import { PayloadPanel } from "./payload_panel.js";
 import { TrajectoryView } from "./trajectory_view.js";
 import { ViewPanel } from "./view_panel.js";
@@ -26,6 +27,7 @@ const state = {
   view: null, // the 3-D view panel (view_panel.js)
   trajectory: null, // the trajectory tab (trajectory_view.js)
   payload: null, // the payload view (payload_panel.js)
+  equations: null, // the equations view (equations_view.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -281,6 +283,7 @@ async function compute() {
     renderBars(el("gravity-chart"), g.gravity, "f");
     renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
     state.view.colour(g.gravity, c.coriolis_forces);
+    state.equations.update({ M: mm.mass_matrix, g: g.gravity, C: c.coriolis_matrix });
     renderEnergy(mm.mass_matrix, v);
     setStatus("Computed by the service for the state set on the left.");
     state.payload.compute();
@@ -564,6 +567,7 @@ async function selectRobot(id) {
   renderFacts(info);
   state.trajectory.setRobot(info);
   state.payload.setRobot(info);
+  state.equations.setRobot(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
   if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
@@ -685,7 +689,7 @@ function setUpTabs() {
   arrowKeys([...document.querySelectorAll('#tabs [role="tab"]')], selectTab);
 }
 
-// ---- Views of the results (dynamics, payload) -----------------------------------------------
+// ---- Views of the results (dynamics, payload, equations) -----------------------------------------------
 
 function showView(button) {
   const tabs = [...document.querySelectorAll('#result-views [role="tab"]')];
@@ -694,9 +698,13 @@ function showView(button) {
     tab.tabIndex = tab === button ? 0 : -1;
   }
   const payload = button.id === "payload-view-button";
+  const equations = button.id === "equations-view-button";
   el("payload-view").hidden = !payload;
+  el("equations-view").hidden = !equations;
   el("results").classList.toggle("payload-shown", payload);
+  el("results").classList.toggle("equations-shown", equations);
   if (payload) state.payload.compute();
+  if (equations) state.equations.show();
 }
 
 function setUpViews() {
@@ -711,6 +719,7 @@ async function start() {
   state.payload = new PayloadPanel({ api, robotPath, currentQ, fmt, renderBars,
                                      rows: () => state.rows,
                                      onError: (err) => setStatus(err.message, true) });
+  state.equations = new EquationsView({ api, robotPath, fmt });
   setUpViews();
   state.trajectory = new TrajectoryView({ api, robotPath, fmt });
   setUpTabs();

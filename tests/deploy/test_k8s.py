@@ -120,6 +120,9 @@ def test_resources_are_requested_and_limited(container):
     env = _env(container)
     assert env["ROBODYN_WORKERS"] == "1"  # one process per pod: its /metrics is the pod's
     assert int(env["ROBODYN_MAX_BATCH"]) <= Settings().max_batch  # caps one answer's memory
+    # answers held for clients that do not read: at most a quarter of the pod's memory
+    held = int(env["ROBODYN_MAX_ANSWER_BYTES_IN_FLIGHT"])
+    assert held <= mib(resources["limits"]["memory"]) * 2**20 / 4
 
 
 def test_every_replica_shares_one_read_write_many_volume_as_data_dir(pod, container):
@@ -149,7 +152,8 @@ def test_graceful_termination_outlasts_the_longest_request(pod, container):
     server_drain = 30  # uvicorn's timeout_graceful_shutdown in `python -m service`
     main_source = (ROOT / "service" / "__main__.py").read_text()
     assert f"timeout_graceful_shutdown={server_drain}" in main_source
-    longest_request = float(env["ROBODYN_BUILD_TIMEOUT_S"])  # an upload's model build
+    longest_request = max(float(env["ROBODYN_BUILD_TIMEOUT_S"]),  # an upload's model build
+                          float(env["ROBODYN_EQUATIONS_TIMEOUT_S"]))  # a first derivation
     grace = pod["terminationGracePeriodSeconds"]
     assert grace > int(pre_stop[1]) + max(server_drain, longest_request)
 

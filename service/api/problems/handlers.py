@@ -29,12 +29,13 @@ STATUS_BY_CODE: dict[str, int] = {
     "unknown_frame": 422,
     "singular_configuration": 422,
     "non_finite_result": 422,
-    "unsupported_model": 422,
+    "unsupported_model": 422,  # the route needs what the model lacks (a fixed base, …)
     "infeasible_path": 422,
     "payload_too_large": 413,
     "unauthorized": 401,
     "not_ready": 503,
     "overloaded": 503,
+    "deadline_exceeded": 504,
     "internal_error": 500,
     # Protocol-level problems raised by the framework itself:
     "bad_request": 400,

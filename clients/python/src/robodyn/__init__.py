@@ -25,12 +25,14 @@ from robodyn.contacts import (
     ContactTrajectory,
     ImpulseDynamics,
 )
+from robodyn.equations import EntryStructure, Equations, EquationsStructure, Expressions
 from robodyn.errors import (
     APIError,
     AssetNotFoundError,
     BadRequestError,
     CatalogRobotError,
     ConflictError,
+    DeadlineExceededError,
     DimensionMismatchError,
     InfeasiblePathError,
     InputError,
@@ -106,8 +108,13 @@ __all__ = [
     "ContactDynamics",
     "ContactInverseDynamics",
     "ContactTrajectory",
+    "DeadlineExceededError",
     "DimensionMismatchError",
     "Energy",
+    "EntryStructure",
+    "Equations",
+    "EquationsStructure",
+    "Expressions",
     "Fill",
     "Finding",
     "ForwardDynamicsDerivatives",

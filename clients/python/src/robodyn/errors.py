@@ -32,9 +32,10 @@ nothing of robodyn can still catch them (`except LookupError`, `except ValueErro
         │   └── InfeasiblePathError               422 infeasible_path
         └── ServerError                           5xx
             ├── InternalServerError               500 internal_error
-            └── ServiceUnavailableError           503
-                ├── NotReadyError                 503 not_ready
-                └── OverloadedError               503 overloaded
+            ├── ServiceUnavailableError           503
+            │   ├── NotReadyError                 503 not_ready
+            │   └── OverloadedError               503 overloaded
+            └── DeadlineExceededError (builtins.TimeoutError)  504 deadline_exceeded
 
 A code this client does not know yet falls back by HTTP status to the class of that status in
 the tree (a new 422 code raises `UnprocessableError`, a new 503 code `ServiceUnavailableError`,
@@ -216,7 +217,9 @@ class NonFiniteResultError(UnprocessableError, ArithmeticError):
 
 
 class UnsupportedModelError(UnprocessableError):
-    """The route needs what this model lacks (e.g. retime: joints all revolute or prismatic)."""
+    """The route needs what this model lacks (e.g. a fixed base and 1-DoF joints for the
+    equations in explicit form, or a size the derivation can finish in time); the detail
+    says which."""
 
     error_code = "unsupported_model"
 
@@ -248,6 +251,13 @@ class NotReadyError(ServiceUnavailableError):
 
 class OverloadedError(ServiceUnavailableError):
     error_code = "overloaded"
+
+
+class DeadlineExceededError(ServerError, builtins.TimeoutError):
+    """The computation stopped at the server's request deadline (504): ask for less work per
+    request (fewer states or steps). Not retried: the same request would stop again."""
+
+    status_code, error_code = 504, "deadline_exceeded"
 
 
 def _tree(cls: type[APIError]) -> list[type[APIError]]:

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from service.dynamics.stopping import ShouldStop, Stopper
 from service.dynamics.trajectories import rnea
 from service.dynamics.trajectories.inputs import positive, sample_times, samples
 from service.dynamics.trajectories.limits import joint_limits, spans_over
@@ -32,6 +33,7 @@ from service.states import configurations
 
 MAX_SAMPLES_PER_INTERVAL = 64
 MAX_EVALUATED_POINTS = 1_000_000  # states whose τ one check computes
+RNEA_BATCH = 20_000  # evaluated points per batch of RNEA (between two `should_stop` checks)
 
 Friction = Callable[[np.ndarray], np.ndarray]  # v (n, nv) → friction torque (n, nv)
 
@@ -90,9 +92,11 @@ def check_trajectory(robot: Robot, t: Any, q: Any, v: Any = None, a: Any = None,
 def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarray | None,
                   acc: np.ndarray | None, *, effort_scale: float = 1.0,
                   velocity_scale: float = 1.0, samples_per_interval: int = 4,
-                  friction: Friction | None = None) -> TrajectoryCheck:
+                  friction: Friction | None = None,
+                  should_stop: ShouldStop | None = None) -> TrajectoryCheck:
     """`check_trajectory` of checked samples: times (N,) strictly increasing, qs (N, nq) in
-    Pinocchio's order, vs and acc (N, nv) or None."""
+    Pinocchio's order, vs and acc (N, nv) or None. `should_stop()` (optional) is asked
+    between batches of RNEA_BATCH evaluated points (`service.dynamics.stopping`)."""
     n = times.shape[0]
     effort_scale = positive("effort_scale", effort_scale)
     velocity_scale = positive("velocity_scale", velocity_scale)
@@ -120,7 +124,13 @@ def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarra
     else:
         t_eval, q_eval, v_eval, a_eval = times, qs, vs, acc
         at_samples = slice(None)
-    tau_eval = rnea.inverse_dynamics(robot, q_eval, v_eval, a_eval)
+    stop = Stopper(should_stop, "trajectory-check", "evaluated point")
+    tau_eval = np.empty((q_eval.shape[0], robot.nv))
+    for start in range(0, q_eval.shape[0], RNEA_BATCH):
+        stop.poll(start)
+        end = start + RNEA_BATCH
+        tau_eval[start:end] = rnea.inverse_dynamics(robot, q_eval[start:end],
+                                                    v_eval[start:end], a_eval[start:end])
     if friction is not None:
         tau_eval = tau_eval + friction(v_eval)
     joints, violations = _against_limits(robot, t_eval, q_eval, v_eval, tau_eval,

@@ -12,6 +12,7 @@ import math
 from typing import Any
 
 from service.dynamics.quantity import Quantity
+from service.dynamics.stopping import ShouldStop
 from service.dynamics.trajectories import retiming
 from service.dynamics.trajectories.check import (
     MAX_EVALUATED_POINTS,
@@ -26,8 +27,8 @@ JSON_BYTES_PER_NUMBER = 25  # as the answer budget counts a number in JSON
 
 
 def trajectory_check(robot: Robot, s: States, *, t: Any, effort_scale: float = 1.0,
-                     velocity_scale: float = 1.0, samples_per_interval: int = 4
-                     ) -> dict[str, Any]:
+                     velocity_scale: float = 1.0, samples_per_interval: int = 4,
+                     should_stop: ShouldStop | None = None) -> dict[str, Any]:
     """Check the motion sampled at times `t` [N] (s, strictly increasing, N ≥ 2) with
     configurations q [N][nq] and optional velocities v and accelerations a [N][nv] against the
     robot's effort, velocity and position limits (effort and velocity limits × effort_scale,
@@ -37,14 +38,16 @@ def trajectory_check(robot: Robot, s: States, *, t: Any, effort_scale: float = 1
     + g(q) by RNEA at every evaluated point. Answer: `feasible`, `tau` [N][nv] and `v`
     [N][nv] at the samples, per 1-DoF joint its limits, peaks and ratios (peak ÷ limit over
     every evaluated point, null without a limit), the `violations` with their time spans,
-    and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt."""
+    and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
+    never computed in chunks of states (`should_stop` is asked between its RNEA batches)."""
     times = sample_times("t", t)
     q = s["q"]
     if q.shape[0] != times.shape[0]:
         raise DimensionMismatch(f"q has {q.shape[0]} samples; t has {times.shape[0]}")
     result = check_samples(robot, times, q, s.arrays.get("v"), s.arrays.get("a"),
                            effort_scale=effort_scale, velocity_scale=velocity_scale,
-                           samples_per_interval=samples_per_interval)
+                           samples_per_interval=samples_per_interval,
+                           should_stop=should_stop)
     return {"feasible": result.feasible, "tau": result.tau, "v": result.v,
             "joints": result.joints, "violations": result.violations, "work": result.work}
 
@@ -63,7 +66,8 @@ def check_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
 
 
 def retime(robot: Robot, s: States, *, limits: dict[str, Any] | None = None,
-           sample_dt: float = 0.01, max_answer_bytes: int | None = None) -> dict[str, Any]:
+           sample_dt: float = 0.01, max_answer_bytes: int | None = None,
+           should_stop: ShouldStop | None = None) -> dict[str, Any]:
     """The time-optimal motion along the cubic spline through `waypoints` [K][nq] (K ≥ 2;
     clamped: zero derivative at both ends; parameterised by the cumulative joint-space
     distance between waypoints), from rest to rest, under the joint velocity limits ×
@@ -85,7 +89,7 @@ def retime(robot: Robot, s: States, *, limits: dict[str, Any] | None = None,
                                  velocity_scale=options.get("velocity_scale", 1.0),
                                  effort_scale=options.get("effort_scale", 1.0),
                                  acceleration=options.get("acceleration"),
-                                 max_samples=max_samples)
+                                 max_samples=max_samples, should_stop=should_stop)
     except retiming.TooManySamples as exc:
         if max_samples == retiming.MAX_SAMPLES:
             raise InvalidInput(str(exc)) from None

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from service.dynamics.stopping import ShouldStop, Stopper
 from service.dynamics.trajectories import rnea
 from service.dynamics.trajectories.check import TrajectoryCheck, check_trajectory
 from service.dynamics.trajectories.constraints import Family
@@ -105,11 +106,13 @@ class TooManySamples(InvalidInput):
 
 def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
            effort_scale: float = 1.0, acceleration: Any = None, sample_dt: float = 0.01,
-           intervals: int = INTERVALS, max_samples: int = MAX_SAMPLES) -> Retimed:
+           intervals: int = INTERVALS, max_samples: int = MAX_SAMPLES,
+           should_stop: ShouldStop | None = None) -> Retimed:
     """Time the path through `waypoints` [K, nq] (K ≥ 2) as fast as the limits allow: the
     model's velocity limits × `velocity_scale`, effort limits × `effort_scale`, and the joint
     accelerations `acceleration` [nv] where given; from rest to rest. Raises UnsupportedModel
-    (a joint other than revolute or prismatic), InfeasiblePath, InvalidInput."""
+    (a joint other than revolute or prismatic), InfeasiblePath, InvalidInput. `should_stop()`
+    (optional, `service.dynamics.stopping`) is asked between its steps."""
     odd = sorted({kind for kind in robot.joint_types.values()
                   if kind not in ("revolute", "prismatic")})
     if odd:
@@ -123,7 +126,10 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     path = WaypointPath(waypoints, robot.nq)
     limits = joint_limits(robot, effort_scale, velocity_scale)
     grid = gridpoints(path, intervals)
+    stop = Stopper(should_stop, "retime", "step")
+    stop.poll(0)
     dense = sample_path(robot, path, grid, VERIFY_POINTS)
+    stop.poll(1)
     _require_followable(robot, path, dense, limits)
     fams = families(dense, limits, accel)
     if not fams:
@@ -134,6 +140,7 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     worst = max(float(ratios(f, profile, dense.theta).max()) for f in fams)
     if worst > 1.0:
         profile, factor, worst = _slow_down(path, profile, dense, fams, limits)
+    stop.poll(2)
     t, q, v, a, tau = _samples(robot, path, profile, sample_dt, max_samples)
     check = check_trajectory(robot, t, q, v, a, effort_scale=effort_scale,
                              velocity_scale=velocity_scale)

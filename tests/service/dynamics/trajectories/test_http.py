@@ -210,3 +210,34 @@ def test_payloads_apply_to_both_routes(api, setup) -> None:
     assert timed.status_code == 200, timed.text
     assert timed.json()["duration"] == retime(carrying, WAYPOINTS).duration
     assert timed.json()["duration"] > retime(setup[1].get("ur5"), WAYPOINTS).duration
+
+
+def test_a_long_motion_is_checked_whole_and_can_be_stopped(tmp_path: Path) -> None:
+    """More samples than a stoppable batch's chunk: the samples are one motion, so the check
+    takes them whole (it asks `should_stop` itself), equal to the in-process check; and a
+    true `should_stop` stops both quantities."""
+    from service import dynamics
+    from service.errors import ComputationStopped
+    from service.states import States
+
+    settings = Settings(data_dir=tmp_path, catalog="ur5")
+    registry = Registry(tmp_path, ["ur5"])
+    registry.load()
+    robot = registry.get("ur5")
+    n = 9_000  # over 50,000 / nv states: run() would cut a batch here
+    t = np.linspace(0.0, 30.0, n)
+    q = np.outer(np.sin(t), [0.4, -0.9, 1.1, 0.3, -0.5, 0.8])
+    with TestClient(create_app(settings, registry=registry),
+                    raise_server_exceptions=False) as client:
+        r = client.post("/v1/robots/ur5/trajectory-check",
+                        json={"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2})
+    assert r.status_code == 200, r.text
+    expected = check_trajectory(robot, t, q, samples_per_interval=2)
+    np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
+    for name, arrays, options in (
+            ("trajectory-check", {"q": q}, {"t": t}),
+            ("retime", {"waypoints": WAYPOINTS}, {})):
+        quantity = dynamics.QUANTITIES[name]
+        assert quantity.stoppable
+        with pytest.raises(ComputationStopped, match=name):
+            dynamics.run(robot, quantity, States(arrays, True), options, lambda: True)

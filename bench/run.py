@@ -358,14 +358,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="shorter runs")
-    parser.add_argument("--only", default="1234567", help="which comparisons, e.g. 13")
+    parser.add_argument("--only", default="12345678", help="which comparisons, e.g. 13")
     opts = parser.parse_args()
     if shutil.which("wrk") is None and set(opts.only) & set("15"):
         sys.exit("wrk is needed: apt-get install wrk")
     seconds, rounds = (2, 3) if opts.quick else (5, 5)
     # The JSON reference row of comparison 2 sends 10,000 Talos states as JSON (~23 MB), over
     # the default ROBODYN_MAX_JSON_BODY_BYTES: admitted here so the row stays comparable.
-    env = {"ROBODYN_CATALOG": "ur5,talos", "ROBODYN_DATA_DIR": tempfile.mkdtemp(),
+    env = {"ROBODYN_CATALOG": "ur5,talos,xarm7", "ROBODYN_DATA_DIR": tempfile.mkdtemp(),
            "ROBODYN_LOG_LEVEL": "warning", "ROBODYN_MAX_JSON_BODY_BYTES": str(64 << 20)}
     sys.path.insert(0, str(ROOT))
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, "
@@ -386,6 +386,11 @@ def main() -> None:
             from bench.payloads import payload_capacity
 
             payload_capacity(url, rounds, median_of, row)
+        if "8" in opts.only:
+            from bench import trajectories
+
+            trajectories.check(url, rounds, median_of, row)
+            trajectories.retime(url, rounds, median_of, row)
     if "5" in opts.only:
         workers(seconds, rounds, env)
     print("\n| comparison | figures (medians) | ratio | target |\n|---|---|---|---|")

@@ -24,7 +24,8 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── Overloaded                    overloaded
     │   └── ComputationStopped        overloaded
     ├── DeadlineExceeded              deadline_exceeded
-    └── UnsupportedMediaType          unsupported_media_type
+    ├── UnsupportedMediaType          unsupported_media_type
+    └── InfeasiblePath                infeasible_path
 """
 
 from __future__ import annotations
@@ -128,7 +129,8 @@ class NonFiniteResult(RobodynError):
 
 class UnsupportedModel(RobodynError):
     """The route needs what this model lacks: e.g. a fixed base and 1-DoF joints for the
-    equations of motion in explicit form, or a size their derivation can finish in time."""
+    equations of motion in explicit form, or a size their derivation can finish in time, or
+    joints that are all revolute or prismatic for retiming."""
 
     code = "unsupported_model"
     title = "Unsupported model"
@@ -174,6 +176,15 @@ class UnsupportedMediaType(RobodynError):
     title = "Unsupported media type"
 
 
+class InfeasiblePath(RobodynError):
+    """No timing can follow the geometric path within the limits; `extra` names the joint
+    (`joint`), the waypoint the path segment starts at (`waypoint`) and the path fraction
+    (`path_fraction`, 0 at the first waypoint, 1 at the last)."""
+
+    code = "infeasible_path"
+    title = "Infeasible path"
+
+
 ALL_ERRORS: tuple[type[RobodynError], ...] = (
     RobotNotFound,
     AssetNotFound,
@@ -192,4 +203,5 @@ ALL_ERRORS: tuple[type[RobodynError], ...] = (
     Overloaded,
     DeadlineExceeded,
     UnsupportedMediaType,
+    InfeasiblePath,
 )

@@ -20,8 +20,9 @@ from service.registry.robot import Robot
 
 UNIT_NORM_TOL = 1e-6  # |‖quaternion‖ − 1| and |‖(cos, sin)‖ − 1| allowed in q
 
-# Which dimension each joint-space input has.
-SPACES = {"q": "nq", "v": "nv", "a": "nv", "tau": "nv"}
+# Which dimension each joint-space input has (`waypoints`: configurations a path passes
+# through, as retime takes them).
+SPACES = {"q": "nq", "v": "nv", "a": "nv", "tau": "nv", "waypoints": "nq"}
 
 _WXYZ = "quaternion (w, x, y, z)"  # a MuJoCo-qpos robot's (MJCF): `Robot.mujoco_qpos`
 _UNIT_KIND = {"free_flyer": "quaternion (x, y, z, w)", "spherical": "quaternion (x, y, z, w)",
@@ -103,7 +104,9 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
         if count == 0:
             raise DimensionMismatch("the batch is empty; send at least one state")
         if count > max_batch:
-            raise DimensionMismatch(f"the batch has {count} states; the limit is {max_batch}")
+            first = next(iter(sizes))
+            raise DimensionMismatch(f"{first} has {count} rows (states); the limit is "
+                                    f"{max_batch} (ROBODYN_MAX_BATCH)")
     else:
         arrays = {n: a[np.newaxis, :] for n, a in arrays.items()}
     for name, arr in arrays.items():

@@ -60,6 +60,12 @@ from service.api.schemas.operational_space import (
 from service.api.schemas.payloads import PayloadCapacityAnswer, PayloadCapacityRequest
 from service.api.schemas.placements import FramePlacementsAnswer, FramePlacementsRequest
 from service.api.schemas.simulation import SimulateAnswer, SimulateRequest
+from service.api.schemas.trajectories import (
+    RetimeAnswer,
+    RetimeRequest,
+    TrajectoryCheckAnswer,
+    TrajectoryCheckRequest,
+)
 
 
 @dataclass(frozen=True)
@@ -92,6 +98,8 @@ _SCHEMAS: dict[str, tuple[type[BaseModel], type[BaseModel]]] = {
     "impulse-dynamics": (ImpulseDynamicsRequest, ImpulseDynamicsAnswer),
     "frame-placements": (FramePlacementsRequest, FramePlacementsAnswer),
     "payload-capacity": (PayloadCapacityRequest, PayloadCapacityAnswer),
+    "trajectory-check": (TrajectoryCheckRequest, TrajectoryCheckAnswer),
+    "retime": (RetimeRequest, RetimeAnswer),
 }
 
 

@@ -41,8 +41,8 @@ class Quantity:
     """A dynamics quantity, served as `POST /v1/robots/{id}/<name>`.
 
     `inputs` are the required joint-space arrays and `optional` the optional ones (names from
-    `service.states.SPACES`: q, v, a, tau); every other request field is passed to `compute`
-    as a keyword option. `settings` names service settings (`service.settings.Settings`
+    `service.states.SPACES`: q, v, a, tau, waypoints); every other request field is passed to
+    `compute` as a keyword option. `settings` names service settings (`service.settings.Settings`
     fields, e.g. limits) that are passed to `compute` as keyword options too.
     `answer_size(robot, options, with_v)` counts the numbers of one state's answer exactly as
     `compute` shapes it (from the robot's dimensions and the options alone, never the values:

@@ -3,6 +3,7 @@
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
 import { EquationsView } from "./equations_view.js";
 import { PayloadPanel } from "./payload_panel.js";
+import { TrajectoryView } from "./trajectory_view.js";
 import { ViewPanel } from "./view_panel.js";
 
 const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
@@ -24,6 +25,7 @@ const state = {
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
   view: null, // the 3-D view panel (view_panel.js)
+  trajectory: null, // the trajectory tab (trajectory_view.js)
   payload: null, // the payload view (payload_panel.js)
   equations: null, // the equations view (equations_view.js)
 };
@@ -613,6 +615,7 @@ async function selectRobot(id) {
   }
   posture.value = "default";
   renderFacts(info);
+  state.trajectory.setRobot(info);
   state.payload.setRobot(info);
   state.equations.setRobot(info);
   buildControls(info.default_configuration, null);
@@ -706,6 +709,36 @@ async function upload(ev) {
   }
 }
 
+// ---- Tabs (the page's views: robot and dynamics, trajectory) ----------------------------
+
+function arrowKeys(tabs, select) {
+  for (const [k, tab] of tabs.entries()) {
+    tab.addEventListener("click", () => select(tab));
+    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
+      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
+      if (!step) return;
+      const next = tabs[(k + step + tabs.length) % tabs.length];
+      next.focus();
+      select(next);
+    });
+  }
+}
+
+function selectTab(button) {
+  for (const tab of document.querySelectorAll('#tabs [role="tab"]')) {
+    const mine = tab === button;
+    tab.setAttribute("aria-selected", String(mine));
+    tab.tabIndex = mine ? 0 : -1;
+    el(tab.getAttribute("aria-controls")).hidden = !mine;
+  }
+  if (button.id === "tab-trajectory-button") state.trajectory.shown();
+  else if (state.view.view) state.view.view.resize();
+}
+
+function setUpTabs() {
+  arrowKeys([...document.querySelectorAll('#tabs [role="tab"]')], selectTab);
+}
+
 // ---- Views of the results (dynamics, payload, equations) -----------------------------------------------
 
 function showView(button) {
@@ -725,17 +758,7 @@ function showView(button) {
 }
 
 function setUpViews() {
-  const tabs = [...document.querySelectorAll('#result-views [role="tab"]')];
-  for (const [k, tab] of tabs.entries()) {
-    tab.addEventListener("click", () => showView(tab));
-    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
-      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
-      if (!step) return;
-      const next = tabs[(k + step + tabs.length) % tabs.length];
-      next.focus();
-      showView(next);
-    });
-  }
+  arrowKeys([...document.querySelectorAll('#result-views [role="tab"]')], showView);
 }
 
 // ---- Start --------------------------------------------------------------------------------
@@ -748,6 +771,8 @@ async function start() {
                                      onError: (err) => setStatus(err.message, true) });
   state.equations = new EquationsView({ api, robotPath, fmt });
   setUpViews();
+  state.trajectory = new TrajectoryView({ api, robotPath, fmt });
+  setUpTabs();
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });

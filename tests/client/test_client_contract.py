@@ -82,6 +82,13 @@ ANSWERS.update({"mass": 1.0, "limiting_joint": "j", "mass_per_joint": [None]})
 ARGS.update({"payload_capacity": ("r", [0.0], "f"), "variant": ("r",)})
 KWARGS.update({"variant": {"payloads": [{"frame": "f", "mass": 1.0}],
                            "locked_joints": {"elbow": 0.5}}})
+# trajectories
+CHECK = {"feasible": True, "tau": [[0.0], [0.0]], "v": [[0.0], [0.0]], "joints": [],
+         "violations": [], "work": {"positive": 0.0, "negative": 0.0}}
+RETIMED = {"duration": 1.0, "t": [0.0, 1.0], "q": [[0.0], [1.0]], "v": [[0.0], [0.0]],
+           "a": [[0.0], [0.0]], "tau": [[0.0], [0.0]], "check": CHECK}
+ARGS.update({"trajectory_check": ("r", [0.0, 1.0], [[0.0], [1.0]]),
+             "retime": ("r", [[0.0], [1.0]])})
 
 
 def sent_requests() -> dict[str, httpx.Request]:
@@ -90,8 +97,11 @@ def sent_requests() -> dict[str, httpx.Request]:
 
     def handler(request: httpx.Request) -> httpx.Response:
         seen.append(request)
-        simulate = request.url.path.endswith("/simulate")
-        if request.url.path.endswith("/equations"):
+        path = request.url.path
+        if path.endswith(("/trajectory-check", "/retime")):
+            return httpx.Response(200, json=CHECK if path.endswith("-check") else RETIMED)
+        simulate = path.endswith("/simulate")
+        if path.endswith("/equations"):
             return httpx.Response(200, json=EQUATIONS)
         return httpx.Response(200, json={**ANSWERS, **TRAJECTORY} if simulate else ANSWERS)
 
@@ -134,6 +144,8 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
         assert tuple(body) == fields
         # strict: no extra or mistyped field
         SPECS[name.replace("_", "-")].request.model_validate(body)
+    for name in ("trajectory_check", "retime"):  # arrays and options alike
+        SPECS[name.replace("_", "-")].request.model_validate(json.loads(requests[name].content))
 
 
 def test_every_server_code_has_a_client_class_with_its_status() -> None:

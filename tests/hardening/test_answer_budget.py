@@ -56,6 +56,8 @@ def _options(quantity: str, robot) -> list[tuple[dict, bool]]:
         return [({"contacts": _contacts(robot), "damping": 1e-3}, True)]
     if quantity == "payload-capacity":
         return [({"frame": frame}, False), ({"frame": frame, "center_of_mass": [0, 0, 0.1]}, True)]
+    if quantity == "trajectory-check":  # two samples with their v and a
+        return [({"t": [0.0, 1.0]}, True)]
     if quantity == "frame-placements":
         return [({}, False), ({"frames": [frame, robot.model.frames[1].name]}, False)]
     return [({}, True)]
@@ -81,6 +83,9 @@ def _inputs(robot, quantity: dynamics.Quantity, with_v: bool, n: int) -> dict:
 
 @pytest.mark.parametrize("path", sorted(dynamics.QUANTITIES))
 def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -> None:
+    if path == "retime":
+        pytest.skip("retime's sample count follows from the duration, known only after "
+                    "solving: it checks the budget itself (dynamics/trajectories/test_http.py)")
     quantity = dynamics.QUANTITIES[path]
     for robot in robots.values():
         for options, with_v in _options(path, robot):

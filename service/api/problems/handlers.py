@@ -30,6 +30,7 @@ STATUS_BY_CODE: dict[str, int] = {
     "singular_configuration": 422,
     "non_finite_result": 422,
     "unsupported_model": 422,  # the route needs what the model lacks (a fixed base, …)
+    "infeasible_path": 422,
     "payload_too_large": 413,
     "unauthorized": 401,
     "not_ready": 503,

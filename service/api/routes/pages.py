@@ -36,12 +36,15 @@ _JS = "text/javascript; charset=utf-8"
 # name → media type of every file the pages may load; anything else is a 404.
 EXPLORER_FILES = {"explorer.js": _JS,
                   "explorer.css": "text/css; charset=utf-8",
+                  "vendor/uplot/uPlot.min.css": "text/css; charset=utf-8",
                   "favicon.svg": "image/svg+xml"}
-# ES modules the explorer imports (not named by index.html itself): its 3-D view and the
-# vendored three.js files it uses (each module's own relative imports included).
+# ES modules the explorer imports (not named by index.html itself): its 3-D view, its
+# trajectory tab, the vendored three.js files it uses (each module's own relative imports
+# included) and the vendored uPlot (service/web/vendor/uplot/README.md).
 THREE_DIR = "vendor/three/"
 MODULE_FILES = {name: _JS for name in [
     "view3d.js", "view_panel.js", "payload_panel.js", "equations_view.js",
+    "trajectory_view.js", "vendor/uplot/uPlot.esm.js",
     THREE_DIR + "build/three.module.min.js",
     THREE_DIR + "examples/jsm/controls/OrbitControls.js",
     THREE_DIR + "examples/jsm/loaders/STLLoader.js",

@@ -34,6 +34,7 @@ from robodyn.errors import (
     ConflictError,
     DeadlineExceededError,
     DimensionMismatchError,
+    InfeasiblePathError,
     InputError,
     InternalServerError,
     InvalidConfigurationError,
@@ -84,6 +85,7 @@ from robodyn.results import (
     Trajectory,
 )
 from robodyn.stream import AsyncStream, Stream
+from robodyn.trajectories import JointCheck, Retimed, TrajectoryCheck, Violation, Work
 from robodyn.transport import DEFAULT_RETRY, DEFAULT_TIMEOUT, Retry
 
 __all__ = [
@@ -121,12 +123,14 @@ __all__ = [
     "ImpulseDynamics",
     "InertiaCheck",
     "Inertias",
+    "InfeasiblePathError",
     "InputError",
     "Integrator",
     "InternalServerError",
     "InvalidConfigurationError",
     "InvalidModelError",
     "InverseDynamicsDerivatives",
+    "JointCheck",
     "JointInfo",
     "MethodNotAllowedError",
     "NonFiniteResultError",
@@ -141,6 +145,7 @@ __all__ = [
     "ProgressCallback",
     "ReferenceFrame",
     "ResponseFormatError",
+    "Retimed",
     "Retry",
     "RobodynError",
     "RobotInfo",
@@ -155,6 +160,7 @@ __all__ = [
     "Task",
     "TimeoutError",
     "Trajectory",
+    "TrajectoryCheck",
     "TransportError",
     "UnauthorizedError",
     "UnknownFrameError",
@@ -162,5 +168,7 @@ __all__ = [
     "UnsupportedMediaTypeError",
     "UnsupportedModelError",
     "ValidationError",
+    "Violation",
+    "Work",
     "__version__",
 ]

@@ -17,12 +17,13 @@ from robodyn._methods.beyond import AsyncBeyondMethods
 from robodyn._methods.contacts import AsyncContactMethods
 from robodyn._methods.dynamics import AsyncDynamicsMethods
 from robodyn._methods.robots import AsyncRobotMethods
+from robodyn._methods.trajectories import AsyncTrajectoryMethods
 from robodyn.request_options import Fill
 from robodyn.stream import AsyncStream, stream_url
 
 
 class AsyncClient(AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods,
-                  AsyncContactMethods):
+                  AsyncContactMethods, AsyncTrajectoryMethods):
     """An async client of a robodyn server; use it with `async with`, or await `aclose()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else

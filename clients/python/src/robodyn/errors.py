@@ -28,7 +28,8 @@ nothing of robodyn can still catch them (`except LookupError`, `except ValueErro
         │   ├── UnknownFrameError (LookupError)   422 unknown_frame
         │   ├── SingularConfigurationError        422 singular_configuration
         │   ├── NonFiniteResultError (ArithmeticError)  422 non_finite_result
-        │   └── UnsupportedModelError             422 unsupported_model
+        │   ├── UnsupportedModelError             422 unsupported_model
+        │   └── InfeasiblePathError               422 infeasible_path
         └── ServerError                           5xx
             ├── InternalServerError               500 internal_error
             ├── ServiceUnavailableError           503
@@ -221,6 +222,13 @@ class UnsupportedModelError(UnprocessableError):
     says which."""
 
     error_code = "unsupported_model"
+
+
+class InfeasiblePathError(UnprocessableError):
+    """No timing can follow the path within the limits (retime); the problem's `joint`,
+    `waypoint` and `path_fraction` say where (in `body`)."""
+
+    error_code = "infeasible_path"
 
 
 class ServerError(APIError):

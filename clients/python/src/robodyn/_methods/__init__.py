@@ -8,9 +8,11 @@ from robodyn._methods.beyond import AsyncBeyondMethods, BeyondMethods
 from robodyn._methods.contacts import AsyncContactMethods, ContactMethods
 from robodyn._methods.dynamics import AsyncDynamicsMethods, DynamicsMethods
 from robodyn._methods.robots import AsyncRobotMethods, RobotMethods
+from robodyn._methods.trajectories import AsyncTrajectoryMethods, TrajectoryMethods
 
-SYNC = (RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods)
+SYNC = (RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, TrajectoryMethods)
 """The method classes `Client` joins (`AsyncClient` joins the `ASYNC` twins, in order)."""
-ASYNC = (AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods, AsyncContactMethods)
+ASYNC = (AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods, AsyncContactMethods,
+         AsyncTrajectoryMethods)
 
 __all__ = ["ASYNC", "SYNC"]

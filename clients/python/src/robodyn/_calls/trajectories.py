@@ -1,0 +1,42 @@
+"""Request builders of the trajectory routes: the check of a sampled motion against the
+robot's limits, and the time-optimal timing of a path through waypoints. (The clients'
+docstrings describe them.) The rows of their inputs are one motion or one path: never sent in
+chunks."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from robodyn._calls.request import request
+from robodyn.arrays import ArrayLike, joint_array
+from robodyn.core import Call
+from robodyn.errors import InputError
+from robodyn.payloads import PayloadsLike
+from robodyn.trajectories import Retimed, TrajectoryCheck, positive, times
+
+
+def trajectory_check(robot_id: str, t: ArrayLike, q: ArrayLike, *, v: ArrayLike | None = None,
+                     a: ArrayLike | None = None, effort_scale: float = 1.0,
+                     velocity_scale: float = 1.0, samples_per_interval: int = 4,
+                     payloads: PayloadsLike | None = None) -> Call[TrajectoryCheck]:
+    if isinstance(samples_per_interval, bool) or not isinstance(samples_per_interval, int) \
+            or not 1 <= samples_per_interval <= 64:
+        raise InputError("samples_per_interval must be an integer from 1 to 64")
+    options = {"t": times(t), "effort_scale": positive("effort_scale", effort_scale),
+               "velocity_scale": positive("velocity_scale", velocity_scale),
+               "samples_per_interval": samples_per_interval}
+    return request(robot_id, "trajectory-check", TrajectoryCheck.from_json, options,
+                   payloads=payloads, optional=("v", "a"), independent_rows=False, q=q, v=v,
+                   a=a)
+
+
+def retime(robot_id: str, waypoints: ArrayLike, *, velocity_scale: float = 1.0,
+           effort_scale: float = 1.0, acceleration: ArrayLike | None = None,
+           sample_dt: float = 0.01, payloads: PayloadsLike | None = None) -> Call[Retimed]:
+    limits: dict[str, Any] = {"velocity_scale": positive("velocity_scale", velocity_scale),
+                              "effort_scale": positive("effort_scale", effort_scale)}
+    if acceleration is not None:
+        limits["acceleration"] = [float(x) for x in joint_array("acceleration", acceleration)]
+    options = {"limits": limits, "sample_dt": positive("sample_dt", sample_dt)}
+    return request(robot_id, "retime", Retimed.from_json, options, payloads=payloads,
+                   independent_rows=False, waypoints=waypoints)

@@ -1,0 +1,111 @@
+"""Answers of the trajectory routes: `TrajectoryCheck` (does a motion stay within the robot's
+limits?) and `Retimed` (the time-optimal motion along a path), with their parts as named
+tuples, and the checks of their options."""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from robodyn.arrays import ArrayLike, joint_array
+from robodyn.errors import InputError
+
+
+def positive(name: str, value: Any) -> float:
+    """A finite number > 0, as float; else InputError."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name} must be a number, not {type(value).__name__}")
+    number = float(value)
+    if not np.isfinite(number) or number <= 0:
+        raise InputError(f"{name} must be a finite number > 0, not {value!r}")
+    return number
+
+
+def times(value: ArrayLike) -> list[float]:
+    """Sample times t (s): 1-D, finite, at least 2, strictly increasing."""
+    t = joint_array("t", value)
+    if t.ndim != 1:
+        raise InputError(f"t must be 1-D (one time per sample), not {t.ndim}-D")
+    if t.shape[0] < 2 or not (np.diff(t) > 0).all():
+        raise InputError("t must hold at least 2 strictly increasing times")
+    return [float(x) for x in t]
+
+
+class JointCheck(NamedTuple):
+    """One 1-DoF joint over the checked motion: its limits (after the scales; None where it
+    has none), the peaks of |τ| (N·m or N) and |v| (rad/s or m/s) and the extremes of q over
+    every evaluated point, and the ratios peak ÷ limit (> 1: broken)."""
+
+    name: str
+    effort_limit: float | None
+    peak_effort: float
+    effort_ratio: float | None
+    velocity_limit: float | None
+    peak_velocity: float
+    velocity_ratio: float | None
+    lower: float | None
+    upper: float | None
+    min_position: float | None
+    max_position: float | None
+
+
+class Violation(NamedTuple):
+    """A run of evaluated points beyond a limit: the joint, the kind ("effort", "velocity" or
+    "position"), the times of its first and last points (s), the value farthest beyond the
+    limit and that (signed) limit."""
+
+    joint: str
+    kind: str
+    t_start: float
+    t_end: float
+    worst: float
+    limit: float
+
+
+class Work(NamedTuple):
+    """∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt over the motion, J."""
+
+    positive: float
+    negative: float
+
+
+class TrajectoryCheck(NamedTuple):
+    """The check of a sampled motion: `feasible` (no limit broken at any evaluated point),
+    `tau` and `v` at the samples (N, nv), `joints`, `violations` (by start time) and `work`."""
+
+    feasible: bool
+    tau: np.ndarray
+    v: np.ndarray
+    joints: list[JointCheck]
+    violations: list[Violation]
+    work: Work
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool = True, rows: int | None = None
+                  ) -> TrajectoryCheck:
+        return cls(bool(body["feasible"]), np.asarray(body["tau"], dtype=np.float64),
+                   np.asarray(body["v"], dtype=np.float64),
+                   [JointCheck(**j) for j in body["joints"]],
+                   [Violation(**x) for x in body["violations"]], Work(**body["work"]))
+
+
+class Retimed(NamedTuple):
+    """The time-optimal motion along a path: `duration` (s), samples `t` (M,), `q` (M, nq),
+    `v`, `a`, `tau` (M, nv), and `check`, the trajectory check of those samples."""
+
+    duration: float
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    tau: np.ndarray
+    check: TrajectoryCheck
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool = True, rows: int | None = None
+                  ) -> Retimed:
+        arrays = [np.asarray(body[k], dtype=np.float64) for k in ("t", "q", "v", "a", "tau")]
+        return cls(float(body["duration"]), *arrays, TrajectoryCheck.from_json(body["check"]))

@@ -1,0 +1,102 @@
+"""The limits a motion is checked against, and the time spans where a series breaks them.
+
+A limit belongs to a 1-DoF joint (nv = 1: revolute, prismatic, continuous): its effort limit
+|τ| ≤ τ_max (N·m or N), velocity limit |v| ≤ v_max (rad/s or m/s) and position limits
+lower ≤ q ≤ upper (rad or m; none for a continuous joint, whose q is (cos θ, sin θ)). A model
+value that is not a usable bound (non-finite, ≤ 0 for effort and velocity, |x| ≥ 1e300 for
+positions, or lower = upper: URDF's "unset" conventions) is no limit (None).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from service.registry.robot import Robot, joint_type
+
+_NO_LIMIT = 1e300  # a bound at least this large is "no bound" (Pinocchio's ±max float)
+VIOLATION_TOLERANCE = 1e-9  # relative: a value counts as over its limit beyond limit·(1 + this)
+
+
+def _magnitude_limit(value: float, scale: float) -> float | None:
+    """A usable effort or velocity limit (times `scale`), else None."""
+    if not math.isfinite(value) or value <= 0.0 or value >= _NO_LIMIT:
+        return None
+    return float(value) * scale
+
+
+def _position_bound(value: float) -> float | None:
+    return float(value) if math.isfinite(value) and abs(value) < _NO_LIMIT else None
+
+
+@dataclass(frozen=True)
+class JointLimit:
+    """The limits of one 1-DoF joint: its index in q (`iq`) and in v (`iv`), effort and velocity
+    limits after the request's scales, position bounds (None where there is none);
+    `positioned`: q[iq] is the joint's position (revolute, prismatic; not continuous)."""
+
+    name: str
+    iq: int
+    iv: int
+    effort: float | None
+    velocity: float | None
+    lower: float | None
+    upper: float | None
+    positioned: bool
+
+
+def joint_limits(robot: Robot, effort_scale: float = 1.0,
+                 velocity_scale: float = 1.0) -> list[JointLimit]:
+    """The limits of every 1-DoF joint of `robot`, in model order; effort limits × effort_scale,
+    velocity limits × velocity_scale (fractions of the model's limits)."""
+    m = robot.model
+    out = []
+    for jid in range(1, m.njoints):
+        joint = m.joints[jid]
+        if joint.nv != 1:
+            continue
+        iq, iv = int(joint.idx_q), int(joint.idx_v)
+        positioned = joint.nq == 1 and joint_type(joint) != "continuous"
+        lower, upper = float(m.lowerPositionLimit[iq]), float(m.upperPositionLimit[iq])
+        bounded = positioned and lower < upper  # equal bounds: URDF's unset <limit> (0, 0)
+        out.append(JointLimit(
+            name=str(m.names[jid]), iq=iq, iv=iv,
+            effort=_magnitude_limit(float(m.effortLimit[iv]), effort_scale),
+            velocity=_magnitude_limit(float(m.velocityLimit[iv]), velocity_scale),
+            lower=_position_bound(lower) if bounded else None,
+            upper=_position_bound(upper) if bounded else None,
+            positioned=positioned))
+    return out
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) indices of every run of consecutive True entries of a 1-D mask."""
+    if not mask.any():
+        return []
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts = np.flatnonzero(edges == 1)
+    stops = np.flatnonzero(edges == -1) - 1
+    return list(zip(starts.tolist(), stops.tolist(), strict=True))
+
+
+def spans_over(joint: str, kind: str, t: np.ndarray, values: np.ndarray,
+               lower: float | None, upper: float | None) -> list[dict[str, Any]]:
+    """The violations of lower ≤ values ≤ upper by a series `values` [n] at times `t` [n] (s):
+    one entry per run of consecutive evaluated points beyond a bound (by more than
+    VIOLATION_TOLERANCE relative), with `t_start`/`t_end` the times of the run's first and last
+    points, `worst` the value farthest beyond the bound and `limit` that (signed) bound."""
+    out: list[dict[str, Any]] = []
+    for bound, sign in ((upper, 1.0), (lower, -1.0)):
+        if bound is None:
+            continue
+        slack = VIOLATION_TOLERANCE * max(abs(bound), 1e-12)
+        over = sign * (values - bound) > slack
+        for first, last in _runs(over):
+            run = values[first:last + 1]
+            worst = run[np.argmax(sign * run)]
+            out.append({"joint": joint, "kind": kind, "t_start": float(t[first]),
+                        "t_end": float(t[last]), "worst": float(worst), "limit": float(bound)})
+    return out

@@ -1,0 +1,78 @@
+"""The explorer's Trajectory tab in Chromium: a pasted CSV is checked (the plots show τ and v
+over their limits as the service computed them, the violations shaded), waypoints are retimed
+and the motion plays in the 3-D view; nothing is loaded from elsewhere."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tests.browser.test_explorer import open_explorer
+
+CSV = """t,shoulder_pan_joint,shoulder_lift_joint,elbow_joint
+0,0,-1.57,1.57
+0.5,0.4,-1.4,1.3
+1,1.2,-1.2,1.0
+1.5,1.6,-1.0,0.8
+"""
+
+
+def _trajectory_tab(page, server: str) -> None:
+    open_explorer(page, server, "ur5")
+    page.click("#tab-trajectory-button")
+    page.locator("#tab-trajectory").wait_for(state="visible")
+    assert page.locator("#tab-state").is_hidden()
+
+
+def test_a_pasted_motion_is_checked_and_plotted(page, server, api) -> None:
+    _trajectory_tab(page, server)
+    page.fill("#trajectory-csv", CSV)
+    page.fill("#velocity-scale", "0.5")
+    page.click("#trajectory-check")
+    page.locator("#trajectory-verdict").wait_for()
+    assert "1 violation" in page.locator("#trajectory-verdict").inner_text()
+    # the same request straight to the service: the page shows its numbers
+    info = api.get("/v1/robots/ur5").json()
+    q0 = info["default_configuration"]
+    rows = [[float(x) for x in line.split(",")] for line in CSV.strip().splitlines()[1:]]
+    q = [[r[1], r[2], r[3], *q0[3:]] for r in rows]
+    expected = api.post("/v1/robots/ur5/trajectory-check",
+                        json={"t": [r[0] for r in rows], "q": q, "velocity_scale": 0.5,
+                              "effort_scale": 1, "samples_per_interval": 4}).json()
+    shown = page.evaluate("() => document.querySelector('#trajectory-plots').result.answer")
+    assert shown["violations"] == expected["violations"]
+    np.testing.assert_allclose(shown["tau"], expected["tau"], rtol=1e-12)
+    # one plot per joint with limits; the base joint's marks its violation
+    plots = page.locator("#trajectory-plots figure.joint-plot")
+    assert plots.count() == 6
+    base = page.locator('figure.joint-plot[data-joint="shoulder_pan_joint"]')
+    assert base.get_attribute("data-violations") == "1"
+    data = page.evaluate("""() => document.querySelector(
+        'figure.joint-plot[data-joint="shoulder_pan_joint"]').plot.data""")
+    limit = 0.5 * info["joints"][0]["velocity_limit"][0]
+    np.testing.assert_allclose(data[0], [r[0] for r in rows])
+    np.testing.assert_allclose(data[2], np.array(expected["v"])[:, 0] / limit, rtol=1e-12)
+    assert page.locator("#trajectory-summary table.violations tbody tr").count() == 1
+    assert page.log.foreign_requests(server) == []
+    assert page.log.console_errors == [] and page.log.page_errors == []
+
+
+def test_waypoints_are_retimed_and_played(page, server, api) -> None:
+    _trajectory_tab(page, server)
+    page.click("#waypoints-example")
+    page.click("#trajectory-retime")
+    page.locator("#trajectory-verdict").wait_for()
+    assert "Within every limit" in page.locator("#trajectory-verdict").inner_text()
+    answer = page.evaluate("() => document.querySelector('#trajectory-plots').result.answer")
+    assert answer["check"]["feasible"] and answer["duration"] > 0
+    page.locator("#trajectory-player").wait_for(state="visible")
+    page.wait_for_function("() => document.querySelector('#trajectory-view3d').dataset.q")
+    start = page.evaluate("() => document.querySelector('#trajectory-view3d').dataset.q")
+    page.click("#trajectory-play")
+    page.wait_for_function(
+        "(s) => document.querySelector('#trajectory-view3d').dataset.q !== s", arg=start)
+    page.wait_for_function("() => document.querySelector('#trajectory-play').textContent "
+                           "=== 'Play'", timeout=30_000)  # played to the end
+    end = page.evaluate("() => JSON.parse(document.querySelector('#trajectory-view3d')"
+                        ".dataset.q)")
+    np.testing.assert_allclose(end, answer["q"][-1], atol=1e-12)
+    assert page.log.console_errors == [] and page.log.page_errors == []

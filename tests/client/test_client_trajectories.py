@@ -1,0 +1,80 @@
+"""The client's trajectory methods against the in-process computation: named results with
+the same numbers, and the errors as their classes."""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator, Iterator
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+import robodyn
+from fastapi.testclient import TestClient
+from robodyn import AsyncClient, Client
+
+from service.dynamics.trajectories import check_trajectory, retime
+
+WAYPOINTS = np.random.default_rng(0).uniform(-2.0, 2.0, (3, 6))
+
+
+@pytest.fixture(scope="module")
+def client(app: Any) -> Iterator[Client]:
+    with TestClient(app) as http, Client(http_client=http) as c:
+        yield c
+
+
+@pytest.fixture
+def anyio_backend() -> str:
+    return "asyncio"
+
+
+@pytest.fixture
+async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
+    transport = httpx.ASGITransport(app=app)
+    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
+                AsyncClient(http_client=http) as c):
+        yield c
+
+
+def test_trajectory_check_has_named_results(client: Client, registry) -> None:
+    t = np.linspace(0.0, 1.0, 21)
+    q = np.outer(np.sin(3.0 * t), [0.5, -1.0, 1.2, 0.4, -0.6, 0.9])
+    result = client.trajectory_check("ur5", t, q, velocity_scale=0.5)
+    expected = check_trajectory(registry.get("ur5"), t, q, velocity_scale=0.5)
+    assert isinstance(result, robodyn.TrajectoryCheck) and result.feasible is expected.feasible
+    np.testing.assert_allclose(result.tau, expected.tau, rtol=1e-12, atol=1e-12)
+    assert result.joints[2].name == "elbow_joint"
+    assert result.joints[2].velocity_ratio == expected.joints[2]["velocity_ratio"]
+    assert [v._asdict() for v in result.violations] == expected.violations
+    assert result.work.positive == expected.work["positive"]
+
+
+def test_retime_has_named_results(client: Client, registry) -> None:
+    result = client.retime("ur5", WAYPOINTS, effort_scale=0.9)
+    expected = retime(registry.get("ur5"), WAYPOINTS, effort_scale=0.9)
+    assert isinstance(result, robodyn.Retimed) and result.duration == expected.duration
+    np.testing.assert_array_equal(result.q, expected.q)
+    np.testing.assert_array_equal(result.tau, expected.tau)
+    assert result.check.feasible and result.q.shape == (len(result.t), 6)
+
+
+def test_errors_are_their_classes(client: Client) -> None:
+    with pytest.raises(robodyn.InfeasiblePathError) as caught:
+        client.retime("ur5", WAYPOINTS, effort_scale=0.3)
+    assert caught.value.body["joint"] == "shoulder_lift_joint"
+    with pytest.raises(robodyn.UnsupportedModelError):
+        client.retime("talos", np.zeros((2, 39)))
+    with pytest.raises(robodyn.InputError, match="strictly increasing"):
+        client.trajectory_check("ur5", [0.0, 0.0], np.zeros((2, 6)))
+    with pytest.raises(robodyn.InputError, match="> 0"):
+        client.retime("ur5", WAYPOINTS, velocity_scale=0)
+
+
+@pytest.mark.anyio
+async def test_async_client_answers_the_same(aclient: AsyncClient, client: Client) -> None:
+    result = await aclient.retime("ur5", WAYPOINTS, sample_dt=0.05)
+    assert result.duration == client.retime("ur5", WAYPOINTS, sample_dt=0.05).duration
+    t = np.linspace(0.0, 1.0, 5)
+    check = await aclient.trajectory_check("ur5", t, np.zeros((5, 6)))
+    assert check.feasible and check.tau.shape == (5, 6)

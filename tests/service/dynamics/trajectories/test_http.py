@@ -1,0 +1,243 @@
+"""The trajectory routes over HTTP: answers equal the in-process computation, and every bad
+input is a 422 (413 over the answer budget) with the contract's code naming the field, never
+a 5xx."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from service.dynamics.trajectories import check_trajectory, retime
+from service.main import create_app
+from service.registry import Registry
+from service.settings import Settings
+
+CATALOG = "ur5,solo12"
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, Registry]]:
+    data: Path = tmp_path_factory.mktemp("trajectories-http")
+    settings = Settings(data_dir=data, catalog=CATALOG, max_batch=5000)
+    registry = Registry(data, settings.catalog_names())
+    registry.load()
+    with TestClient(create_app(settings, registry=registry),
+                    raise_server_exceptions=False) as client:
+        yield client, registry
+
+
+@pytest.fixture(scope="module")
+def api(setup) -> TestClient:
+    return setup[0]
+
+
+def _motion(n: int = 31) -> tuple[np.ndarray, np.ndarray]:
+    t = np.linspace(0.0, 1.5, n)
+    return t, np.outer(np.sin(2.0 * t), [0.4, -0.9, 1.1, 0.3, -0.5, 0.8])
+
+
+WAYPOINTS = np.random.default_rng(0).uniform(-2.0, 2.0, (3, 6))
+
+
+def test_check_answer_equals_the_in_process_check(api, setup) -> None:
+    robot = setup[1].get("ur5")
+    t, q = _motion()
+    body = {"t": t.tolist(), "q": q.tolist(), "velocity_scale": 0.3, "samples_per_interval": 8}
+    r = api.post("/v1/robots/ur5/trajectory-check", json=body)
+    assert r.status_code == 200, r.text
+    answer = r.json()
+    expected = check_trajectory(robot, t, q, velocity_scale=0.3, samples_per_interval=8)
+    np.testing.assert_allclose(answer["tau"], expected.tau, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(answer["v"], expected.v, rtol=1e-12, atol=1e-12)
+    assert answer["feasible"] is False and answer["violations"] == expected.violations
+    assert answer["joints"] == expected.joints and answer["work"] == expected.work
+    named = api.post("/v1/robots/ur5/trajectory-check", json={**body, "joint_names": True})
+    assert named.json()["tau"][0]["elbow_joint"] == answer["tau"][0][2]
+
+
+def test_check_with_v_and_a_on_a_free_flyer(api, setup) -> None:
+    robot = setup[1].get("solo12")
+    q0 = robot.info()["default_configuration"]
+    t = [0.0, 0.5, 1.0]
+    zeros = np.zeros((3, robot.nv)).tolist()
+    r = api.post("/v1/robots/solo12/trajectory-check",
+                 json={"t": t, "q": [q0] * 3, "v": zeros, "a": zeros})
+    assert r.status_code == 200, r.text
+    expected = check_trajectory(robot, t, [q0] * 3, zeros, zeros)
+    np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
+    without = api.post("/v1/robots/solo12/trajectory-check", json={"t": t, "q": [q0] * 3})
+    assert without.status_code == 422 and "v and a are required" in without.json()["detail"]
+
+
+def test_retime_answer_equals_the_in_process_retime(api, setup) -> None:
+    robot = setup[1].get("ur5")
+    body = {"waypoints": WAYPOINTS.tolist(), "limits": {"effort_scale": 0.8,
+                                                        "acceleration": [4.0] * 6},
+            "sample_dt": 0.02}
+    r = api.post("/v1/robots/ur5/retime", json=body)
+    assert r.status_code == 200, r.text
+    answer = r.json()
+    expected = retime(robot, WAYPOINTS, effort_scale=0.8, acceleration=[4.0] * 6,
+                      sample_dt=0.02)
+    assert answer["duration"] == expected.duration
+    for key in ("t", "q", "v", "a", "tau"):
+        np.testing.assert_array_equal(answer[key], getattr(expected, key))
+    assert answer["check"]["feasible"] and answer["check"]["violations"] == []
+    assert len(answer["check"]["tau"]) == len(answer["t"])
+
+
+@pytest.mark.parametrize(("body", "field"), [
+    ({"t": [0.0, 1.0, 1.0]}, "t must be strictly increasing"),
+    ({"t": [0.0, 1.0, "NaN"]}, "t"),
+    ({"t": [0.0, 1.0]}, "q has 3 samples; t has 2"),
+    ({"t": [0.0], "q": [[0.0] * 6]}, "t has 1 sample"),
+    ({"q": [[0.0] * 5] * 3}, "nq = 6"),
+    ({"v": [[0.0] * 6] * 2}, "batch sizes differ"),
+    ({"effort_scale": 0}, "effort_scale"),
+    ({"velocity_scale": -1.0}, "velocity_scale"),
+    ({"samples_per_interval": 0}, "samples_per_interval"),
+    ({"samples_per_interval": 65}, "samples_per_interval"),
+    ({"t": list(range(5001)), "q": [[0.0] * 6] * 5001}, "q has 5001 rows (states); the limit is "
+     "5000"),
+])
+def test_bad_check_input_is_a_422_naming_the_field(api, body: dict, field: str) -> None:
+    request = {"t": [0.0, 1.0, 2.0], "q": [[0.0] * 6] * 3, **body}
+    r = api.post("/v1/robots/ur5/trajectory-check", json=request)
+    assert r.status_code == 422, r.text
+    problem = r.json()
+    assert problem["code"] in ("validation_error", "dimension_mismatch")
+    assert field in problem["detail"] or any(field in str(e.get("loc")) for e in
+                                             problem.get("errors", [])), problem
+
+
+@pytest.mark.parametrize(("body", "code", "field"), [
+    ({"waypoints": [[0.0] * 6]}, "validation_error", "waypoints has 1 row"),
+    ({"waypoints": [[0.0] * 5, [1.0] * 5]}, "dimension_mismatch", "nq = 6"),
+    ('{"waypoints": [[0, 0, 0, 0, 0, 0], [1e400, 0, 0, 0, 0, 0]]}', "validation_error",
+     "waypoints"),
+    ({"limits": {"velocity_scale": 0}}, "validation_error", "velocity_scale"),
+    ({"limits": {"effort_scale": -2}}, "validation_error", "effort_scale"),
+    ({"limits": {"acceleration": [1.0, 1.0, 0.0, 1.0, 1.0, 1.0]}}, "validation_error",
+     "limits.acceleration"),
+    ({"limits": {"acceleration": [1.0] * 5}}, "dimension_mismatch", "limits.acceleration"),
+    ({"sample_dt": 0}, "validation_error", "sample_dt"),
+    ({"sample_dt": 1e-6}, "validation_error", "sample_dt"),
+    ({"limits": {"effort_scale": 0.3}}, "infeasible_path", "shoulder_lift_joint"),
+])
+def test_bad_retime_input_is_a_422_with_its_code(api, body: dict | str, code: str,
+                                                 field: str) -> None:
+    if isinstance(body, str):  # JSON text Python's encoder would not write (1e400 → inf)
+        r = api.post("/v1/robots/ur5/retime", content=body,
+                     headers={"content-type": "application/json"})
+    else:
+        r = api.post("/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist(), **body})
+    assert r.status_code == 422, r.text
+    problem = r.json()
+    assert problem["code"] == code
+    assert field in problem["detail"] or any(field in str(e.get("loc")) for e in
+                                             problem.get("errors", [])), problem
+
+
+def test_infeasible_path_names_joint_waypoint_and_fraction(api) -> None:
+    r = api.post("/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist(),
+                                                "limits": {"effort_scale": 0.3}})
+    problem = r.json()
+    assert problem["joint"] == "shoulder_lift_joint" and problem["waypoint"] == 0
+    assert 0 < problem["path_fraction"] < 1
+
+
+def test_unsupported_model_is_a_422(api) -> None:
+    r = api.post("/v1/robots/solo12/retime", json={"waypoints": [[0.0] * 19] * 2})
+    assert r.status_code == 422 and r.json()["code"] == "unsupported_model"
+
+
+def test_retime_over_the_answer_budget_is_a_413(tmp_path: Path) -> None:
+    settings = Settings(data_dir=tmp_path, catalog="ur5", max_answer_bytes=50_000)
+    registry = Registry(tmp_path, ["ur5"])
+    registry.load()
+    with TestClient(create_app(settings, registry=registry),
+                    raise_server_exceptions=False) as client:
+        r = client.post("/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist()})
+        assert r.status_code == 413 and r.json()["code"] == "payload_too_large", r.text
+        assert "sample_dt" in r.json()["detail"]
+        coarse = client.post("/v1/robots/ur5/retime",
+                             json={"waypoints": WAYPOINTS.tolist(), "sample_dt": 0.2})
+        assert coarse.status_code == 200, coarse.text
+
+
+def test_both_routes_speak_the_binary_form(api) -> None:
+    """A safetensors body and answer (the check's arrays as tensors; retime's nested check as
+    JSON in the metadata), the same numbers as JSON."""
+    from robodyn import binary
+
+    headers = {"content-type": binary.MEDIA_TYPE, "accept": binary.MEDIA_TYPE}
+    t, q = _motion()
+    for route, arrays, fields in (("retime", {"waypoints": WAYPOINTS}, {}),
+                                  ("trajectory-check", {"q": q}, {"t": t.tolist()})):
+        r = api.post(f"/v1/robots/ur5/{route}", content=binary.encode(arrays, fields),
+                     headers=headers)
+        assert r.status_code == 200, r.text
+        answer = binary.decode(r.content)
+        as_json = api.post(f"/v1/robots/ur5/{route}",
+                           json={**{k: a.tolist() for k, a in arrays.items()}, **fields}).json()
+        np.testing.assert_array_equal(answer["tau"], as_json["tau"])
+        check = answer["check"] if route == "retime" else answer
+        assert check["feasible"] == (as_json["check"] if route == "retime"
+                                     else as_json)["feasible"]
+
+
+def test_payloads_apply_to_both_routes(api, setup) -> None:
+    """With a 5 kg payload at the flange the routes answer for the robot carrying it: equal
+    to the in-process computation on that robot, and a heavier load than without it."""
+    from service.dynamics.payloads import robot_with_payloads
+
+    payloads = [{"frame": "tool0", "mass": 5.0}]
+    carrying = robot_with_payloads(setup[1].get("ur5"), payloads)
+    t, q = _motion()
+    r = api.post("/v1/robots/ur5/trajectory-check",
+                 json={"t": t.tolist(), "q": q.tolist(), "payloads": payloads})
+    assert r.status_code == 200, r.text
+    expected = check_trajectory(carrying, t, q)
+    np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
+    bare = api.post("/v1/robots/ur5/trajectory-check", json={"t": t.tolist(), "q": q.tolist()})
+    assert r.json()["joints"][1]["peak_effort"] > bare.json()["joints"][1]["peak_effort"]
+    timed = api.post("/v1/robots/ur5/retime",
+                     json={"waypoints": WAYPOINTS.tolist(), "payloads": payloads})
+    assert timed.status_code == 200, timed.text
+    assert timed.json()["duration"] == retime(carrying, WAYPOINTS).duration
+    assert timed.json()["duration"] > retime(setup[1].get("ur5"), WAYPOINTS).duration
+
+
+def test_a_long_motion_is_checked_whole_and_can_be_stopped(tmp_path: Path) -> None:
+    """More samples than a stoppable batch's chunk: the samples are one motion, so the check
+    takes them whole (it asks `should_stop` itself), equal to the in-process check; and a
+    true `should_stop` stops both quantities."""
+    from service import dynamics
+    from service.errors import ComputationStopped
+    from service.states import States
+
+    settings = Settings(data_dir=tmp_path, catalog="ur5")
+    registry = Registry(tmp_path, ["ur5"])
+    registry.load()
+    robot = registry.get("ur5")
+    n = 9_000  # over 50,000 / nv states: run() would cut a batch here
+    t = np.linspace(0.0, 30.0, n)
+    q = np.outer(np.sin(t), [0.4, -0.9, 1.1, 0.3, -0.5, 0.8])
+    with TestClient(create_app(settings, registry=registry),
+                    raise_server_exceptions=False) as client:
+        r = client.post("/v1/robots/ur5/trajectory-check",
+                        json={"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2})
+    assert r.status_code == 200, r.text
+    expected = check_trajectory(robot, t, q, samples_per_interval=2)
+    np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
+    for name, arrays, options in (
+            ("trajectory-check", {"q": q}, {"t": t}),
+            ("retime", {"waypoints": WAYPOINTS}, {})):
+        quantity = dynamics.QUANTITIES[name]
+        assert quantity.stoppable
+        with pytest.raises(ComputationStopped, match="stopped at"):
+            dynamics.run(robot, quantity, States(arrays, True), options, lambda: True)

@@ -6,11 +6,13 @@ from __future__ import annotations
 import httpx
 import numpy as np
 import orjson
+import pytest
 
 from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 
 
+@pytest.mark.slow  # a latency bound: with the other /health/live probes in the slow suite
 def test_long_trajectory_work_does_not_stall_health(tmp_path) -> None:
     t = np.linspace(0.0, 20.0, 10_000)
     q = 0.8 * np.sin(0.5 * t[:, None] + np.linspace(0.0, 2.0, 6)[None, :])

@@ -72,9 +72,7 @@ def test_cache_memory_disk_and_single_flight(tmp_path, counted):
         t.join()
     assert len(counted) == 1 and len(set(answers)) == 1 and len(answers) == 3
     assert orjson.loads(answers[0])["mass_matrix"]["expressions"][1][1] == "0.735"
-    started = time.perf_counter()
-    assert cache.answer(robot) == answers[0]
-    assert time.perf_counter() - started < 0.05
+    assert cache.answer(robot) == answers[0]  # from memory (timed in bench/equations.py)
     assert (tmp_path / "equations" / "v1" / "u-arm.json").read_bytes() == answers[0]
     # another process (a restart, a replica) sharing the data directory: no derivation
     again = EquationsCache(tmp_path, 30, slots)

@@ -53,16 +53,19 @@ def test_answer_equals_the_in_process_derivation(client, robot_id):
         assert body["mass_matrix"]["expressions"][0][0] == "2.1*cos(q2) + 4.235"
 
 
-def test_a_cached_answer_takes_under_50_ms(client):
+def test_a_cached_answer_is_served_without_deriving_again(client, monkeypatch):
+    """The second request is answered from the cache (its time, under 50 ms, is measured by
+    bench/equations.py, not asserted here)."""
     first = client.get("/v1/robots/ur5/equations")
     assert first.status_code == 200
-    times = []
-    for _ in range(5):
-        started = time.perf_counter()
+
+    def no_derivation(*args):
+        raise AssertionError("derived again")
+
+    monkeypatch.setattr(cache_module, "derive_isolated", no_derivation)
+    for _ in range(3):
         r = client.get("/v1/robots/ur5/equations")
-        times.append(time.perf_counter() - started)
-        assert r.content == first.content
-    assert statistics.median(times) < 0.05, times
+        assert r.status_code == 200 and r.content == first.content
 
 
 @pytest.mark.parametrize(("robot_id", "status", "code", "says"), [
@@ -107,6 +110,7 @@ def test_a_derivation_past_its_time_limit_is_unsupported_model(tmp_path):
         assert "time limit of 0.3 s" in r.json()["detail"]
 
 
+@pytest.mark.slow  # a latency bound measured against the machine: in the slow suite
 def test_health_stays_fast_while_a_derivation_runs(tmp_path):
     """The derivation runs in a child process and its request waits in a worker thread: the
     event loop answers /health/live meanwhile (probed every 5 ms)."""

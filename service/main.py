@@ -92,7 +92,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
-    app.openapi = lambda: problem_openapi(app, described)  # type: ignore[method-assign]
+    documented = robots.openapi_routes().routes  # the upload reads its body itself
+    app.openapi = lambda: problem_openapi(  # type: ignore[method-assign]
+        app, described, documented)
     app.include_router(health.router)
     # With ROBODYN_API_KEYS_SCOPE=all every /v1 route needs a key (uploads always do); the
     # lean dynamics and stream routes check it themselves (deps.check_api_key_for_all).

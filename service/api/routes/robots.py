@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Depends, Response
+from fastapi import APIRouter, Depends, Request, Response
 from starlette.concurrency import run_in_threadpool
 
 from service.api.deps import RegistryDep, require_api_key
@@ -13,6 +13,12 @@ from service.api.schemas.common import Problem
 from service.api.schemas.inertias import Inertias
 from service.api.schemas.payloads import VariantRequest
 from service.api.schemas.robots import ReduceRequest, RobotInfo, RobotList, UploadRequest
+from service.api.upload_body import (
+    INLINE_UPLOAD_BYTES,
+    read_upload,
+    read_upload_isolated,
+    upload_request,
+)
 from service.dynamics.body_inertias import body_inertias
 from service.dynamics.payloads import check_payloads
 
@@ -46,20 +52,46 @@ async def robot_inertias(robot_id: str, registry: RegistryDep) -> Response:
     return JSONAnswer(body_inertias(registry.get(robot_id)))
 
 
-@router.post("", response_model=RobotInfo, status_code=201,
-             responses={200: {"model": RobotInfo, "description": "the model was already stored"},
-                        401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
-             dependencies=[Depends(require_api_key)],
-             summary="Upload a URDF, xacro or MJCF: 201 for a new model, 200 for one already "
-             "stored")
-async def upload_robot(body: UploadRequest, registry: RegistryDep) -> Response:
+_UPLOAD: dict[str, Any] = dict(
+    response_model=RobotInfo, status_code=201,
+    responses={200: {"model": RobotInfo, "description": "the model was already stored"},
+               401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
+    summary="Upload a URDF, xacro or MJCF: 201 for a new model, 200 for one already stored")
+
+
+@router.post("", include_in_schema=False, dependencies=[Depends(require_api_key)], **_UPLOAD)
+async def upload_robot(request: Request, registry: RegistryDep) -> Response:
+    """The body is read here, not by FastAPI: a large one is decoded and validated in a child
+    process (`service.api.upload_body`); `openapi_routes` documents it as an `UploadRequest`."""
+    body = await request.body()
+    content_type = request.headers.get("content-type")
+    if len(body) <= INLINE_UPLOAD_BYTES:
+        outcome = read_upload(body, content_type)
+    else:
+        settings = request.app.state.settings
+        outcome = await run_in_threadpool(
+            read_upload_isolated, body, content_type, registry.build_slots,
+            settings.build_timeout_s, settings.build_cpu_s)
+    del body
+    upload = upload_request(outcome)
     robot, created = await run_in_threadpool(
-        registry.upload, urdf=body.urdf, mjcf=body.mjcf, root_joint=body.root_joint,
-        gravity=body.gravity, name=body.name, inertia_check=body.inertia_check,
-        locked_joints=body.locked_joints, assets=body.assets, xacro=body.xacro,
-        xacro_args=body.xacro_args)
+        registry.upload, urdf=upload.urdf, mjcf=upload.mjcf, root_joint=upload.root_joint,
+        gravity=upload.gravity, name=upload.name, inertia_check=upload.inertia_check,
+        locked_joints=upload.locked_joints, assets=upload.assets, xacro=upload.xacro,
+        xacro_args=upload.xacro_args)
     return JSONAnswer(robot.info(), status_code=201 if created else 200,
                       headers={"Location": f"/v1/robots/{robot.id}"})
+
+
+def openapi_routes() -> APIRouter:
+    """Routes that only describe `upload_robot` in the OpenAPI document (never mounted)."""
+    described = APIRouter(prefix="/v1/robots", tags=["robots"])
+
+    @described.post("", **_UPLOAD)
+    async def upload_robot(body: UploadRequest) -> None:
+        raise NotImplementedError  # documentation only: the route above serves it
+
+    return described
 
 
 @router.post("/{robot_id}/reduce", response_model=RobotInfo, status_code=201,

@@ -4,7 +4,8 @@ twice. Each is a body for a route with its expected answer, at three sizes: `sma
 in-process (`test_floods.py`), `medium` (the reproductions' size: 100,000 strings in 400 kB)
 against a real server with /health/live probed throughout (p99 < 0.25 s), and `large` (the sizes
 that froze a server for minutes: 1.5 M strings, 1 M unknown members of a dynamics body, 5 M of
-an upload) against a real server within a few seconds (`test_floods_server.py`, slow suite).
+an upload) against a real server within a few seconds (`test_floods_server.py`, slow suite),
+/health/live probed throughout for those read off the serving process (`responsive_at_large`).
 
 Every answer must be a small 422 (< 2 kB: names shortened, errors bounded). What remains of the
 work is reading the body: pydantic parses all of it (and, for a union-typed field whose value
@@ -36,6 +37,9 @@ class Flood:
     large: int  # the size run against a real server, in a bounded time (slow suite)
     fragment: str  # in the answer's detail
     content_type: str = "application/json"
+    # /health/live's p99 < 0.25 s at the `large` size too (the body is read off the serving
+    # process: an upload's in a child process)
+    responsive_at_large: bool = False
 
 
 def _json(make: Callable[[int], object]) -> Callable[[int], bytes]:
@@ -77,7 +81,8 @@ FLOODS = [
           100_000, 100_000, 1_000_000, "is not a field of this request"),
     Flood("unknown-members-of-an-upload", "/v1/robots",
           _json(lambda n: {"urdf": "<robot name='r'/>", **_unknown(n)}),
-          200_000, 100_000, 5_000_000, "members that are not fields of this request"),
+          200_000, 100_000, 5_000_000, "members that are not fields of this request",
+          responsive_at_large=True),
     Flood("unknown-names-in-binary-metadata", GRAVITY, _binary_metadata,
           20_000, 70_000, 70_000, "names that are not fields of this request",
           content_type=binary.BINARY_MEDIA_TYPE),

@@ -1,7 +1,8 @@
 """The validation floods of `floods.py` against a real server: at the reproductions' size each
 is a small 422 while /health/live keeps answering (p99 < 0.25 s); at the sizes that froze a
 server for minutes (225 s for 1.5 M strings, 195 s for 5 M unknown upload members), a small 422
-within seconds, the server alive."""
+within seconds, the server alive, and for a large upload (read in a child process) /health/live
+still answering (p99 < 0.25 s)."""
 
 from __future__ import annotations
 
@@ -45,9 +46,13 @@ def test_a_full_size_flood_is_refused_in_seconds(server, flood: Flood):
     body = flood.body(flood.large)
     with httpx.Client(base_url=server.base, timeout=120) as http:
         started = time.perf_counter()
-        r = http.post(flood.path, content=body, headers={"content-type": flood.content_type})
-        elapsed = time.perf_counter() - started
+        r, latencies = health_latencies_during(server.base, lambda: http.post(
+            flood.path, content=body, headers={"content-type": flood.content_type}))
+        elapsed = time.perf_counter() - started - 0.4  # the probe's margins
         assert http.get("/health/live").status_code == 200
     assert r.status_code == 422 and flood.fragment in r.text, r.text[:500]
     assert len(r.content) < ANSWER_BYTES
     assert elapsed < 15, (flood.id, len(body), elapsed)  # minutes before
+    if flood.responsive_at_large:  # read in a child process: the event loop keeps answering
+        p99 = float(np.percentile(latencies, 99))
+        assert p99 < 0.25, (flood.id, len(body), p99, max(latencies))

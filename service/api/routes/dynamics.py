@@ -29,7 +29,7 @@ from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
-from service.api.problems.validation_errors import json_prefix, pydantic_errors
+from service.api.problems.validation_errors import json_prefix, prefix_errors, pydantic_errors
 from service.api.quantities import SPECS, Spec
 from service.api.schemas.common import Problem, StrictRequest, many_unknown_members
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
@@ -125,7 +125,13 @@ class Endpoint:
 
     def parse_json(self, body: bytes | bytearray | str
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """(joint-space arrays, options) of a JSON body."""
+        """(joint-space arrays, options) of a JSON body. A large body whose beginning already
+        shows mistakes is refused with them, before the whole of it is validated."""
+        if len(body) > INLINE_BODY_BYTES:
+            errors = prefix_errors(self.model, body)
+            if errors:
+                raise RequestValidationError([{**e, "loc": ("body", *e["loc"])}
+                                              for e in errors])
         try:
             parsed = self.model.model_validate_json(body)
         except ValidationError as exc:

@@ -15,6 +15,7 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── UnknownFrame                  unknown_frame
     ├── SingularConfiguration         singular_configuration
     ├── NonFiniteResult               non_finite_result
+    ├── UnsupportedModel              unsupported_model
     ├── PayloadTooLarge               payload_too_large
     ├── Unauthorized                  unauthorized
     ├── NotReady                      not_ready
@@ -107,6 +108,13 @@ class SingularConfiguration(RobodynError):
 class NonFiniteResult(RobodynError):
     code = "non_finite_result"
     title = "Non-finite result"
+
+
+class UnsupportedModel(RobodynError):
+    """The computation needs what this model lacks (e.g. identification needs a fixed base)."""
+
+    code = "unsupported_model"
+    title = "Unsupported model"
 
 
 class PayloadTooLarge(RobodynError):

@@ -36,9 +36,9 @@ def perturbed_parameters(model, rng: np.random.Generator, spread: float = 0.15) 
 def fourier_trajectory(model, t: np.ndarray, rng: np.random.Generator, base_hz: float = 0.2,
                        harmonics: int = 5, amplitude: float = 1.0, speed: float = 1.5
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """q, v, a (N, nv) of a Fourier-series excitation of a robot whose joints are revolute or
-    prismatic: q_j = q0_j + Σ_k (α_jk sin(k ω t) + β_jk cos(k ω t)) / (k ω), scaled so that
-    each joint stays within `amplitude` (rad or m, and 80 % of its half range) of the middle of
+    """q (N, nq), v, a (N, nv) of a Fourier-series excitation of a robot whose joints are 1-DoF:
+    joint j's coordinate x_j = x0_j + Σ_k (α_jk sin(k ω t) + β_jk cos(k ω t)) / (k ω), scaled so
+    that each joint stays within `amplitude` (rad or m, and 80 % of its half range) of the middle of
     its limits and below `speed` (rad/s or m/s); v and a are the exact derivatives."""
     nv = model.nv
     omega = 2 * np.pi * base_hz
@@ -49,12 +49,32 @@ def fourier_trajectory(model, t: np.ndarray, rng: np.random.Generator, base_hz: 
     q = (sin @ (alpha / (k * omega)).T + cos @ (beta / (k * omega)).T)
     v = cos @ alpha.T - sin @ beta.T
     a = -(sin @ (alpha * k * omega).T + cos @ (beta * k * omega).T)
-    lower, upper = model.lowerPositionLimit, model.upperPositionLimit
-    middle = np.where(np.isfinite(lower + upper), 0.5 * (lower + upper), 0.0)
-    half = np.where(np.isfinite(upper - lower), 0.4 * (upper - lower), amplitude)
+    lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.nq == 1:  # (a continuous joint, (cos, sin), has no limits)
+            lower[joint.idx_v] = model.lowerPositionLimit[joint.idx_q]
+            upper[joint.idx_v] = model.upperPositionLimit[joint.idx_q]
+    with np.errstate(invalid="ignore"):
+        middle = np.where(np.isfinite(lower + upper), 0.5 * (lower + upper), 0.0)
+        half = np.where(np.isfinite(upper - lower), 0.4 * (upper - lower), amplitude)
     gain = np.minimum(np.minimum(amplitude, half) / np.abs(q).max(axis=0),
                       speed / np.abs(v).max(axis=0))
-    return middle + gain * q, gain * v, gain * a
+    return configuration(model, middle + gain * q), gain * v, gain * a
+
+
+def configuration(model, x: np.ndarray) -> np.ndarray:
+    """q (N, nq) from one coordinate per joint x (N, nv): a continuous joint's angle becomes
+    (cos, sin), other 1-DoF joints keep theirs."""
+    q = np.empty((x.shape[0], model.nq))
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.nq == 2:
+            q[:, joint.idx_q] = np.cos(x[:, joint.idx_v])
+            q[:, joint.idx_q + 1] = np.sin(x[:, joint.idx_v])
+        else:
+            q[:, joint.idx_q] = x[:, joint.idx_v]
+    return q
 
 
 @dataclass
@@ -98,5 +118,10 @@ def synthetic_log(model, seed: int = 0, duration: float = 20.0, rate: float = 20
                         viscous=viscous, offset=offset, noise=noise)
 
 
-def model_parameters(model) -> np.ndarray:
-    return inertial_parameters(model)
+def loaded_parameters(model, frame_name: str, payload) -> np.ndarray:
+    """π of `model` carrying `payload` (a pin.Inertia about the frame's origin, in its axes)
+    at the frame: the contract's payload, model.inertias[parent] += placement.act(payload)."""
+    loaded = model.copy()
+    frame = model.frames[model.getFrameId(frame_name)]
+    loaded.inertias[frame.parentJoint] += frame.placement.act(payload)
+    return inertial_parameters(loaded)

@@ -6,7 +6,6 @@ combinations), `motion_log` (checks, split, filter), `columns` (robot or payload
 (weighted least squares and the semidefinite program), `pipeline` (`identify`: all of it).
 """
 
-from service.dynamics.identification.pipeline import Identification, identify
 from service.dynamics.identification.parameters import (
     LAYOUT,
     body_names,
@@ -14,6 +13,7 @@ from service.dynamics.identification.parameters import (
     pseudo_inertia,
     with_inertial_parameters,
 )
+from service.dynamics.identification.pipeline import Identification, identify
 from service.dynamics.identification.regressor import FRICTION_MODELS, friction_torque, regressor
 
 __all__ = ["FRICTION_MODELS", "LAYOUT", "Identification", "body_names", "friction_torque",

@@ -9,8 +9,9 @@ moments of its parent along the joint offset). Torques determine only
 where the independent columns `ind` and the matrix K come from a QR decomposition with column
 pivoting of the regressor stacked over random states (every structural dependency of the
 model holds at every state, so random states reveal exactly those): with the columns scaled to
-unit norm (columns below DEAD_COLUMN × the largest are zero), A P = Q R, rank r = the count of |R_kk| > RANK_TOLERANCE · |R_00|, and
-K = R₁₁⁻¹ R₁₂ (rescaled), so that Y_dep = Y_ind K and Y θ = Y_ind β.
+unit norm (columns below DEAD_COLUMN × the largest are zero), A P = Q R, rank r = the count of
+|R_kk| > RANK_TOLERANCE · |R_00|, and K = R₁₁⁻¹ R₁₂ (rescaled), so that Y_dep = Y_ind K and
+Y θ = Y_ind β.
 """
 
 from __future__ import annotations

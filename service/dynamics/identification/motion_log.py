@@ -61,7 +61,7 @@ class LowPass:
     @property
     def decimation(self) -> int:
         """Keep one fit sample in this many."""
-        return max(1, int(self.sample_rate / (DECIMATION_RATE * self.cutoff_hz)))
+        return max(1, round(self.sample_rate / (DECIMATION_RATE * self.cutoff_hz)))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """x filtered along its first (time) axis, forwards and backwards."""
@@ -197,17 +197,14 @@ def _part(robot: Robot, t: np.ndarray, q: np.ndarray, tau: np.ndarray,
           given: dict[str, np.ndarray], lowpass: LowPass | None) -> Part:
     if lowpass is None:
         return Part(t=t, q=q, v=given["v"], a=given["a"], tau=tau, keep=slice(None))
-    if t.size < 2:
-        return Part(t=t, q=q, v=np.zeros_like(tau), a=np.zeros_like(tau), tau=tau,
-                    keep=slice(0, 0))
     step = 1.0 / lowpass.sample_rate
-    grid = t[0] + step * np.arange(math.floor((t[-1] - t[0]) / step + 1e-9) + 1)
+    grid = t[0] + step * np.arange(math.floor((t[-1] - t[0]) / step + 1e-9) + 1) \
+        if t.size else t
     padlen = 3 * (2 * len(lowpass.sos) + 1)
-    if grid.size <= max(padlen, 2 * lowpass.margin + 1):
-        empty = slice(0, 0)
-        zero = np.zeros((grid.size, tau.shape[1]))
-        return Part(t=grid, q=joint_configurations(robot, np.zeros_like(zero)), v=zero, a=zero,
-                    tau=zero, keep=empty)
+    if grid.size <= max(padlen, 2 * lowpass.margin + 1):  # too short to filter: no samples
+        zero = np.zeros((0, tau.shape[1]))
+        return Part(t=grid[:0], q=np.zeros((0, q.shape[1])), v=zero, a=zero, tau=zero,
+                    keep=slice(None))
 
     def resampled(x: np.ndarray) -> np.ndarray:
         out = np.empty((grid.size, x.shape[1]))

@@ -6,11 +6,16 @@ moments of its parent along the joint offset). Torques determine only
 
     β = θ_ind + K θ_dep      (θ = [π; friction], r = rank of the regressor)
 
-where the independent columns `ind` and the matrix K come from a QR decomposition with column
-pivoting of the regressor stacked over random states (every structural dependency of the
-model holds at every state, so random states reveal exactly those): with the columns scaled to
-unit norm (columns below DEAD_COLUMN × the largest are zero), A P = Q R, rank r = the count of
-|R_kk| > RANK_TOLERANCE · |R_00|, and K = R₁₁⁻¹ R₁₂ (rescaled), so that Y_dep = Y_ind K and
+where the independent columns `ind` and the matrix K come from the regressor A stacked over
+random states (every structural dependency of the model holds at every state, so random states
+reveal exactly those). The columns are taken in the parameters' order (body after body from
+the base, friction last) and, scaled to unit norm, orthogonalized against those kept before them
+(Gram-Schmidt, the QR decomposition of the kept columns): a column whose remainder is below
+RANK_TOLERANCE is a combination of earlier ones (a column below DEAD_COLUMN × the largest is
+zero). So each base parameter is headed by a parameter of the body nearest the base and
+collects the later bodies' parameters that act like it, e.g. the planar arm's
+"shoulder.Iyy + elbow.m" (the elbow's mass seen through the 1 m upper arm, l₁² m₂).
+K solves A_ind K = A_dep (least squares, exact up to rounding), so that Y_dep = Y_ind K and
 Y θ = Y_ind β.
 """
 
@@ -23,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-RANK_TOLERANCE = 1e-9  # relative to the largest pivot of the unit-column random stack
+RANK_TOLERANCE = 1e-7  # the remainder of a unit column that still counts as independent
 COEFFICIENT_ZERO = 1e-10  # entries of K below this (in their units) are rounding noise
 DEAD_COLUMN = 1e-10  # a column this small relative to the largest is rounding noise: zero
 RANDOM_STATES_SEED = 0  # the base parameters of a robot are the same on every call
@@ -50,9 +55,9 @@ class BaseParameters:
         return out
 
     def expressions(self) -> list[str]:
-        """Each base parameter in the full ones, e.g.
-        "panda_joint2.Izz + 0.0995 panda_joint3.m_cy - 0.316 panda_joint3.m" (6 significant
-        digits; terms of |coefficient| < COEFFICIENT_ZERO omitted)."""
+        """Each base parameter in the full ones, e.g. the UR5's "shoulder_lift_joint.m_cz +
+        0.425 elbow_joint.m + 0.425 wrist_1_joint.m + ..." (6 significant digits; terms of
+        |coefficient| < COEFFICIENT_ZERO omitted)."""
         out = []
         for k, head in enumerate(self.independent):
             text = self.names[head]
@@ -76,19 +81,24 @@ def base_parameters(columns: Callable[[np.random.Generator, int], np.ndarray],
     stack = columns(rng, states)
     norms = np.linalg.norm(stack, axis=0)
     live = norms > DEAD_COLUMN * norms.max(initial=0.0)
-    scale = np.where(live, norms, 1.0)
-    unit = np.where(live, stack / scale, 0.0)
-    _, r, pivots = scipy.linalg.qr(unit, mode="economic", pivoting=True)
-    diagonal = np.abs(np.diag(r))
-    rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0])) if live.any() else 0
-    independent, dependent = pivots[:rank], pivots[rank:]
-    k_scaled = scipy.linalg.solve_triangular(r[:rank, :rank], r[:rank, rank:])
-    combination = k_scaled * scale[dependent][np.newaxis, :] / scale[independent][:, np.newaxis]
-    combination[np.abs(combination) < COEFFICIENT_ZERO] = 0.0
-    order = np.argsort(independent, kind="stable")  # combinations in the parameters' order
-    return BaseParameters(names=list(names), independent=independent[order],
-                          dependent=np.sort(dependent),
-                          combination=combination[order][:, np.argsort(dependent)])
+    basis = np.zeros((stack.shape[0], 0))
+    independent = []
+    for col in np.flatnonzero(live):
+        unit = stack[:, col] / norms[col]
+        for _ in range(2):  # Gram-Schmidt twice: orthogonal to working precision
+            unit = unit - basis @ (basis.T @ unit)
+        size = float(np.linalg.norm(unit))
+        if size > RANK_TOLERANCE:
+            independent.append(col)
+            basis = np.column_stack([basis, unit / size])
+    heads = np.array(independent, dtype=int)
+    dependent = np.setdiff1d(np.arange(len(names)), heads)
+    combination = np.zeros((heads.size, dependent.size))
+    if heads.size and dependent.size:
+        combination = scipy.linalg.lstsq(stack[:, heads], stack[:, dependent])[0]
+        combination[np.abs(combination) < COEFFICIENT_ZERO] = 0.0
+    return BaseParameters(names=list(names), independent=heads, dependent=dependent,
+                          combination=combination)
 
 
 def random_states_count(columns: int, nv: int) -> int:

@@ -165,4 +165,5 @@ def test_planar_arm_base_parameters_are_the_textbook_ones(robots):
             textbook[row, names.index(name)] = c
     projection = base.projection()
     assert base.count == 8
+    assert {"shoulder.m_cx + elbow.m", "shoulder.Iyy + elbow.m"} <= set(base.expressions())
     assert np.linalg.matrix_rank(np.vstack([projection, textbook]), tol=1e-9) == 8

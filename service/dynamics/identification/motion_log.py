@@ -40,7 +40,7 @@ from service.states import as_array, configurations
 DEFAULT_FILTER_HZ = 10.0
 FILTER_ORDER = 4
 MARGIN_PERIODS = 3.0  # edge margin, in periods of the cut-off frequency
-DECIMATION_RATE = 2.5  # fit samples per period of the cut-off frequency
+DECIMATION_RATE = 2.0  # fit samples per period of the cut-off: the filtered band's Nyquist rate
 DEFAULT_VALIDATION_FRACTION = 0.2
 ONE_DOF = ("revolute", "prismatic", "continuous")
 

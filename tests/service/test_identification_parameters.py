@@ -96,6 +96,15 @@ def test_parameters_round_trip_and_pseudo_inertia(robots, name):
     assert (pseudo_inertia_min_eigenvalues(pi) >= -1e-12).all()
 
 
+def test_a_massless_body_keeps_its_rotational_inertia(robots):
+    model = robots["planar_arm"].model
+    pi = inertial_parameters(model)
+    pi[:10] = [0.0, 0.0, 0.0, 0.0, 0.1, 0.0, 0.2, 0.0, 0.0, 0.3]
+    rebuilt = with_inertial_parameters(model, pi)
+    np.testing.assert_allclose(inertial_parameters(rebuilt), pi, atol=1e-15)
+    assert np.isfinite(pin.crba(rebuilt, rebuilt.createData(), np.zeros(2))).all()
+
+
 def test_pseudo_inertia_detects_an_impossible_body():
     # principal moments (1, 1, 3) break the triangle inequality: no mass density has them
     block = pin.Inertia(2.0, np.zeros(3), np.diag([1.0, 1.0, 1.0])).toDynamicParameters()

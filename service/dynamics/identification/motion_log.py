@@ -155,8 +155,8 @@ def motion_log(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = N
     check_robot(robot)
     times = _signal("t", t, 0, 0, "", robot)
     if times.size < 4:
-        raise InvalidInput(f"t has {times.size} samples; a log needs many more (see the "
-                           "minimum the identification states)")
+        raise InvalidInput(f"t has {times.size} samples; identification needs a log of "
+                           "hundreds of samples at least")
     steps = np.diff(times)
     if not (steps > 0).all():
         i = int(np.flatnonzero(steps <= 0)[0])

@@ -85,11 +85,15 @@ def body_summary(name: str, pi_body: np.ndarray) -> dict[str, Any]:
 
 def with_inertial_parameters(model: Any, pi: np.ndarray) -> Any:
     """A copy of `model` whose bodies carry the parameters π (10 · bodies,); the shared model
-    is never mutated. A body with m ≤ 0 is refused by Pinocchio's Inertia (the centre of mass
-    is h / m): callers pass physically meaningful parameters (m > 0)."""
+    is never mutated. A massless body (m = 0) keeps its rotational inertia about the joint
+    origin and no centre of mass (a first moment without mass has no rigid body: it is
+    dropped; a physically consistent π never has one)."""
     out = model.copy()
-    for j, pi_body in enumerate(pi.reshape(-1, PER_BODY), start=1):
-        out.inertias[j] = pin.Inertia.FromDynamicParameters(np.asarray(pi_body, dtype=float))
+    for j, pi_body in enumerate(np.asarray(pi, dtype=float).reshape(-1, PER_BODY), start=1):
+        if pi_body[0] == 0.0:
+            out.inertias[j] = pin.Inertia(0.0, np.zeros(3), rotational_inertia(pi_body))
+        else:
+            out.inertias[j] = pin.Inertia.FromDynamicParameters(pi_body)
     return out
 
 

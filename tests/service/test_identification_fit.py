@@ -119,6 +119,33 @@ def test_least_squares_is_not_constrained_but_reports_its_eigenvalues(robots):
     assert (consistent.rmse["validation"] < 1.1 * result.rmse["validation"] + 1e-3).all()
 
 
+def test_ordinary_and_weighted_least_squares(robots):
+    """Joints with noise levels 0.01 to 0.5 N·m: ordinary least squares is the plain solution
+    of the stacked rows; the weighted fit's standard deviations are smaller, and honest."""
+    robot = robots["ur5"]
+    log = synthetic_log(robot.model, seed=8, duration=20.0, rate=200.0, noise=0.0)
+    levels = np.array([0.01, 0.5, 0.02, 0.3, 0.01, 0.05])
+    log.tau += np.random.default_rng(9).normal(size=log.tau.shape) * levels
+    inputs = {"t": log.t, "q": log.q, "tau": log.tau, "v": log.v, "a": log.a,
+              "method": "least-squares"}
+    ordinary = identify(robot, weighted=False, **inputs)
+    weighted = identify(robot, **inputs)
+    columns = Columns(robot, "coulomb-viscous")
+    base = base_parameters(random_rows(robot, columns), columns.names,
+                           random_states_count(len(columns.names), robot.nv))
+    train = log.t < log.t[0] + 0.8 * (log.t[-1] - log.t[0])
+    A, known = columns(log.q[train], log.v[train], log.a[train], base.independent)
+    plain = np.linalg.lstsq(A.reshape(-1, base.count), (log.tau[train] - known).ravel(),
+                            rcond=None)[0]
+    np.testing.assert_allclose(ordinary.base_parameters["values"], plain,
+                               atol=1e-8 * np.abs(plain).max())
+    std_ratio = (weighted.base_parameters["standard_deviation"]
+                 / ordinary.base_parameters["standard_deviation"])
+    assert np.median(std_ratio) < 0.7
+    _check_base(weighted, _true_base(robot, log))
+    np.testing.assert_allclose(weighted.rmse["validation"], levels, rtol=0.15)
+
+
 @pytest.mark.parametrize("friction", ["none", "viscous"])
 def test_simpler_friction_models(robots, friction):
     robot = robots["ur5"]

@@ -4,10 +4,11 @@ The data are rows A β = b: A (n, nv, r) the regressor columns of the base param
 (see `base_parameters`), b (n, nv) the measured torques minus what is known (the armature
 term, or a whole known robot for a payload).
 
-- **Weighted least squares.** An ordinary least-squares pass gives each joint's residual
-  standard deviation σ_j (its noise level); every row of joint j is then divided by σ_j and
-  solved again (QR of the weighted A: R β = Qᵀ b_w). The covariance of β is s² (RᵀR)⁻¹ with
-  s² the weighted residual variance; its diagonal's square roots are the standard deviations.
+- **Weighted least squares** (ordinary with `weighted` False). An ordinary least-squares pass
+  gives each joint's residual standard deviation σ_j (its noise level); every row of joint j
+  is then divided by σ_j and solved again (QR of the weighted A: R β = Qᵀ b_w). The
+  covariance of β is s² (RᵀR)⁻¹ with s² the weighted residual variance; its diagonal's square
+  roots are the standard deviations.
   The condition number is that of the weighted A with its columns scaled to unit norm (so it
   measures how well the motion separates the base parameters, not their units).
 - **Full parameters from β.** The torques fix only β; the full θ reported is the one closest
@@ -63,15 +64,20 @@ def prior_scale(pi0: np.ndarray, friction_count: int) -> np.ndarray:
 
 
 def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
-        scale: np.ndarray, bodies: int, consistent: bool) -> Fit:
+        scale: np.ndarray, bodies: int, consistent: bool, weighted: bool = True) -> Fit:
     """Fit θ (see the module docstring): A (n, nv, r), b (n, nv); θ₀ and `scale` (len(θ),);
-    the first `bodies` blocks of 10 of θ are bodies (constrained when `consistent`)."""
+    the first `bodies` blocks of 10 of θ are bodies (constrained when `consistent`).
+    `weighted` False: ordinary least squares (every joint's rows weighted by the one pooled
+    residual standard deviation, which changes no estimate, only the units of the SDP's data
+    term)."""
     count, nv, r = A.shape
     flat_a, flat_b = A.reshape(-1, r), b.reshape(-1)
     ordinary = np.linalg.lstsq(flat_a, flat_b, rcond=None)[0]
     residual = (flat_b - flat_a @ ordinary).reshape(count, nv)
     dof = max(count - r / nv, 1.0)
     noise = np.sqrt((residual ** 2).sum(axis=0) / dof)
+    if not weighted:
+        noise = np.full(nv, float(np.sqrt(np.mean(noise ** 2))))
     floor = max(float(noise.max()), 1.0) * 1e-9  # noiseless data: equal weights
     noise = np.maximum(noise, floor)
     weighted_a = (A / noise[np.newaxis, :, np.newaxis]).reshape(-1, r)

@@ -2,7 +2,7 @@
 
     identify(robot, t, q, tau, v=None, a=None, friction="coulomb-viscous",
              method="physically-consistent", validation_fraction=0.2, filter_hz=None,
-             payload_frame=None) → Identification
+             payload_frame=None, weighted=True) → Identification
 
 1. The log is checked, split (the last `validation_fraction` by time is held out) and, when
    v or a is missing, resampled, filtered and differentiated (`motion_log`).
@@ -10,8 +10,8 @@
    from random states (`base_parameters`); only their columns are evaluated on the log.
 3. The columns and the known torques are filtered like τ (parallel filtering), the edge
    margins dropped, the training part decimated, and θ fitted (`fit`): weighted least squares
-   (method "least-squares") or the semidefinite program with every body's pseudo-inertia ⪰ 0
-   (method "physically-consistent").
+   (method "least-squares"; ordinary with `weighted` False) or the semidefinite program with
+   every body's pseudo-inertia ⪰ 0 (method "physically-consistent").
 4. RMSE per joint (N·m or N) between the measured torques (filtered like the columns) and the
    model's, on every kept sample: `train`, `validation` (the fitted model), `validation_before`
    (the model's own parameters, without friction; for a payload, without the payload).
@@ -130,8 +130,8 @@ def _required_samples(log: MotionLog, needed_fit: int, fraction: float) -> int:
 def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = None,
              friction: str = DEFAULT_FRICTION, method: str = DEFAULT_METHOD,
              validation_fraction: float = DEFAULT_VALIDATION_FRACTION,
-             filter_hz: float | None = None, payload_frame: str | None = None
-             ) -> Identification:
+             filter_hz: float | None = None, payload_frame: str | None = None,
+             weighted: bool = True) -> Identification:
     """Identify the robot (or a payload at `payload_frame`) from a log: see the module
     docstring; t (N,) s, q (N, nq), tau (N, nv) measured, v, a (N, nv) optional."""
     terms = friction_terms(friction)
@@ -161,7 +161,7 @@ def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = Non
              np.concatenate([PAYLOAD_SCALE, prior_scale(np.zeros(0), len(columns.names)
                                                         - PER_BODY)]))
     result = fit(A[fit_rows], (measured - known)[fit_rows], base, columns.theta0, scale,
-                 columns.bodies, method == "physically-consistent")
+                 columns.bodies, method == "physically-consistent", weighted)
     return _answer(robot, columns, base, result, log, terms,
                    (A, known, measured), (val_A, val_known, val_measured))
 

@@ -24,8 +24,13 @@ from service.dynamics.identification.parameters import (
     transform_parameters,
 )
 from service.dynamics.identification.pipeline import random_rows
-from service.dynamics.identification.regressor import friction_columns, friction_torque
+from service.dynamics.identification.regressor import (
+    friction_columns,
+    friction_torque,
+    joint_torque_regressors,
+)
 from service.registry.catalog import load_catalog
+from service.states import prepare
 from tests.service.identification_logs import configuration
 
 FIXED_BASE = ["ur5", "panda", "planar_arm", "kinova", "double_pendulum"]
@@ -56,6 +61,18 @@ def test_regressor_times_parameters_is_rnea(robots, name):
     for i in range(5):
         tau = pin.rnea(model, data, q[i], v[i], a[i])
         np.testing.assert_allclose(Y[i] @ pi, tau - model.armature * a[i], atol=1e-9)
+
+
+def test_the_regressor_of_a_batch_of_states(robots):
+    robot = robots["panda"]
+    rng = np.random.default_rng(12)
+    q, v, a = _states(robot.model, rng, 3)
+    states = prepare(robot, {"q": q, "v": v, "a": a}, max_batch=10)
+    out = joint_torque_regressors(robot, states)["regressor"]
+    np.testing.assert_array_equal(out, regressor(robot, q, v, a))
+    single = prepare(robot, {"q": q[1], "v": v[1], "a": a[1]}, max_batch=10)
+    np.testing.assert_array_equal(joint_torque_regressors(robot, single)["regressor"][0],
+                                  out[1])
 
 
 def test_known_torques_carry_the_armature(robots):

@@ -22,8 +22,10 @@ import numpy as np
 import pinocchio as pin
 
 from service.dynamics.identification.parameters import PER_BODY
+from service.dynamics.quantity import Results, finite
 from service.errors import InvalidInput
 from service.registry.robot import Robot
+from service.states import States
 
 FRICTION_MODELS: dict[str, tuple[str, ...]] = {
     "none": ("offset",),
@@ -65,6 +67,14 @@ def regressor(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.n
     """Y(q, v, a) of a robot for N states (N, nv, 10 · bodies); q in Pinocchio's order."""
     with robot.data() as data:
         return joint_torque_regressor(robot.model, data, q, v, a)
+
+
+def joint_torque_regressors(robot: Robot, s: States) -> Results:
+    """The joint torque regressor Y(q, v, a) of each state, (N, nv, 10 · bodies): τ = Y π +
+    armature ∘ a with π the inertial parameters (`parameters.inertial_parameters`, 10 per
+    body in joint order: m in kg, m c in kg·m, the inertia about the joint origin in kg·m²);
+    Y's entries are in the units that make Y π N·m (or N for a prismatic joint's row)."""
+    return finite("regressor", regressor=regressor(robot, s["q"], s["v"], s["a"]))
 
 
 def friction_columns(v: np.ndarray, friction: str) -> np.ndarray:

@@ -17,6 +17,7 @@ from service.dynamics.identification.base_parameters import base_parameters, ran
 from service.dynamics.identification.columns import Columns
 from service.dynamics.identification.fit import CONSISTENCY_TOLERANCE
 from service.dynamics.identification.pipeline import random_rows
+from service.errors import InvalidInput
 from service.registry.catalog import load_catalog
 from service.registry.reduce import reduced_robot
 from tests.service.identification_logs import loaded_parameters, synthetic_log
@@ -144,6 +145,35 @@ def test_ordinary_and_weighted_least_squares(robots):
     assert np.median(std_ratio) < 0.7
     _check_base(weighted, _true_base(robot, log))
     np.testing.assert_allclose(weighted.rmse["validation"], levels, rtol=0.15)
+
+
+def test_a_joint_that_never_moves(robots):
+    """wrist_3 held still: least squares refuses the log; the consistent fit keeps what the log
+    cannot tell at the model's values, reports no finite condition number, and spreads the
+    standard deviations of what it cannot tell over the prior."""
+    robot = robots["ur5"]
+    log = synthetic_log(robot.model, seed=1, duration=20.0, rate=200.0, noise=0.05)
+    model = robot.model
+    still = log.q.copy()
+    still[:, 5] = 0.3
+    v, a = log.v.copy(), log.a.copy()
+    v[:, 5] = a[:, 5] = 0.0
+    true = model.copy()
+    for j, block in enumerate(log.pi.reshape(-1, 10), start=1):
+        true.inertias[j] = pin.Inertia.FromDynamicParameters(block)
+    data = true.createData()
+    rng = np.random.default_rng(3)
+    tau = np.array([pin.rnea(true, data, still[i], v[i], a[i]) for i in range(log.t.size)])
+    tau += log.offset + log.coulomb * np.sign(v) + log.viscous * v
+    tau += rng.normal(0.0, log.noise, tau.shape)
+    with pytest.raises(InvalidInput, match="does not excite"):
+        identify(robot, log.t, still, tau, v=v, a=a, method="least-squares")
+    result = identify(robot, log.t, still, tau, v=v, a=a)
+    assert result.condition_number == np.inf
+    assert result.physically_consistent
+    assert np.isfinite(result.base_parameters["standard_deviation"]).all()
+    assert (result.rmse["validation"] < 1.2 * log.noise).all()
+    assert result.friction[5]["viscous"] == pytest.approx(0.0, abs=1e-3)  # its prior: none
 
 
 @pytest.mark.parametrize("friction", ["none", "viscous"])

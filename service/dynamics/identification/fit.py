@@ -8,7 +8,8 @@ term, or a whole known robot for a payload).
   gives each joint's residual standard deviation σ_j (its noise level); every row of joint j
   is then divided by σ_j and solved again (QR of the weighted A: R β = Qᵀ b_w). The
   covariance of β is s² (RᵀR)⁻¹ with s² the weighted residual variance; its diagonal's square
-  roots are the standard deviations.
+  roots are the standard deviations. (No joint's noise level is taken below WEIGHT_RANGE × the
+  largest one.)
   The condition number is that of the weighted A with its columns scaled to unit norm (so it
   measures how well the motion separates the base parameters, not their units).
 - **Full parameters from β.** The torques fix only β; the full θ reported is the one closest
@@ -19,7 +20,10 @@ term, or a whole known robot for a payload).
   body b (the pseudo-inertia of `parameters`). The first term is the weighted least-squares
   objective up to a constant (residuals in units of each joint's noise); the second is a
   Gaussian prior of standard deviation `scale` around the model's values, which fixes the
-  parameters the torques do not determine and hardly moves those they do.
+  parameters the torques do not determine and hardly moves those they do. The standard
+  deviations reported are the posterior's, (RᵀR / s² + (P S² Pᵀ)⁻¹)^(-1/2) on the diagonal: the
+  data's where the log determines a base parameter, the prior's spread where it does not (a
+  joint that never moves).
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from service.dynamics.identification.parameters import PER_BODY
 from service.errors import InvalidInput
 
 POORLY_EXCITED = 1e8  # a condition number above this: the motion reveals too little
+WEIGHT_RANGE = 1e-3  # the smallest joint noise level used, relative to the largest
 CONSISTENCY_TOLERANCE = 1e-8  # pseudo-inertia eigenvalues ≥ −this count as ⪰ 0 (solver accuracy)
 MIN_MASS_SCALE = 0.1  # kg: the prior's mass scale of light bodies
 MIN_LENGTH_SCALE = 0.1  # m
@@ -46,7 +51,7 @@ class Fit:
     theta: np.ndarray  # the full parameters θ (n,)
     beta: np.ndarray  # the base parameters P θ (r,)
     beta_std: np.ndarray  # their standard deviations (r,), from weighted least squares
-    condition_number: float
+    condition_number: float  # inf when the log leaves a base parameter undetermined
     joint_noise: np.ndarray  # σ_j (nv,), N·m or N: the ordinary fit's residual per joint
 
 
@@ -78,8 +83,11 @@ def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
     noise = np.sqrt((residual ** 2).sum(axis=0) / dof)
     if not weighted:
         noise = np.full(nv, float(np.sqrt(np.mean(noise ** 2))))
-    floor = max(float(noise.max()), 1.0) * 1e-9  # noiseless data: equal weights
-    noise = np.maximum(noise, floor)
+    top = float(noise.max())
+    if top > 1e-12 * max(float(np.abs(flat_b).max(initial=0.0)), 1.0):
+        noise = np.maximum(noise, WEIGHT_RANGE * top)  # no joint outweighs another 1000:1
+    else:
+        noise = np.ones(nv)  # noiseless data: equal weights
     weighted_a = (A / noise[np.newaxis, :, np.newaxis]).reshape(-1, r)
     weighted_b = (b / noise).reshape(-1)
     q, rr = np.linalg.qr(weighted_a)
@@ -100,6 +108,10 @@ def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
     std = np.sqrt(sigma2 * np.sum(covariance_root ** 2, axis=1))
     projection = base.projection()
     if consistent:
+        # the posterior's: data and prior (where the log says little, the prior's spread)
+        prior = projection @ ((scale ** 2)[:, np.newaxis] * projection.T)
+        information = rr.T @ rr / max(sigma2, 1e-300) + np.linalg.inv(prior)
+        std = np.sqrt(np.diag(np.linalg.inv(information)))
         theta = _consistent(rr @ projection, target, theta0, scale, bodies)
     else:
         theta = _closest(projection, beta_wls, theta0, scale)

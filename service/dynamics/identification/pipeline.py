@@ -47,7 +47,7 @@ from service.dynamics.identification.parameters import (
     pseudo_inertia_min_eigenvalues,
 )
 from service.dynamics.identification.regressor import DEFAULT_FRICTION, friction_terms
-from service.errors import InvalidInput
+from service.errors import InvalidInput, NonFiniteResult
 from service.registry.robot import Robot
 
 METHODS = ("least-squares", "physically-consistent")
@@ -162,8 +162,13 @@ def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = Non
                                                         - PER_BODY)]))
     result = fit(A[fit_rows], (measured - known)[fit_rows], base, columns.theta0, scale,
                  columns.bodies, method == "physically-consistent", weighted)
-    return _answer(robot, columns, base, result, log, terms,
-                   (A, known, measured), (val_A, val_known, val_measured))
+    answer = _answer(robot, columns, base, result, log, terms,
+                     (A, known, measured), (val_A, val_known, val_measured))
+    numbers = [answer.parameters, result.beta, result.beta_std, *answer.rmse.values()]
+    if not all(np.isfinite(x).all() for x in numbers):
+        raise NonFiniteResult("identify: the fit is not finite for this log (are its torques "
+                              "or positions extreme?)")
+    return answer
 
 
 def _answer(robot: Robot, columns: Columns, base: BaseParameters, result: Fit, log: MotionLog,

@@ -34,14 +34,15 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as exc:
         parser.error(f"ROBODYN_LOG_LEVEL: {exc}")
     # log_config=None: uvicorn keeps our handlers; access_log=False: our middleware writes one
-    # structured line per request instead (service/api/observability.py). The HTTP protocol is
-    # uvicorn's httptools one with read timeouts, a connection cap and each answer sent in one
-    # system call (service/http_protocol.py; its limits are read from the ROBODYN_* settings).
+    # structured line per request instead (service/api/middleware/observability.py). The HTTP
+    # protocol is uvicorn's httptools one with read timeouts, a connection cap and each answer
+    # sent in one system call (service/server/protocol.py; its limits are read from the
+    # ROBODYN_* settings).
     uvicorn.run("service.main:app_from_environment", factory=True, host=args.host,
                 port=args.port, workers=args.workers, log_level=settings.log_level.lower(),
                 log_config=None, access_log=False, timeout_graceful_shutdown=30,
                 timeout_keep_alive=settings.keep_alive_timeout_s,  # type: ignore[arg-type]
-                http="service.http_protocol:HardenedHttpToolsProtocol")
+                http="service.server.protocol:HardenedHttpToolsProtocol")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,8 @@
 """Domain errors of robodyn, each with a stable machine-readable `code`.
 
-No HTTP in here: the one code → status table lives in `service.api.problems`. Every message is
+No HTTP in here: the one code → status table lives in `service.api.problems.handlers`; the one
+builder of an error's RFC 9457 problem+json object is `problem_document` (used by the API and by
+the HTTP protocol of `service.server`, which answers before any application). Every message is
 written for the user of the service: it says what was expected, never echoes raw input values
 that could be huge or non-finite, and never carries a backend path or C++ source location.
 
@@ -20,6 +22,7 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── Unauthorized                  unauthorized
     ├── NotReady                      not_ready
     ├── Overloaded                    overloaded
+    │   └── ComputationStopped        overloaded
     └── UnsupportedMediaType          unsupported_media_type
 """
 
@@ -44,6 +47,14 @@ def did_you_mean(name: str, valid: Iterable[str], most: int = 3) -> str:
     quoted = [f"'{c}'" for c in close]
     shown = quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} or {quoted[-1]}"
     return f" (did you mean {shown}?)"
+
+
+def problem_document(code: str, title: str, status: int, detail: str, **extra: Any
+                     ) -> dict[str, Any]:
+    """The RFC 9457 problem details object of an error answer, with its stable `code` (and
+    `extra` members, e.g. `errors` or `largest_batch`)."""
+    return {"type": "about:blank", "title": title, "status": status, "detail": detail,
+            "code": code, **extra}
 
 
 class RobodynError(Exception):
@@ -135,6 +146,13 @@ class NotReady(RobodynError):
 class Overloaded(RobodynError):
     code = "overloaded"
     title = "Overloaded"
+
+
+class ComputationStopped(Overloaded):
+    """A long computation stopped by its caller's `should_stop` (the client went away, or
+    the request's deadline passed) before it finished."""
+
+    title = "Computation stopped"
 
 
 class UnsupportedMediaType(RobodynError):

@@ -12,13 +12,14 @@ from typing import Any
 from fastapi import Depends, FastAPI
 
 from service import __version__, heap, unpin_this_thread
-from service.api import dynamics as dynamics_routes
-from service.api import health, pages, robots, stream, visuals
 from service.api.deps import require_api_key_for_all
-from service.api.fast_path import DynamicsFastPath
-from service.api.observability import BodyLimitMiddleware, Metrics, ObservabilityMiddleware
-from service.api.openapi_problems import operation_id, problem_openapi
-from service.api.problems import install_problem_handlers
+from service.api.middleware.body_limit import BodyLimitMiddleware
+from service.api.middleware.fast_path import DynamicsFastPath
+from service.api.middleware.observability import Metrics, ObservabilityMiddleware
+from service.api.problems.handlers import install_problem_handlers
+from service.api.problems.openapi import operation_id, problem_openapi
+from service.api.routes import dynamics as dynamics_routes
+from service.api.routes import health, pages, robots, stream, visuals
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import BuildSlots, build_slot_count
@@ -60,9 +61,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     if "telemetry" in accepted:
         # FastAPI's OpenTelemetry layer asked the environment and the global providers on
         # every request (~20 µs, a tenth of a single-state answer); robodyn exports its own
-        # Prometheus metrics (service/api/observability.py).
+        # Prometheus metrics (service/api/middleware/observability.py).
         options["telemetry"] = {"tracing": False, "metrics": False, "logs": False}
-    # /docs is served by service.api.pages from local assets (FastAPI's default loads a CDN);
+    # /docs is served by service.api.routes.pages from local assets (FastAPI's default loads a CDN);
     # ReDoc is off, as its page would load its script and fonts from the internet.
     app = FastAPI(title="robodyn", version=__version__, description=DESCRIPTION,
                   lifespan=lifespan, docs_url=None, redoc_url=None,

@@ -52,6 +52,13 @@ class Settings(BaseSettings):
     max_simulation_work: int = Field(
         20_000_000, ge=1, description="Largest work of one simulate request: states × steps × "
         "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1–2 µs each.")
+    max_work: int = Field(
+        25_000_000, ge=1, description="Largest estimated work of one contact request "
+        "(contact-dynamics, contact-inverse-dynamics, impulse-dynamics, simulate with "
+        "contacts), in units of about 0.3–0.4 µs on one core: states (× steps × stages) × "
+        "the work of one constrained evaluation, which grows with the contacts (m³ for m "
+        "constraint rows) and, with damping, the worst case of its iterations. The default "
+        "admits about 10 s of computing on one core.")
     data_pool_mb: int = Field(
         1024, ge=0, description="Memory kept for idle Pinocchio Data between computations, "
         "over all robots, in MB (a Data takes about 80·nv³ bytes; the whole catalog needs "
@@ -101,7 +108,7 @@ class Settings(BaseSettings):
         "beyond it (or with more than 4 uploads per builder waiting) the answer is 503 "
         "overloaded with Retry-After. The build timeout starts when the build does.")
 
-    # -- connections and answers (service/http_protocol.py; see docs/security.md) --
+    # -- connections and answers (service/server/protocol.py; see docs/security.md) --
     max_answer_bytes: int = Field(
         256 * 1024 * 1024, ge=1024, description="Largest answer of a dynamics request, in "
         "bytes, estimated before computing from the answer's shape (25 bytes a number in "

@@ -18,7 +18,7 @@ import os
 import time
 from typing import Any
 
-from service.api.observability import Metrics, ObservabilityMiddleware
+from service.api.middleware.observability import Metrics, ObservabilityMiddleware
 from service.logs import configure_logging
 
 

@@ -1,1 +1,2 @@
-"""The HTTP layer: routers, schemas, dependencies and the code → status table."""
+"""The HTTP layer: the quantity table (quantities.py), the request layer (inputs.py), routes,
+schemas, encoding, problems, middleware and dependencies."""

@@ -1,4 +1,4 @@
-"""Request dependencies shared by the routers: the registry, settings and API-key checks.
+"""Request dependencies shared by the routers: the registry and the API-key checks.
 
 API keys (`ROBODYN_API_KEYS`, comma-separated) guard routes in two scopes:
 
@@ -28,10 +28,6 @@ from service.settings import Settings
 
 async def get_registry(request: HTTPConnection) -> Registry:
     return request.app.state.registry  # type: ignore[no-any-return]
-
-
-async def get_settings(request: HTTPConnection) -> Settings:
-    return request.app.state.settings  # type: ignore[no-any-return]
 
 
 def _check_key(connection: HTTPConnection, what: str) -> None:

@@ -1,6 +1,6 @@
 """Dynamics quantities: one function per physical quantity, and the table of endpoints.
 
-Each topic module contributes a tuple of `Quantity`; `QUANTITIES` maps every endpoint path to
+Each topic module contributes a tuple of `Quantity`; `QUANTITIES` maps every quantity name to
 its quantity. Only this package and `service.registry` import Pinocchio.
 """
 
@@ -15,7 +15,7 @@ from service.dynamics.placements import PLACEMENTS
 from service.dynamics.quantity import Quantity, Results, finite, run
 from service.dynamics.simulation import SIMULATION
 
-QUANTITIES: dict[str, Quantity] = {q.path: q for q in (
+QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
     *SIMULATION, *CONTACTS, *PLACEMENTS)}
 

@@ -39,5 +39,6 @@ def centroidal(robot: Robot, s: States) -> Results:
 
 CENTROIDAL = (
     Quantity("centroidal", ("q", "v"), centroidal,
-             "Centroidal momentum, centroidal momentum matrix and centre of mass"),
+             "Centroidal momentum, centroidal momentum matrix and centre of mass",
+             answer_size=lambda r, o, v: 6 + 6 * r.nv + 3),
 )

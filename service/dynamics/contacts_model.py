@@ -11,6 +11,10 @@ point contact, all 6 for a 6d one) and the contact forces λ (m) are expressed a
 origin with the world's axes: [fx, fy, fz] in N for a point contact, [fx, fy, fz, τx, τy, τz]
 in N and N·m for a 6d one, concatenated in the order of the contacts (Pinocchio's `lambda_c`).
 
+A contact set's values (1 to 64 contacts, each a frame name and a kind) are checked here and
+only here (`contact_key`), so scripts and the service get the same errors; a frame name shared
+by a joint and a link means the link's body frame (`frame_id`), on every route.
+
 The constraint models depend only on the robot and the contact set, so they are built once
 and cached (`constraint_models`); the matching `RigidConstraintData` and the `pin.Data` belong
 to one computation (`ContactWorkspace`).
@@ -36,6 +40,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from service.dynamics.contacts_solve import proximal_settings
 from service.dynamics.frames import frame_id
 from service.errors import InvalidInput, SingularConfiguration
 from service.registry.robot import Robot
@@ -45,25 +50,41 @@ KINDS: dict[str, tuple[Any, int]] = {
     "6d": (pin.ContactType.CONTACT_6D, 6),
 }
 SINGULAR_PIVOT = 1e-8
-MAX_PROXIMAL_ITERATIONS = 100
-PROXIMAL_ACCURACY = 1e-12
+MAX_CONTACTS = 64  # contacts in one set
+MAX_FRAME_NAME = 256  # characters of a contact's frame name
 _CACHE_SIZE = 256
 
 ContactKey = tuple[tuple[str, str], ...]
 
 
 def contact_key(contacts: Sequence[Mapping[str, Any]]) -> ContactKey:
-    """The hashable (frame, type) tuple of a request's `contacts` list."""
-    if not contacts:
-        raise InvalidInput("contacts must name at least one contact: "
-                           '[{"frame": "<frame name>", "type": "point" | "6d"}, ...]')
+    """The hashable (frame, type) tuple of a request's `contacts` list; the one check of a
+    contact set's values (`InvalidInput`): 1 to MAX_CONTACTS contacts, each a mapping with a
+    `frame` name of 1 to 256 characters and a `type` of KINDS (default "point")."""
+    usage = '[{"frame": "<frame name>", "type": "point" | "6d"}, ...]'
+    if isinstance(contacts, str | bytes) or not isinstance(contacts, Sequence) or not contacts:
+        raise InvalidInput(f"contacts must name at least one contact: {usage}")
+    if len(contacts) > MAX_CONTACTS:
+        raise InvalidInput(f"contacts has {len(contacts)} contacts; a contact set has at most "
+                           f"{MAX_CONTACTS}")
     key = []
-    for c in contacts:
-        kind = c.get("type", "point")
-        if kind not in KINDS:
-            raise InvalidInput(f"a contact's type is 'point' or '6d', not {str(kind)[:20]!r}")
-        key.append((str(c["frame"]), kind))
+    for i, c in enumerate(contacts):
+        if not isinstance(c, Mapping):
+            raise InvalidInput(f"contacts[{i}] must be an object: {usage}")
+        frame, kind = c.get("frame"), c.get("type", "point")
+        if not isinstance(frame, str) or not 1 <= len(frame) <= MAX_FRAME_NAME:
+            raise InvalidInput(f"contacts[{i}].frame must be a frame name of 1 to "
+                               f"{MAX_FRAME_NAME} characters")
+        if not isinstance(kind, str) or kind not in KINDS:
+            raise InvalidInput(f"contacts[{i}].type is 'point' or '6d', not "
+                               f"{str(kind)[:20]!r}")
+        key.append((frame, kind))
     return tuple(key)
+
+
+def constraint_rows(contacts: Sequence[Mapping[str, Any]]) -> int:
+    """m, the constraint rows of a contact set: 3 per point contact, 6 per 6d one."""
+    return sum(KINDS[kind][1] for _, kind in contact_key(contacts))
 
 
 def describe(key: ContactKey) -> str:
@@ -79,9 +100,11 @@ class ContactSet:
         self.key = key
         self.models = pin.StdVec_RigidConstraintModel()
         self.rows: list[slice] = []  # rows of each contact in λ and Jc
+        self.frames: list[int] = []  # each contact's frame (`frame_id`'s rule, as every route)
         start = 0
         for i, (frame, kind) in enumerate(key):
             fid = frame_id(robot, frame, f"contacts[{i}].frame")
+            self.frames.append(fid)
             f = model.frames[fid]
             if f.parentJoint == 0:
                 raise SingularConfiguration(
@@ -101,6 +124,22 @@ class ContactSet:
 
     def workspace(self, robot: Robot, data: Any) -> ContactWorkspace:
         return ContactWorkspace(self, robot, data)
+
+    def frame_jacobian(self, robot: Robot, data: Any, q: np.ndarray) -> np.ndarray:
+        """Jc (m×nv) at q from the frames' LOCAL_WORLD_ALIGNED Jacobians (3 linear rows for a
+        point contact, 6 for a 6d one), without a constrained solve; uses `data`."""
+        model = robot.model
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        return np.vstack([
+            np.asarray(pin.getFrameJacobian(model, data, fid, lwa)).reshape(6, robot.nv)[
+                : rows.stop - rows.start]
+            for fid, rows in zip(self.frames, self.rows, strict=True)])
+
+    @property
+    def names(self) -> list[str]:
+        return [frame for frame, _ in self.key]
 
     def pivots(self, data: Any) -> np.ndarray:
         """The m constraint pivots of the factorization just computed in `data` (by
@@ -160,12 +199,8 @@ class ContactWorkspace:
 
     @staticmethod
     def settings(damping: float) -> Any:
-        """Pinocchio's proximal settings: one exact solve without damping; with μ > 0 the
-        proximal iterations on (A + μ I) from λ = 0, to 1e-12 or 100 iterations."""
-        if damping == 0.0:
-            return pin.ProximalSettings(PROXIMAL_ACCURACY, PROXIMAL_ACCURACY, 0.0, 1)
-        return pin.ProximalSettings(PROXIMAL_ACCURACY, PROXIMAL_ACCURACY, damping,
-                                    MAX_PROXIMAL_ITERATIONS)
+        """Pinocchio's proximal settings (`service.dynamics.contacts_solve`)."""
+        return proximal_settings(damping)
 
     def jacobian(self) -> np.ndarray:
         """Jc (m×nv) at the configuration of the last call (LOCAL_WORLD_ALIGNED rows)."""

@@ -51,7 +51,9 @@ def forward_dynamics_derivatives(robot: Robot, s: States) -> Results:
 
 DERIVATIVES = (
     Quantity("inverse-dynamics-derivatives", ("q", "v", "a"), inverse_dynamics_derivatives,
-             "Derivatives of inverse dynamics ∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M"),
+             "Derivatives of inverse dynamics ∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M",
+             answer_size=lambda r, o, v: 3 * r.nv * r.nv),
     Quantity("forward-dynamics-derivatives", ("q", "v", "tau"), forward_dynamics_derivatives,
-             "Derivatives of forward dynamics ∂a/∂q, ∂a/∂v, ∂a/∂τ = M⁻¹"),
+             "Derivatives of forward dynamics ∂a/∂q, ∂a/∂v, ∂a/∂τ = M⁻¹",
+             answer_size=lambda r, o, v: 3 * r.nv * r.nv),
 )

@@ -19,7 +19,14 @@ import pinocchio as pin
 
 from service.dynamics import parallel
 from service.dynamics.external_forces import ExternalForces
-from service.dynamics.quantity import Quantity, Results, finite, matrix
+from service.dynamics.quantity import (
+    Quantity,
+    Results,
+    finite,
+    matrix,
+    nv_numbers,
+    nv_squared_numbers,
+)
 from service.registry.robot import Robot
 from service.states import States
 
@@ -121,18 +128,20 @@ def forward_dynamics(robot: Robot, s: States, *,
 
 
 EQUATION_OF_MOTION = (
-    Quantity("mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)"),
+    Quantity("mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)",
+             answer_size=nv_squared_numbers),
     Quantity("gravity", ("q",), gravity, "Gravity vector g(q)", parallel=parallel.gravity,
-             joint_answers=("gravity",)),
+             joint_answers=("gravity",), answer_size=nv_numbers),
     Quantity("coriolis", ("q", "v"), coriolis, "Coriolis matrix C(q, v) and forces C v",
-             joint_answers=("coriolis_forces",)),
+             joint_answers=("coriolis_forces",),
+             answer_size=lambda r, o, v: r.nv * r.nv + r.nv),
     Quantity("nonlinear-effects", ("q", "v"), nonlinear_effects,
              "Nonlinear effects C(q, v) v + g(q)", parallel=parallel.nonlinear_effects,
-             joint_answers=("nonlinear_effects",)),
+             joint_answers=("nonlinear_effects",), answer_size=nv_numbers),
     Quantity("inverse-dynamics", ("q", "v", "a"), inverse_dynamics,
              "Inverse dynamics τ = M a + C v + g (RNEA)", parallel=parallel.inverse_dynamics,
-             joint_answers=("tau",)),
+             joint_answers=("tau",), answer_size=nv_numbers),
     Quantity("forward-dynamics", ("q", "v", "tau"), forward_dynamics,
              "Forward dynamics a = M⁻¹ (τ − C v − g) (ABA)", parallel=parallel.forward_dynamics,
-             joint_answers=("a",)),
+             joint_answers=("a",), answer_size=nv_numbers),
 )

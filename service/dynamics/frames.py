@@ -95,5 +95,6 @@ def jacobian(robot: Robot, s: States, *, frame: str,
 
 FRAMES = (
     Quantity("jacobian", ("q",), jacobian, "Frame Jacobian J(q) and, with v, its time "
-             "variation J̇(q, v)", optional=("v",)),
+             "variation J̇(q, v)", optional=("v",),
+             answer_size=lambda r, o, v: 6 * r.nv * (2 if v else 1)),
 )

@@ -11,7 +11,14 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Quantity, Results, finite, matrix, mirror_upper
+from service.dynamics.quantity import (
+    Quantity,
+    Results,
+    finite,
+    matrix,
+    mirror_upper,
+    nv_squared_numbers,
+)
 from service.registry.robot import Robot
 from service.states import States
 
@@ -75,8 +82,11 @@ def center_of_mass(robot: Robot, s: States) -> Results:
 
 LAGRANGIAN = (
     Quantity("mass-matrix-inverse", ("q",), mass_matrix_inverse,
-             "Inverse mass matrix M(q)⁻¹ (computeMinverse, no numerical inversion)"),
-    Quantity("energy", ("q", "v"), energy, "Kinetic, potential and mechanical energy"),
+             "Inverse mass matrix M(q)⁻¹ (computeMinverse, no numerical inversion)",
+             answer_size=nv_squared_numbers),
+    Quantity("energy", ("q", "v"), energy, "Kinetic, potential and mechanical energy",
+             answer_size=lambda r, o, v: 3),
     Quantity("center-of-mass", ("q",), center_of_mass,
-             "Centre of mass position, Jacobian and (with v) velocity", optional=("v",)),
+             "Centre of mass position, Jacobian and (with v) velocity", optional=("v",),
+             answer_size=lambda r, o, v: 3 + 3 * r.nv + (3 if v else 0)),
 )

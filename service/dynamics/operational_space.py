@@ -23,7 +23,7 @@ below the rounding level of σ_max) is refused.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import pinocchio as pin
@@ -125,8 +125,16 @@ def operational_space(robot: Robot, s: States, *, frame: str,
     return finite("operational-space", **out)
 
 
+def operational_space_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
+    """Λ (k, k), J (k, nv), J̄ (nv, k), p (k) and with v μ (k); k = 6 for the "full" task,
+    3 for "linear" or "angular"."""
+    k = 6 if options.get("task", "full") == "full" else 3
+    return k * k + 2 * k * robot.nv + k + (k if with_v else 0)
+
+
 OPERATIONAL_SPACE = (
     Quantity("operational-space", ("q",), operational_space,
              "Operational-space inertia Λ, dynamically consistent inverse J̄, gravity p and "
-             "(with v) Coriolis μ of a frame", optional=("v",)),
+             "(with v) Coriolis μ of a frame", optional=("v",),
+             answer_size=operational_space_size),
 )

@@ -10,7 +10,8 @@ in `service/__init__.py`), so they do not spin on the cores the event loop needs
 Each state is computed by the same algorithm as the serial path, so the answers are bit for
 bit the same as `pin.rnea` / `pin.aba` state by state (the serial gravity, Pinocchio's
 `computeGeneralizedGravity`, equals `rnea(q, 0, 0)` bit for bit: checked on every catalog
-robot by the tests; the serial nonlinear effects are `rnea(q, v, 0)`).
+robot by the tests; the serial nonlinear effects are `rnea(q, v, 0)`). The answers are checked
+finite by `service.dynamics.quantity.run`, as the serial ones by their functions.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.quantity import Results, finite
+from service.dynamics.quantity import Results
 from service.registry.robot import Robot
 from service.states import States
 
@@ -58,14 +59,12 @@ def _run_chunks(robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: 
 
 def inverse_dynamics(robot: Robot, s: States) -> Results:
     """τ = M(q) a + C(q, v) v + g(q) for N states on every core (parallel RNEA), (N, nv)."""
-    tau = _in_chunks(robot, pin.rneaInParallel, s["q"], s["v"], s["a"])
-    return finite("inverse-dynamics", tau=tau)
+    return {"tau": _in_chunks(robot, pin.rneaInParallel, s["q"], s["v"], s["a"])}
 
 
 def forward_dynamics(robot: Robot, s: States) -> Results:
     """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) for N states on every core (parallel ABA), (N, nv)."""
-    a = _in_chunks(robot, pin.abaInParallel, s["q"], s["v"], s["tau"])
-    return finite("forward-dynamics", a=a)
+    return {"a": _in_chunks(robot, pin.abaInParallel, s["q"], s["v"], s["tau"])}
 
 
 
@@ -73,12 +72,11 @@ def gravity(robot: Robot, s: States) -> Results:
     """g(q) = RNEA(q, 0, 0) for N states on every core, (N, nv)."""
     q = s["q"]
     zeros = np.zeros((q.shape[0], robot.nv))
-    return finite("gravity", gravity=_in_chunks(robot, pin.rneaInParallel, q, zeros, zeros))
+    return {"gravity": _in_chunks(robot, pin.rneaInParallel, q, zeros, zeros)}
 
 
 def nonlinear_effects(robot: Robot, s: States) -> Results:
     """h(q, v) = RNEA(q, v, 0) for N states on every core, (N, nv)."""
     q, v = s["q"], s["v"]
     zeros = np.zeros((q.shape[0], robot.nv))
-    return finite("nonlinear-effects",
-                  nonlinear_effects=_in_chunks(robot, pin.rneaInParallel, q, v, zeros))
+    return {"nonlinear_effects": _in_chunks(robot, pin.rneaInParallel, q, v, zeros)}

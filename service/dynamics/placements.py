@@ -62,7 +62,14 @@ def placements_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
     return s.count * (robot.nv + count)
 
 
+def placements_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
+    """A position (3) and a rotation (3×3) per frame: the body frames, or the named ones."""
+    frames = options.get("frames")
+    return 12 * (len(body_frames(robot)[0]) if frames is None else len(frames))
+
+
 PLACEMENTS = (
     Quantity("frame-placements", ("q",), frame_placements, "World placements of the body "
-             "frames (or the named frames) for q", work=placements_work),
+             "frames (or the named frames) for q", work=placements_work,
+             answer_size=placements_size),
 )

@@ -1,4 +1,10 @@
-"""What a dynamics quantity is, for the layers above: inputs, computing function, batch form.
+"""What a dynamics quantity is, for the layers above: the one declaration of each quantity.
+
+A `Quantity` says everything the service needs to know about one quantity: its name (the route
+is `POST /v1/robots/{id}/<name>`), its joint-space inputs, the function computing it, its batch
+form, the size of its answer, the cost of computing it and which answers are joint-space
+vectors. The routes, the OpenAPI document, the answer budget and the stream are derived from
+it (`service.api.quantities` adds the request and answer schemas; nothing else names it).
 
 A quantity's `compute(robot, states, **options)` takes validated joint-space `States` (arrays
 of shape (N, n), see `service.states`) and keyword options (e.g. `frame`), and returns named
@@ -10,7 +16,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Any
 
 import numpy as np
@@ -22,32 +28,47 @@ from service.states import States, all_finite
 Results = dict[str, np.ndarray]
 Compute = Callable[..., Results]
 Work = Callable[[Robot, States, dict[str, Any]], int]
+AnswerSize = Callable[[Robot, dict[str, Any], bool], int]
+"""(robot, options, v given) -> how many numbers the answer of one state holds."""
+SmallerRequest = Callable[[Robot, int], str]
+"""(robot, numbers that fit) -> what to ask for when even one state's answer is too large."""
 
 
 @dataclass(frozen=True)
 class Quantity:
-    """A dynamics endpoint: `POST /v1/robots/{id}/<path>`.
+    """A dynamics quantity, served as `POST /v1/robots/{id}/<name>`.
 
     `inputs` are the required joint-space arrays and `optional` the optional ones (names from
     `service.states.SPACES`: q, v, a, tau); every other request field is passed to `compute`
     as a keyword option. `settings` names service settings (`service.settings.Settings`
     fields, e.g. limits) that are passed to `compute` as keyword options too.
+    `answer_size(robot, options, with_v)` counts the numbers of one state's answer exactly as
+    `compute` shapes it (from the robot's dimensions and the options alone, never the values:
+    the answer budget refuses an answer too large before computing it);
+    `smaller_request(robot, n)` says what to ask for instead when not even one state's answer
+    fits in n numbers.
     `joint_answers` names the answers that are joint-space vectors (last axis nq for an answer
-    named "q", else nv), given keyed by joint name on request (`"joint_names": true`).
+    named "q", else nv), given keyed by joint name on request (`"joint_names": true`), and
+    `named_options` the options that may be given keyed by joint name (a dotted path into the
+    option, "nq" or "nv") pairs, turned into arrays by the request layer before `compute` runs.
     `work(robot, states, options)` estimates the cost in state×dof units (default: states ×
     nv); larger work than the inline limit is computed off the event loop.
     """
 
-    path: str
+    name: str
     inputs: tuple[str, ...]
     compute: Compute
     summary: str
+    _: KW_ONLY
+    answer_size: AnswerSize
     optional: tuple[str, ...] = ()
     parallel: Compute | None = None
     parallel_from: int = 64  # smallest batch for which `parallel` is used
     joint_answers: tuple[str, ...] = ()
+    named_options: tuple[tuple[str, str], ...] = ()
     settings: tuple[str, ...] = ()
     work: Work | None = None
+    smaller_request: SmallerRequest | None = None
 
 
 @functools.cache
@@ -94,11 +115,11 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) ->
     matrix, values beyond float64) is `SingularConfiguration` (422), never a 500."""
     try:
         if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
-            results = quantity.parallel(robot, s)
+            results = finite(quantity.name, **quantity.parallel(robot, s))
         else:
             results = quantity.compute(robot, s, **options)
     except np.linalg.LinAlgError as exc:
-        raise linear_algebra_failure(quantity.path, exc) from None
+        raise linear_algebra_failure(quantity.name, exc) from None
     if robot.q_to_api is not None and "q" in quantity.joint_answers:
         results["q"] = robot.api_q(results["q"])  # configurations answered (simulate's)
     # (a non-array answer, e.g. the frame names of frame-placements, is given once as it is)
@@ -113,3 +134,13 @@ def linear_algebra_failure(quantity: str, exc: np.linalg.LinAlgError) -> Singula
     return SingularConfiguration(
         f"{quantity}: the linear algebra failed for these inputs ({reason}): the "
         "configuration is singular for it or an input is too extreme to compute with")
+
+
+def nv_numbers(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
+    """The answer size of one joint-space vector (nv numbers), e.g. τ."""
+    return robot.nv
+
+
+def nv_squared_numbers(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
+    """The answer size of one nv×nv matrix, e.g. M."""
+    return robot.nv * robot.nv

@@ -26,6 +26,12 @@ With `contacts` (a fixed contact set) the acceleration is constrained forward dy
 Baumgarte-stabilised contacts, a PD controller acts on the actuated joints only and its gravity
 compensation is contact-consistent; the answer adds `constraint_drift` (m). All of it lives in
 `service.dynamics.contacts_simulation`.
+
+Cost: states × steps × nv × stages (at most `max_simulation_work`), and with contacts
+states × steps × stages × the work of one constrained evaluation (contacts, their kind,
+damping iterations, the controller's compensation; at most `max_work`), both checked before
+anything is computed. A long rollout can be stopped: `should_stop()` is asked every few
+milliseconds of computing (`service.dynamics.stopping`).
 """
 
 from __future__ import annotations
@@ -36,23 +42,26 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.contacts_simulation import ContactRollout, pd_with_contacts
+from service.dynamics.contacts_simulation import (
+    ContactRollout,
+    pd_with_contacts,
+    rollout_evaluation_work,
+)
+from service.dynamics.contacts_solve import check_work
 from service.dynamics.quantity import Quantity, Results, finite
+from service.dynamics.stopping import ShouldStop, Stopper
 from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
-from service.joint_names import from_names
 from service.registry.robot import Robot
 from service.states import States, as_array, configurations
 
 STAGES = {"semi-implicit-euler": 1, "rk4": 4}
-MAX_STEPS = 100_000  # defaults of the settings of the same names
-MAX_WORK = 20_000_000
 
 Torque = Callable[[int, np.ndarray, np.ndarray, Any], np.ndarray]
 Acceleration = Callable[..., np.ndarray]  # (robot, q, v, tau, data) -> a
 
 
 def _vector(robot: Robot, field: str, value: Any, dim: str) -> np.ndarray:
-    arr = np.asarray(from_names(robot, field, value, dim), dtype=np.float64)
+    arr = np.asarray(value, dtype=np.float64)
     if arr.shape != (getattr(robot, dim),):
         raise DimensionMismatch(f"{field} has shape {list(arr.shape)}; robot '{robot.id}' "
                                 f"needs {dim} = {getattr(robot, dim)} numbers")
@@ -89,7 +98,7 @@ def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, A
     if tau is None:
         zero = np.zeros(robot.nv)
         return lambda k, q, v, data: zero
-    schedule = as_array("tau", from_names(robot, "tau", tau, "nv"),
+    schedule = as_array("tau", tau,
                         "(a constant torque) or 2-D (a schedule [steps][nv])")
     if schedule.ndim == 1:
         constant = _vector(robot, "tau", schedule, "nv")
@@ -108,7 +117,7 @@ def check_limits(robot: Robot, s: States, steps: int, integrator: str, max_steps
             f"steps = {steps}")
         raise InvalidInput(f"{total} is over the limit of {max_steps} simulated steps per "
                            "request (ROBODYN_MAX_SIMULATION_STEPS)")
-    work = simulation_work(robot, s, {"steps": steps, "integrator": integrator})
+    work = s.count * steps * robot.nv * STAGES[integrator]
     if work > max_work:
         raise InvalidInput(
             f"this simulation's work, states × steps × nv × stages = {s.count} × {steps} × "
@@ -117,21 +126,39 @@ def check_limits(robot: Robot, s: States, steps: int, integrator: str, max_steps
 
 
 def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
-    """Cost estimate: states × steps × nv × stages of the integrator."""
+    """Cost estimate: states × steps × stages of the integrator × the work of one evaluation
+    (nv for ABA; with contacts `contacts_simulation.rollout_evaluation_work`)."""
     stages = STAGES.get(options.get("integrator", "semi-implicit-euler"), 4)
-    return s.count * int(options.get("steps", 1)) * robot.nv * stages
+    each: float = robot.nv
+    if options.get("contacts") is not None:
+        each = rollout_evaluation_work(robot, options["contacts"],
+                                       float(options.get("damping") or 0.0),
+                                       options.get("controller") is not None)
+    return int(s.count * int(options.get("steps", 1)) * stages * each)
 
 
 def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
              controller: Mapping[str, Any] | None = None,
-             integrator: str = "semi-implicit-euler", max_simulation_steps: int = MAX_STEPS,
-             max_simulation_work: int = MAX_WORK, contacts: Sequence[Mapping[str, Any]] | None
-             = None, damping: float = 0.0) -> Results:
+             max_simulation_steps: int, max_simulation_work: int,
+             integrator: str = "semi-implicit-euler",
+             contacts: Sequence[Mapping[str, Any]] | None = None, damping: float = 0.0,
+             max_work: int | None = None, should_stop: ShouldStop | None = None) -> Results:
     """The trajectory from (q, v) over `steps` steps of `dt` s: t (N, steps+1) in s, q
     (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J; with
     `contacts` (a fixed contact set, `service.dynamics.contacts_simulation`) also
-    constraint_drift (N, steps+1) in m."""
+    constraint_drift (N, steps+1) in m. `should_stop()` (optional) is asked every few ms;
+    true stops the rollout with `ComputationStopped`."""
+    # max_simulation_steps and max_simulation_work: the service's settings of those names;
+    # tau and the controller's gains and target are arrays (the API converts name-keyed ones)
     check_limits(robot, s, steps, integrator, max_simulation_steps, max_simulation_work)
+    if contacts is not None:
+        options = {"steps": steps, "integrator": integrator, "contacts": contacts,
+                   "damping": damping, "controller": controller}
+        each = rollout_evaluation_work(robot, contacts, damping, controller is not None)
+        check_work("simulate", simulation_work(robot, s, options), max_work,
+                   f"states × steps × stages × one constrained evaluation = {s.count} × "
+                   f"{steps} × {STAGES[integrator]} × {each:,.0f}")
+    stop = Stopper(should_stop, "simulate", "step")
     # contacts: the PD's gravity compensation is replaced by a contact-consistent one
     contact = (ContactRollout(robot, contacts, dt, damping) if contacts is not None else None)
     plain_controller = (controller if contact is None or controller is None
@@ -153,8 +180,9 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
             where = f"state {i}: " if s.batched else ""
             if contact is not None:
                 contact.start(data, s["q"][i], i if s.batched else None)
+            stop.where = where
             rollout(robot, data, torque, dt, s["q"][i], s["v"][i], qs[i], vs[i], energy[i],
-                    where, accel)
+                    where, accel, stop)
             if contact is not None and drift is not None:
                 drift[i] = contact.drift(qs[i], data)
     t = np.broadcast_to(dt * np.arange(steps + 1), (n, steps + 1)).copy()
@@ -184,10 +212,13 @@ def _diverged(where: str, k: int, dt: float) -> NonFiniteResult:
 
 def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray,
                          v: np.ndarray, qs: np.ndarray, vs: np.ndarray, energy: np.ndarray,
-                         where: str, accel: Acceleration = _aba) -> None:
+                         where: str, accel: Acceleration = _aba, stop: Stopper | None = None
+                         ) -> None:
     model, normalize = robot.model, bool(robot.unit_joints)
+    stop = stop or Stopper(None, "simulate", "step")
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
     for k in range(qs.shape[0] - 1):
+        stop.poll(k)
         a = accel(robot, q, v, torque(k, q, v, data), data)
         v = v + dt * a
         q = pin.integrate(model, q, dt * v)
@@ -201,7 +232,7 @@ def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: 
 
 def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: np.ndarray,
          qs: np.ndarray, vs: np.ndarray, energy: np.ndarray, where: str,
-         accel: Acceleration = _aba) -> None:
+         accel: Acceleration = _aba, stop: Stopper | None = None) -> None:
     """Runge–Kutta–Munthe-Kaas RK4: stage configurations q ⊕ θ, and q's stage slopes are the
     velocities mapped to the tangent space at q by the inverse right Jacobian of ⊕,
     dθ/dt = Jr(θ)⁻¹ v = ∂ difference(q, q ⊕ θ) / ∂(q ⊕ θ) · v (the identity for
@@ -217,8 +248,10 @@ def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: n
         return (pin.dDifference(model, q, at, arg1) @ v if lie else v), a
 
     half = 0.5 * dt
+    stop = stop or Stopper(None, "simulate", "step")
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
     for k in range(qs.shape[0] - 1):
+        stop.poll(k)
         a1 = np.array(accel(robot, q, v, torque(k, q, v, data), data))
         v2 = v + half * a1
         t2, a2 = stage(k, half * v, v2)
@@ -236,9 +269,24 @@ def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: n
         energy[k + 1] = _mechanical_energy(robot, data, q, v)
 
 
+def simulation_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
+    """t, q, v and the energy at each of the steps + 1 samples, and the drift with contacts."""
+    drift = 1 if options.get("contacts") else 0
+    return (int(options.get("steps", 1)) + 1) * (robot.nq + robot.nv + 2 + drift)
+
+
+def fewer_steps(robot: Robot, numbers: int) -> str:
+    """How many steps fit in an answer of `numbers` numbers."""
+    steps = numbers // (robot.nq + robot.nv + 2) - 1
+    return f"simulate at most {max(steps, 0):,} steps per request"
+
+
 SIMULATION = (
     Quantity("simulate", ("q", "v"), simulate,
              "Simulate: integrate forward dynamics from (q, v) under torques or a PD controller",
-             joint_answers=("q", "v"), settings=("max_simulation_steps", "max_simulation_work"),
-             work=simulation_work),
+             joint_answers=("q", "v"),
+             settings=("max_simulation_steps", "max_simulation_work", "max_work"),
+             work=simulation_work, answer_size=simulation_size, smaller_request=fewer_steps,
+             named_options=(("tau", "nv"), ("controller.q_target", "nq"),
+                            ("controller.kp", "nv"), ("controller.kd", "nv"))),
 )

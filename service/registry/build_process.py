@@ -32,6 +32,7 @@ from typing import Any
 import pinocchio as pin
 
 from service.errors import InvalidModel, Overloaded
+from service.registry.asset_checks import asset_report, check_asset_texts
 from service.registry.build import (
     FORMATS,
     Checked,
@@ -89,6 +90,8 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
         limits = limits or Limits()
         report: dict[str, Any] = {}
         _limit_resources(memory_mb, cpu_s)
+        description, urdf = text, None
+        check_asset_texts(assets or {}, limits)
         if description_format == "xacro":
             parse_xml(text, "the xacro", limits)
             # its assets are written to a private directory, the only files it may read
@@ -100,12 +103,13 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
             with empty_working_directory():  # created before file writes are forbidden
                 _forbid_file_writes()
                 built = build_mjcf_model(text, root_joint, gravity, assets)
-            model, report = built.model, built.report()
+            model, report = built.model, {**report, **built.report()}
             checked = Checked(built.findings, built.notes, label, built.root_joint)
             if checked.findings and reject_findings:
                 conn.send(("checked", checked))
                 return
         else:  # URDF, or the URDF a xacro expanded to
+            urdf = text
             checked = validate_urdf(text, root_joint, limits)
             if checked.findings and reject_findings:
                 conn.send(("checked", checked))
@@ -120,6 +124,7 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
         if description_format == "mjcf":
             check_subtree_masses(model)  # URDF uploads are checked on the text (urdf_check)
         check_mass_matrix(model)
+        report.update(asset_report(description_format, description, urdf, assets or {}))
         conn.send(("ok", checked, model_to_binary(model), report))
     except InvalidModel as exc:
         conn.send(("invalid", exc.detail))
@@ -127,9 +132,20 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
         conn.send(("invalid", f"building the model needed more than its memory limit of "
                               f"{memory_mb} MB (ROBODYN_BUILD_MEMORY_MB)"))
     except Exception:  # the parser's own messages carry C++ paths: never forward them
-        conn.send(("invalid", "Pinocchio could not build a model from this description"))
+        conn.send(("invalid", _native_failure(description_format, memory_mb)))
     finally:
         conn.close()
+
+
+def _native_failure(description_format: str, memory_mb: int) -> str:
+    """What failed, for an exception of the native builder that is not ours (its own message
+    is never forwarded): MuJoCo for an MJCF (its compiler, or an allocation it could not
+    make), Pinocchio's URDF parser otherwise."""
+    if description_format == "mjcf":
+        return ("MuJoCo could not build a model from this MJCF (e.g. an allocation it could "
+                f"not make within the builder's memory limit of {memory_mb} MB, "
+                "ROBODYN_BUILD_MEMORY_MB)")
+    return "Pinocchio could not build a model from this description"
 
 
 _context: Any = None

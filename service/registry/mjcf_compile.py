@@ -23,6 +23,7 @@ from xml.etree.ElementTree import Element
 
 import defusedxml.ElementTree as SafeET
 import mujoco
+import numpy as np
 from defusedxml import DefusedXmlException
 
 from service.errors import InvalidModel
@@ -127,9 +128,72 @@ def compile_mjcf(text: str, assets: Mapping[str, bytes]) -> Any:
     among their assets.
     """
     try:
-        return mujoco.MjModel.from_xml_string(text, dict(assets))
+        mj = mujoco.MjModel.from_xml_string(text, dict(assets))
     except ValueError as exc:
         message = _TMP.sub("", str(exc)).strip()
         if len(message) > MAX_MESSAGE:
             message = message[:MAX_MESSAGE] + "…"
         raise InvalidModel(f"MuJoCo could not compile the MJCF: {message}") from None
+    check_finite(mj)
+    return mj
+
+
+_OPTION_FIELDS = ("gravity", "wind", "magnetic", "timestep", "density", "viscosity",
+                  "impratio", "tolerance", "o_margin", "o_solref", "o_solimp", "o_friction")
+_ELEMENTS = {  # model array prefix → (MuJoCo object type, MJCF element)
+    "body": (mujoco.mjtObj.mjOBJ_BODY, "body"), "jnt": (mujoco.mjtObj.mjOBJ_JOINT, "joint"),
+    "geom": (mujoco.mjtObj.mjOBJ_GEOM, "geom"), "site": (mujoco.mjtObj.mjOBJ_SITE, "site"),
+    "key": (mujoco.mjtObj.mjOBJ_KEY, "key"), "actuator": (mujoco.mjtObj.mjOBJ_ACTUATOR,
+                                                          "actuator"),
+    "tendon": (mujoco.mjtObj.mjOBJ_TENDON, "tendon"), "cam": (mujoco.mjtObj.mjOBJ_CAMERA,
+                                                             "camera"),
+}
+
+
+_GIVEN = frozenset(("pos", "quat", "mass", "inertia", "ipos", "iquat", "axis", "range",
+                    "size", "qpos", "qvel", "act", "ctrl", "mpos", "mquat", "time", "friction",
+                    "armature", "damping", "stiffness", "springref", "frictionloss", "gear",
+                    "margin", "ref"))
+
+
+def check_finite(mj: Any) -> None:
+    """Refuse a compiled model holding a NaN or an infinity (MuJoCo's compiler accepts `nan` in
+    any number, only warning): `<option gravity="nan 0 0">`, a keyframe's `qpos`, a body's
+    `pos`, ... The detail names the element (and its name or index) and the attribute."""
+    for name in _OPTION_FIELDS:
+        value = np.asarray(getattr(mj.opt, name, 0.0), dtype=float)
+        if not np.all(np.isfinite(value)):
+            shown_name = name.removeprefix("o_")
+            raise InvalidModel(f"<option {shown_name}> holds a non-finite number "
+                               f"({_numbers(value)}); every number must be finite")
+    # attributes the MJCF gives first, so a NaN is named where it was written (a NaN position
+    # also spoils values derived from it, e.g. body_invweight0)
+    names = [n for n in dir(mj) if not n.startswith("_")]
+    names.sort(key=lambda n: n.partition("_")[2] not in _GIVEN)
+    for field_name in names:
+        try:
+            value = getattr(mj, field_name)
+        except Exception:  # a property the binding cannot give for this model
+            continue
+        if not (isinstance(value, np.ndarray) and value.dtype.kind == "f" and value.size):
+            continue
+        finite = np.isfinite(value)
+        if finite.all():
+            continue
+        prefix, _, attribute = field_name.partition("_")
+        row = int(np.argwhere(~finite)[0][0]) if value.ndim else 0
+        if prefix in _ELEMENTS:
+            obj, tag = _ELEMENTS[prefix]
+            element_name = mujoco.mj_id2name(mj, obj, row)
+            which = f" name='{shown(element_name)}'" if element_name else f" (number {row})"
+            values = value[row] if value.ndim > 1 else value[row:row + 1]
+            raise InvalidModel(f"<{tag}{which}> {attribute} holds a non-finite number "
+                               f"({_numbers(values)}); every number must be finite")
+        raise InvalidModel(f"the compiled model's {field_name} holds a non-finite number; every "
+                           "number of the MJCF must be finite")
+
+
+def _numbers(values: Any) -> str:
+    flat = np.asarray(values, dtype=float).ravel()
+    text = " ".join(f"{x:g}" for x in flat[:8])
+    return text + (" …" if flat.size > 8 else "")

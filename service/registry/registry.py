@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +64,8 @@ class Registry:
         self._lock = threading.Lock()
         self._summaries: dict[str, dict[str, Any]] = {}  # stored id → summary (read once)
         self._summaries_lock = threading.Lock()
+        self._asset_shas: dict[str, frozenset[str]] = {}  # stored id → the assets it names
+        self._asset_shas_lock = threading.Lock()
 
     # -- start-up -------------------------------------------------------------------------
 
@@ -216,7 +218,7 @@ class Registry:
             return self.get(target), False
         model = built.model
         assert model is not None  # built unless findings were rejected (above)
-        warnings = after_build(record, built.report, model, files, checked, self.limits)
+        warnings = after_build(record, built.report, model, checked, self.limits)
         robot = Robot(id=model_id, name=name or checked.label, source="upload",
                       root_joint=record.get("served_root_joint", root_joint), model=model,
                       reference_configurations=reference_configurations(model),
@@ -225,14 +227,15 @@ class Registry:
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
         robot.info()  # and its description (thousands of frames for a large model)
-        self.assets.put(files)
-        if request is not None:
-            spec = {"source": "upload", "id": model_id,
-                    "record": {**record, "name": robot.name, "warnings": warnings}}
-            return self._store_reduced(robot, spec, request, name), True
-        record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
-                      warnings=warnings, summary=robot.summary(), created_at=time.time())
-        self.store.write(record)
+        with self.assets.storing():  # the files are named by a record before any sweep
+            self.assets.put(files)
+            if request is not None:
+                spec = {"source": "upload", "id": model_id,
+                        "record": {**record, "name": robot.name, "warnings": warnings}}
+                return self._store_reduced(robot, spec, request, name), True
+            record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
+                          warnings=warnings, summary=robot.summary(), created_at=time.time())
+            self.store.write(record)
         with self._lock:
             self.uploads[model_id] = robot
         log.info("stored upload %s (%s): nq=%d nv=%d", model_id, robot.name, robot.nq, robot.nv)
@@ -246,18 +249,21 @@ class Registry:
         target = reduced_id(base.id, request)
         if self.store.exists(target):
             return self.get(target), False
-        if base.source == "catalog":
-            spec: dict[str, Any] = {"source": "catalog", "id": base.id}
-        else:
-            record = self.store.read(base.id)
-            if record is None:
-                raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
-            keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
-                    else REBUILD_KEYS)
-            spec = {"source": "upload", "id": base.id,
-                    "record": {**{k: record[k] for k in keys if k in record}, "name": base.name,
-                               "warnings": base.warnings}}
-        return self._store_reduced(base, spec, request, name), True
+        # the base's assets stay named from reading its record until the reduced one is written
+        with self.assets.storing():
+            if base.source == "catalog":
+                spec: dict[str, Any] = {"source": "catalog", "id": base.id}
+            else:
+                record = self.store.read(base.id)
+                if record is None:
+                    raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; "
+                                        f"{NOT_FOUND_HINT}")
+                keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
+                        else REBUILD_KEYS)
+                spec = {"source": "upload", "id": base.id,
+                        "record": {**{k: record[k] for k in keys if k in record},
+                                   "name": base.name, "warnings": base.warnings}}
+            return self._store_reduced(base, spec, request, name), True
 
     def _store_reduced(self, base: Robot, spec: dict[str, Any],
                        request: dict[str, list[float]], name: str | None) -> Robot:
@@ -283,6 +289,33 @@ class Registry:
         if not self.store.delete(robot_id):
             raise RobotNotFound(f"no uploaded robot has id '{_shown(robot_id)}'; "
                                 f"{NOT_FOUND_HINT}")
+        self.assets.collect(self._named_assets)
+
+    def _named_assets(self) -> set[str]:
+        """The SHA-256 of every asset file a stored record names (its own, or its base's for a
+        reduced model). Records never change under their id, so each is read once."""
+        ids = self.store.ids()
+        named: set[str] = set()
+        with self._asset_shas_lock:
+            for model_id in ids:
+                shas = self._asset_shas.get(model_id)
+                if shas is None:
+                    record = self.store.read(model_id)
+                    if record is None:
+                        continue
+                    shas = self._asset_shas[model_id] = frozenset(_asset_shas(record))
+                named |= shas
+            for gone in set(self._asset_shas).difference(ids):
+                del self._asset_shas[gone]
+        return named
+
+
+def _asset_shas(record: Mapping[str, Any]) -> Iterator[str]:
+    """The SHA-256 of the asset files a record (or the base record it embeds) names."""
+    yield from (record.get("assets") or {}).values()
+    base = record.get("base")
+    if isinstance(base, Mapping) and isinstance(base.get("record"), Mapping):
+        yield from _asset_shas(base["record"])
 
 
 def _shown(robot_id: str) -> str:

@@ -57,6 +57,24 @@ def joint_type(joint: Any) -> str:
     return _JOINT_TYPES.get(short, short)
 
 
+def floating_root_nv(model: Any) -> int:
+    """The number of unactuated root rows of v (the first ones): 6 for a free-flyer first
+    joint on the world (a catalog robot's or an upload's `root_joint`), 3 for a planar one,
+    6 for an MJCF free joint — served as a translation joint on the world (v: the body
+    origin's linear velocity, world axes) followed by a spherical joint (v: the angular
+    velocity, body axes), together 6 unactuated coordinates like a free-flyer's, related to
+    its by a rotation of the linear part — and 0 for a fixed base."""
+    if model.njoints < 2 or model.parents[1] != 0:
+        return 0
+    first = joint_type(model.joints[1])
+    if first in ("free_flyer", "planar"):
+        return int(model.joints[1].nv)
+    if (first == "translation" and model.njoints > 2 and model.parents[2] == 1
+            and joint_type(model.joints[2]) == "spherical"):
+        return 6
+    return 0
+
+
 def _finite_or_none(values: np.ndarray) -> list[float | None]:
     # JSON has no infinity: an unbounded limit is null.
     return [float(x) if math.isfinite(x) else None for x in values]
@@ -99,6 +117,7 @@ class Robot:
                 self.unit_joints.append(
                     (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
         self.total_mass = float(pin.computeTotalMass(self.model))
+        self.root_nv: int = floating_root_nv(self.model)  # unactuated root rows of v
         # q index permutations API → Pinocchio and back; None when q needs no reordering
         self.wxyz_starts: tuple[int, ...] = tuple(
             self.model.joints[self.model.getJointId(name)].idx_q

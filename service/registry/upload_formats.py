@@ -11,8 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from service.errors import InvalidModel
-from service.registry.assets import MESH_TYPES, AssetStore, digest, extension, unreferenced
+from service.registry.assets import MAX_KEY_LENGTH, MESH_TYPES, AssetStore, digest, extension
 from service.registry.build import Checked
+from service.registry.safe_xml import shown
 from service.registry.urdf_check import Finding, Limits
 
 URDF_GRAVITY = [0.0, 0.0, -9.81]  # m/s², a URDF or xacro upload's default
@@ -44,11 +45,10 @@ def new_record(fmt: str, text: str, root_joint: str, gravity: list[float] | None
 
 
 def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
-                assets: Mapping[str, bytes], checked: Checked, limits: Limits
-                ) -> list[dict[str, str]]:
+                checked: Checked, limits: Limits) -> list[dict[str, str]]:
     """Apply what the builder process reported to `record` (served root joint, visuals,
     expansion) and refuse what its caps do not admit; the upload's warnings: what validation
-    found (`checked`, already accepted) and the assets the description never names."""
+    found (`checked`, already accepted) and what the builder found about the assets."""
     fmt = record["format"]
     if fmt == "mjcf" and model.nv > limits.max_nv:
         raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates; the limit is "
@@ -62,14 +62,44 @@ def after_build(record: dict[str, Any], report: Mapping[str, Any], model: Any,
         record["visuals"] = report["visuals"]
     if fmt == "xacro":
         record["expanded_urdf"] = report["expanded_urdf"]
-    texts = [record["description"]] + [data.decode("utf-8", "replace")
-                                       for key, data in assets.items()
-                                       if extension(key) not in (*MESH_TYPES, "png")]
     return [*(f.as_dict() for f in checked.findings + checked.notes),
-            *({"code": "unreferenced_asset", "element": "asset", "name": key,
-               "message": f"asset '{key}' is not named by the description or its included "
-                          "files; it is stored with the model"}
-              for key in unreferenced(assets, texts))]
+            *asset_warnings(report)]
+
+
+def asset_warnings(report: Mapping[str, Any]) -> list[dict[str, str]]:
+    """The warnings about assets the builder reported: an asset the description never names
+    (`unreferenced_asset`, stored anyway) and a mesh its visuals name that is not among the
+    assets (`missing_mesh`, one per file naming the links: not drawn, its URL is a 404)."""
+    out = [{"code": "unreferenced_asset", "element": "asset", "name": key,
+            "message": f"asset '{shown(key)}' is not named by the description or its included "
+                       "files; it is stored with the model"}
+           for key in report.get("unreferenced_assets", [])]
+    all_missing = report.get("missing_meshes", [])
+    for missing in all_missing[:MAX_MISSING_MESH_WARNINGS]:
+        links = missing["links"]
+        named = ", ".join(f"'{shown(link)}'" for link in links[:5])
+        more = f" and {len(links) - 5} more" if len(links) > 5 else ""
+        plural = "s" if len(links) > 1 else ""
+        where = f"mesh '{shown(missing['file'])}' of link{plural} {named}{more}"
+        message = (f"{where} is a path outside the upload (absolute, a URL or climbing out "
+                   "with '..'): it is not drawn; name it by a relative or package:// path and "
+                   'upload it in "assets"' if missing.get("outside") else
+                   f"{where} is not among the upload's assets: it is not drawn and GET "
+                   '.../assets answers 404 for it; upload it in "assets" under that key')
+        exact = not missing.get("outside") and len(missing["file"]) <= MAX_KEY_LENGTH
+        out.append({"code": "missing_mesh", "element": "link", "name": links[0],
+                    "file": missing["file"] if exact else shown(missing["file"]),
+                    "message": message})
+    if len(all_missing) > MAX_MISSING_MESH_WARNINGS:
+        rest = len(all_missing) - MAX_MISSING_MESH_WARNINGS
+        out.append({"code": "missing_mesh", "element": "link", "name": "",
+                    "message": f"and {rest} more mesh files the visuals name are missing "
+                               "from the upload (not listed one by one)"})
+    return out
+
+
+MAX_MISSING_MESH_WARNINGS = 100
+"""At most this many `missing_mesh` warnings, one per file; one more says how many others."""
 
 
 def rebuild_inputs(record: Mapping[str, Any], store: AssetStore

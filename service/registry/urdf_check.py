@@ -22,7 +22,8 @@ than <robot>, missing or duplicate names, unknown joint types, dangling parent/c
 roots, cycles, unparsable or non-finite numbers (in inertials, origins, axes, limits, dynamics,
 mimics and visual/collision geometry), negative masses, zero joint axes, mimic joints naming no
 joint, a moving joint whose subtree carries no mass (its column of M would be zero: M singular),
-and descriptions over the caps of `Limits`.
+a joint or link named `universe` (Pinocchio's world joint and frame: it would be unreachable
+by name), and descriptions over the caps of `Limits`.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ JOINT_NV = {"revolute": 1, "continuous": 1, "prismatic": 1, "fixed": 0, "floatin
 NEGATIVE_REL_TOL = 1e-4  # of the largest principal moment
 TRIANGLE_REL_TOL = 1e-4  # of the trace
 ABS_TOL = 1e-12  # kg·m²
+RESERVED_NAME = "universe"  # Pinocchio's joint 0 and its frame: refused as a joint or link name
 
 
 @dataclass(frozen=True)
@@ -264,6 +266,11 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
     joints = _names(root.findall("joint"), "joint")
     if not links:
         raise InvalidModel("the description has no <link>")
+    for kind, names in (("joint", joints), ("link", links)):
+        if RESERVED_NAME in names:
+            raise InvalidModel(
+                f"{kind} '{RESERVED_NAME}': the name is Pinocchio's own (its world joint and "
+                f"frame), so that {kind} could not be found by name; rename it")
     if len(links) > limits.max_links:
         raise InvalidModel(f"the description has {len(links)} links; the limit is "
                            f"{limits.max_links} (ROBODYN_MAX_LINKS)")

@@ -587,7 +587,7 @@ function renderFacts(info) {
   if (info.warnings.length) {
     const details = document.createElement("details");
     const summary = document.createElement("summary");
-    summary.textContent = `${info.warnings.length} finding(s) in the description`;
+    summary.textContent = warningsSummary(info.warnings);
     const ul = document.createElement("ul");
     for (const w of info.warnings) {
       const li = document.createElement("li");
@@ -597,6 +597,18 @@ function renderFacts(info) {
     details.append(summary, ul);
     box.append(details);
   }
+}
+
+/** "2 missing mesh file(s), 1 finding(s) in the description": what `warnings` holds. */
+function warningsSummary(warnings) {
+  const missing = warnings.filter((w) => w.code === "missing_mesh").length;
+  const unreferenced = warnings.filter((w) => w.code === "unreferenced_asset").length;
+  const findings = warnings.length - missing - unreferenced;
+  const parts = [];
+  if (missing) parts.push(`${missing} missing mesh file(s)`);
+  if (unreferenced) parts.push(`${unreferenced} unused asset(s)`);
+  if (findings) parts.push(`${findings} finding(s) in the description`);
+  return parts.join(", ");
 }
 
 // ---- Upload -------------------------------------------------------------------------------
@@ -618,7 +630,7 @@ async function upload(ev) {
     const info = await api("v1/robots", body, headers);
     out.className = "ok";
     out.textContent = `Stored as ${info.id}` +
-      (info.warnings.length ? ` with ${info.warnings.length} finding(s).` : ".");
+      (info.warnings.length ? ` with ${warningsSummary(info.warnings)}.` : ".");
     await loadRobots(info.id);
     await selectRobot(info.id);
   } catch (err) {

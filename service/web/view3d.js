@@ -163,8 +163,13 @@ export class RobotView {
     let drawn = drawable.length - meshCount(drawable); // primitives; meshes once loaded
     for (const f of info.frames.filter((x) => x.type === "body")) this.group(f.name);
     const meshes = drawable.filter((v) => v.geometry.type === "mesh");
+    // files the upload's answer already said it does not have (warnings "missing_mesh"): not
+    // fetched, reported as missing
+    const missing = new Set((info.warnings || []).filter((w) => w.code === "missing_mesh")
+      .map((w) => w.file));
     let done = 0;
-    const report = () => this.onProgress(done, meshes.length);
+    const failed = this.failed = []; // the mesh file of each mesh visual not drawn
+    const report = () => this.onProgress(done, meshes.length, failed);
     this.meshesDone = meshes.length === 0;
     report();
     for (const visual of drawable) {
@@ -180,8 +185,12 @@ export class RobotView {
         continue;
       }
       const { asset, scale } = visual.geometry;
-      Promise.resolve(loadMesh(assetUrl(asset))).then(async (template) => {
+      const loading = missing.has(asset)
+        ? Promise.reject(new Error("not among the upload's files"))
+        : Promise.resolve(loadMesh(assetUrl(asset)));
+      loading.then(async (template) => {
         template = await template;
+        if (mine === this.generation && !template) throw new Error("not drawable");
         if (mine !== this.generation || !template) return;
         const object = template.clone();
         object.scale.multiply(new THREE.Vector3(...scale));
@@ -194,7 +203,10 @@ export class RobotView {
         holder.add(object);
         drawn += 1;
         this.applyColours();
-      }).catch((err) => console.warn(`mesh ${asset} not drawn: ${err.message}`))
+      }).catch((err) => {
+        if (mine === this.generation) failed.push(asset);
+        console.warn(`mesh ${asset} not drawn: ${err.message}`);
+      })
         .finally(() => {
           if (mine !== this.generation) return;
           done += 1;
@@ -245,7 +257,7 @@ export class RobotView {
     this.buildStickFigure(inertias);
     this.container.dataset.mode = "stick";
     if (this.lastPlacements) this.setPlacements(...this.lastPlacements);
-    this.onProgress(0, 0);
+    this.onProgress(0, 0, this.failed || []);
   }
 
   buildStickFigure(inertias) {

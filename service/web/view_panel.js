@@ -23,7 +23,8 @@ export class ViewPanel {
     this.placeAgain = false; // ... and the sliders moved since it was sent
     this.dynamics = null; // the last g(q) and C(q, v) v, to colour the links
     try {
-      this.view = new RobotView(el("view3d"), { onProgress: (d, t) => this.progress(d, t) });
+      this.view = new RobotView(el("view3d"),
+                                { onProgress: (d, t, f) => this.progress(d, t, f) });
     } catch (err) { // no WebGL: the numbers still work
       el("view-progress").textContent = `No 3-D view in this browser (${err.message}).`;
       return;
@@ -79,14 +80,29 @@ export class ViewPanel {
     }
   }
 
-  progress(done, total) {
+  /** Mesh loading: `done` of `total` mesh visuals settled, `failed` the file of each one not
+   * drawn (404, unreadable, or named missing by the upload's warnings). */
+  progress(done, total, failed = []) {
     const p = el("view-progress");
     p.dataset.done = String(done);
     p.dataset.total = String(total);
-    const text = total === 0 ? (this.view && this.view.stick
-      ? "Nothing to draw from this description's visuals: drawn as a stick figure (joints " +
-        "blue, each body's centre of mass orange)." : "")
-      : done < total ? `Loading meshes: ${done} of ${total}…` : `${total} meshes loaded.`;
+    p.dataset.failed = String(failed.length);
+    const files = [...new Set(failed)];
+    const listed = files.slice(0, 5).join(", ") + (files.length > 5 ? ", …" : "");
+    const notDrawn = files.length
+      ? `${files.length} mesh file(s) could not be loaded (${listed}); see the warnings.` : "";
+    let text;
+    if (total === 0) {
+      text = this.view && this.view.stick
+        ? (failed.length ? `No mesh could be drawn: ${notDrawn} ` : "Nothing to draw from " +
+           "this description's visuals: ") + "drawn as a stick figure (joints blue, each " +
+          "body's centre of mass orange)." : "";
+    } else if (done < total) {
+      text = `Loading meshes: ${done} of ${total}…`;
+    } else {
+      text = failed.length ? `${total - failed.length} of ${total} meshes loaded; ${notDrawn}`
+        : `${total} meshes loaded.`;
+    }
     if (p.textContent !== text) p.textContent = text;
   }
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from swagger_ui_bundle import swagger_ui_path
 
-from service.api.pages import DOCS_FILES, EXPLORER_FILES, MODULE_FILES, WEB_DIR
+from service.api.routes.pages import DOCS_FILES, EXPLORER_FILES, MODULE_FILES, WEB_DIR
 
 
 class _Refs(HTMLParser):
@@ -107,7 +107,7 @@ def test_docs_page_loads_swagger_ui_from_the_installed_package(client) -> None:
 
 @pytest.mark.parametrize("path", [
     "/static/__init__.py", "/static/index.html", "/static/..%2f..%2fmain.py",
-    "/static/../api/pages.py", "/static/vendor/three/package.json",
+    "/static/../api/routes/pages.py", "/static/vendor/three/package.json",
     "/static/vendor/three/README.md", "/static/vendor%2F..%2Fpages.py",
     "/static/vendor/three/build/../../../__init__.py", "/docs/assets/index.html",
     "/docs/assets/swagger-initializer.js",
@@ -127,7 +127,7 @@ def test_pages_are_not_api_operations(client) -> None:
 def test_every_served_page_file_is_in_the_tree() -> None:
     """Each file the page routes may serve exists (a file missing from the tree, e.g. one a
     .gitignore rule kept out of the repository, would answer 500 instead of the file)."""
-    from service.api import pages
+    from service.api.routes import pages
 
     missing = [name for name in pages.STATIC_FILES if not (pages.WEB_DIR / name).is_file()]
     assert missing == []

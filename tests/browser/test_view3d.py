@@ -4,6 +4,7 @@ every mesh comes from this service, once."""
 
 from __future__ import annotations
 
+import base64
 import math
 import os
 from collections import Counter
@@ -269,3 +270,39 @@ def test_an_upload_whose_meshes_were_not_uploaded_is_a_stick_figure(page, server
     assert page.evaluate(ROBOT_PIXELS_JS) > 100
     assert "stick figure" in page.locator("#view-progress").inner_text()
     assert page.log.page_errors == [] and page.log.foreign_requests(server) == []
+    # the upload said the mesh is missing: it is named, and never fetched (no 404 asked for)
+    assert "arm/meshes/link1.stl" in page.locator("#view-progress").inner_text()
+    assert not [u for u in page.log.requests if f"/{robot}/assets/" in u]
+
+
+def test_meshes_missing_from_an_upload_are_named_not_claimed_loaded(page, server, api) -> None:
+    """Three mesh visuals, one mesh uploaded: the view says 1 of 3 loaded and names the two
+    missing files (from the upload's `missing_mesh` warnings, without fetching them), and the
+    warnings box counts them."""
+    stl = (b"\0" * 80 + (12).to_bytes(4, "little")
+           + b"".join(np.array([0, 0, 1, 0, 0, 0, 0.1, 0, 0, 0, 0.1, 0], "<f4").tobytes()
+                      + b"\0\0" for _ in range(12)))
+    urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text()
+    urdf = urdf.replace('<link name="base"/>', '<link name="base"></link>')
+    for link in ("base", "link1", "link2"):
+        urdf = urdf.replace(f'<link name="{link}">', f'<link name="{link}"><visual><geometry>'
+                            f'<mesh filename="package://arm3/meshes/{link}.stl"/></geometry>'
+                            "</visual>", 1)
+    stored = api.post("/v1/robots", json={
+        "urdf": urdf, "name": "arm with one mesh of three",
+        "assets": {"arm3/meshes/link1.stl": base64.b64encode(stl).decode()}})
+    assert stored.status_code == 201, stored.text
+    robot = stored.json()["id"]
+    missing = [w["file"] for w in stored.json()["warnings"] if w["code"] == "missing_mesh"]
+    assert missing == ["arm3/meshes/base.stl", "arm3/meshes/link2.stl"]
+    open_explorer(page, server, robot)
+    wait_drawn(page, robot)
+    progress = page.locator("#view-progress")
+    text = progress.inner_text()
+    assert text.startswith("1 of 3 meshes loaded"), text
+    assert all(f in text for f in missing) and "meshes loaded." not in text, text
+    assert progress.get_attribute("data-failed") == "2"
+    assert "2 missing mesh file(s)" in page.locator("#warnings").inner_text()
+    fetched = [u for u in page.log.requests if f"/{robot}/assets/" in u]
+    assert len(fetched) == 1 and fetched[0].endswith("arm3/meshes/link1.stl"), fetched
+    assert page.log.page_errors == []

@@ -96,7 +96,7 @@ async def test_upload_compute_delete(client: AsyncClient, reference: Reference) 
     arm = await client.upload(urdf.encode(), name="my arm")
     assert arm.created is True and arm.source == "upload" and arm.name == "my arm"
     assert (arm.nq, arm.nv, arm.joint_names) == (2, 2, ["shoulder", "elbow"])
-    assert arm.joint("elbow").effort_limit == (20.0,)
+    assert arm.joint("elbow").effort_limit == 20.0  # a float for a 1-DoF joint
     again = await client.upload(urdf)
     assert again.created is False and again.id == arm.id
     assert arm.id in await client.robots()

@@ -16,11 +16,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import robodyn
-from robodyn import AsyncClient, Client, core, results
+from robodyn import AsyncClient, Client, results
+from robodyn._calls import BUILDERS
 
 from robots import CATALOG_DIR
-from service.api.dynamics import ANSWERS, REQUESTS
-from service.api.schemas_inertias import BodyInertia, Inertias
+from service.api.quantities import SPECS
+from service.api.schemas.inertias import BodyInertia, Inertias
 from tests.beyond_helpers import RF, pinocchio_operational_space
 from tests.client.helpers import API_KEY, CATALOG, Reference
 
@@ -273,7 +274,7 @@ def test_bodies_sent_validate_against_the_server_schemas() -> None:
                 send(c)
             request = recorder.requests[-1]
             assert request.url.path == f"/v1/robots/r/{path}"
-            REQUESTS[path].model_validate(json.loads(request.content))  # strict
+            SPECS[path].request.model_validate(json.loads(request.content))  # strict
 
 
 def test_result_fields_are_the_server_answer_fields() -> None:
@@ -281,8 +282,9 @@ def test_result_fields_are_the_server_answer_fields() -> None:
              results.FrameJacobian: "jacobian", results.OperationalSpace: "operational-space"}
     for cls, path in pairs.items():
         fields = {f.name for f in dataclasses.fields(cls)}
-        assert fields == set(ANSWERS[path].model_fields), cls
+        assert fields == set(SPECS[path].answer.model_fields), cls
     body_fields = {f.name for f in dataclasses.fields(results.BodyInertia)} - {"raw"}
     assert body_fields == set(BodyInertia.model_fields)
     assert {f.name for f in dataclasses.fields(results.Inertias)} == set(Inertias.model_fields)
-    assert core.ROUTES["inertias"] == ("GET", "/v1/robots/{robot_id}/inertias")
+    call = BUILDERS["inertias"]("r")
+    assert (call.method, call.route) == ("GET", "/v1/robots/{robot_id}/inertias")

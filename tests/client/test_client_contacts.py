@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import robodyn
 from robodyn import AsyncClient, Client
+from robodyn._calls import BUILDERS
 
 from service.dynamics.contacts import (
     contact_dynamics,
@@ -151,14 +152,14 @@ def test_server_errors_raise_their_classes(client):
                                       [{"frame": "tool0", "mu": 1.0}], [7]])
 def test_bad_contacts_are_refused_locally(contacts):
     with pytest.raises(robodyn.InputError):
-        robodyn.core.contact_dynamics("ur5", np.zeros(6), np.zeros(6), np.zeros(6), contacts)
+        BUILDERS["contact_dynamics"]("ur5", np.zeros(6), np.zeros(6), np.zeros(6), contacts)
 
 
 @pytest.mark.parametrize("options", [{"restitution": 2.0}, {"restitution": -1.0},
                                      {"damping": float("nan")}, {"damping": True}])
 def test_bad_options_are_refused_locally(options):
     with pytest.raises(robodyn.InputError):
-        robodyn.core.impulse_dynamics("ur5", np.zeros(6), np.zeros(6), ["tool0"], **options)
+        BUILDERS["impulse_dynamics"]("ur5", np.zeros(6), np.zeros(6), ["tool0"], **options)
 
 
 @pytest.mark.anyio

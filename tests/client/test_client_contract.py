@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import json
 import os
 import re
@@ -16,11 +15,12 @@ import httpx
 import numpy as np
 import pytest
 import robodyn
-from robodyn import core, errors
+from robodyn import errors
+from robodyn._calls import BUILDERS
 
-from service.api.problems import STATUS_BY_CODE
-from service.api.schemas import ReduceRequest, UploadRequest
-from service.api.schemas_dynamics import REQUESTS
+from service.api.problems.handlers import STATUS_BY_CODE
+from service.api.quantities import SPECS
+from service.api.schemas.robots import ReduceRequest, UploadRequest
 from service.main import create_app
 from service.settings import Settings
 
@@ -59,7 +59,7 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "reduce": ("r", {"elbow": 0.5, "base": [0, 0, 1, 0, 0, 0, 1]}),
 }
 KWARGS: dict[str, dict[str, Any]] = {"simulate": {"dt": 1e-3, "steps": 1}}
-# contacts (issue 19)
+# contacts
 ANSWERS.update({"contact_forces": [0.0], "residual": 0.0, "contact_impulses": [0.0],
                 "v": [0.0]})
 ARGS.update({"contact_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
@@ -79,7 +79,7 @@ def sent_requests() -> dict[str, httpx.Request]:
     out = {}
     http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://mock")
     with robodyn.Client(http_client=http) as client:
-        for name in core.METHODS:
+        for name in BUILDERS:
             getattr(client, name)(*ARGS[name], **KWARGS.get(name, {}))
             out[name] = seen[-1]
     return out
@@ -94,12 +94,13 @@ def test_every_request_the_client_sends_is_a_route_of_the_server(openapi: dict) 
     routes = [(re.compile("^" + re.sub(r"\{[^/]+\}", "[^/]+", path) + "$"), method.upper())
               for path, methods in openapi["paths"].items() for method in methods]
     requests = sent_requests()
-    assert set(requests) == set(ARGS) == set(core.METHODS)
+    assert set(requests) == set(ARGS) == set(BUILDERS)
     for name, request in requests.items():
         path = request.url.raw_path.decode()
         assert any(rx.match(path) and m == request.method for rx, m in routes), (name, path)
-        method, template = core.ROUTES[name]
-        assert method.lower() in openapi["paths"][template], name
+        call = BUILDERS[name](*ARGS[name], **KWARGS.get(name, {}))
+        assert (call.method, call.path) == (request.method, path), name
+        assert call.method.lower() in openapi["paths"][call.route], name
 
 
 def test_request_bodies_validate_against_the_server_schemas() -> None:
@@ -112,7 +113,8 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
     for name, fields in inputs.items():
         body = json.loads(requests[name].content)
         assert tuple(body) == fields
-        REQUESTS[name.replace("_", "-")].model_validate(body)  # strict: no extra or mistyped field
+        # strict: no extra or mistyped field
+        SPECS[name.replace("_", "-")].request.model_validate(body)
 
 
 def test_every_server_code_has_a_client_class_with_its_status() -> None:
@@ -121,24 +123,6 @@ def test_every_server_code_has_a_client_class_with_its_status() -> None:
         assert cls is not None, f"no client class for server code {code!r}"
         assert cls.status_code == status, code
         assert errors.error_class(status, code) is cls
-
-
-def test_client_and_async_client_mirror_each_other() -> None:
-    def public(cls: type) -> dict[str, Any]:
-        return {n: f for n, f in vars(cls).items() if not n.startswith("_") and callable(f)}
-
-    sync, asynchronous = public(robodyn.Client), public(robodyn.AsyncClient)
-    assert (set(sync) - {"close", "stream"} == set(asynchronous) - {"aclose", "stream"}
-            == set(core.METHODS))
-    assert inspect.signature(sync["stream"]).parameters == inspect.signature(
-        asynchronous["stream"]).parameters
-    for name in core.METHODS:
-        assert inspect.signature(sync[name]) == inspect.signature(asynchronous[name]), name
-        assert inspect.iscoroutinefunction(asynchronous[name]), name
-        assert not inspect.iscoroutinefunction(sync[name]), name
-        assert sync[name].__doc__ == asynchronous[name].__doc__ == getattr(core, name).__doc__
-        assert "shape" in sync[name].__doc__ or name in ("health", "ready", "robots", "robot",
-                                                         "upload", "delete", "reduce")
 
 
 def test_package_imports_without_server_dependencies() -> None:
@@ -180,18 +164,16 @@ def test_distribution_depends_on_httpx_numpy_and_stamina_only() -> None:
 
 
 def test_answers_are_numpy_and_match_the_server_answer_fields() -> None:
-    from service.api.schemas_dynamics import ANSWERS as ANSWER_BY_QUANTITY
-
     requests = sent_requests()
-    paths = {core.ROUTES[name][1].rsplit("/", 1)[-1]: name for name in requests
+    paths = {BUILDERS[name](*ARGS[name]).quantity: name for name in requests
              if name in ("mass_matrix", "gravity", "coriolis", "nonlinear_effects",
                          "inverse_dynamics", "forward_dynamics")}
-    assert set(paths) == set(ANSWER_BY_QUANTITY)
+    assert len(paths) == 6 and set(paths) <= set(SPECS)
     http = httpx.Client(transport=httpx.MockTransport(
         lambda request: httpx.Response(200, json=ANSWERS)))
     with robodyn.Client("http://mock", http_client=http) as client:
         for path, name in paths.items():
-            fields = list(ANSWER_BY_QUANTITY[path].model_fields)
+            fields = list(SPECS[path].answer.model_fields)
             got = getattr(client, name)(*ARGS[name])
             got = got if isinstance(got, tuple) else (got,)
             assert len(got) == len(fields)

@@ -16,7 +16,7 @@ import robodyn
 from fastapi.testclient import TestClient
 from robodyn import AsyncClient, Client
 
-from service.api.dynamics import REQUESTS
+from service.api.quantities import SPECS
 from tests.client.helpers import ATOL, RTOL, Reference
 
 
@@ -197,7 +197,8 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
              "inverse-dynamics-derivatives"]
     for request, path in zip(recorder.requests, paths, strict=True):
         assert request.url.path.endswith("/" + path)
-        REQUESTS[path].model_validate_json(request.content)  # strict: no extra or mistyped field
+        # strict: no extra or mistyped field
+        SPECS[path].request.model_validate_json(request.content)
     assert json.loads(recorder.requests[3].content)["controller"]["kd"] == 2.0
 
 

@@ -14,7 +14,7 @@ import pytest
 import robodyn
 from robodyn import errors
 
-from service.api.problems import STATUS_BY_CODE, problem
+from service.api.problems.handlers import STATUS_BY_CODE, problem
 
 # code → (status, class, a builtin or parent it must also be): written out, not derived.
 EXPECTED: dict[str, tuple[int, type[robodyn.APIError], type[BaseException]]] = {

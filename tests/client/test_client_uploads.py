@@ -20,6 +20,7 @@ from service.main import create_app
 from service.registry import Registry
 from service.registry.catalog import erd_robots_dir
 from service.settings import Settings
+from tests.client.helpers import two_link_urdf
 from tests.service.mjcf_reference import cube_stl
 from tests.service.test_xacro import ARGS_XACRO, PART
 
@@ -99,6 +100,69 @@ def test_a_urdf_with_package_meshes(client: Client, tmp_path: Path) -> None:
     q = np.array([0.1, -0.5, 0.7, 0.2, 0.3, -0.1])
     np.testing.assert_allclose(client.mass_matrix(info.id, q), client.mass_matrix("ur5", q),
                                rtol=1e-12)
+
+
+def _ros_package(root: Path, folder: str = "arm_description",
+                 package: str = "arm_description") -> Path:
+    """A ROS package as cloned: package.xml, urdf/arm.urdf whose upper link's visual is
+    `package://<package>/meshes/upper.stl`, the mesh, and a launch file (XML, not a model)."""
+    pkg = root / folder
+    for sub in ("urdf", "meshes", "launch"):
+        (pkg / sub).mkdir(parents=True)
+    (pkg / "package.xml").write_text(f'<?xml version="1.0"?>\n<package format="3">'
+                                     f'<name>{package}</name><version>1.0.0</version></package>')
+    (pkg / "launch" / "view.launch.xml").write_text("<launch><arg name='gui'/></launch>")
+    visual = (f'<visual><geometry><mesh filename="package://{package}/meshes/upper.stl"/>'
+              '</geometry></visual>')
+    urdf = two_link_urdf(name="ros_arm").replace('<link name="upper">',
+                                                 f'<link name="upper">{visual}')
+    (pkg / "urdf" / "arm.urdf").write_text(urdf)
+    (pkg / "meshes" / "upper.stl").write_bytes(cube_stl())
+    return pkg
+
+
+def test_a_ros_package_layout_is_found_and_its_meshes_resolve(app, client: Client,
+                                                             tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    pkg = _ros_package(ws / "src")
+    for given in (ws, ws / "src", pkg):  # a workspace, its src folder, or the package itself
+        body = upload_body(given)
+        assert body["urdf"] == (pkg / "urdf" / "arm.urdf").read_text(), given
+        assert set(body["assets"]) == {"arm_description/meshes/upper.stl"}, given
+    info = client.upload(ws)
+    assert info.id == client.upload(pkg / "urdf" / "arm.urdf").id  # the file itself: the same
+    assert not [w for w in info.raw["warnings"] if w["code"] == "unreferenced_asset"]
+    with TestClient(app) as http:  # the server serves the mesh under the key it was sent as
+        visuals = http.get(f"/v1/robots/{info.id}/visuals").json()
+        meshes = {v["geometry"].get("asset") for v in visuals["visuals"]} - {None}
+        assert meshes == {"arm_description/meshes/upper.stl"}
+        mesh = http.get(f"/v1/robots/{info.id}/assets/arm_description/meshes/upper.stl")
+        assert mesh.status_code == 200 and mesh.content == cube_stl()
+
+
+def test_a_package_folder_named_otherwise_is_found_by_its_package_xml(tmp_path: Path) -> None:
+    _ros_package(tmp_path, folder="arm_description-main")  # a checkout of a release archive
+    body = upload_body(tmp_path)
+    assert set(body["assets"]) == {"arm_description/meshes/upper.stl"}
+
+
+def test_the_tree_search_prefers_urdf_folders_and_skips_included_files(tmp_path: Path) -> None:
+    pkg = _ros_package(tmp_path)
+    (pkg / "test").mkdir()
+    (pkg / "test" / "fixture.urdf").write_text("<robot name='fixture'/>")
+    assert upload_body(tmp_path)["urdf"].startswith('<?xml version="1.0"?>\n<robot name="ros_arm"')
+    (pkg / "urdf" / "arm.urdf").unlink()
+    (pkg / "urdf" / "arm.urdf.xacro").write_text(
+        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="x">'
+        '<xacro:include filename="$(find arm_description)/urdf/arm.macro.xacro"/></robot>')
+    (pkg / "urdf" / "arm.macro.xacro").write_text('<robot xmlns:xacro="http://www.ros.org/wiki/'
+                                                  'xacro"><link name="l"/></robot>')
+    body = upload_body(tmp_path)
+    assert "arm.macro.xacro" in body["xacro"]
+    assert set(body["assets"]) == {"arm_description/urdf/arm.macro.xacro"}
+    (pkg / "urdf" / "other.urdf").write_text("<robot name='other'/>")
+    with pytest.raises(robodyn.InputError, match=r"urdf/arm\.urdf\.xacro, .*urdf/other\.urdf"):
+        upload_body(tmp_path)
 
 
 def test_the_format_is_told_from_the_text() -> None:

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import robodyn
-from robodyn import AsyncClient, Client, Retry
+from robodyn import AsyncClient, Client, Payload, Retry
 
 
 @dataclass
@@ -64,6 +64,15 @@ def main(url: str, api_key: str, urdf: str) -> dict[str, float]:
             "did": float(did.dtau_dq.sum()), "fdd": float(fdd.da_dq.sum()),
             "cen": float(cen.momentum.sum()), "traj": float(traj.q[-1, 1]),
             "g_ros": float(g_ros[1]), "chunks": float(len(done))}
+
+
+def carrying(client: Client, q: np.ndarray) -> float:
+    """`payloads=` and a 1-DoF joint's limit (type-checked only: the server reads payloads
+    from this round on)."""
+    tool = Payload("tool0", 2.0, center_of_mass=(0.0, 0.0, 0.05))
+    g = client.gravity("ur5", q, payloads=[tool, {"frame": "wrist_3_link", "mass": 0.5}])
+    limit = client.robot("ur5").joint("elbow_joint").effort_limit
+    return float(g[1]) / (limit if isinstance(limit, float) else 1.0)
 
 
 async def main_async(url: str) -> float:

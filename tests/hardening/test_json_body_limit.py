@@ -12,7 +12,7 @@ import numpy as np
 import orjson
 import pytest
 
-from service.api.binary import BINARY_MEDIA_TYPE, encode
+from service.api.encoding.binary import BINARY_MEDIA_TYPE, encode
 from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 
@@ -61,6 +61,7 @@ def base(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         yield url
 
 
+@pytest.mark.slow  # a latency bound: with the other /health/live probes in the slow suite
 def test_health_stays_fast_while_the_largest_json_batch_is_handled(base: str) -> None:
     limit = 16 * 1024 * 1024  # the default ROBODYN_MAX_JSON_BODY_BYTES
     rng = np.random.default_rng(0)
@@ -79,6 +80,11 @@ def test_health_stays_fast_while_the_largest_json_batch_is_handled(base: str) ->
     assert len(latencies) > 20
     assert np.percentile(latencies, 99) < 0.25, sorted(latencies)[-5:]
     assert max(latencies) < 0.5, sorted(latencies)[-5:]
+
+
+def test_a_body_one_byte_over_the_default_json_limit_is_a_413(base: str) -> None:
+    limit = 16 * 1024 * 1024  # the default ROBODYN_MAX_JSON_BODY_BYTES
+    body = orjson.dumps({"q": [0.0] * 39})
     over = httpx.post(base + "/v1/robots/talos/gravity",
                       content=body + b" " * (limit - len(body) + 1),
                       headers={"content-type": "application/json"}, timeout=60)

@@ -15,8 +15,8 @@ import httpx
 import pytest
 import uvicorn
 
-from service.http_protocol import LINGER_S, HardenedHttpToolsProtocol
 from service.main import create_app
+from service.server.protocol import LINGER_S, HardenedHttpToolsProtocol
 from service.settings import Settings
 from tests.hardening.raw_http import (
     closed_within,

@@ -17,7 +17,7 @@ import httpx
 import numpy as np
 import pytest
 
-from service.http_protocol import LINGER_S
+from service.server.protocol import LINGER_S
 from tests.hardening.raw_http import connect, good_request, read_answer, request
 from tests.servers import running_server
 
@@ -213,14 +213,14 @@ def test_an_idle_websocket_stream_is_not_a_stalled_request(base: str) -> None:
 def test_the_cap_stays_below_the_descriptor_limit(monkeypatch) -> None:
     import resource
 
-    from service import http_protocol
+    from service.server import protocol
 
     monkeypatch.setattr(resource, "getrlimit", lambda which: (200, 4096))
-    http_protocol.connection_limits.cache_clear()
+    protocol.connection_limits.cache_clear()
     try:
-        assert http_protocol.connection_limits().max_connections == 200 - 64
+        assert protocol.connection_limits().max_connections == 200 - 64
         monkeypatch.setenv("ROBODYN_MAX_CONNECTIONS", "50")
-        http_protocol.connection_limits.cache_clear()
-        assert http_protocol.connection_limits().max_connections == 50
+        protocol.connection_limits.cache_clear()
+        assert protocol.connection_limits().max_connections == 50
     finally:
-        http_protocol.connection_limits.cache_clear()
+        protocol.connection_limits.cache_clear()

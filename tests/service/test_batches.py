@@ -67,8 +67,8 @@ def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api
     """A 10,000-state JSON body takes a quarter of a second to parse: parsing, validation,
     computation and encoding of large batches run in worker threads (bounded by
     max_pending_batches), small ones inline; the answers are the same."""
-    from service.api import answers
-    from service.api import dynamics as routes
+    from service.api.encoding import answers
+    from service.api.routes import dynamics as routes
 
     calls = record_off_loop(monkeypatch, routes)
     rng = np.random.default_rng(4)
@@ -125,7 +125,7 @@ def test_generalized_gravity_is_rnea_at_rest_bit_for_bit_on_every_catalog_robot(
 
 def test_large_name_keyed_batches_are_converted_off_the_event_loop(api, catalog_registry,
                                                                    monkeypatch):
-    from service.api import dynamics as routes
+    from service.api.routes import dynamics as routes
 
     calls = record_off_loop(monkeypatch, routes)
     names = [j["name"] for j in api.get("/v1/robots/ur5").json()["joints"] if j["nv"]]

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from service.api import binary
+from service.api.encoding import binary
 from tests.service.test_errors import assert_problem
 
 Q = [0.3, -1.0, 1.2, -0.7, 1.1, 0.4]

@@ -17,7 +17,7 @@ import safetensors.numpy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from service.api import binary
+from service.api.encoding import binary
 from service.errors import InvalidInput
 from tests.helpers import random_state
 
@@ -58,6 +58,10 @@ def decode_answer(content: bytes) -> dict[str, np.ndarray]:
 
 def raw(header: dict, data: bytes = b"") -> bytes:
     text = orjson.dumps(header)
+    return struct.pack("<Q", len(text)) + text + data
+
+
+def raw_json(text: bytes, data: bytes) -> bytes:
     return struct.pack("<Q", len(text)) + text + data
 
 
@@ -135,8 +139,18 @@ F64_6 = {"dtype": "F64", "shape": [6], "data_offsets": [0, 48]}
 
 @pytest.mark.parametrize(("content", "needle"), [
     (b"", "8-byte"),
-    (b"RDY1" + struct.pack("<I", 2) + b"{}", "runs past"),  # the former format
+    (b"RDY1" + struct.pack("<I", 2) + b"{}", "over the cap"),  # the former format
     (struct.pack("<Q", 10_000) + b"{}", "runs past"),
+    # a header over the 1 MiB cap is named as such, whether or not the body holds it
+    (struct.pack("<Q", (1 << 20) + 8) + b"{}", "over the cap of 1048576 bytes"),
+    (struct.pack("<Q", (1 << 20) + 8) + b" " * ((1 << 20) + 64), "over the cap of 1048576"),
+    # a name given twice (JSON parsers keep the last silently)
+    (raw_json(b'{"q":' + orjson.dumps(F64_6) + b',"q":' + orjson.dumps(F64_6) + b"}",
+              bytes(48)), "'q' is given twice"),
+    (raw_json(b'{"q":{"dtype":"F64","dtype":"F64","shape":[6],"data_offsets":[0,48]}}',
+              bytes(48)), "'dtype' is given twice"),
+    (raw_json(b'{"__metadata__":{"frame":"\\"a\\"","frame":"\\"b\\""},"q":'
+              + orjson.dumps(F64_6) + b"}", bytes(48)), "'frame' is given twice"),
     (struct.pack("<Q", 3) + b"{x}", "not valid JSON"),
     (struct.pack("<Q", 2) + b"[]", "JSON object"),
     (raw({"__metadata__": {"frame": 3}, "q": F64_6}, bytes(48)), "__metadata__"),
@@ -213,10 +227,6 @@ def test_decoder_refuses_hostile_headers_cleanly(shape, offsets, dtype, data, me
         assert "binary body" in exc.detail
     else:
         assert arrays["q"].dtype == np.float64 and arrays["q"].nbytes == data
-
-
-def raw_json(text: bytes, data: bytes) -> bytes:
-    return struct.pack("<Q", len(text)) + text + data
 
 
 def test_encoder_round_trips_through_the_reference_decoder():

@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from service.api import binary
+from service.api.encoding import binary
 from service.dynamics.contacts import (
     contact_dynamics,
     contact_inverse_dynamics,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from service.api import binary
+from service.api.encoding import binary
 from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
@@ -299,7 +299,7 @@ def test_other_framework_4xx_are_bad_requests(api):
     from starlette.exceptions import HTTPException
     from starlette.requests import Request
 
-    from service.api.problems import _on_http_error
+    from service.api.problems.handlers import _on_http_error
 
     request = Request({"type": "http", "method": "GET", "path": "/", "headers": [],
                        "app": api.app})

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 from starlette.requests import ClientDisconnect
 
-from service.api.fast_path import _body
+from service.api.middleware.fast_path import _body
 from service.errors import InvalidInput
 
 PARTS = [b"abc", b"", b"defgh", b"ij"]

@@ -1,4 +1,4 @@
-"""The HTTP protocol of `python -m service` (service/http_protocol.py): the writes of one
+"""The HTTP protocol of `python -m service` (service/server/protocol.py): the writes of one
 request within one event-loop step leave in one system call, in order; closing sends what is
 pending first; a real server answers keep-alive and pipelined requests in order. (WebSocket
 upgrades through it are exercised by the client's stream tests against `python -m service`.)"""
@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 import uvicorn
 
-from service.http_protocol import CoalescedWrites, CoalescingHttpToolsProtocol
+from service.server.protocol import CoalescedWrites, HardenedHttpToolsProtocol
 
 
 class FakeTransport:
@@ -91,7 +91,7 @@ def _read_answers(sock: socket.socket, count: int) -> list[bytes]:
 @pytest.mark.parametrize("pipelined", [False, True])
 def test_a_real_server_answers_in_order(pipelined: bool) -> None:
     async def run() -> list[bytes]:
-        config = uvicorn.Config(_app, port=0, http=CoalescingHttpToolsProtocol,
+        config = uvicorn.Config(_app, port=0, http=HardenedHttpToolsProtocol,
                                 log_level="warning", lifespan="off")
         server = uvicorn.Server(config)
         task = asyncio.create_task(server.serve())

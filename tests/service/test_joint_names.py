@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from service.api import binary
+from service.api.encoding import binary
 from tests.helpers import random_state
 from tests.service.test_errors import assert_problem
 

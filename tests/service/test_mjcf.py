@@ -357,6 +357,19 @@ HOSTILE = {  # case → (MJCF text, a fragment the detail must contain)
                         "repeated name 'j'"),
     "nothing moves": ('<mujoco model="m"/>', "nothing can move"),
     "massless moving body": (_body('<body name="c"><joint name="k"/></body>'), "'c'"),
+    # MuJoCo's compiler accepts `nan` anywhere (with a warning): refused naming the element
+    "NaN gravity": (_body("", compiler='<option gravity="nan 0 0"/>'),
+                    "<option gravity> holds a non-finite number (nan 0 0)"),
+    "NaN keyframe": (_body("").replace(
+        "</mujoco>", '<keyframe><key name="home" qpos="nan"/></keyframe></mujoco>'),
+        "<key name='home'> qpos holds a non-finite number"),
+    "NaN body position": (_body('<body name="c" pos="0 0 nan"><joint name="k"/>'
+                                '<geom size="0.1"/></body>'),
+                          "<body name='c'> pos holds a non-finite number"),
+    # an allocation MuJoCo cannot make within the builder's memory (a 1.6 GB height field)
+    "more memory than the builder has": (_body("").replace(
+        "<worldbody>", '<asset><hfield name="h" nrow="20000" ncol="20000" size="1 1 1 1"/>'
+        "</asset><worldbody>"), "MuJoCo could not build a model from this MJCF"),
 }
 
 

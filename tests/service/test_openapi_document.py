@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import re
 
-from service.api.binary import BINARY_MEDIA_TYPE
-from service.api.problems import STATUS_BY_CODE
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.problems.handlers import STATUS_BY_CODE
 
 METHODS = {"get", "put", "post", "delete", "patch"}
 

@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from service.api import binary
+from service.api.encoding import binary
 from tests.beyond_helpers import (
     ROWS,
     SINGULAR_RCOND,

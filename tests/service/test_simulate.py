@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 
 from service import dynamics
-from service.api import dynamics as routes
+from service.api.routes import dynamics as routes
 from tests.helpers import random_state
 from tests.service.test_errors import assert_problem
 
@@ -199,7 +199,7 @@ def test_long_simulations_run_off_the_event_loop(api, monkeypatch):
 
     async def recording(request, fn, *args):
         if fn is dynamics.run:  # not the answer's encoding, which follows a large computation
-            calls.append(args[1].path)
+            calls.append(args[1].name)
         return await original(request, fn, *args)
 
     monkeypatch.setattr(routes, "off_loop", recording)

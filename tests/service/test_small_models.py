@@ -13,7 +13,7 @@ import orjson
 import pinocchio as pin
 import pytest
 
-from service.api import binary
+from service.api.encoding import binary
 
 BIN = binary.BINARY_MEDIA_TYPE
 
@@ -128,8 +128,8 @@ def test_one_dof_reduced_catalog_robot_answers_every_quantity_like_pinocchio(sma
     q, v = np.array([0.4]), np.array([-1.2])
     body = {"q": q.tolist(), "v": v.tolist(), "a": [0.5], "tau": [2.0], "frame": "tool0",
             "damping": 0.1, "dt": 0.01, "steps": 3}
-    from service.api.dynamics import REQUESTS
-    body = {k: x for k, x in body.items() if k in REQUESTS[quantity].model_fields}
+    from service.api.quantities import SPECS
+    body = {k: x for k, x in body.items() if k in SPECS[quantity].request.model_fields}
     r = client.post(f"/v1/robots/{rid}/{quantity}", json=body)
     assert r.status_code == 200, r.text
     data = model.createData()

@@ -78,7 +78,7 @@ def test_stream_of_an_unknown_robot_is_refused_with_a_404_problem(api):
 def test_large_stream_messages_are_parsed_and_computed_off_the_event_loop(api, monkeypatch):
     """A big JSON message on the stream is parsed, computed and encoded in worker threads, like
     a big HTTP body; the answer equals the HTTP one."""
-    from service.api import stream as stream_module
+    from service.api.routes import stream as stream_module
 
     calls = record_off_loop(monkeypatch, stream_module)
     q = np.random.default_rng(9).uniform(-1, 1, (900, 6))

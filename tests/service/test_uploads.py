@@ -100,3 +100,16 @@ def test_uploaded_model_is_built_out_of_process_and_checked(tmp_path):
     assert r.status_code == 422 and r.json()["code"] == "invalid_model"
     assert "positive definite" in r.json()["detail"]
     assert not list((tmp_path / "models").glob("*.json"))
+
+
+def test_a_joint_or_link_named_universe_is_refused_by_name(tmp_path):
+    """Pinocchio's own joint 0 and world frame are named `universe`: a description's joint or
+    link of that name could never be found by name (two frames match), so it is a 422."""
+    client = _app(tmp_path)
+    for kind, urdf in (("joint", URDF.replace('"shoulder"', '"universe"')),
+                       ("link", URDF.replace('"link1"', '"universe"'))):
+        assert "universe" in urdf
+        r = client.post("/v1/robots", json={"urdf": urdf})
+        assert r.status_code == 422 and r.json()["code"] == "invalid_model", r.text
+        assert r.json()["detail"].startswith(f"{kind} 'universe':"), r.json()["detail"]
+    assert not list((tmp_path / "models").glob("*.json"))

@@ -1,4 +1,4 @@
-"""The private parts of uvicorn that service/http_protocol.py relies on are still there.
+"""The private parts of uvicorn that service/server/protocol.py relies on are still there.
 
 `HardenedHttpToolsProtocol` subclasses uvicorn's `HttpToolsProtocol` and swaps the class of its
 `RequestResponseCycle`; pyproject.toml pins uvicorn to the range these tests were run with. A
@@ -16,9 +16,9 @@ import uvicorn
 from uvicorn.protocols.http import flow_control, httptools_impl
 from uvicorn.server import ServerState
 
-from service.http_protocol import CoalescedWrites, GuardedCycle, HardenedHttpToolsProtocol
+from service.server.protocol import CoalescedWrites, GuardedCycle, HardenedHttpToolsProtocol
 
-MOVED = ("uvicorn {version}: {what} moved; service/http_protocol.py relies on it — adapt the "
+MOVED = ("uvicorn {version}: {what} moved; service/server/protocol.py relies on it — adapt the "
          "protocol, then widen the uvicorn pin in pyproject.toml")
 
 PROTOCOL_METHODS = {  # name -> parameters (after self) the subclass overrides or calls

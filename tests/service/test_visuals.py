@@ -264,7 +264,7 @@ def test_placements_in_binary_by_joint_name_and_on_the_stream(client) -> None:
     name-keyed q, and the WebSocket stream give the same answer as plain JSON."""
     import orjson
 
-    from service.api import binary
+    from service.api.encoding import binary
 
     model = _model(client, "ur5")
     q = random_configuration(model, np.random.default_rng(5))

@@ -9,14 +9,22 @@
 subclass of `APIError` named after their `code` (see `robodyn.errors` for the tree); requests
 a busy server could not answer are retried (`Retry`). Inputs are any array-like (numpy,
 torch, JAX, lists) or keyed by joint name (mappings, ROS JointState-like objects); answers are
-numpy arrays, or torch tensors with `Client(array_type="torch")`. Depends on httpx, numpy and
-stamina.
+numpy arrays, or torch tensors with `Client(array_type="torch")`. Every computing method takes
+`payloads=[Payload(frame, mass, ...)]`, rigid bodies the robot holds. Depends on httpx, numpy
+and stamina.
 """
 
 __version__ = "0.1.0"
 
 from robodyn.async_client import AsyncClient
 from robodyn.client import Client
+from robodyn.contacts import (
+    Contact,
+    ContactDynamics,
+    ContactInverseDynamics,
+    ContactTrajectory,
+    ImpulseDynamics,
+)
 from robodyn.errors import (
     APIError,
     AssetNotFoundError,
@@ -50,6 +58,7 @@ from robodyn.errors import (
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
+from robodyn.payloads import Payload
 from robodyn.progress import Progress, ProgressCallback
 from robodyn.request_options import (
     Fill,
@@ -89,6 +98,10 @@ __all__ = [
     "Centroidal",
     "Client",
     "ConflictError",
+    "Contact",
+    "ContactDynamics",
+    "ContactInverseDynamics",
+    "ContactTrajectory",
     "DimensionMismatchError",
     "Energy",
     "Fill",
@@ -96,6 +109,7 @@ __all__ = [
     "ForwardDynamicsDerivatives",
     "FrameInfo",
     "FrameJacobian",
+    "ImpulseDynamics",
     "InertiaCheck",
     "Inertias",
     "InputError",
@@ -111,6 +125,7 @@ __all__ = [
     "NotReadyError",
     "OperationalSpace",
     "OverloadedError",
+    "Payload",
     "PayloadTooLargeError",
     "Progress",
     "ProgressCallback",
@@ -138,15 +153,3 @@ __all__ = [
     "ValidationError",
     "__version__",
 ]
-
-# contacts (issue 19)
-from robodyn.contacts import (
-    Contact,
-    ContactDynamics,
-    ContactInverseDynamics,
-    ContactTrajectory,
-    ImpulseDynamics,
-)
-
-__all__ += ["Contact", "ContactDynamics", "ContactInverseDynamics", "ContactTrajectory",
-            "ImpulseDynamics"]

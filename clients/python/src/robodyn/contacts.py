@@ -16,7 +16,7 @@ from typing import Any, Literal, NamedTuple, TypedDict
 import numpy as np
 
 from robodyn.errors import InputError
-from robodyn.results import read
+from robodyn.results import read, trajectory_arrays
 
 ContactType = Literal["point", "6d"]
 CONTACT_TYPES = ("point", "6d")
@@ -65,6 +65,14 @@ def nonnegative(name: str, value: Any, upper: float | None = None) -> float:
         bound = f" and ≤ {upper:g}" if upper is not None else ""
         raise InputError(f"{name} must be a finite number ≥ 0{bound}, not {value!r}")
     return number
+
+
+def contact_options(contacts: ContactsLike, damping: float) -> dict[str, Any]:
+    """The `contacts` and `damping` body members of a contact route, checked."""
+    options: dict[str, Any] = {"contacts": contacts_body(contacts)}
+    if nonnegative("damping", damping):
+        options["damping"] = float(damping)
+    return options
 
 
 class ContactDynamics(NamedTuple):
@@ -124,3 +132,8 @@ class ContactTrajectory(NamedTuple):
     v: np.ndarray
     mechanical_energy: np.ndarray
     constraint_drift: np.ndarray
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
+                  ) -> ContactTrajectory:
+        return cls(*trajectory_arrays(body, cls._fields, batched, rows))

@@ -26,14 +26,28 @@ def _vector(values: Any) -> np.ndarray:
     return arr
 
 
-def _limits(values: Any) -> tuple[float | None, ...]:
-    return tuple(None if x is None else float(x) for x in values)
+Limit = float | None | tuple[float | None, ...]
+"""A joint's limit: one number (None: unbounded) for a 1-DoF joint, a tuple for others."""
+
+
+def _limits(values: Any, one_dof: bool) -> Limit:
+    """A per-joint limit: a float (None when unbounded) for a 1-DoF joint, whose position
+    limits are None when it is continuous (q = (cos θ, sin θ) has no limit); else a tuple
+    with None where a limit is unbounded."""
+    limits = tuple(None if x is None else float(x) for x in values)
+    if one_dof and len(limits) == 1:
+        return limits[0]
+    if one_dof and limits and all(x is None for x in limits):
+        return None
+    return limits
 
 
 @dataclass(frozen=True)
 class Finding:
     """A physical finding in a robot description (e.g. an inertia with a negative principal
-    moment): `code`, the `element` kind ("link" or "joint"), its `name`, and a `message`."""
+    moment) or a note on an upload's assets: `code`, the `element` kind ("link", "joint" or
+    "asset"), its `name`, and a `message`; `raw` has every member (a `missing_mesh`'s
+    `file`)."""
 
     code: str
     element: str
@@ -68,9 +82,11 @@ class JointInfo:
     """One joint, in model order: where its entries sit in q (`idx_q`, `nq` entries) and in
     v, a, τ (`idx_v`, `nv` entries), and its limits.
 
-    `lower`/`upper` have `nq` entries (rad or m), `velocity_limit` `nv` (rad/s or m/s),
-    `effort_limit` `nv` (N·m or N), `armature` `nv` (kg·m² or kg, added to M's diagonal);
-    a limit is None when unbounded.
+    For a 1-DoF joint (nv = 1: revolute, prismatic, continuous) each limit is one number:
+    `lower`/`upper` (rad or m; None for a continuous joint), `velocity_limit` (rad/s or m/s),
+    `effort_limit` (N·m or N) and `armature` (kg·m² or kg, added to M's diagonal), e.g.
+    `effort_limit == 87.0`. For other joints they are tuples: `lower`/`upper` of `nq` entries,
+    the others of `nv` (a free-flyer's or a planar joint's). A limit is None when unbounded.
     """
 
     name: str
@@ -80,11 +96,11 @@ class JointInfo:
     nq: int
     idx_v: int
     nv: int
-    lower: tuple[float | None, ...]
-    upper: tuple[float | None, ...]
-    velocity_limit: tuple[float | None, ...]
-    effort_limit: tuple[float | None, ...]
-    armature: tuple[float, ...]
+    lower: Limit
+    upper: Limit
+    velocity_limit: Limit
+    effort_limit: Limit
+    armature: float | tuple[float, ...]
     raw: Mapping[str, Any] = field(repr=False, compare=False)
 
     @property
@@ -99,14 +115,17 @@ class JointInfo:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> JointInfo:
+        one = int(data["nv"]) == 1
+        armature = tuple(float(x) for x in data.get("armature", ()))
         return cls(
             name=data["name"], type=data["type"], parent=data.get("parent", ""),
             idx_q=int(data["idx_q"]), nq=int(data["nq"]),
             idx_v=int(data["idx_v"]), nv=int(data["nv"]),
-            lower=_limits(data.get("lower", ())), upper=_limits(data.get("upper", ())),
-            velocity_limit=_limits(data.get("velocity_limit", ())),
-            effort_limit=_limits(data.get("effort_limit", ())),
-            armature=tuple(float(x) for x in data.get("armature", ())), raw=_frozen(data))
+            lower=_limits(data.get("lower", ()), one), upper=_limits(data.get("upper", ()), one),
+            velocity_limit=_limits(data.get("velocity_limit", ()), one),
+            effort_limit=_limits(data.get("effort_limit", ()), one),
+            armature=armature[0] if one and len(armature) == 1 else armature,
+            raw=_frozen(data))
 
 
 @dataclass(frozen=True)

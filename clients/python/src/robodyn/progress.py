@@ -9,7 +9,8 @@ answer is the same, bit for bit, as in one request.
 from __future__ import annotations
 
 from collections.abc import Callable, Generator
-from typing import Any, TypeVar, Union
+from dataclasses import dataclass
+from typing import Any, Generic, TypeVar, Union
 
 from robodyn.errors import InputError
 
@@ -25,6 +26,22 @@ CHUNK_STEPS = 2000
 T = TypeVar("T")
 Plan = Generator[tuple[Any, int], Any, T]
 """Yields (call, done after it) and receives each call's answer; returns the joined answer."""
+
+
+@dataclass(frozen=True)
+class Chunks(Generic[T]):
+    """How one call is sent in chunks when progress is asked for: `total` units of work
+    ("states" of a batch or "steps" of a simulation), sent `size` at a time by `plan()`."""
+
+    total: int
+    unit: str
+    size: int
+    plan: Callable[[], Plan[T]]
+
+    @property
+    def worth_it(self) -> bool:
+        """More than one chunk of work."""
+        return self.total > self.size
 
 
 def check(progress: Any) -> Progress:

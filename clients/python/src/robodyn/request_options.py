@@ -1,4 +1,5 @@
-"""Request options beyond joint states, checked locally: external forces and simulation."""
+"""Request options beyond joint states, checked locally: choices, frame names, external forces
+and simulation."""
 
 from __future__ import annotations
 
@@ -29,8 +30,24 @@ and τ of missing joints are zero."""
 REFERENCE_FRAMES: tuple[str, ...] = get_args(ReferenceFrame)
 TASKS: tuple[str, ...] = get_args(Task)
 INTEGRATORS: tuple[str, ...] = get_args(Integrator)
-ROOT_JOINTS: tuple[str, ...] = get_args(RootJoint)
-INERTIA_CHECKS: tuple[str, ...] = get_args(InertiaCheck)
+
+
+def choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
+    """`value` if it is one of `allowed`; else an InputError listing them."""
+    if not isinstance(value, str) or value not in allowed:
+        raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}, "
+                         f"not {value!r}")
+    return value
+
+
+def frame_name(frame: Any) -> str:
+    """A frame name argument: a non-empty str (the server checks that the robot has it)."""
+    if not isinstance(frame, str):
+        raise TypeError(f"frame must be a str (a name from robot(id).frame_names), not "
+                        f"{type(frame).__name__}")
+    if not frame:
+        raise InputError("frame is empty; robot(id).frame_names lists the valid names")
+    return frame
 
 
 def _json(value: Any) -> Any:

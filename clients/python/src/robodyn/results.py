@@ -196,6 +196,11 @@ class InverseDynamicsDerivatives(NamedTuple):
     dtau_dv: np.ndarray
     dtau_da: np.ndarray
 
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
+                  ) -> InverseDynamicsDerivatives:
+        return cls(*(answer_array(body, key, 2, batched, rows) for key in cls._fields))
+
 
 class ForwardDynamicsDerivatives(NamedTuple):
     """∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹, each (nv, nv) (∂/∂q on the tangent space)."""
@@ -203,6 +208,11 @@ class ForwardDynamicsDerivatives(NamedTuple):
     da_dq: np.ndarray
     da_dv: np.ndarray
     da_dtau: np.ndarray
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
+                  ) -> ForwardDynamicsDerivatives:
+        return cls(*(answer_array(body, key, 2, batched, rows) for key in cls._fields))
 
 
 class Centroidal(NamedTuple):
@@ -212,6 +222,13 @@ class Centroidal(NamedTuple):
     momentum: np.ndarray
     momentum_matrix: np.ndarray
     center_of_mass: np.ndarray
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
+                  ) -> Centroidal:
+        return cls(read(body, "momentum", 1, batched, rows),
+                   read(body, "momentum_matrix", 2, batched, rows),
+                   read(body, "center_of_mass", 1, batched, rows))
 
 
 class Trajectory(NamedTuple):
@@ -223,3 +240,14 @@ class Trajectory(NamedTuple):
     q: np.ndarray
     v: np.ndarray
     mechanical_energy: np.ndarray
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
+                  ) -> Trajectory:
+        return cls(*trajectory_arrays(body, cls._fields, batched, rows))
+
+
+def trajectory_arrays(body: Mapping[str, Any], fields: Sequence[str], batched: bool,
+                      rows: int | None) -> list[np.ndarray]:
+    """A trajectory's fields: q and v have 2 dimensions per initial state, the others 1."""
+    return [read(body, key, 2 if key in ("q", "v") else 1, batched, rows) for key in fields]

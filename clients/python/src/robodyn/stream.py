@@ -19,6 +19,9 @@ from typing import Any
 import httpx
 
 from robodyn import binary, core
+from robodyn._calls import BUILDERS, STREAMED
+from robodyn._calls.robots import robot
+from robodyn._methods import SYNC
 from robodyn.errors import ResponseFormatError, TransportError, error_class
 
 STREAM_PATH = "/v1/robots/{robot_id}/stream"
@@ -34,28 +37,17 @@ def _require_websockets() -> None:
 
 def stream_url(base_url: str, robot_id: str) -> str:
     """The ws:// (or wss://) URL of a robot's stream."""
-    call = core.robot(robot_id)  # checks and quotes the id
+    call = robot(robot_id)  # checks and quotes the id
     scheme, rest = base_url.split("://", 1)
     return f"{'wss' if scheme == 'https' else 'ws'}://{rest}{call.path}/stream"
 
 
-def dynamics_methods() -> list[str]:
-    """The client methods that a stream offers: the per-robot dynamics quantities."""
-    return [name for name, (method, path) in core.ROUTES.items()
-            if method == "POST" and path.startswith("/v1/robots/{robot_id}/")
-            and call_quantity(name) and name != "reduce"]
-
-
-def call_quantity(name: str) -> str:
-    return core.ROUTES[name][1].rsplit("/", 1)[-1]
-
-
-def message(name: str, call: core.Call[Any], use_binary: bool | None) -> str | bytes:
+def message(call: core.Call[Any], use_binary: bool | None) -> str | bytes:
     """The stream message of a client call: JSON text, or the binary form for large inputs."""
-    quantity = call_quantity(name)
     if call.binary(use_binary):
-        return binary.encode(call.arrays or {}, {**(call.json or {}), "quantity": quantity})
-    return core.encode({"quantity": quantity, **call.json_body()}).decode()
+        return binary.encode(call.arrays or {}, {**(call.json or {}),
+                                                 "quantity": call.quantity})
+    return core.encode({"quantity": call.quantity, **call.json_body()}).decode()
 
 
 def answer(call: core.Call[Any], reply: str | bytes) -> Any:
@@ -89,13 +81,13 @@ def _wrapped(robot_id: str) -> Iterator[None]:
 
 
 def _method(name: str, send: Callable[..., Any]) -> Callable[..., Any]:
-    build = getattr(core, name)
+    build = BUILDERS[name]
 
     def method(self: Any, *args: Any, **kwargs: Any) -> Any:
-        return send(self, name, build(self.robot_id, *args, **kwargs))
+        return send(self, build(self.robot_id, *args, **kwargs))
 
     method.__name__ = name
-    method.__doc__ = build.__doc__
+    method.__doc__ = next(getattr(cls, name).__doc__ for cls in SYNC if hasattr(cls, name))
     return method
 
 
@@ -114,9 +106,9 @@ class Stream:
                 url, additional_headers=headers, open_timeout=open_timeout, max_size=None,
                 compression=None))
 
-    def _send(self, name: str, call: core.Call[Any]) -> Any:
+    def _send(self, call: core.Call[Any]) -> Any:
         with _wrapped(self.robot_id):
-            self._ws.send(message(name, call, self._use_binary))
+            self._ws.send(message(call, self._use_binary))
             reply = self._ws.recv()
         return answer(call, reply)
 
@@ -141,11 +133,11 @@ class AsyncStream:
         self._url, self._headers, self._open_timeout = url, headers, open_timeout
         self._ws: Any = None
 
-    async def _send(self, name: str, call: core.Call[Any]) -> Any:
+    async def _send(self, call: core.Call[Any]) -> Any:
         if self._ws is None:
             raise RuntimeError("use the stream as `async with client.stream(robot_id) as s:`")
         with _wrapped(self.robot_id):
-            await self._ws.send(message(name, call, self._use_binary))
+            await self._ws.send(message(call, self._use_binary))
             reply = await self._ws.recv()
         return answer(call, reply)
 
@@ -168,13 +160,13 @@ class AsyncStream:
 
 
 def _add_methods() -> None:
-    def send_sync(self: Stream, name: str, call: core.Call[Any]) -> Any:
-        return self._send(name, call)
+    def send_sync(self: Stream, call: core.Call[Any]) -> Any:
+        return self._send(call)
 
-    async def send_async(self: AsyncStream, name: str, call: core.Call[Any]) -> Any:
-        return await self._send(name, call)
+    async def send_async(self: AsyncStream, call: core.Call[Any]) -> Any:
+        return await self._send(call)
 
-    for name in dynamics_methods():
+    for name in STREAMED:
         setattr(Stream, name, _method(name, send_sync))
         setattr(AsyncStream, name, _method(name, send_async))
 

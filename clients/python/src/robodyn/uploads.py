@@ -13,8 +13,14 @@ collects the assets the description references, by the keys the server matches t
   files in `assets`.
 
 A directory stands for the one description at its top (a `.xacro`, `.urdf`, or an `.xml`/`.mjcf`
-with a `<mujoco>` root). References to files that do not exist are left out (the server names
-what it misses). `assets` given explicitly (key → bytes, text or a path) are added last.
+with a `<mujoco>` or `<robot>` root); with none there, for the one in its tree, files that
+another description includes left out and one in a `urdf/` folder preferred: a ROS workspace or
+package (`pkg/urdf/robot.urdf` with `package://pkg/meshes/...`) is found. Packages are located
+by their `package.xml` `<name>` in the directory, else by folder name; their files are sent
+under `pkg/...` keys, which the server matches with `package://pkg/...`.
+
+References to files that do not exist are left out (the server names what it misses). `assets`
+given explicitly (key → bytes, text or a path) are added last.
 """
 
 from __future__ import annotations
@@ -57,18 +63,81 @@ def detect_format(text: str, path: Path | None = None) -> str:
     return "xacro" if _XACRO.search(text) else "urdf"
 
 
+MAX_SCANNED = 20_000  # files looked at when a directory's tree is searched for its description
+_SKIPPED_DIRS = {"build", "install", "log", "node_modules", "__pycache__"}
+_ROOT = re.compile(r"<(?![?!])([A-Za-z_][\w.:-]*)")
+_PACKAGE_NAME = re.compile(r"<name>\s*([^<\s]+)\s*</name>")
+
+
+def _is_description(path: Path) -> bool:
+    """A .xacro or .urdf file, or an .xml/.mjcf whose root is <mujoco> or <robot> (not a ROS
+    package.xml, a launch file, ...)."""
+    if path.name.endswith((".xacro", ".urdf")):
+        return True
+    if path.suffix not in (".xml", ".mjcf"):
+        return False
+    with path.open(encoding="utf-8", errors="replace") as f:
+        root = _ROOT.search(f.read(4096))
+    return root is not None and root.group(1) in ("mujoco", "robot")
+
+
+def _tree(directory: Path) -> list[Path]:
+    """The files under `directory` (hidden and build folders skipped), at most MAX_SCANNED."""
+    found: list[Path] = []
+    for folder, dirs, files in os.walk(directory):
+        dirs[:] = sorted(d for d in dirs if not d.startswith(".") and d not in _SKIPPED_DIRS)
+        found += (Path(folder) / f for f in sorted(files))
+        if len(found) > MAX_SCANNED:
+            raise InputError(f"directory {directory} holds more than {MAX_SCANNED} files; "
+                             "give the description file")
+    return found
+
+
+def _included(candidates: list[Path]) -> set[Path]:
+    """The candidates that another candidate names (xacro macros, MJCF parts, ...): not the
+    description itself."""
+    texts = {p: p.read_text("utf-8", "replace") for p in candidates}
+    return {p for p in candidates
+            if any(p.name in text for other, text in texts.items() if other != p)}
+
+
 def _main_file(directory: Path) -> Path:
-    candidates = sorted(p for p in directory.iterdir() if p.is_file() and (
-        p.name.endswith((".xacro", ".urdf")) or (
-            p.suffix in (".xml", ".mjcf") and "<mujoco" in p.read_text("utf-8", "replace"))))
+    """The one description of a directory: the one at its top (a .xacro, .urdf, or MJCF .xml);
+    with none there, the one in its tree, files that another one includes left out, one in a
+    `urdf/` folder preferred (a ROS package layout: `pkg/urdf/robot.urdf`)."""
+    top = [p for p in sorted(directory.iterdir()) if p.is_file() and _is_description(p)]
+    candidates = top or [p for p in _tree(directory) if _is_description(p)]
+    if len(candidates) > 1:
+        candidates = [p for p in candidates if p not in _included(candidates)] or candidates
+    if len(candidates) > 1 and not top:
+        in_urdf = [p for p in candidates if p.parent.name == "urdf"]
+        candidates = in_urdf if len(in_urdf) == 1 else candidates
     if len(candidates) != 1:
-        listed = ", ".join(p.name for p in candidates) or "none"
-        raise InputError(f"directory {directory} must hold exactly one description at its top "
-                         f"(.xacro, .urdf, or MJCF .xml), found: {listed}; give the file")
+        listed = ", ".join(str(p.relative_to(directory)) for p in candidates) or "none"
+        raise InputError(f"directory {directory} must hold exactly one description (.xacro, "
+                         f".urdf, or an MJCF or URDF .xml) at its top or, with none there, "
+                         f"in its tree; found: {listed}; give the file")
     return candidates[0]
 
 
-def _package_dir(start: Path, package: str) -> Path | None:
+def _package_dirs(directory: Path) -> dict[str, Path]:
+    """ROS package name → folder, from the package.xml files under `directory` (a package's
+    folder may be named otherwise, e.g. a checkout `ur_description-main`)."""
+    out: dict[str, Path] = {}
+    for path in _tree(directory):
+        if path.name == "package.xml":
+            name = _PACKAGE_NAME.search(path.read_text("utf-8", "replace"))
+            if name is not None:
+                out.setdefault(name.group(1), path.parent)
+    return out
+
+
+def _package_dir(start: Path, package: str, packages: Mapping[str, Path]) -> Path | None:
+    """The folder of ROS package `package`: declared by a package.xml of the uploaded
+    directory, else the nearest folder named `package` among `start`, its ancestors and their
+    children."""
+    if package in packages:
+        return packages[package]
     for ancestor in (start, *start.parents):
         if ancestor.name == package:
             return ancestor
@@ -111,7 +180,10 @@ def _mjcf_assets(main: Path) -> dict[str, bytes]:
     return assets
 
 
-def _ros_assets(main: Path) -> dict[str, bytes]:
+def _ros_assets(main: Path, packages: Mapping[str, Path]) -> dict[str, bytes]:
+    """The files a URDF or xacro references: `package://pkg/x` and `$(find pkg)/x` by the key
+    `pkg/x` (relative to the folder that holds the packages), relative paths by their path
+    from the description's folder."""
     assets: dict[str, bytes] = {}
     pending, seen = [main], set()
     while pending:
@@ -125,7 +197,7 @@ def _ros_assets(main: Path) -> dict[str, bytes]:
                        for m in _FIND.finditer(text)]
         for key, _ in references:
             package, _, rest = key.partition("/")
-            found = _package_dir(path.parent, package)
+            found = _package_dir(path.parent, package, packages)
             if found is not None:
                 _add(assets, key, found / rest, pending)
         for m in _RELATIVE.finditer(text):
@@ -161,9 +233,11 @@ def upload_body(source: Source | None, *, urdf: Source | None = None,
                          "one of urdf=, mjcf=, xacro=)")
     fmt, value = given[0]
     path: Path | None = None
+    packages: dict[str, Path] = {}
     if isinstance(value, os.PathLike) or (isinstance(value, str) and not _is_text(value)):
         path = Path(value)
         if path.is_dir():
+            packages = _package_dirs(path) if collect_assets else {}
             path = _main_file(path)
         if not path.is_file():
             raise InputError(f"no description file at {path}")
@@ -179,7 +253,7 @@ def upload_body(source: Source | None, *, urdf: Source | None = None,
     body: dict[str, Any] = {fmt: text}
     files: dict[str, str] = {}
     if path is not None and collect_assets:
-        found = _mjcf_assets(path) if fmt == "mjcf" else _ros_assets(path)
+        found = _mjcf_assets(path) if fmt == "mjcf" else _ros_assets(path, packages)
         files.update({key: _encode(data) for key, data in found.items()})
     for key, data in (assets or {}).items():
         files[key] = _encode(data)

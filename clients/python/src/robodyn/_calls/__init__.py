@@ -1,0 +1,31 @@
+"""Request builders, by topic: each public function of a topic module builds the `Call` of the
+client method of the same name (with the same arguments), checking its arguments locally.
+
+`Client`, `AsyncClient` and the streams send these calls; nothing here does I/O. A topic's
+helpers have names starting with `_`, so that the public functions are exactly the builders.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from types import ModuleType
+from typing import Any
+
+from robodyn._calls import beyond, contacts, dynamics, robots
+from robodyn.core import Call
+
+
+def _builders(*modules: ModuleType) -> dict[str, Callable[..., Call[Any]]]:
+    return {name: fn for module in modules for name, fn in vars(module).items()
+            if inspect.isfunction(fn) and fn.__module__ == module.__name__
+            and not name.startswith("_")}
+
+
+BUILDERS = _builders(robots, dynamics, beyond, contacts)
+"""Client method name → its request builder."""
+STREAMED = tuple(_builders(dynamics, beyond, contacts))
+"""The methods a stream offers: the quantities of one robot (`POST /v1/robots/{id}/<quantity>`
+routes the server's WebSocket also answers)."""
+
+__all__ = ["BUILDERS", "STREAMED", "beyond", "contacts", "dynamics", "robots"]

@@ -1,0 +1,270 @@
+"""Client methods of the equation of motion M(q) a + C(q, v) v + g(q) = τ: its terms, inverse
+and forward dynamics, their derivatives, centroidal momentum and simulation (`Client` and
+`AsyncClient` inherit them).
+
+Shapes: `nq` is the length of q and `nv` that of v, a and τ (see `RobotInfo.joints`). A 1-D
+input is one state; 2-D inputs of shape (N, n) are N states and every output gains a leading
+axis N. Units: SI — q in rad or m, v in rad/s or m/s, a in rad/s² or m/s², τ in N·m or N.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from robodyn import progress as _progress
+from robodyn._calls import dynamics as calls
+from robodyn._client import AsyncSender, SyncSender
+from robodyn.arrays import ArrayLike
+from robodyn.contacts import ContactsLike, ContactTrajectory
+from robodyn.payloads import PayloadsLike
+from robodyn.request_options import Integrator
+from robodyn.results import (
+    Centroidal,
+    ForwardDynamicsDerivatives,
+    InverseDynamicsDerivatives,
+    Trajectory,
+)
+
+
+class DynamicsMethods(SyncSender):
+    """The equation-of-motion methods of `Client`."""
+
+    def mass_matrix(self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+                   ) -> np.ndarray:
+        """M(q), the joint-space inertia matrix (CRBA): symmetric positive definite, kg·m² (kg on
+        prismatic rows), shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). The kinetic energy
+        is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for
+        this call.
+        """
+        return self._send(calls.mass_matrix(robot_id, q, payloads=payloads))
+
+    def gravity(self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+               ) -> np.ndarray:
+        """g(q), the generalized gravity torques (the gradient of the potential energy), N·m or N,
+        shape (nv,), or (N, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot holds
+        (`Payload`s), added to its model for this call.
+        """
+        return self._send(calls.gravity(robot_id, q, payloads=payloads))
+
+    def coriolis(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
+                 payloads: PayloadsLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(C, C v): the Coriolis/centrifugal matrix C(q, v) with Ṁ = C + Cᵀ, N·m·s, shape (nv,
+        nv), and the forces C(q, v) v, N·m or N, shape (nv,); with a batch axis N for inputs of
+        shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
+        """
+        return self._send(calls.coriolis(robot_id, q, v, payloads=payloads))
+
+    def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
+                          payloads: PayloadsLike | None = None) -> np.ndarray:
+        """h(q, v) = C(q, v) v + g(q) (gravity included, as in Pinocchio), N·m or N, shape (nv,),
+        or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to its
+        model for this call.
+        """
+        return self._send(calls.nonlinear_effects(robot_id, q, v, payloads=payloads))
+
+    def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
+                         external_forces: Sequence[Mapping[str, Any]] | None = None,
+                         payloads: PayloadsLike | None = None) -> np.ndarray:
+        """τ = M(q) a + C(q, v) v + g(q) (RNEA): the generalized forces, N·m or N, that give the
+        accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch. `external_forces`:
+        wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
+        "reference_frame": "local_world_aligned"}]` (N, N·m; a wrench may be (N, 6), one per
+        state); then τ = M a + C v + g − Σ Jᵀ w. `payloads`: rigid bodies the robot holds
+        (`Payload`s), added to its model for this call.
+        """
+        return self._send(calls.inverse_dynamics(robot_id, q, v, a,
+                                                 external_forces=external_forces,
+                                                 payloads=payloads))
+
+    def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
+                         external_forces: Sequence[Mapping[str, Any]] | None = None,
+                         payloads: PayloadsLike | None = None) -> np.ndarray:
+        """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) (ABA): the accelerations, rad/s² or m/s², that the
+        generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch.
+        `external_forces` as for `inverse_dynamics`: then a = M⁻¹ (τ − C v − g + Σ Jᵀ w).
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
+        """
+        return self._send(calls.forward_dynamics(robot_id, q, v, tau,
+                                                 external_forces=external_forces,
+                                                 payloads=payloads))
+
+    def inverse_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike,
+                                     *, payloads: PayloadsLike | None = None
+                                    ) -> InverseDynamicsDerivatives:
+        """(∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q)) of inverse dynamics (analytical RNEA derivatives), each of
+        shape (nv, nv), or (N, nv, nv) for a batch. ∂/∂q is on the tangent space: nv columns, along
+        q ⊕ δq (for a free-flyer, δq's first 6 entries are a displacement in the base frame).
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
+        """
+        return self._send(calls.inverse_dynamics_derivatives(robot_id, q, v, a, payloads=payloads))
+
+    def forward_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                                     tau: ArrayLike, *, payloads: PayloadsLike | None = None
+                                    ) -> ForwardDynamicsDerivatives:
+        """(∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹) of forward dynamics (analytical ABA derivatives), each of
+        shape (nv, nv), or (N, nv, nv) for a batch; ∂/∂q on the tangent space (nv columns).
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
+        """
+        return self._send(calls.forward_dynamics_derivatives(robot_id, q, v, tau,
+                                                             payloads=payloads))
+
+    def centroidal(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
+                   payloads: PayloadsLike | None = None) -> Centroidal:
+        """(momentum, momentum_matrix, center_of_mass): the centroidal momentum h = A(q) v, shape
+        (6,), linear (kg·m/s) then angular (kg·m²/s) about the centre of mass in world-aligned
+        axes; the centroidal momentum matrix A(q), shape (6, nv); the centre of mass, shape (3,),
+        m. A leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`s),
+        added to its model for this call.
+        """
+        return self._send(calls.centroidal(robot_id, q, v, payloads=payloads))
+
+    def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
+                 tau: ArrayLike | Mapping[str, Any] | None = None,
+                 controller: Mapping[str, Any] | None = None, integrator: Integrator | None = None,
+                 contacts: ContactsLike | None = None, damping: float = 0.0,
+                 progress: _progress.Progress = None, payloads: PayloadsLike | None = None
+                ) -> Trajectory | ContactTrajectory:
+        """Integrate forward dynamics from (q, v) for `steps` steps of `dt` seconds: a `Trajectory`
+        (t, q, v, mechanical_energy) of steps + 1 samples, q of shape (steps + 1, nq), v (steps +
+        1, nv); with a leading axis N for initial states of shape (N, nq), (N, nv). `tau`: nv
+        numbers (constant) or (steps, nv) (τ_k during step k); or `controller`: `{"type": "pd",
+        "kp": ..., "kd": ..., "q_target": ..., "gravity_compensation": False}` (gains: a number or
+        nv numbers); neither means τ = 0. `integrator`: "semi-implicit-euler" (default) or "rk4".
+        `contacts` (a fixed contact set, e.g. `RobotInfo.contact_frames`) gives a
+        `ContactTrajectory` (with `constraint_drift`, m): the contacts hold their frames where they
+        start, and a PD controller acts on the actuated joints only. `progress` (the client's by
+        default): a callable `(done, total)` or True (a tqdm bar) runs more than
+        `progress.CHUNK_STEPS` steps in chunks, each from the last state of the one before,
+        reporting the steps done after each; the trajectory is bit for bit that of one request. A
+        rollout with `contacts` is never chunked by steps. `payloads`: rigid bodies the robot holds
+        (`Payload`s), added to its model for this call.
+        """
+        return self._send(calls.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
+                                         controller=controller, integrator=integrator,
+                                         contacts=contacts, damping=damping, payloads=payloads),
+                          progress)
+
+
+class AsyncDynamicsMethods(AsyncSender):
+    """The equation-of-motion methods of `AsyncClient`."""
+
+    async def mass_matrix(self, robot_id: str, q: ArrayLike, *,
+                          payloads: PayloadsLike | None = None) -> np.ndarray:
+        """M(q), the joint-space inertia matrix (CRBA): symmetric positive definite, kg·m² (kg on
+        prismatic rows), shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). The kinetic energy
+        is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for
+        this call.
+        """
+        return await self._send(calls.mass_matrix(robot_id, q, payloads=payloads))
+
+    async def gravity(self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+                     ) -> np.ndarray:
+        """g(q), the generalized gravity torques (the gradient of the potential energy), N·m or N,
+        shape (nv,), or (N, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot holds
+        (`Payload`s), added to its model for this call.
+        """
+        return await self._send(calls.gravity(robot_id, q, payloads=payloads))
+
+    async def coriolis(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
+                       payloads: PayloadsLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(C, C v): the Coriolis/centrifugal matrix C(q, v) with Ṁ = C + Cᵀ, N·m·s, shape (nv,
+        nv), and the forces C(q, v) v, N·m or N, shape (nv,); with a batch axis N for inputs of
+        shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
+        """
+        return await self._send(calls.coriolis(robot_id, q, v, payloads=payloads))
+
+    async def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
+                                payloads: PayloadsLike | None = None) -> np.ndarray:
+        """h(q, v) = C(q, v) v + g(q) (gravity included, as in Pinocchio), N·m or N, shape (nv,),
+        or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to its
+        model for this call.
+        """
+        return await self._send(calls.nonlinear_effects(robot_id, q, v, payloads=payloads))
+
+    async def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
+                               external_forces: Sequence[Mapping[str, Any]] | None = None,
+                               payloads: PayloadsLike | None = None) -> np.ndarray:
+        """τ = M(q) a + C(q, v) v + g(q) (RNEA): the generalized forces, N·m or N, that give the
+        accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch. `external_forces`:
+        wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
+        "reference_frame": "local_world_aligned"}]` (N, N·m; a wrench may be (N, 6), one per
+        state); then τ = M a + C v + g − Σ Jᵀ w. `payloads`: rigid bodies the robot holds
+        (`Payload`s), added to its model for this call.
+        """
+        return await self._send(calls.inverse_dynamics(robot_id, q, v, a,
+                                                       external_forces=external_forces,
+                                                       payloads=payloads))
+
+    async def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
+                               external_forces: Sequence[Mapping[str, Any]] | None = None,
+                               payloads: PayloadsLike | None = None) -> np.ndarray:
+        """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) (ABA): the accelerations, rad/s² or m/s², that the
+        generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch.
+        `external_forces` as for `inverse_dynamics`: then a = M⁻¹ (τ − C v − g + Σ Jᵀ w).
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
+        """
+        return await self._send(calls.forward_dynamics(robot_id, q, v, tau,
+                                                       external_forces=external_forces,
+                                                       payloads=payloads))
+
+    async def inverse_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                                           a: ArrayLike, *, payloads: PayloadsLike | None = None
+                                          ) -> InverseDynamicsDerivatives:
+        """(∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q)) of inverse dynamics (analytical RNEA derivatives), each of
+        shape (nv, nv), or (N, nv, nv) for a batch. ∂/∂q is on the tangent space: nv columns, along
+        q ⊕ δq (for a free-flyer, δq's first 6 entries are a displacement in the base frame).
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
+        """
+        return await self._send(calls.inverse_dynamics_derivatives(robot_id, q, v, a,
+                                                                   payloads=payloads))
+
+    async def forward_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
+                                           tau: ArrayLike, *, payloads: PayloadsLike | None = None
+                                          ) -> ForwardDynamicsDerivatives:
+        """(∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹) of forward dynamics (analytical ABA derivatives), each of
+        shape (nv, nv), or (N, nv, nv) for a batch; ∂/∂q on the tangent space (nv columns).
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
+        """
+        return await self._send(calls.forward_dynamics_derivatives(robot_id, q, v, tau,
+                                                                   payloads=payloads))
+
+    async def centroidal(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
+                         payloads: PayloadsLike | None = None) -> Centroidal:
+        """(momentum, momentum_matrix, center_of_mass): the centroidal momentum h = A(q) v, shape
+        (6,), linear (kg·m/s) then angular (kg·m²/s) about the centre of mass in world-aligned
+        axes; the centroidal momentum matrix A(q), shape (6, nv); the centre of mass, shape (3,),
+        m. A leading axis N for a batch. `payloads`: rigid bodies the robot holds (`Payload`s),
+        added to its model for this call.
+        """
+        return await self._send(calls.centroidal(robot_id, q, v, payloads=payloads))
+
+    async def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
+                       tau: ArrayLike | Mapping[str, Any] | None = None,
+                       controller: Mapping[str, Any] | None = None,
+                       integrator: Integrator | None = None, contacts: ContactsLike | None = None,
+                       damping: float = 0.0, progress: _progress.Progress = None,
+                       payloads: PayloadsLike | None = None) -> Trajectory | ContactTrajectory:
+        """Integrate forward dynamics from (q, v) for `steps` steps of `dt` seconds: a `Trajectory`
+        (t, q, v, mechanical_energy) of steps + 1 samples, q of shape (steps + 1, nq), v (steps +
+        1, nv); with a leading axis N for initial states of shape (N, nq), (N, nv). `tau`: nv
+        numbers (constant) or (steps, nv) (τ_k during step k); or `controller`: `{"type": "pd",
+        "kp": ..., "kd": ..., "q_target": ..., "gravity_compensation": False}` (gains: a number or
+        nv numbers); neither means τ = 0. `integrator`: "semi-implicit-euler" (default) or "rk4".
+        `contacts` (a fixed contact set, e.g. `RobotInfo.contact_frames`) gives a
+        `ContactTrajectory` (with `constraint_drift`, m): the contacts hold their frames where they
+        start, and a PD controller acts on the actuated joints only. `progress` (the client's by
+        default): a callable `(done, total)` or True (a tqdm bar) runs more than
+        `progress.CHUNK_STEPS` steps in chunks, each from the last state of the one before,
+        reporting the steps done after each; the trajectory is bit for bit that of one request. A
+        rollout with `contacts` is never chunked by steps. `payloads`: rigid bodies the robot holds
+        (`Payload`s), added to its model for this call.
+        """
+        return await self._send(calls.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
+                                               controller=controller, integrator=integrator,
+                                               contacts=contacts, damping=damping,
+                                               payloads=payloads), progress)

@@ -1,0 +1,184 @@
+"""Client methods of the service and its robots: health, the robot list, one robot,
+uploads, reductions, deletions and body inertias (`Client` and `AsyncClient` inherit them)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from robodyn._calls import robots as calls
+from robodyn._client import AsyncSender, SyncSender
+from robodyn.arrays import ArrayLike
+from robodyn.models import RobotInfo, RobotList
+from robodyn.request_options import InertiaCheck, RootJoint
+from robodyn.results import Inertias
+from robodyn.uploads import AssetValue, Source
+
+
+class RobotMethods(SyncSender):
+    """The service and robot methods of `Client`."""
+
+    def health(self) -> dict[str, Any]:
+        """Liveness: the server's `/health/live` answer, `{"status": "ok"}`."""
+        return self._send(calls.health())
+
+    def ready(self) -> bool:
+        """Readiness: True once the server has loaded its catalog and can compute, False before."""
+        return self._send(calls.ready())
+
+    def robots(self) -> RobotList:
+        """Every robot the server serves, catalog and uploads: a `RobotList` of `RobotSummary`
+        (with `unavailable`: catalog robots the server could not load, and why).
+        """
+        return self._send(calls.robots())
+
+    def robot(self, robot_id: str) -> RobotInfo:
+        """The `RobotInfo` of one robot: sizes nq and nv, joint layout and limits, frames, gravity,
+        total mass, reference configurations and physical findings. Raises `RobotNotFoundError` for
+        an unknown id.
+        """
+        return self._send(calls.robot(robot_id))
+
+    def upload(self, source: Source | None = None, *, urdf: Source | None = None,
+               mjcf: Source | None = None, xacro: Source | None = None,
+               xacro_args: Mapping[str, str] | None = None,
+               assets: Mapping[str, AssetValue] | None = None, collect_assets: bool = True,
+               root_joint: RootJoint = "fixed", name: str | None = None,
+               gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
+               locked_joints: Mapping[str, ArrayLike] | None = None) -> RobotInfo:
+        """Store a model on the server and return its `RobotInfo` (`created` tells whether it is
+        new). The id is derived from the content, options and assets, so the same upload gives the
+        same id.
+
+        `source` is the description: its text (str or UTF-8 bytes; URDF, MJCF or xacro, told apart
+        by its root element), a path to its file, or a directory holding it (the one description at
+        its top, else the one in its tree — a ROS package layout `pkg/urdf/robot.urdf` is found).
+        From a path, the files it references (meshes, included MJCF or xacro files, YAML) are
+        collected and sent as assets (see `robodyn.uploads`; `collect_assets=False` sends none);
+        `assets` (key → bytes, text or a path) adds or replaces some. `urdf=`, `mjcf=` or `xacro=`
+        name the format instead of `source`. `xacro_args` sets a xacro's arguments (strings).
+
+        `root_joint` is "fixed", "free-flyer" or "planar" (an MJCF whose top body has a free joint
+        is free-flying by itself); `gravity` is 3 numbers in m/s² (default: an MJCF's own `<option
+        gravity>`, else [0, 0, -9.81]); `inertia_check` "reject" (default) or "warn" for
+        implausible inertias. `locked_joints` (joint name → position, see `reduce`) stores only the
+        reduced model. Raises `InvalidModelError` for a description that is not a usable model.
+        """
+        return self._send(calls.upload(source, urdf=urdf, mjcf=mjcf, xacro=xacro,
+                                       xacro_args=xacro_args, assets=assets,
+                                       collect_assets=collect_assets, root_joint=root_joint,
+                                       name=name, gravity=gravity, inertia_check=inertia_check,
+                                       locked_joints=locked_joints))
+
+    def delete(self, robot_id: str) -> None:
+        """Delete an uploaded model. Raises `CatalogRobotError` for a catalog robot and
+        `RobotNotFoundError` for an unknown id.
+        """
+        return self._send(calls.delete(robot_id))
+
+    def reduce(self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *,
+               name: str | None = None) -> RobotInfo:
+        """Store the reduced model of any robot (catalog or upload) with `locked_joints` locked and
+        return its `RobotInfo` (a new durable id; `created` tells whether it is new, and
+        `raw["reduced_from"]` names the base robot and each locked joint's q entries).
+        `locked_joints` maps joint names to positions: a number (rad or m) for revolute and
+        prismatic joints, an angle or [cos θ, sin θ] for continuous ones, [x, y, z, qx, qy, qz, qw]
+        for a free-flyer, [x, y, θ] or [x, y, cos θ, sin θ] for a planar joint, [qx, qy, qz, qw]
+        for a spherical one ([qw, qx, qy, qz], MuJoCo's qpos order, for a model uploaded as MJCF).
+        Raises `ValidationError` for an unknown joint (all listed) or a value of the wrong size,
+        `InvalidConfigurationError` for a value outside the joint's limits, and `InvalidModelError`
+        when every moving joint would be locked.
+        """
+        return self._send(calls.reduce(robot_id, locked_joints, name=name))
+
+    def inertias(self, robot_id: str) -> Inertias:
+        """`Inertias` of every body (one per joint): mass (kg), centre of mass (shape (3,), m) and
+        inertia at it and at the joint (shape (3, 3), kg·m²), principal moments and axes, all in
+        the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
+        """
+        return self._send(calls.inertias(robot_id))
+
+
+class AsyncRobotMethods(AsyncSender):
+    """The service and robot methods of `AsyncClient`."""
+
+    async def health(self) -> dict[str, Any]:
+        """Liveness: the server's `/health/live` answer, `{"status": "ok"}`."""
+        return await self._send(calls.health())
+
+    async def ready(self) -> bool:
+        """Readiness: True once the server has loaded its catalog and can compute, False before."""
+        return await self._send(calls.ready())
+
+    async def robots(self) -> RobotList:
+        """Every robot the server serves, catalog and uploads: a `RobotList` of `RobotSummary`
+        (with `unavailable`: catalog robots the server could not load, and why).
+        """
+        return await self._send(calls.robots())
+
+    async def robot(self, robot_id: str) -> RobotInfo:
+        """The `RobotInfo` of one robot: sizes nq and nv, joint layout and limits, frames, gravity,
+        total mass, reference configurations and physical findings. Raises `RobotNotFoundError` for
+        an unknown id.
+        """
+        return await self._send(calls.robot(robot_id))
+
+    async def upload(self, source: Source | None = None, *, urdf: Source | None = None,
+                     mjcf: Source | None = None, xacro: Source | None = None,
+                     xacro_args: Mapping[str, str] | None = None,
+                     assets: Mapping[str, AssetValue] | None = None, collect_assets: bool = True,
+                     root_joint: RootJoint = "fixed", name: str | None = None,
+                     gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
+                     locked_joints: Mapping[str, ArrayLike] | None = None) -> RobotInfo:
+        """Store a model on the server and return its `RobotInfo` (`created` tells whether it is
+        new). The id is derived from the content, options and assets, so the same upload gives the
+        same id.
+
+        `source` is the description: its text (str or UTF-8 bytes; URDF, MJCF or xacro, told apart
+        by its root element), a path to its file, or a directory holding it (the one description at
+        its top, else the one in its tree — a ROS package layout `pkg/urdf/robot.urdf` is found).
+        From a path, the files it references (meshes, included MJCF or xacro files, YAML) are
+        collected and sent as assets (see `robodyn.uploads`; `collect_assets=False` sends none);
+        `assets` (key → bytes, text or a path) adds or replaces some. `urdf=`, `mjcf=` or `xacro=`
+        name the format instead of `source`. `xacro_args` sets a xacro's arguments (strings).
+
+        `root_joint` is "fixed", "free-flyer" or "planar" (an MJCF whose top body has a free joint
+        is free-flying by itself); `gravity` is 3 numbers in m/s² (default: an MJCF's own `<option
+        gravity>`, else [0, 0, -9.81]); `inertia_check` "reject" (default) or "warn" for
+        implausible inertias. `locked_joints` (joint name → position, see `reduce`) stores only the
+        reduced model. Raises `InvalidModelError` for a description that is not a usable model.
+        """
+        return await self._send(calls.upload(source, urdf=urdf, mjcf=mjcf, xacro=xacro,
+                                             xacro_args=xacro_args, assets=assets,
+                                             collect_assets=collect_assets,
+                                             root_joint=root_joint, name=name, gravity=gravity,
+                                             inertia_check=inertia_check,
+                                             locked_joints=locked_joints))
+
+    async def delete(self, robot_id: str) -> None:
+        """Delete an uploaded model. Raises `CatalogRobotError` for a catalog robot and
+        `RobotNotFoundError` for an unknown id.
+        """
+        return await self._send(calls.delete(robot_id))
+
+    async def reduce(self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *,
+                     name: str | None = None) -> RobotInfo:
+        """Store the reduced model of any robot (catalog or upload) with `locked_joints` locked and
+        return its `RobotInfo` (a new durable id; `created` tells whether it is new, and
+        `raw["reduced_from"]` names the base robot and each locked joint's q entries).
+        `locked_joints` maps joint names to positions: a number (rad or m) for revolute and
+        prismatic joints, an angle or [cos θ, sin θ] for continuous ones, [x, y, z, qx, qy, qz, qw]
+        for a free-flyer, [x, y, θ] or [x, y, cos θ, sin θ] for a planar joint, [qx, qy, qz, qw]
+        for a spherical one ([qw, qx, qy, qz], MuJoCo's qpos order, for a model uploaded as MJCF).
+        Raises `ValidationError` for an unknown joint (all listed) or a value of the wrong size,
+        `InvalidConfigurationError` for a value outside the joint's limits, and `InvalidModelError`
+        when every moving joint would be locked.
+        """
+        return await self._send(calls.reduce(robot_id, locked_joints, name=name))
+
+    async def inertias(self, robot_id: str) -> Inertias:
+        """`Inertias` of every body (one per joint): mass (kg), centre of mass (shape (3,), m) and
+        inertia at it and at the joint (shape (3, 3), kg·m²), principal moments and axes, all in
+        the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
+        """
+        return await self._send(calls.inertias(robot_id))

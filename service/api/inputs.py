@@ -1,0 +1,209 @@
+"""The request layer's inputs: joint-space vectors keyed by joint name, converted once, here;
+the states of a request validated (`prepare_states`); and the robot a request computes with
+(`robot_for`).
+
+Instead of an array, a joint-space input may be an object keyed by joint name, in any order,
+as a ROS `sensor_msgs/JointState` holds it: each joint takes its entries of that space — a
+number (or a 1-list) for a 1-dof joint; for a continuous joint's q its angle θ (rad) or
+`[cos θ, sin θ]`; for a planar joint's q `[x, y, θ]` or `[x, y, cos θ, sin θ]`; the 7-vector
+`[x, y, z, qx, qy, qz, qw]` for a free-flyer's q and its 6-vector in v, a and τ; a spherical
+joint's quaternion in the robot's q order (`[qw, qx, qy, qz]`, MuJoCo's, for a model built from
+MJCF). A batch is a list of such objects, one per state.
+
+Every joint must be named once, unless the request says how to fill the others (`"fill"`):
+`"neutral"` or the name of one of the robot's reference configurations (e.g. `"standing"`)
+gives a missing joint's q from that configuration; a missing joint's v, a and τ are zero.
+
+`by_name` turns answers the other way round: `{"joint": value}` for one state and a list of
+objects for a batch (or a trajectory).
+
+Conversion is done here once, in the layer that parses requests; the rest of the service only
+sees arrays. Plain-array requests pay only a type check (`any_named`). Options that may be
+keyed by joint name are declared by their quantity (`Quantity.named_options`, e.g. simulate's
+`tau` and controller gains) and converted by `options_from_names`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import numpy as np
+
+from service.dynamics import Quantity
+from service.errors import DimensionMismatch, InvalidInput, did_you_mean
+from service.registry.robot import Robot
+from service.states import SPACES, States, prepare
+
+_SHOWN = 20  # names listed at most in an error
+_NAME_CHARS = 64  # characters of an unknown name shown at most
+
+
+def is_named(value: Any) -> bool:
+    """True for a name-keyed object, or a list of them (a batch)."""
+    return type(value) is dict or (type(value) is list and len(value) > 0
+                                   and type(value[0]) is dict)
+
+
+def any_named(arrays: Mapping[str, Any]) -> bool:
+    return any(is_named(value) for value in arrays.values())
+
+
+def _layout(robot: Robot, dim: str) -> dict[str, tuple[int, int, str]]:
+    """Joint name → (start, size, type) in the space of dimension `dim` ("nq" or "nv")."""
+    start = "idx_q" if dim == "nq" else "idx_v"
+    return {j["name"]: (j[start], j[dim], j["type"]) for j in robot.info()["joints"]
+            if j[dim] > 0}
+
+
+def _names(names: Iterable[str]) -> list[str]:
+    shown = [n if len(n) <= _NAME_CHARS else n[:_NAME_CHARS] + "…" for n in names]
+    return shown[:_SHOWN] + ([f"… {len(shown) - _SHOWN} more"] if len(shown) > _SHOWN else [])
+
+
+NEUTRAL = "neutral"
+
+
+def fill_values(robot: Robot, fill: str | None, dim: str) -> np.ndarray | None:
+    """The vector missing joints take their entries from: the configuration named `fill` for
+    q ("neutral" or a reference configuration), zeros for v, a and τ; None without `fill`."""
+    if fill is None:
+        return None
+    if fill == NEUTRAL:
+        base = np.asarray(robot.info()["neutral_configuration"], dtype=np.float64)
+    elif fill in robot.reference_configurations:  # as the API gives it (`Robot.info`)
+        base = np.asarray(robot.info()["reference_configurations"][fill], dtype=np.float64)
+    else:
+        choices = [NEUTRAL, *robot.reference_configurations]
+        raise InvalidInput(f"fill {fill[:_NAME_CHARS]!r} is not a configuration of robot "
+                           f"'{robot.id}'; it takes one of {', '.join(_names(choices))}")
+    return base if dim == "nq" else np.zeros(robot.nv)
+
+
+# A scalar angle θ (rad) stands for the (cos θ, sin θ) part of these joints' q entries.
+_ANGLE_PART = {"continuous": 0, "planar": 2}
+
+
+def _entry(kind: str, size: int, value: Any, dim: str) -> np.ndarray:
+    entry = np.asarray(value, dtype=np.float64)
+    if dim == "nq" and kind in _ANGLE_PART and entry.size == size - 1 and entry.ndim <= 1:
+        at = _ANGLE_PART[kind]
+        angle = entry.reshape(-1)[at]
+        return np.concatenate([entry.reshape(-1)[:at], [math.cos(angle), math.sin(angle)]])
+    return entry
+
+
+def _state(robot: Robot, field: str, value: Mapping[str, Any], dim: str,
+           layout: dict[str, tuple[int, int, str]], fill: np.ndarray | None = None
+           ) -> np.ndarray:
+    missing = [name for name in layout if name not in value] if fill is None else []
+    unknown = [name for name in value if name not in layout]
+    if missing or unknown:
+        parts = []
+        if missing:
+            parts.append(f"missing joints: {', '.join(_names(missing))}")
+        if unknown:
+            parts.append("unknown names: " + ", ".join(
+                name + did_you_mean(name, missing) for name in _names(unknown)))
+        raise DimensionMismatch(
+            f"{field} by joint name must name every joint of robot '{robot.id}' once "
+            f"({'; '.join(parts)}), or the request must say how to fill the missing ones "
+            '("fill": "neutral" or a reference configuration\'s name); the joints are listed '
+            f"under `joints` in GET /v1/robots/{robot.id}", missing=_names(missing),
+            unknown=_names(unknown))
+    out = np.empty(getattr(robot, dim)) if fill is None else fill.copy()
+    for name, (start, size, kind) in layout.items():
+        if name not in value:
+            continue  # filled
+        entry = _entry(kind, size, value[name], dim)
+        if entry.size != size or entry.ndim > 1:
+            has = "a number" if entry.ndim == 0 else f"{entry.size} entries"
+            takes = "a number" if size == 1 else f"{size} numbers"
+            if dim == "nq" and kind == "continuous":
+                takes = "an angle or [cos θ, sin θ]"
+            elif dim == "nq" and kind == "planar":
+                takes = "[x, y, θ] or [x, y, cos θ, sin θ]"
+            raise DimensionMismatch(f"{field}['{name}'] has {has}; joint '{name}' ({kind}) "
+                                    f"takes {takes} in {field}")
+        out[start:start + size] = entry
+    return out
+
+
+def from_names(robot: Robot, field: str, value: Any, dim: str, fill: str | None = None
+               ) -> Any:
+    """The array form of `value` for the space of dimension `dim` ("nq" or "nv"): (n,) for an
+    object, (N, n) for a list of objects; any other value is returned unchanged. `fill`: how
+    missing joints are filled (see the module's docstring); None: every joint must be named."""
+    if not is_named(value):
+        return value
+    layout = _layout(robot, dim)
+    base = fill_values(robot, fill, dim)
+    if type(value) is dict:
+        return _state(robot, field, value, dim, layout, base)
+    if not all(type(v) is dict for v in value):
+        raise DimensionMismatch(f"{field} mixes joint-name objects and arrays; a batch is a "
+                                "list of objects or a list of arrays")
+    return np.stack([_state(robot, f"{field}[{i}]", v, dim, layout, base)
+                     for i, v in enumerate(value)])
+
+
+def arrays_from_names(robot: Robot, arrays: Mapping[str, Any], fill: str | None = None
+                      ) -> dict[str, Any]:
+    """The joint-space inputs (keys of `service.states.SPACES`) with name-keyed ones as arrays;
+    `fill` as for `from_names`."""
+    return {name: from_names(robot, name, value, SPACES[name], fill)
+            for name, value in arrays.items()}
+
+
+def by_name(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]) -> dict[str, Any]:
+    """`results` with each of `fields` (joint-space vectors: last axis nq for "q", else nv)
+    keyed by joint name: an object for a vector, a (nested) list of objects for more axes."""
+    out = dict(results)
+    for field in fields:
+        if field not in out:
+            continue
+        layout = _layout(robot, "nq" if field == "q" else "nv")
+        parts = [(name, start, size) for name, (start, size, _) in layout.items()]
+        out[field] = _keyed(np.asarray(out[field]), parts)
+    return out
+
+
+def _keyed(values: np.ndarray, parts: list[tuple[str, int, int]]) -> Any:
+    if values.ndim > 1:
+        return [_keyed(row, parts) for row in values]
+    return {name: float(values[start]) if size == 1 else values[start:start + size].tolist()
+            for name, start, size in parts}
+
+
+def prepare_states(robot: Robot, arrays: dict[str, Any], max_batch: int,
+                   fill: str | None = None) -> States:
+    """The validated `States` of a request's joint-space inputs; name-keyed ones become arrays
+    first (missing joints filled from the configuration named `fill`, if given)."""
+    if any_named(arrays):  # a type check: plain arrays pay nothing measurable
+        arrays = arrays_from_names(robot, arrays, fill)
+    elif fill is not None:
+        fill_values(robot, fill, "nq")  # an unknown name is an error all the same
+    return prepare(robot, arrays, max_batch)
+
+
+def options_from_names(robot: Robot, quantity: Quantity, options: dict[str, Any]
+                       ) -> dict[str, Any]:
+    """`options` with the quantity's `named_options` given keyed by joint name as arrays
+    (every joint named: `fill` applies to the joint-space inputs only)."""
+    for path, dim in quantity.named_options:
+        *parents, leaf = path.split(".")
+        holder: Any = options
+        for part in parents:
+            holder = holder.get(part) if isinstance(holder, dict) else None
+        if isinstance(holder, dict) and is_named(holder.get(leaf)):
+            holder[leaf] = from_names(robot, path, holder[leaf], dim)
+    return options
+
+
+def robot_for(robot: Robot, options: dict[str, Any]) -> Robot:
+    """The robot a request computes with: `robot` itself today. The one place where an
+    option that modifies the model for every quantity alike (e.g. payloads attached to
+    links) turns the stored robot into the one computed with, before any quantity runs;
+    such an option is popped from `options` here, so `compute` never sees it."""
+    return robot

@@ -1,0 +1,1 @@
+"""Pure ASGI middleware: the dynamics fast path, observability, body limits."""

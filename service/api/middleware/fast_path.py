@@ -1,0 +1,128 @@
+"""The dynamics hot path in front of the framework's routing: `POST /v1/robots/{id}/{quantity}`
+goes straight to its `Endpoint`, skipping Starlette's exception middleware, FastAPI's exit
+stack and the route table (about 15 µs of a 150 µs single-state answer). It sits inside the
+observability and body-limit middleware, so metrics, logs, request ids and limits are the
+same; errors are answered by the app's own exception handlers, and unexpected ones propagate
+to the server-error middleware exactly as from a routed endpoint. Everything else (other
+methods, paths, the WebSocket stream) goes to the app.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any
+
+from starlette.requests import ClientDisconnect, HTTPConnection, Request
+from starlette.types import Message, Receive, Scope, Send
+
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.routes.dynamics import ENDPOINTS, PREFIX
+from service.errors import InvalidInput
+
+_START = PREFIX + "/"
+_MEDIA_TYPES = {"application/json": b"application/json",
+                BINARY_MEDIA_TYPE: BINARY_MEDIA_TYPE.encode()}
+
+
+class DynamicsFastPath:
+    """ASGI middleware: serve the dynamics POST routes directly."""
+
+    def __init__(self, app: Any) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and scope["method"] == "POST":
+            path: str = scope["path"]
+            if path.startswith(_START):
+                robot_id, _, quantity = path[len(_START):].partition("/")
+                endpoint = ENDPOINTS.get(quantity)
+                if endpoint is not None and robot_id:
+                    scope["path_params"] = {"robot_id": robot_id}
+                    scope["route"] = endpoint.route  # for the metrics and the access log
+                    try:
+                        content, media_type = await endpoint.handle(
+                            HTTPConnection(scope), await _body(scope, receive))
+                    except Exception as exc:
+                        handler = _handler(scope["app"].exception_handlers, exc)
+                        if handler is None:
+                            raise  # the server-error middleware answers 500, as for any route
+                        response = await handler(Request(scope, receive), exc)
+                        await response(scope, receive, send)
+                        return
+                    length = (sum(len(p) for p in content) if isinstance(content, list)
+                              else len(content))
+                    await send({"type": "http.response.start", "status": 200, "headers": [
+                        (b"content-length", str(length).encode()),
+                        (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode())]})
+                    if isinstance(content, list):
+                        await _send_pieces(send, content)
+                    else:
+                        await send({"type": "http.response.body", "body": content})
+                    return
+        await self.app(scope, receive, send)
+
+
+async def _send_pieces(send: Send, pieces: list[bytes]) -> None:
+    """Send a large answer piece by piece, letting the event loop run between pieces: the
+    server writes each as the client reads (its flow control pauses `send`), so neither a big
+    copy nor a long write blocks the loop, and sent pieces are freed early."""
+    last = len(pieces) - 1
+    for i in range(len(pieces)):
+        piece, pieces[i] = pieces[i], b""
+        await send({"type": "http.response.body", "body": piece, "more_body": i < last})
+        if i < last:
+            await asyncio.sleep(0)
+
+
+async def _body(scope: Scope, receive: Receive) -> bytes | bytearray:
+    """The whole request body (the body-limit middleware outside bounds its size). A body that
+    comes in several messages is copied, as it arrives, into one buffer of its Content-Length:
+    no join of megabytes at the end, while the client waits."""
+    message = await receive()
+    chunk = _chunk(message)
+    if not message.get("more_body", False):
+        return chunk
+    length = _content_length(scope)
+    if length is None or length < len(chunk):
+        chunks = [chunk]
+        while message.get("more_body", False):
+            message = await receive()
+            chunks.append(_chunk(message))
+        return b"".join(chunks)
+    body = bytearray(length)
+    filled = 0
+    while True:
+        end = filled + len(chunk)
+        if end > length:  # more than announced: the server's framing forbids it
+            raise InvalidInput(f"the body is longer than its Content-Length {length}")
+        body[filled:end] = chunk
+        filled = end
+        if not message.get("more_body", False):
+            return body if filled == length else body[:filled]
+        message = await receive()
+        chunk = _chunk(message)
+
+
+def _chunk(message: Message) -> bytes:
+    if message["type"] == "http.disconnect":
+        raise ClientDisconnect()
+    body: bytes = message.get("body", b"")
+    return body
+
+
+def _content_length(scope: Scope) -> int | None:
+    for name, value in scope["headers"]:
+        if name == b"content-length":
+            return int(value) if value.isdigit() else None
+    return None
+
+
+def _handler(handlers: dict[Any, Any], exc: Exception) -> Any:
+    """The app's handler for `exc` by its class hierarchy; None for the catch-all (`Exception`,
+    500), which belongs to the server-error middleware as in Starlette's own routing."""
+    for cls in type(exc).__mro__:
+        if cls is Exception:
+            return None
+        if cls in handlers:
+            return handlers[cls]
+    return None

@@ -1,0 +1,1 @@
+"""The HTTP routes: dynamics (one per quantity), stream, robots, visuals, health, pages."""

@@ -1,0 +1,282 @@
+"""Routes of the dynamics quantities: POST /v1/robots/{id}/<quantity>, one per quantity,
+each derived from its spec (`service.api.quantities.SPECS`).
+
+This is the hot path, so each route is a plain ASGI endpoint without per-request dependency
+injection: the body is validated by the quantity's strict pydantic model straight from its bytes
+(`model_validate_json`), or decoded from the binary form (`service.api.encoding.binary`), and
+the answer is written by orjson or the binary encoder. The OpenAPI document describes these
+routes with the very same models (`openapi_routes`), and failures are the same problem+json answers.
+"""
+
+# No `from __future__ import annotations`: FastAPI must see the closures' request models.
+import time
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import numpy as np
+from fastapi import APIRouter, Request, Response
+from fastapi.exceptions import RequestValidationError
+from pydantic import BaseModel, ValidationError, create_model
+from starlette.concurrency import run_in_threadpool
+from starlette.requests import HTTPConnection
+from starlette.routing import Route
+
+from service import dynamics
+from service.api import inputs
+from service.api.deps import check_api_key_for_all
+from service.api.encoding import binary
+from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
+from service.api.encoding.budget import (
+    BINARY_BYTES_PER_NUMBER,
+    JSON_BYTES_PER_NUMBER,
+    check_answer_size,
+    key_bytes,
+)
+from service.api.quantities import SPECS, Spec
+from service.api.schemas.common import Problem
+from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
+
+T = TypeVar("T")
+PREFIX = "/v1/robots"
+
+# Batches bigger than this (states × nv) are validated, computed and encoded in a worker thread,
+# and JSON bodies bigger than INLINE_BODY_BYTES parsed there: on the event loop they would
+# stall every other request (a 10,000-state Talos JSON body takes ~0.25 s to parse).
+INLINE_WORK = 2_000
+INLINE_BODY_BYTES = 64 * 1024
+
+_PROBLEMS: dict[int | str, dict[str, Any]] = {
+    404: {"model": Problem, "description": "robot_not_found"},
+    415: {"model": Problem, "description": "unsupported_media_type"},
+    422: {"model": Problem, "description": "validation_error, dimension_mismatch, "
+          "invalid_configuration, non_finite_result (and the quantity's own codes)"},
+    503: {"model": Problem, "description": "not_ready, overloaded"},
+}
+
+
+async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) -> T:
+    """Run `fn(*args)` (a large batch's work) in a worker thread; shed load (503 overloaded)
+    past `max_pending_batches` in flight."""
+    state = request.app.state
+    if state.batches_in_flight >= state.settings.max_pending_batches:
+        raise Overloaded(f"{state.batches_in_flight} large batches are already being computed; "
+                         "retry shortly")
+    state.batches_in_flight += 1  # only touched on the event loop: no lock needed
+    try:
+        return await run_in_threadpool(fn, *args)
+    finally:
+        state.batches_in_flight -= 1
+
+
+def _rows(arrays: dict[str, Any]) -> int:
+    """The number of states of the inputs, cheaply (before validation; 1 when unsure)."""
+    q = arrays.get("q")
+    if isinstance(q, np.ndarray):
+        return q.shape[0] if q.ndim == 2 else 1
+    return len(q) if isinstance(q, list) and q and isinstance(q[0], list | dict) else 1
+
+
+def _media_types(headers: list[tuple[bytes, bytes]]) -> tuple[str, str]:
+    """(Content-Type, Accept) of raw ASGI headers, "" where absent: one pass over the list
+    (Starlette's `Headers.get` scans it once per name)."""
+    content_type = accept = None
+    for name, value in headers:
+        if name == b"content-type" and content_type is None:  # the first one, as Starlette
+            content_type = value.decode("latin-1").lower()  # media types ignore case
+        elif name == b"accept" and accept is None:
+            accept = value.decode("latin-1").lower()
+    return content_type or "", accept or ""
+
+
+def _invalid(exc: ValidationError) -> RequestValidationError:
+    return RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in exc.errors()])
+
+
+class Endpoint:
+    """The endpoint of one quantity: `answer` takes the Starlette request."""
+
+    def __init__(self, spec: Spec) -> None:
+        self.quantity = quantity = spec.quantity
+        self.route = Route(f"{PREFIX}/{{robot_id}}/{quantity.name}", self.answer,
+                           methods=["POST"], name=quantity.name)
+        self.model = spec.request
+        self.joint_inputs = (*quantity.inputs, *quantity.optional)
+        fields: dict[str, Any] = {
+            name: (info.annotation, info) for name, info in self.model.model_fields.items()
+            if name not in self.joint_inputs}
+        self.options_model = create_model(  # the non-array fields, for binary bodies
+            f"{self.model.__name__}Options", __config__=self.model.model_config, **fields)
+
+    def parse_json(self, body: bytes | bytearray | str
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(joint-space arrays, options) of a JSON body."""
+        try:
+            parsed = self.model.model_validate_json(body)
+        except ValidationError as exc:
+            raise _invalid(exc) from None
+        return self._split(parsed)
+
+    def parse_object(self, body: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(joint-space arrays, options) of an already decoded JSON object."""
+        try:
+            parsed = self.model.model_validate(body)
+        except ValidationError as exc:
+            raise _invalid(exc) from None
+        return self._split(parsed)
+
+    def _split(self, parsed: BaseModel) -> tuple[dict[str, Any], dict[str, Any]]:
+        arrays = {n: getattr(parsed, n) for n in self.joint_inputs if getattr(parsed, n, None)
+                  is not None}
+        given = parsed.model_fields_set.difference(self.joint_inputs)
+        return arrays, (parsed.model_dump(include=given) if given else {})
+
+    def parse_binary(self, fields: dict[str, Any], arrays: dict[str, Any]
+                     ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """(joint-space arrays, options) of a decoded binary body (`binary.decode`)."""
+        unknown = sorted(set(arrays) - set(self.joint_inputs))
+        missing = [n for n in self.quantity.inputs if n not in arrays]
+        if unknown or missing:
+            wrong = (f"unknown array {unknown[0]!r}" if unknown else
+                     f"missing array {missing[0]!r}")
+            raise InvalidInput(f"binary body: {wrong}; {self.quantity.name} takes "
+                               f"the arrays {', '.join(self.joint_inputs)}")
+        try:
+            options = self.options_model.model_validate(fields)
+        except ValidationError as exc:
+            raise _invalid(exc) from None
+        given = options.model_fields_set
+        return arrays, (options.model_dump(include=given) if given else {})
+
+    async def compute(self, request: HTTPConnection, robot: Any, arrays: dict[str, Any],
+                      options: dict[str, Any],
+                      bytes_per_number: int = JSON_BYTES_PER_NUMBER) -> dict[str, Any]:
+        """Validate the states, check the answer's size against the budget
+        (`service.api.encoding.budget`, at `bytes_per_number`) and compute: inline when small,
+        in a worker thread when large. Name-keyed inputs and options become arrays first
+        (`fill` fills missing joints); with `"joint_names": true` the joint-space answers are
+        keyed by joint name. The robot computed with is `inputs.robot_for(robot, options)`.
+        Records what was computed in the ASGI scope (`scope["robodyn"]`) for logs and
+        Server-Timing."""
+        named = options.pop("joint_names", False) if options else False
+        fill = options.pop("fill", None) if options else None
+        if options:
+            robot = inputs.robot_for(robot, options)
+            if self.quantity.named_options:
+                options = inputs.options_from_names(robot, self.quantity, options)
+        settings = request.app.state.settings
+        for setting in self.quantity.settings:
+            options[setting] = getattr(settings, setting)
+        started = time.perf_counter()
+        work = self.quantity.work
+        if named and self.quantity.joint_answers:  # each number then also carries its key
+            bytes_per_number += key_bytes(robot)
+        budget = (bytes_per_number, settings.max_answer_bytes)
+        large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
+        if large:
+            states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
+                                             options, settings.max_batch, budget, fill)
+        else:
+            states = inputs.prepare_states(robot, arrays, settings.max_batch, fill)
+            self._check_size(robot, states, options, budget)
+            large = (states.count * robot.nv if work is None else work(robot, states, options)
+                     ) > INLINE_WORK
+            if large:
+                result = await off_loop(request, dynamics.run, robot, self.quantity, states,
+                                         options)
+            else:
+                result = dynamics.run(robot, self.quantity, states, options)
+        request.scope["robodyn"] = {
+            "robot": robot.id, "quantity": self.quantity.name, "batch_size": states.count,
+            "compute_seconds": time.perf_counter() - started, "large": large}
+        if named:
+            result = inputs.by_name(robot, result, self.quantity.joint_answers)
+        return result
+
+    def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
+                         max_batch: int, budget: tuple[int, int], fill: str | None = None
+                         ) -> tuple[Any, dict[str, Any]]:
+        states = inputs.prepare_states(robot, arrays, max_batch, fill)
+        self._check_size(robot, states, options, budget)
+        return states, dynamics.run(robot, self.quantity, states, options)
+
+    def _check_size(self, robot: Any, states: Any, options: dict[str, Any],
+                    budget: tuple[int, int]) -> None:
+        """413 before computing an answer over `ROBODYN_MAX_ANSWER_BYTES` (single states of
+        fixed-size quantities are far below it: not checked, the hot path stays as it was)."""
+        if states.count > 1 or self.quantity.work is not None:
+            check_answer_size(self.quantity, robot, options, "v" in states.arrays,
+                              states.count, *budget)
+
+    async def handle(self, request: HTTPConnection, body: bytes | bytearray
+                     ) -> tuple[bytes | list[bytes], str]:
+        """The answer to `body` (JSON or binary) as (content, media type), content in pieces
+        for a large JSON answer; domain errors and validation errors are raised for the app's
+        exception handlers."""
+        check_api_key_for_all(request)
+        robot = request.app.state.registry.get(request.path_params["robot_id"])
+        content_type, accept = _media_types(request.scope["headers"])
+        if content_type.startswith(binary.BINARY_MEDIA_TYPE):
+            arrays, options = self.parse_binary(*binary.decode(body))
+        elif content_type and "json" not in content_type.split(";")[0]:
+            raise UnsupportedMediaType(
+                "send the body as JSON ('Content-Type: application/json') or in the binary "
+                f"form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+        elif len(body) > INLINE_BODY_BYTES:
+            arrays, options = await off_loop(request, self.parse_json, body)
+        else:
+            arrays, options = self.parse_json(body)
+        as_binary = binary.BINARY_MEDIA_TYPE in accept
+        result = await self.compute(request, robot, arrays, options,
+                                    BINARY_BYTES_PER_NUMBER if as_binary else JSON_BYTES_PER_NUMBER)
+        media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
+        if request.scope["robodyn"]["large"]:
+            # In a worker thread (~0.1 s for 10k mass matrices); JSON in pieces, each encoded
+            # in one short call, so the event loop gets the GIL in between and the pieces are
+            # written as the client reads them.
+            encode_large = binary.encode if as_binary else json_pieces
+            content: bytes | list[bytes] = await off_loop(request, encode_large, result)
+        else:
+            content = binary.encode(result) if as_binary else json_bytes(result)
+        return content, media_type
+
+    async def answer(self, request: Request) -> Response:
+        """The Starlette endpoint (`service.api.middleware.fast_path` calls `handle` directly)."""
+        request.scope["route"] = self.route  # FastAPI's router records only its own routes
+        content, media_type = await self.handle(request, await request.body())
+        return Response(content if isinstance(content, bytes) else b"".join(content),
+                        media_type=media_type)
+
+
+# Built once: an endpoint holds no per-app state (it reads the app from each request).
+ENDPOINTS: dict[str, Endpoint] = {name: Endpoint(spec) for name, spec in SPECS.items()}
+
+
+def routes() -> list[Route]:
+    """The serving routes, one per quantity."""
+    return [endpoint.route for endpoint in ENDPOINTS.values()]
+
+
+def openapi_routes() -> APIRouter:
+    """Routes that only describe the serving routes in the OpenAPI document (never mounted)."""
+    router = APIRouter(prefix=PREFIX, tags=["dynamics"])
+    for spec in SPECS.values():
+        quantity = spec.quantity
+        router.add_api_route(
+            f"/{{robot_id}}/{quantity.name}", _describe(spec), methods=["POST"],
+            response_model=spec.answer, responses=_PROBLEMS,
+            summary=quantity.summary, name=quantity.name,
+            openapi_extra={"x-binary-media-type": binary.BINARY_MEDIA_TYPE})
+    return router
+
+
+def _describe(spec: Spec) -> Any:
+    quantity, request_model = spec.quantity, spec.request
+
+    async def endpoint(robot_id: str, body: request_model) -> None:  # type: ignore[valid-type]
+        raise NotImplementedError  # documentation only: Endpoint serves the route
+
+    endpoint.__name__ = quantity.name.replace("-", "_")
+    endpoint.__doc__ = (f"{quantity.compute.__doc__}\n\nThe body may also be sent, and the answer "
+                        f"asked for, in the binary form ({binary.BINARY_MEDIA_TYPE}, see "
+                        "docs/binary-format.md).")
+    return endpoint

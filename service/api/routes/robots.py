@@ -1,0 +1,86 @@
+"""Routes of the robot catalog and uploads: list, describe, upload, reduce, delete."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Depends, Response
+from starlette.concurrency import run_in_threadpool
+
+from service.api.deps import RegistryDep, require_api_key
+from service.api.encoding.answers import JSONAnswer
+from service.api.schemas.common import Problem
+from service.api.schemas.inertias import Inertias
+from service.api.schemas.robots import ReduceRequest, RobotInfo, RobotList, UploadRequest
+from service.dynamics.body_inertias import body_inertias
+
+router = APIRouter(prefix="/v1/robots", tags=["robots"])
+
+_PROBLEMS: dict[int | str, dict[str, Any]] = {
+    404: {"model": Problem, "description": "robot_not_found"},
+    422: {"model": Problem, "description": "validation_error, invalid_model"},
+}
+
+
+@router.get("", response_model=RobotList, summary="List catalog robots and uploaded models")
+async def list_robots(registry: RegistryDep) -> Response:
+    summaries = await run_in_threadpool(registry.summaries)  # reads the store's directory
+    return JSONAnswer({"robots": summaries,
+                       "unavailable": registry.catalog_failures})
+
+
+@router.get("/{robot_id}", response_model=RobotInfo, responses=_PROBLEMS,
+            summary="A robot's joint layout, limits, configurations and findings")
+async def robot_info(robot_id: str, registry: RegistryDep) -> Response:
+    return JSONAnswer(registry.get(robot_id).info())
+
+
+@router.get("/{robot_id}/inertias", response_model=Inertias,
+            responses={404: _PROBLEMS[404]},
+            summary="Every body's mass, centre of mass, inertia (at the centre of mass and at "
+            "the joint) and principal moments and axes")
+async def robot_inertias(robot_id: str, registry: RegistryDep) -> Response:
+    """Inertial parameters of every body, each in the frame of the joint that moves it."""
+    return JSONAnswer(body_inertias(registry.get(robot_id)))
+
+
+@router.post("", response_model=RobotInfo, status_code=201,
+             responses={200: {"model": RobotInfo, "description": "the model was already stored"},
+                        401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
+             dependencies=[Depends(require_api_key)],
+             summary="Upload a URDF or MJCF: 201 for a new model, 200 for one already stored")
+async def upload_robot(body: UploadRequest, registry: RegistryDep) -> Response:
+    robot, created = await run_in_threadpool(
+        registry.upload, urdf=body.urdf, mjcf=body.mjcf, root_joint=body.root_joint,
+        gravity=body.gravity, name=body.name, inertia_check=body.inertia_check,
+        locked_joints=body.locked_joints, assets=body.assets, xacro=body.xacro,
+        xacro_args=body.xacro_args)
+    return JSONAnswer(robot.info(), status_code=201 if created else 200,
+                      headers={"Location": f"/v1/robots/{robot.id}"})
+
+
+@router.post("/{robot_id}/reduce", response_model=RobotInfo, status_code=201,
+             responses={200: {"model": RobotInfo, "description": "the model was already stored"},
+                        401: {"model": Problem},
+                        404: {"model": Problem, "description": "robot_not_found"},
+                        422: {"model": Problem, "description": "validation_error (unknown "
+                              "joint, wrong value size), invalid_configuration (outside limits, "
+                              "non-unit quaternion), invalid_model (nothing left to move)"}},
+             dependencies=[Depends(require_api_key)],
+             summary="Store a reduced model of any robot, some joints locked: 201 new, 200 stored")
+async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep) -> Response:
+    """Lock `locked_joints` of robot `robot_id` (catalog or upload) at the given positions and
+    store the reduced model under a new content-derived id (`r-` + 24 hex digits)."""
+    robot, created = await run_in_threadpool(registry.reduce, robot_id, body.locked_joints,
+                                             body.name)
+    return JSONAnswer(robot.info(), status_code=201 if created else 200,
+                      headers={"Location": f"/v1/robots/{robot.id}"})
+
+
+@router.delete("/{robot_id}", status_code=204, dependencies=[Depends(require_api_key)],
+               responses={401: {"model": Problem}, 404: {"model": Problem},
+                          409: {"model": Problem, "description": "catalog_robot"}},
+               summary="Delete an uploaded model")
+async def delete_robot(robot_id: str, registry: RegistryDep) -> Response:
+    await run_in_threadpool(registry.delete, robot_id)  # it sweeps unnamed asset files
+    return Response(status_code=204)

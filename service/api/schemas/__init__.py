@@ -1,0 +1,1 @@
+"""Request and answer schemas (pydantic): common.py, then one module per topic."""

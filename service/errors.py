@@ -171,6 +171,7 @@ ALL_ERRORS: tuple[type[RobodynError], ...] = (
     UnknownFrame,
     SingularConfiguration,
     NonFiniteResult,
+    UnsupportedModel,
     PayloadTooLarge,
     Unauthorized,
     NotReady,

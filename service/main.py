@@ -19,7 +19,7 @@ from service.api.middleware.observability import Metrics, ObservabilityMiddlewar
 from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
-from service.api.routes import health, pages, robots, stream, visuals
+from service.api.routes import health, identification, pages, robots, stream, visuals
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import BuildSlots, build_slot_count
@@ -53,6 +53,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         if not injected and not registry.ready:
             threading.Thread(target=registry.load, name="catalog-loader", daemon=True).start()
         yield
+        worker = getattr(app.state, "identification", None)
+        if worker is not None:  # the identification worker process, if one was started
+            worker.close()
 
     options: dict[str, Any] = {}
     accepted = inspect.signature(FastAPI.__init__).parameters  # options of newer FastAPI only
@@ -75,15 +78,18 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.batches_in_flight = 0
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
-    app.openapi = lambda: problem_openapi(app, described)  # type: ignore[method-assign]
+    twins = identification.openapi_routes().routes
+    app.openapi = lambda: problem_openapi(app, described, twins)  # type: ignore[method-assign]
     app.include_router(health.router)
     # With ROBODYN_API_KEYS_SCOPE=all every /v1 route needs a key (uploads always do); the
     # lean dynamics and stream routes check it themselves (deps.check_api_key_for_all).
     private = [Depends(require_api_key_for_all)]
     app.include_router(robots.router, dependencies=private)
     app.include_router(visuals.router, dependencies=private)
+    app.include_router(identification.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
-    app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
+    app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes(),
+                              *identification.routes()]
     app.include_router(pages.router)
     app.add_middleware(DynamicsFastPath)  # innermost: after the body limit and observability
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,

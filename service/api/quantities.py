@@ -48,6 +48,7 @@ from service.api.schemas.equation_of_motion import (
     MassMatrixAnswer,
     NonlinearEffectsAnswer,
 )
+from service.api.schemas.identification import RegressorAnswer
 from service.api.schemas.operational_space import (
     CenterOfMassAnswer,
     EnergyAnswer,
@@ -90,6 +91,7 @@ _SCHEMAS: dict[str, tuple[type[BaseModel], type[BaseModel]]] = {
     "contact-inverse-dynamics": (ContactInverseDynamicsRequest, ContactInverseDynamicsAnswer),
     "impulse-dynamics": (ImpulseDynamicsRequest, ImpulseDynamicsAnswer),
     "frame-placements": (FramePlacementsRequest, FramePlacementsAnswer),
+    "regressor": (QVARequest, RegressorAnswer),
 }
 
 

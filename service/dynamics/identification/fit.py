@@ -30,7 +30,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg
 
@@ -148,6 +147,8 @@ def _consistent(data_map: np.ndarray, target: np.ndarray, theta0: np.ndarray,
                 scale: np.ndarray, bodies: int) -> np.ndarray:
     """The semidefinite program of the module docstring, in the scaled step
     δ = (θ − θ₀) / scale."""
+    import cvxpy as cp  # (seconds to import: only when a consistent fit is asked for)
+
     step = cp.Variable(theta0.size)
     theta = theta0 + cp.multiply(scale, step)
     lmap = pseudo_inertia_map()

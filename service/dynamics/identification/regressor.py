@@ -21,8 +21,13 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.identification.parameters import PER_BODY
-from service.dynamics.quantity import Results, finite
+from service.dynamics.identification.parameters import (
+    LAYOUT,
+    PER_BODY,
+    body_names,
+    inertial_parameters,
+)
+from service.dynamics.quantity import Quantity, Results, finite
 from service.errors import InvalidInput
 from service.registry.robot import Robot
 from service.states import States
@@ -99,3 +104,18 @@ def friction_torque(v: np.ndarray, coulomb: np.ndarray, viscous: np.ndarray,
                     offset: np.ndarray) -> np.ndarray:
     """τ_f = offset + coulomb ∘ sign(v) + viscous ∘ v for velocities v (N, nv) or (nv,)."""
     return offset + coulomb * np.sign(v) + viscous * v
+
+
+def inertial_parameters_answer(robot: Robot) -> dict[str, Any]:
+    """`{"bodies", "layout", "parameters"}`: the bodies (joint names, joint order), the names
+    of the 10 numbers per body, and π (10 · bodies,) of the robot's model."""
+    return {"bodies": body_names(robot.model), "layout": list(LAYOUT),
+            "parameters": inertial_parameters(robot.model)}
+
+
+REGRESSOR = (
+    Quantity("regressor", ("q", "v", "a"), joint_torque_regressors,
+             "Joint torque regressor Y(q, v, a), linear in the inertial parameters: "
+             "τ = Y π + armature ∘ a",
+             answer_size=lambda r, o, v: r.nv * PER_BODY * (r.model.njoints - 1)),
+)

@@ -28,6 +28,7 @@ EXPECTED: dict[str, tuple[int, type[robodyn.APIError], type[BaseException]]] = {
     "unknown_frame": (422, robodyn.UnknownFrameError, LookupError),
     "singular_configuration": (422, robodyn.SingularConfigurationError, ValueError),
     "non_finite_result": (422, robodyn.NonFiniteResultError, ArithmeticError),
+    "unsupported_model": (422, robodyn.UnsupportedModelError, ValueError),
     "payload_too_large": (413, robodyn.PayloadTooLargeError, ValueError),
     "unauthorized": (401, robodyn.UnauthorizedError, PermissionError),
     "not_ready": (503, robodyn.NotReadyError, robodyn.ServiceUnavailableError),

@@ -54,7 +54,14 @@ from robodyn.errors import (
     UnknownFrameError,
     UnprocessableError,
     UnsupportedMediaTypeError,
+    UnsupportedModelError,
     ValidationError,
+)
+from robodyn.identification import (
+    Identification,
+    IdentifiedBody,
+    InertialParameters,
+    JointFriction,
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
@@ -109,8 +116,11 @@ __all__ = [
     "ForwardDynamicsDerivatives",
     "FrameInfo",
     "FrameJacobian",
+    "Identification",
+    "IdentifiedBody",
     "ImpulseDynamics",
     "InertiaCheck",
+    "InertialParameters",
     "Inertias",
     "InputError",
     "Integrator",
@@ -118,6 +128,7 @@ __all__ = [
     "InvalidConfigurationError",
     "InvalidModelError",
     "InverseDynamicsDerivatives",
+    "JointFriction",
     "JointInfo",
     "MethodNotAllowedError",
     "NonFiniteResultError",
@@ -150,6 +161,7 @@ __all__ = [
     "UnknownFrameError",
     "UnprocessableError",
     "UnsupportedMediaTypeError",
+    "UnsupportedModelError",
     "ValidationError",
     "__version__",
 ]

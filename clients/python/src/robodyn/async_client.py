@@ -16,13 +16,14 @@ from robodyn import progress as _progress
 from robodyn._methods.beyond import AsyncBeyondMethods
 from robodyn._methods.contacts import AsyncContactMethods
 from robodyn._methods.dynamics import AsyncDynamicsMethods
+from robodyn._methods.identification import AsyncIdentificationMethods
 from robodyn._methods.robots import AsyncRobotMethods
 from robodyn.request_options import Fill
 from robodyn.stream import AsyncStream, stream_url
 
 
 class AsyncClient(AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods,
-                  AsyncContactMethods):
+                  AsyncContactMethods, AsyncIdentificationMethods):
     """An async client of a robodyn server; use it with `async with`, or await `aclose()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else

@@ -27,7 +27,8 @@ nothing of robodyn can still catch them (`except LookupError`, `except ValueErro
         │   ├── InvalidModelError                 422 invalid_model
         │   ├── UnknownFrameError (LookupError)   422 unknown_frame
         │   ├── SingularConfigurationError        422 singular_configuration
-        │   └── NonFiniteResultError (ArithmeticError)  422 non_finite_result
+        │   ├── NonFiniteResultError (ArithmeticError)  422 non_finite_result
+        │   └── UnsupportedModelError             422 unsupported_model
         └── ServerError                           5xx
             ├── InternalServerError               500 internal_error
             └── ServiceUnavailableError           503
@@ -211,6 +212,12 @@ class NonFiniteResultError(UnprocessableError, ArithmeticError):
     """The computed result is not finite (e.g. a moving body without mass)."""
 
     error_code = "non_finite_result"
+
+
+class UnsupportedModelError(UnprocessableError):
+    """The route needs what this model lacks (e.g. identification needs a fixed base)."""
+
+    error_code = "unsupported_model"
 
 
 class ServerError(APIError):

@@ -7,10 +7,12 @@ from __future__ import annotations
 from robodyn._methods.beyond import AsyncBeyondMethods, BeyondMethods
 from robodyn._methods.contacts import AsyncContactMethods, ContactMethods
 from robodyn._methods.dynamics import AsyncDynamicsMethods, DynamicsMethods
+from robodyn._methods.identification import AsyncIdentificationMethods, IdentificationMethods
 from robodyn._methods.robots import AsyncRobotMethods, RobotMethods
 
-SYNC = (RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods)
+SYNC = (RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, IdentificationMethods)
 """The method classes `Client` joins (`AsyncClient` joins the `ASYNC` twins, in order)."""
-ASYNC = (AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods, AsyncContactMethods)
+ASYNC = (AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods, AsyncContactMethods,
+         AsyncIdentificationMethods)
 
 __all__ = ["ASYNC", "SYNC"]

@@ -4,7 +4,8 @@
     .venv/bin/python bench/run.py --quick    # shorter runs, noisier figures
 
 Starts the service (and the naive baseline of bench/naive_app.py) on loopback ports, runs each
-comparison of issue 4 several times, alternating the two sides, and prints one table of medians.
+comparison (single states, batches, latency under load, streams, workers,
+contacts) several times, alternating the two sides, and prints one table of medians.
 """
 
 from __future__ import annotations

@@ -49,11 +49,11 @@ class Registry:
         self.assets = AssetStore(data_dir)
         self.catalog_names = catalog_names
         self.build_timeout_s = build_timeout_s
-        # Hardening (issue 9): caps of upload validation, and keyword arguments of
+        # Hardening: caps of upload validation, and keyword arguments of
         # `build_isolated` (memory_mb, cpu_s, max_nv) for every isolated build.
         self.limits = limits or Limits()
         self.build_limits: dict[str, Any] = dict(build_limits or {})
-        # Issue 16: at most this many builds at once (the CPU count by default), waiting for
+        # Build contention: at most this many builds at once (the CPU count by default), waiting for
         # a slot is bounded and answered 503 overloaded, never invalid_model.
         self.build_slots = build_slots or BuildSlots(build_slot_count(0), build_timeout_s)
         self.catalog: dict[str, Robot] = {}

@@ -25,7 +25,7 @@ docs/security.md):
   (a trivial ASGI app 22,000 → 25,000 requests/s).
 
 It relies on private internals of uvicorn's protocol (pinned in pyproject.toml;
-tests/service/test_uvicorn_internals.py fails with a clear message if they move).
+tests/service/server/test_uvicorn_internals.py fails with a clear message if they move).
 """
 
 from __future__ import annotations

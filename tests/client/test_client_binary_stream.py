@@ -115,7 +115,7 @@ def test_the_binary_format_example_in_the_docs_runs(server: str, reference: Refe
     np.testing.assert_allclose(M, reference.mass_matrix("ur5", q), rtol=RTOL, atol=ATOL)
 
 
-BEYOND_CALLS = {
+TASK_SPACE_CALLS = {
     "mass_matrix_inverse": lambda c, q, v: (c.mass_matrix_inverse("talos", q),),
     "energy": lambda c, q, v: (lambda e: (e.kinetic_energy, e.potential_energy,
                                           e.mechanical_energy))(c.energy("talos", q, v)),
@@ -130,14 +130,15 @@ BEYOND_CALLS = {
 }
 
 
-@pytest.mark.parametrize("quantity", list(BEYOND_CALLS))
-def test_beyond_quantities_in_binary_equal_json_and_stream(server: str, reference: Reference,
-                                                           quantity: str) -> None:
+@pytest.mark.parametrize("quantity", list(TASK_SPACE_CALLS))
+def test_task_space_quantities_in_binary_equal_json_and_stream(server: str,
+                                                               reference: Reference,
+                                                               quantity: str) -> None:
     """Quantities with options (frame, task, damping) travel in the binary header's fields:
     the binary answer equals the JSON one bit for bit, and the stream gives the same."""
     states = reference.states("talos", 40, seed=11)
     q, v = states["q"], states["v"]
-    call = BEYOND_CALLS[quantity]
+    call = TASK_SPACE_CALLS[quantity]
     with Client(server, binary=True) as b, Client(server, binary=False) as j:
         got_binary, got_json = call(b, q, v), call(j, q, v)
         with b.stream("talos") as s:

@@ -1,5 +1,5 @@
-"""Client methods beyond the equation of motion, part 2 (derivatives, centroidal, external forces,
-simulate, joint-name inputs), sync and async, against the real app in process and in-process
+"""Client methods of the derivatives, centroidal momentum, external forces, simulate and
+joint-name inputs, sync and async, against the real app in process and in-process
 Pinocchio; local input checks send nothing."""
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
 from tests.client.helpers import API_KEY, running_server
-from tests.service.mjcf_models import PLANAR_ARM_MJCF
+from tests.service.registry.mjcf_models import PLANAR_ARM_MJCF
 
 LOCK = {"wrist_1_joint": 0.3, "elbow_joint": -1.0}
 UR5_FREE_V = [0, 1, 4, 5]  # velocity entries of ur5 left free by LOCK

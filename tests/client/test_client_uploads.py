@@ -21,8 +21,8 @@ from service.registry import Registry
 from service.registry.catalog import erd_robots_dir
 from service.settings import Settings
 from tests.client.helpers import two_link_urdf
-from tests.service.mjcf_reference import cube_stl
-from tests.service.test_xacro import ARGS_XACRO, PART
+from tests.service.registry.mjcf_reference import cube_stl
+from tests.service.registry.test_xacro import ARGS_XACRO, PART
 
 MODEL = ('<mujoco model="meshy"><compiler meshdir="assets"/><include file="parts/arm.xml"/>'
          '</mujoco>')

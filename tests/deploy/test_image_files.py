@@ -1,5 +1,6 @@
 """The container image's files, checked without building it: hadolint on the Dockerfile, what
-the issue requires of it, the build context, the pinned dependencies, docker-compose.yml.
+the image needs (health check on a real route, dependencies installed before the code), the
+build context, the pinned dependencies, docker-compose.yml.
 (tests/deploy/test_container.py, marked slow, builds and runs the image.)"""
 
 from __future__ import annotations

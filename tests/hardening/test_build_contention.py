@@ -1,4 +1,4 @@
-"""Build contention (issue 16, item 6): uploads are validated and built in builder processes,
+"""Build contention: uploads are validated and built in builder processes,
 at most the CPU count at once; the serving process keeps answering while heavy uploads are
 built; waiting for a builder, or a build starved of CPU, is 503 `overloaded` with
 Retry-After, never a false 422 `invalid_model`."""

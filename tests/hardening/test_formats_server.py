@@ -15,8 +15,8 @@ import pytest
 
 from tests.hardening.corpus import arm
 from tests.hardening.test_corpus_server import _health_latencies
-from tests.service.mjcf_reference import DM_SUITE, directory_assets, encoded
-from tests.service.test_xacro import HOSTILE, MARKER
+from tests.service.registry.mjcf_reference import DM_SUITE, directory_assets, encoded
+from tests.service.registry.test_xacro import HOSTILE, MARKER
 
 pytestmark = pytest.mark.slow
 

@@ -16,7 +16,7 @@ import numpy as np
 from service.dynamics.identification import identify
 from service.registry.catalog import load_catalog
 from service.registry.reduce import reduced_robot
-from tests.service.identification_logs import synthetic_log
+from tests.service.dynamics.identification_logs import synthetic_log
 
 
 def panda_arm():

@@ -14,7 +14,7 @@ from fastapi.testclient import TestClient
 from robodyn import AsyncClient, Client
 
 from service.dynamics.identification import identify, inertial_parameters, regressor
-from tests.service.identification_logs import synthetic_log
+from tests.service.dynamics.identification_logs import synthetic_log
 
 
 @pytest.fixture(scope="module")

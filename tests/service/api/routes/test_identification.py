@@ -13,8 +13,8 @@ from service.dynamics.identification import identify, inertial_parameters, regre
 from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
-from tests.service.identification_logs import synthetic_log
-from tests.service.test_binary import BIN, decode_answer, encode_request
+from tests.service.api.encoding.test_binary import BIN, decode_answer, encode_request
+from tests.service.dynamics.identification_logs import synthetic_log
 
 
 @pytest.fixture(scope="module")

@@ -31,7 +31,7 @@ from service.dynamics.identification.regressor import (
 )
 from service.registry.catalog import load_catalog
 from service.states import prepare
-from tests.service.identification_logs import configuration
+from tests.service.dynamics.identification_logs import configuration
 
 FIXED_BASE = ["ur5", "panda", "planar_arm", "kinova", "double_pendulum"]
 

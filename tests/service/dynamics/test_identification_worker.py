@@ -12,7 +12,7 @@ from service.dynamics.identification import identify
 from service.dynamics.identification.worker import IdentificationWorker
 from service.errors import DimensionMismatch, InvalidInput, Overloaded
 from service.registry.catalog import load_catalog
-from tests.service.identification_logs import synthetic_log
+from tests.service.dynamics.identification_logs import synthetic_log
 
 
 @pytest.fixture(scope="module")

@@ -1,8 +1,8 @@
 """Identification on synthetic truth: a catalog arm perturbed physically consistently, excited
-by Fourier series, with friction and noise (tests/service/identification_logs.py). The fit must
-predict held-out torques at the noise level, recover the base parameters within their standard
-deviations and the friction within 10 %, produce positive semidefinite pseudo-inertias, and find
-a payload's mass within 2 % and centre of mass within 5 mm."""
+by Fourier series, with friction and noise (tests/service/dynamics/identification_logs.py).
+The fit must predict held-out torques at the noise level, recover the base parameters within
+their standard deviations and the friction within 10 %, produce positive semidefinite
+pseudo-inertias, and find a payload's mass within 2 % and centre of mass within 5 mm."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from service.dynamics.identification.pipeline import random_rows
 from service.errors import InvalidInput
 from service.registry.catalog import load_catalog
 from service.registry.reduce import reduced_robot
-from tests.service.identification_logs import loaded_parameters, synthetic_log
+from tests.service.dynamics.identification_logs import loaded_parameters, synthetic_log
 
 
 @pytest.fixture(scope="module")

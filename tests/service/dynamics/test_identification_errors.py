@@ -16,7 +16,7 @@ from service.errors import (
 )
 from service.registry.catalog import load_catalog
 from service.registry.robot import Robot
-from tests.service.identification_logs import synthetic_log
+from tests.service.dynamics.identification_logs import synthetic_log
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,7 @@
 // robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+import { IdentificationView } from "./view_identification.js";
 import { ViewPanel } from "./view_panel.js";
 
 const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
@@ -22,6 +23,7 @@ const state = {
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
   view: null, // the 3-D view panel (view_panel.js)
+  identification: null, // the identification view (view_identification.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -549,6 +551,7 @@ async function selectRobot(id) {
   const info = await api(robotPath(id));
   if (mine !== state.robotSeq) return;
   state.info = info;
+  state.identification.setRobot(info);
   history.replaceState(null, "", `#robot=${encodeURIComponent(id)}`);
   const posture = el("posture");
   posture.replaceChildren(new Option("default", "default"), new Option("neutral", "neutral"));
@@ -653,6 +656,7 @@ async function upload(ev) {
 async function start() {
   state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
                                onError: (err) => setStatus(err.message, true) });
+  state.identification = new IdentificationView(el("identification"), { api, robotPath });
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });

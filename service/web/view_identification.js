@@ -67,7 +67,7 @@ function plotJoint(series, j, label, unit) {
   const x = (s) => PLOT.left + (w * (s - t[0])) / Math.max(t[t.length - 1] - t[0], 1e-12);
   const y = (v) => PLOT.top + h * (1 - (v - lo) / (hi - lo));
   const box = svg("svg", { viewBox: `0 0 ${PLOT.width} ${PLOT.height}`, role: "img",
-                           "aria-label": `${label}: measured, identified and catalog torques` });
+                           "aria-label": `${label}: measured, identified and own-model torques` });
   box.append(svg("rect", { x: PLOT.left, y: PLOT.top, width: w, height: h, fill: "#ffffff",
                            stroke: "#c8ced6" }));
   for (const [name, values] of Object.entries(curves)) {
@@ -178,7 +178,7 @@ export class IdentificationView {
     const table = node("table", { id: "ident-rmse" });
     table.append(node("caption", {}, "Joint torque RMSE on the held-out part (N·m or N)"));
     const head = node("tr");
-    for (const h of ["joint", "catalog model", "identified", "training part"]) {
+    for (const h of ["joint", "own model", "identified", "identified, training part"]) {
       head.append(node("th", { scope: "col" }, h));
     }
     table.append(head);
@@ -191,9 +191,10 @@ export class IdentificationView {
       table.append(row);
     });
     const legend = node("p", { class: "ident-legend" });
-    legend.innerHTML = `<span style="color:${COLOURS.measured}">━ measured</span> ` +
-      `<span style="color:${COLOURS.predicted}">━ identified model</span> ` +
-      `<span style="color:${COLOURS.before}">━ catalog model</span>`;
+    for (const [name, text] of [["measured", "━ measured"], ["predicted", "━ identified model"],
+                                ["before", "━ the robot's own model"]]) {
+      legend.append(node("span", { class: `ident-${name}` }, text));
+    }
     const plots = node("div", { class: "ident-plots" });
     const units = this.info.joints.map((jt) => (jt.type === "prismatic" ? "N" : "N·m"));
     if (answer.validation_series) {

@@ -102,6 +102,9 @@ class Robot:
     # q is MuJoCo's qpos (a model built from MJCF): every spherical joint's quaternion is
     # (w, x, y, z) in the API and (x, y, z, w) in Pinocchio (`pinocchio_q`, `api_q`)
     mujoco_qpos: bool = False
+    # identified joint friction (a robot made by identification): "coulomb", "viscous",
+    # "offset", each (nv,) in N·m or N (N·m·s/rad or N·s/m for viscous); None: no model
+    friction: dict[str, np.ndarray] | None = None
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
@@ -228,7 +231,22 @@ class Robot:
             }
             if self.origin is not None:
                 self._info["reduced_from"] = self.origin
+            if self.friction is not None:
+                self._info["friction"] = friction_table(m, self.friction)
         return self._info
+
+
+def friction_table(model: Any, friction: dict[str, np.ndarray]) -> list[dict[str, Any]]:
+    """RobotInfo's `friction`: one `{"joint", "coulomb", "viscous", "offset"}` per 1-DoF
+    joint (τ_f = offset + coulomb sign(v) + viscous v)."""
+    rows = []
+    for jid in range(1, model.njoints):
+        joint = model.joints[jid]
+        if joint.nv == 1:
+            rows.append({"joint": model.names[jid],
+                         **{k: float(friction[k][joint.idx_v])
+                            for k in ("coulomb", "viscous", "offset")}})
+    return rows
 
 
 class _BorrowedData:

@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, Field
 
 from service.api.schemas.common import Matrix, Number, StrictRequest
-from service.api.schemas.robots import RobotInfo
+from service.api.schemas.robots import JointFriction, RobotInfo
 
 PI_DESC = ("π: 10 numbers per body in joint order, each [m, m cx, m cy, m cz, Ixx, Ixy, Iyy, "
            "Ixz, Iyz, Izz] in the joint's frame: m in kg, m c in kg·m, the inertia about the "
@@ -83,13 +83,6 @@ class IdentifiedBody(BaseModel):
     pseudo_inertia_min_eigenvalue: float = Field(
         description="The smallest eigenvalue of the body's pseudo-inertia [[½ tr(Ī) 1 − Ī, h], "
         "[hᵀ, m]]: ≥ 0 for a physically possible body.")
-
-
-class JointFriction(BaseModel):
-    joint: str
-    coulomb: float = Field(description="N·m (N): the Coulomb term's size, times sign(v).")
-    viscous: float = Field(description="N·m·s/rad (N·s/m): times v.")
-    offset: float = Field(description="N·m (N): a constant torque.")
 
 
 class BaseParametersAnswer(BaseModel):

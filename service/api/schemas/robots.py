@@ -131,6 +131,13 @@ class RobotList(BaseModel):
                                         "load, with the reason.")
 
 
+class JointFriction(BaseModel):
+    joint: str
+    coulomb: float = Field(description="N·m (N): the Coulomb term's size, times sign(v).")
+    viscous: float = Field(description="N·m·s/rad (N·s/m): times v.")
+    offset: float = Field(description="N·m (N): a constant torque.")
+
+
 class RobotInfo(RobotSummary):
     gravity: list[float]
     total_mass: float = Field(description="kg")
@@ -151,3 +158,6 @@ class RobotInfo(RobotSummary):
                                     "(links, joints, fixed frames): the valid names for "
                                     "`frame` in jacobian, operational-space and external_forces.")
     reduced_from: ReducedFrom | None = Field(None, description="Present for a reduced model.")
+    friction: list[JointFriction] | None = Field(
+        None, description="Present for a robot stored by identification: its joints' friction "
+        "(inverse-dynamics adds it with \"friction\": true).")

@@ -193,3 +193,29 @@ def test_planar_arm_base_parameters_are_the_textbook_ones(robots):
     assert base.count == 8
     assert {"shoulder.m_cx + elbow.m", "shoulder.Iyy + elbow.m"} <= set(base.expressions())
     assert np.linalg.matrix_rank(np.vstack([projection, textbook]), tol=1e-9) == 8
+
+
+def test_inverse_dynamics_adds_an_identified_friction(robots):
+    from service.dynamics.equation_of_motion import inverse_dynamics
+    from service.errors import InvalidInput
+    from service.registry.robot import Robot
+
+    base = robots["ur5"]
+    friction = {"coulomb": np.linspace(0.5, 1.0, 6), "viscous": np.full(6, 0.3),
+                "offset": np.linspace(-0.1, 0.1, 6)}
+    rough = Robot(id="ur5_rough", name="ur5_rough", source="upload", root_joint="fixed",
+                  model=base.model, friction=friction)
+    rng = np.random.default_rng(5)
+    q, v, a = _states(base.model, rng, 4)
+    states = prepare(base, {"q": q, "v": v, "a": a}, max_batch=10)
+    plain = inverse_dynamics(base, states)["tau"]
+    with_friction = inverse_dynamics(rough, states, friction=True)["tau"]
+    np.testing.assert_allclose(with_friction - plain,
+                               friction_torque(v, friction["coulomb"], friction["viscous"],
+                                               friction["offset"]), atol=1e-12)
+    np.testing.assert_array_equal(inverse_dynamics(rough, states)["tau"], plain)
+    with pytest.raises(InvalidInput, match="has no friction model"):
+        inverse_dynamics(base, states, friction=True)
+    row = rough.info()["friction"][1]
+    assert row["joint"] == "shoulder_lift_joint"
+    assert (row["coulomb"], row["viscous"], row["offset"]) == pytest.approx((0.6, 0.3, -0.06))

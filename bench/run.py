@@ -358,7 +358,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="shorter runs")
-    parser.add_argument("--only", default="123456", help="which comparisons, e.g. 13")
+    parser.add_argument("--only", default="1234567", help="which comparisons, e.g. 13")
     opts = parser.parse_args()
     if shutil.which("wrk") is None and set(opts.only) & set("15"):
         sys.exit("wrk is needed: apt-get install wrk")
@@ -382,6 +382,10 @@ def main() -> None:
             streams(url, seconds * 2)
         if "6" in opts.only:
             contacts(url, rounds)
+        if "7" in opts.only:
+            from bench.payloads import payload_capacity
+
+            payload_capacity(url, rounds, median_of, row)
     if "5" in opts.only:
         workers(seconds, rounds, env)
     print("\n| comparison | figures (medians) | ratio | target |\n|---|---|---|---|")

@@ -83,7 +83,7 @@ def _curl_commands() -> list[str]:
 
 def test_the_curl_examples_run(server: str) -> None:
     commands = _curl_commands()
-    assert len(commands) == 3
+    assert len(commands) == 5
     host = server.removeprefix("http://")
     answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
                for c in commands]
@@ -92,4 +92,22 @@ def test_the_curl_examples_run(server: str) -> None:
     assert standing["tau"][:6] == [0.0] * 6 and standing["residual"] < 1e-9
     mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
     assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
-    assert answers[2]["id"].startswith("u-") and answers[2]["name"] == "my arm"
+    _check_payload_examples(server, answers[2], answers[3])
+    assert answers[4]["id"].startswith("u-") and answers[4]["name"] == "my arm"
+
+
+def _check_payload_examples(server: str, holding: dict, capacity: dict) -> None:
+    """The UR5 holding 3 kg needs more shoulder and elbow torque than without it (about 3 kg ×
+    g × a 0.39 m lever); at its capacity the shoulder is exactly at its 150 N·m, and the
+    capacity is where the affine τ(m) = τ₀ + m τ₁ of the two answers meets that limit."""
+    import httpx
+
+    q = [0, -1.57, 1.57, 0, 0, 0]
+    bare = httpx.post(f"{server}/v1/robots/ur5/gravity", json={"q": q}).json()["gravity"]
+    per_kg = [(h - b) / 3.0 for h, b in zip(holding["gravity"], bare, strict=True)]
+    assert per_kg[1] < -3.0 and per_kg[2] < -3.0  # N·m/kg: a lever of over 0.3 m
+    assert capacity["limiting_joint"] == "shoulder_lift_joint" and capacity["tau"][1] == -150.0
+    assert abs(capacity["mass"] - (-150.0 - bare[1]) / per_kg[1]) < 1e-9 * capacity["mass"]
+    at = httpx.post(f"{server}/v1/robots/ur5/gravity", json={
+        "q": q, "payloads": [{"frame": "tool0", "mass": capacity["mass"]}]}).json()["gravity"]
+    assert abs(at[1] + 150.0) < 1e-9 and abs(at[2]) <= 150.0

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from service.dynamics import Quantity
+from service.dynamics.payloads import robot_with_payloads
 from service.errors import DimensionMismatch, InvalidInput, did_you_mean
 from service.registry.robot import Robot
 from service.states import SPACES, States, prepare
@@ -202,8 +203,10 @@ def options_from_names(robot: Robot, quantity: Quantity, options: dict[str, Any]
 
 
 def robot_for(robot: Robot, options: dict[str, Any]) -> Robot:
-    """The robot a request computes with: `robot` itself today. The one place where an
-    option that modifies the model for every quantity alike (e.g. payloads attached to
-    links) turns the stored robot into the one computed with, before any quantity runs;
-    such an option is popped from `options` here, so `compute` never sees it."""
-    return robot
+    """The robot a request computes with. The one place where an option that modifies the
+    model for every quantity alike turns the stored robot into the one computed with, before
+    any quantity runs; such an option is popped from `options` here, so `compute` never sees
+    it. `payloads`: the robot carrying them (`service.dynamics.payloads`: checked, composed
+    into a copy of the model, cached per robot and payload set)."""
+    payloads = options.pop("payloads", None)
+    return robot_with_payloads(robot, payloads) if payloads else robot

@@ -58,6 +58,7 @@ from service.api.schemas.operational_space import (
     OperationalSpaceAnswer,
     OperationalSpaceRequest,
 )
+from service.api.schemas.payloads import PayloadCapacityAnswer, PayloadCapacityRequest
 from service.api.schemas.placements import FramePlacementsAnswer, FramePlacementsRequest
 from service.api.schemas.simulation import SimulateAnswer, SimulateRequest
 
@@ -91,6 +92,7 @@ _SCHEMAS: dict[str, tuple[type[BaseModel], type[BaseModel]]] = {
     "contact-inverse-dynamics": (ContactInverseDynamicsRequest, ContactInverseDynamicsAnswer),
     "impulse-dynamics": (ImpulseDynamicsRequest, ImpulseDynamicsAnswer),
     "frame-placements": (FramePlacementsRequest, FramePlacementsAnswer),
+    "payload-capacity": (PayloadCapacityRequest, PayloadCapacityAnswer),
     "regressor": (QVARequest, RegressorAnswer),
 }
 

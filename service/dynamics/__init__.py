@@ -12,12 +12,13 @@ from service.dynamics.frames import FRAMES
 from service.dynamics.identification.regressor import REGRESSOR
 from service.dynamics.lagrangian import LAGRANGIAN
 from service.dynamics.operational_space import OPERATIONAL_SPACE
+from service.dynamics.payload_capacity import PAYLOADS
 from service.dynamics.placements import PLACEMENTS
 from service.dynamics.quantity import Quantity, Results, finite, run
 from service.dynamics.simulation import SIMULATION
 
 QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
-    *SIMULATION, *CONTACTS, *PLACEMENTS, *REGRESSOR)}
+    *SIMULATION, *CONTACTS, *PLACEMENTS, *PAYLOADS, *REGRESSOR)}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

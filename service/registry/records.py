@@ -12,14 +12,18 @@ Two kinds of record:
   rebuilds a xacro: the server never expands one outside a builder process), `visuals`;
 - a reduced model (`format` "reduced"): `base` (what rebuilds the base: a catalog name, or an
   upload's id with its record embedded), `locked_joints` (joint name → positions), `name`,
-  `warnings`, `summary`.
+  `warnings`, `summary`;
+- a variant carrying payloads (`format` "variant"): `base` as above, `payloads` (at least one:
+  `frame`, `mass`, `center_of_mass`, `inertia`, checked when stored), `locked_joints` (may be
+  empty), `name`, `warnings`, `summary`.
+Reduced models and variants also keep `locked_request` and `modifications` (as requested).
 """
 
 from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 
 class _Member(BaseModel):
@@ -62,15 +66,32 @@ class EmbeddedReduced(_Embedded):
     locked_joints: dict[str, list[float]]
 
 
+class StoredPayload(_Member):
+    """A payload of a variant (kg, m, kg·m²; see `service.registry.payloads`)."""
+
+    frame: str
+    mass: float = Field(gt=0)
+    center_of_mass: list[float] = Field(min_length=3, max_length=3)
+    inertia: list[list[float]] = Field(min_length=3, max_length=3)
+
+
+class EmbeddedVariant(_Embedded):
+    format: Literal["variant"]
+    base: BaseSpec
+    payloads: list[StoredPayload] = Field(min_length=1)
+    locked_joints: dict[str, list[float]] = {}
+
+
 class BaseSpec(_Member):
     """The base of a reduced model: a catalog robot by name, or an upload with its record."""
 
     source: Literal["catalog", "upload"]
     id: str
-    record: EmbeddedReduced | EmbeddedDescription | None = None
+    record: EmbeddedReduced | EmbeddedVariant | EmbeddedDescription | None = None
 
 
 EmbeddedReduced.model_rebuild()
+EmbeddedVariant.model_rebuild()
 
 
 class DescriptionRecord(EmbeddedDescription):
@@ -85,8 +106,13 @@ class ReducedRecord(EmbeddedReduced):
     summary: Summary
 
 
-_RECORD: TypeAdapter[ReducedRecord | DescriptionRecord] = TypeAdapter(
-    ReducedRecord | DescriptionRecord)
+class VariantRecord(EmbeddedVariant):
+    id: str
+    name: str
+    summary: Summary
+
+
+_KINDS: dict[str, type[_Member]] = {"reduced": ReducedRecord, "variant": VariantRecord}
 
 
 def check_record(record: Any, model_id: str) -> dict[str, Any]:
@@ -96,7 +122,7 @@ def check_record(record: Any, model_id: str) -> dict[str, Any]:
         raise ValueError("the record is not a JSON object")
     if record.get("id") != model_id:
         raise ValueError("the record does not match its file name")
-    kind = ReducedRecord if record.get("format") == "reduced" else DescriptionRecord
+    kind = _KINDS.get(str(record.get("format")), DescriptionRecord)
     try:
         kind.model_validate(record)
     except ValidationError as exc:

@@ -176,10 +176,12 @@ def _rename_frame(model: Any, fid: int, name: str) -> None:
 
 
 def reduced_robot(base: Robot, locked_q: Mapping[str, list[float]], robot_id: str, name: str,
-                  origin: dict[str, Any]) -> Robot:
+                  origin: dict[str, Any], parent: str | None = None,
+                  modifications: dict[str, Any] | None = None) -> Robot:
     """The `Robot` of `base` with the joints of `locked_q` (from `locked_configuration`) locked.
 
     The base's root joint stays the reduced model's root unless it is locked ("fixed" then).
+    `parent` and `modifications`: what its RobotInfo says it derives from (a variant).
     """
     model = base.model
     q_ref = (base.default_configuration if base.default_configuration is not None
@@ -198,4 +200,4 @@ def reduced_robot(base: Robot, locked_q: Mapping[str, list[float]], robot_id: st
         root_joint="fixed" if root_locked else base.root_joint, model=reduced,
         reference_configurations={k: v[keep] for k, v in base.reference_configurations.items()},
         default_configuration=default, warnings=list(base.warnings), origin=origin,
-        mujoco_qpos=base.mujoco_qpos)
+        mujoco_qpos=base.mujoco_qpos, parent=parent, modifications=modifications)

@@ -1,10 +1,11 @@
 """The registry: catalog robots and uploaded models, looked up by id.
 
-Catalog robots are loaded once at start-up. Uploaded models (URDF, MJCF, and reduced models of
-any robot) live in the durable store; any process that shares the data directory (a second worker
-or replica) finds and rebuilds them on first use, and a deletion anywhere is seen everywhere on
-the next lookup. A reduced model's record embeds what rebuilds its base (the base's own record, or
-its catalog name), so it survives the deletion of its base.
+Catalog robots are loaded once at start-up. Uploaded models (URDF, MJCF, and variants of any
+robot: payloads and/or locked joints, `service.registry.variants`) live in the durable store;
+any process that shares the data directory (a second worker or replica) finds and rebuilds them
+on first use, and a deletion anywhere is seen everywhere on the next lookup. A variant's record
+embeds what rebuilds its parent (the parent's own record, or its catalog name), so it survives
+the deletion of its parent.
 """
 
 from __future__ import annotations
@@ -12,19 +13,20 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from service.errors import CatalogRobot, NotReady, RobotNotFound, did_you_mean
+from service.errors import CatalogRobot, InvalidInput, NotReady, RobotNotFound, did_you_mean
 from service.registry.assets import AssetStore, decode_assets
 from service.registry.build import build_model, check_moves, reference_configurations
 from service.registry.build_process import build_upload
 from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.catalog import load_catalog
-from service.registry.reduce import LockedValue, as_lists, locked_configuration, reduced_robot
+from service.registry.payloads import PlacedPayload
+from service.registry.reduce import LockedValue, as_lists, locked_configuration
 from service.registry.robot import Robot
-from service.registry.store import ModelStore, content_id, reduced_id
+from service.registry.store import ModelStore, content_id
 from service.registry.upload_formats import (
     REBUILD_KEYS,
     after_build,
@@ -34,6 +36,7 @@ from service.registry.upload_formats import (
     rebuild_inputs,
 )
 from service.registry.urdf_check import Limits
+from service.registry.variants import modifications, variant_id, variant_robot
 
 log = logging.getLogger("robodyn.registry")
 
@@ -73,8 +76,8 @@ class Registry:
         """Load the catalog and every stored upload; then the registry is ready."""
         started = time.perf_counter()
         self.catalog, self.catalog_failures = load_catalog(self.catalog_names)
-        # uploads first, then reduced models ("r-" ids), which may be reductions of them
-        for model_id in sorted(self.store.ids(), key=lambda i: i.startswith("r-")):
+        # uploads first, then variants ("r-", "v-" ids), which may derive from them
+        for model_id in sorted(self.store.ids(), key=lambda i: i.startswith(("r-", "v-"))):
             try:
                 self._load_stored(model_id)
             except Exception as exc:  # a bad record must not stop the service
@@ -96,11 +99,14 @@ class Registry:
     def _robot_from_record(self, model_id: str, record: Mapping[str, Any]) -> Robot:
         """Rebuild a stored model in process (its description was validated when uploaded)."""
         fmt = record.get("format", "urdf")
-        if fmt == "reduced":
+        if fmt in ("reduced", "variant"):
             base = self._base_robot(record["base"])
             locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
-            return reduced_robot(base, locked, model_id, record.get("name", model_id),
-                                 origin={"robot": base.id, "locked_joints": locked})
+            payloads = [PlacedPayload.from_dict(p) for p in record.get("payloads", [])]
+            changes = record.get("modifications") or modifications(
+                payloads, record.get("locked_request", locked))
+            return variant_robot(base, payloads, locked, robot_id=model_id,
+                                 name=record.get("name", model_id), changes=changes)
         fmt, text, assets = rebuild_inputs(record, self.assets)
         model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
         check_moves(model)  # a record stored before nv = 0 was refused is not served
@@ -213,7 +219,7 @@ class Registry:
         check_findings(checked.findings, inertia_check)
         model_id = content_id(record)
         request = None if locked_joints is None else as_lists(locked_joints)
-        target = model_id if request is None else reduced_id(model_id, request)
+        target = model_id if request is None else variant_id(model_id, (), request)
         if self.store.exists(target):
             return self.get(target), False
         model = built.model
@@ -232,7 +238,7 @@ class Registry:
             if request is not None:
                 spec = {"source": "upload", "id": model_id,
                         "record": {**record, "name": robot.name, "warnings": warnings}}
-                return self._store_reduced(robot, spec, request, name), True
+                return self._store_variant(robot, spec, (), request, name), True
             record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
                           warnings=warnings, summary=robot.summary(), created_at=time.time())
             self.store.write(record)
@@ -243,13 +249,27 @@ class Registry:
 
     def reduce(self, robot_id: str, locked_joints: Mapping[str, LockedValue],
                name: str | None = None) -> tuple[Robot, bool]:
-        """Store the reduced model of any robot with `locked_joints` locked: (robot, created)."""
+        """Store the reduced model of any robot with `locked_joints` locked: (robot, created).
+        The variant with locked joints alone (`variant`)."""
+        if not locked_joints:
+            raise InvalidInput("locked_joints is empty; name at least one joint to lock")
+        return self.variant(robot_id, locked_joints=locked_joints, name=name)
+
+    def variant(self, robot_id: str, *, payloads: Sequence[PlacedPayload] = (),
+                locked_joints: Mapping[str, LockedValue] | None = None,
+                name: str | None = None) -> tuple[Robot, bool]:
+        """Store the variant of any robot carrying `payloads` (checked against that robot by
+        `service.dynamics.payloads.check_payloads`) with `locked_joints` locked: (robot,
+        created). At least one modification; `InvalidInput` otherwise."""
+        if not payloads and not locked_joints:
+            raise InvalidInput("a variant needs at least one modification: payloads or "
+                               "locked_joints")
         base = self.get(robot_id)
-        request = as_lists(locked_joints)
-        target = reduced_id(base.id, request)
+        request = as_lists(locked_joints or {})
+        target = variant_id(base.id, payloads, request)
         if self.store.exists(target):
             return self.get(target), False
-        # the base's assets stay named from reading its record until the reduced one is written
+        # the base's assets stay named from reading its record until the variant's is written
         with self.assets.storing():
             if base.source == "catalog":
                 spec: dict[str, Any] = {"source": "catalog", "id": base.id}
@@ -258,26 +278,32 @@ class Registry:
                 if record is None:
                     raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; "
                                         f"{NOT_FOUND_HINT}")
-                keys = (("format", "base", "locked_joints") if record.get("format") == "reduced"
-                        else REBUILD_KEYS)
+                keys = (("format", "base", "locked_joints", "payloads")
+                        if record.get("format") in ("reduced", "variant") else REBUILD_KEYS)
                 spec = {"source": "upload", "id": base.id,
                         "record": {**{k: record[k] for k in keys if k in record},
                                    "name": base.name, "warnings": base.warnings}}
-            return self._store_reduced(base, spec, request, name), True
+            return self._store_variant(base, spec, payloads, request, name), True
 
-    def _store_reduced(self, base: Robot, spec: dict[str, Any],
-                       request: dict[str, list[float]], name: str | None) -> Robot:
-        locked = locked_configuration(base, request)
-        model_id = reduced_id(spec["id"], request)
-        robot = reduced_robot(base, locked, model_id, name or f"{base.name} (reduced)",
-                              origin={"robot": base.id, "locked_joints": locked})
-        self.store.write({
-            "format": "reduced", "base": spec, "locked_joints": locked,
-            "locked_request": request, "id": model_id, "name": robot.name,
-            "warnings": robot.warnings, "summary": robot.summary(), "created_at": time.time()})
+    def _store_variant(self, base: Robot, spec: dict[str, Any],
+                       payloads: Sequence[PlacedPayload], request: dict[str, list[float]],
+                       name: str | None) -> Robot:
+        locked = locked_configuration(base, request) if request else {}
+        model_id = variant_id(spec["id"], payloads, request)
+        changes = modifications(payloads, request)
+        kind = "variant" if payloads else "reduced"
+        robot = variant_robot(base, payloads, locked, robot_id=model_id,
+                              name=name or f"{base.name} ({kind})", changes=changes)
+        record: dict[str, Any] = {
+            "format": kind, "base": spec, "locked_joints": locked, "locked_request": request,
+            "modifications": changes, "id": model_id, "name": robot.name,
+            "warnings": robot.warnings, "summary": robot.summary(), "created_at": time.time()}
+        if payloads:
+            record["payloads"] = changes["payloads"]
+        self.store.write(record)
         with self._lock:
             self.uploads[model_id] = robot
-        log.info("stored reduced model %s of %s: nq=%d nv=%d", model_id, base.id, robot.nq,
+        log.info("stored %s model %s of %s: nq=%d nv=%d", kind, model_id, base.id, robot.nq,
                  robot.nv)
         return robot
 

@@ -102,6 +102,9 @@ class Robot:
     # q is MuJoCo's qpos (a model built from MJCF): every spherical joint's quaternion is
     # (w, x, y, z) in the API and (x, y, z, w) in Pinocchio (`pinocchio_q`, `api_q`)
     mujoco_qpos: bool = False
+    # a variant (a stored derived model): its parent's id and the modifications as requested
+    parent: str | None = None
+    modifications: dict[str, Any] | None = None
     # identified joint friction (a robot made by identification): "coulomb", "viscous",
     # "offset", each (nv,) in N·m or N (N·m·s/rad or N·s/m for viscous); None: no model
     friction: dict[str, np.ndarray] | None = None
@@ -119,7 +122,12 @@ class Robot:
             if part is not None:
                 self.unit_joints.append(
                     (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
+        # The mass the dynamics moves (every body a joint moves, payloads included: RobotInfo's
+        # `total_mass` and `moving_mass`) and the mass of the links fixed to the world (a fixed
+        # base's base link: it takes no part in the dynamics; Pinocchio keeps it in the
+        # universe's inertia). Their sum is the mass of the description.
         self.total_mass = float(pin.computeTotalMass(self.model))
+        self.fixed_mass = float(self.model.inertias[0].mass)
         self.root_nv: int = floating_root_nv(self.model)  # unactuated root rows of v
         # q index permutations API → Pinocchio and back; None when q needs no reordering
         self.wxyz_starts: tuple[int, ...] = tuple(
@@ -214,6 +222,8 @@ class Robot:
                 **self.summary(),
                 "gravity": [float(x) for x in m.gravity.linear],
                 "total_mass": self.total_mass,
+                "moving_mass": self.total_mass,
+                "fixed_mass": self.fixed_mass,
                 "neutral_configuration": neutral,
                 "default_configuration": (
                     [float(x) for x in self.api_q(default)] if default is not None
@@ -231,6 +241,9 @@ class Robot:
             }
             if self.origin is not None:
                 self._info["reduced_from"] = self.origin
+            if self.parent is not None:
+                self._info["parent"] = self.parent
+                self._info["modifications"] = self.modifications or {}
             if self.friction is not None:
                 self._info["friction"] = friction_table(m, self.friction)
         return self._info

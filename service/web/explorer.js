@@ -2,6 +2,7 @@
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
 import { IdentificationView } from "./view_identification.js";
+import { PayloadPanel } from "./payload_panel.js";
 import { ViewPanel } from "./view_panel.js";
 
 const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
@@ -23,6 +24,7 @@ const state = {
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
   view: null, // the 3-D view panel (view_panel.js)
+  payload: null, // the payload view (payload_panel.js)
   identification: null, // the identification view (view_identification.js)
 };
 
@@ -281,6 +283,7 @@ async function compute() {
     state.view.colour(g.gravity, c.coriolis_forces);
     renderEnergy(mm.mass_matrix, v);
     setStatus("Computed by the service for the state set on the left.");
+    state.payload.compute();
   } catch (err) {
     if (seq === state.seq) setStatus(err.message, true);
   } finally {
@@ -560,6 +563,7 @@ async function selectRobot(id) {
   }
   posture.value = "default";
   renderFacts(info);
+  state.payload.setRobot(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
   if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
@@ -651,11 +655,43 @@ async function upload(ev) {
   }
 }
 
+// ---- Views of the results (dynamics, payload) -----------------------------------------------
+
+function showView(button) {
+  const tabs = [...document.querySelectorAll('#result-views [role="tab"]')];
+  for (const tab of tabs) {
+    tab.setAttribute("aria-selected", String(tab === button));
+    tab.tabIndex = tab === button ? 0 : -1;
+  }
+  const payload = button.id === "payload-view-button";
+  el("payload-view").hidden = !payload;
+  el("results").classList.toggle("payload-shown", payload);
+  if (payload) state.payload.compute();
+}
+
+function setUpViews() {
+  const tabs = [...document.querySelectorAll('#result-views [role="tab"]')];
+  for (const [k, tab] of tabs.entries()) {
+    tab.addEventListener("click", () => showView(tab));
+    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
+      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
+      if (!step) return;
+      const next = tabs[(k + step + tabs.length) % tabs.length];
+      next.focus();
+      showView(next);
+    });
+  }
+}
+
 // ---- Start --------------------------------------------------------------------------------
 
 async function start() {
   state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
                                onError: (err) => setStatus(err.message, true) });
+  state.payload = new PayloadPanel({ api, robotPath, currentQ, fmt, renderBars,
+                                     rows: () => state.rows,
+                                     onError: (err) => setStatus(err.message, true) });
+  setUpViews();
   state.identification = new IdentificationView(el("identification"), { api, robotPath });
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));

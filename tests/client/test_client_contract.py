@@ -66,6 +66,11 @@ ANSWERS.update({"contact_forces": [0.0], "residual": 0.0, "contact_impulses": [0
 ARGS.update({"contact_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
              "contact_inverse_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
              "impulse_dynamics": ("r", [0.0], [0.0], ["f"])})
+# payloads
+ANSWERS.update({"mass": 1.0, "limiting_joint": "j", "mass_per_joint": [None]})
+ARGS.update({"payload_capacity": ("r", [0.0], "f"), "variant": ("r",)})
+KWARGS.update({"variant": {"payloads": [{"frame": "f", "mass": 1.0}],
+                           "locked_joints": {"elbow": 0.5}}})
 # identification
 ANSWERS.update({"layout": ["m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz",
                            "Izz"],

@@ -67,12 +67,16 @@ def main(url: str, api_key: str, urdf: str) -> dict[str, float]:
 
 
 def carrying(client: Client, q: np.ndarray) -> float:
-    """`payloads=` and a 1-DoF joint's limit (type-checked only: the server reads payloads
-    from this round on)."""
+    """`payloads=`, a 1-DoF joint's limit, the payload capacity and a variant (type-checked
+    only)."""
     tool = Payload("tool0", 2.0, center_of_mass=(0.0, 0.0, 0.05))
     g = client.gravity("ur5", q, payloads=[tool, {"frame": "wrist_3_link", "mass": 0.5}])
     limit = client.robot("ur5").joint("elbow_joint").effort_limit
-    return float(g[1]) / (limit if isinstance(limit, float) else 1.0)
+    cap = client.payload_capacity("ur5", q, "tool0", center_of_mass=[0.0, 0.0, 0.05],
+                                  payloads=[tool])
+    variant = client.variant("ur5", payloads=[tool], name="ur5 with a tool")
+    assert variant.parent == "ur5" and cap.minimum is None
+    return float(g[1]) / (limit if isinstance(limit, float) else 1.0) + float(cap.mass)
 
 
 def identifying(client: Client, t: np.ndarray, q: np.ndarray, tau: np.ndarray) -> float:

@@ -53,6 +53,8 @@ def _options(quantity: str, robot) -> list[tuple[dict, bool]]:
                 ({"dt": 0.001, "steps": 3, "contacts": _contacts(robot), "damping": 1e-3}, True)]
     if quantity.startswith(("contact-", "impulse-")):
         return [({"contacts": _contacts(robot), "damping": 1e-3}, True)]
+    if quantity == "payload-capacity":
+        return [({"frame": frame}, False), ({"frame": frame, "center_of_mass": [0, 0, 0.1]}, True)]
     if quantity == "frame-placements":
         return [({}, False), ({"frames": [frame, robot.model.frames[1].name]}, False)]
     return [({}, True)]

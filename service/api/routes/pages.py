@@ -41,7 +41,7 @@ EXPLORER_FILES = {"explorer.js": _JS,
 # vendored three.js files it uses (each module's own relative imports included).
 THREE_DIR = "vendor/three/"
 MODULE_FILES = {name: _JS for name in [
-    "view3d.js", "view_panel.js", "view_identification.js",
+    "view3d.js", "view_panel.js", "payload_panel.js", "view_identification.js",
     THREE_DIR + "build/three.module.min.js",
     THREE_DIR + "examples/jsm/controls/OrbitControls.js",
     THREE_DIR + "examples/jsm/loaders/STLLoader.js",

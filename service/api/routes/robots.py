@@ -1,4 +1,4 @@
-"""Routes of the robot catalog and uploads: list, describe, upload, reduce, delete."""
+"""Routes of the robot catalog and uploads: list, describe, upload, reduce, variants, delete."""
 
 from __future__ import annotations
 
@@ -11,8 +11,10 @@ from service.api.deps import RegistryDep, require_api_key
 from service.api.encoding.answers import JSONAnswer
 from service.api.schemas.common import Problem
 from service.api.schemas.inertias import Inertias
+from service.api.schemas.payloads import VariantRequest
 from service.api.schemas.robots import ReduceRequest, RobotInfo, RobotList, UploadRequest
 from service.dynamics.body_inertias import body_inertias
+from service.dynamics.payloads import check_payloads
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 
@@ -73,6 +75,31 @@ async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep
     store the reduced model under a new content-derived id (`r-` + 24 hex digits)."""
     robot, created = await run_in_threadpool(registry.reduce, robot_id, body.locked_joints,
                                              body.name)
+    return JSONAnswer(robot.info(), status_code=201 if created else 200,
+                      headers={"Location": f"/v1/robots/{robot.id}"})
+
+
+@router.post("/{robot_id}/variants", response_model=RobotInfo, status_code=201,
+             responses={200: {"model": RobotInfo, "description": "the variant was already stored"},
+                        401: {"model": Problem},
+                        404: {"model": Problem, "description": "robot_not_found"},
+                        422: {"model": Problem, "description": "validation_error (a bad payload, "
+                              "named by its index; an unknown joint; no modification), "
+                              "unknown_frame, invalid_configuration, invalid_model"}},
+             dependencies=[Depends(require_api_key)],
+             summary="Store a variant of any robot (payloads and/or locked joints): 201 new, "
+             "200 stored")
+async def create_variant(robot_id: str, body: VariantRequest, registry: RegistryDep) -> Response:
+    """Store robot `robot_id` (catalog, upload or variant) carrying `payloads`, then with
+    `locked_joints` locked, under an id derived from the parent's id and the modifications
+    (`v-` + 24 hex digits; `r-` for locked joints alone, as `reduce` gives). Its RobotInfo has
+    `parent` and `modifications`; it survives a restart and the deletion of its parent."""
+    parent = registry.get(robot_id)
+    requested = [p.model_dump() for p in body.payloads or ()]
+    placed = check_payloads(parent, requested) if requested else ()
+    robot, created = await run_in_threadpool(
+        lambda: registry.variant(robot_id, payloads=placed, locked_joints=body.locked_joints,
+                                 name=body.name))
     return JSONAnswer(robot.info(), status_code=201 if created else 200,
                       headers={"Location": f"/v1/robots/{robot.id}"})
 

@@ -86,9 +86,12 @@ class Problem(BaseModel):
 
 @functools.cache
 def with_common_options(model: type[BaseModel]) -> type[BaseModel]:
-    """`model` with the options every computing route takes besides its own: `joint_names`
-    and `fill` (one subclass per model, so OpenAPI names stay). An option that applies to
-    every quantity alike (e.g. one that modifies the model before computing) goes here."""
+    """`model` with the options every computing route takes besides its own: `joint_names`,
+    `fill` and `payloads` (one subclass per model, so OpenAPI names stay). An option that
+    applies to every quantity alike (e.g. one that modifies the model before computing) goes
+    here."""
+    from service.api.schemas.payloads import Payload, payloads_field
+
     return create_model(  # type: ignore[call-overload, no-any-return]
         model.__name__, __base__=model, __module__=model.__module__, __doc__=model.__doc__,
         joint_names=(bool, Field(False, description="Answer joint-space vectors (τ, a, g, "
@@ -100,4 +103,5 @@ def with_common_options(model: type[BaseModel]) -> type[BaseModel]:
                                 "configuration — \"neutral\" or one of the robot's "
                                 "reference_configurations — and zero v, a and τ. Without it "
                                 "every joint must be named (a ROS JointState without its "
-                                "gripper is then a 422 listing the missing joints).")))
+                                "gripper is then a 422 listing the missing joints).")),
+        payloads=(list[Payload] | None, payloads_field()))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, Field, model_validator
 
@@ -140,7 +140,15 @@ class JointFriction(BaseModel):
 
 class RobotInfo(RobotSummary):
     gravity: list[float]
-    total_mass: float = Field(description="kg")
+    total_mass: float = Field(description="The mass the dynamics moves, kg: every body a joint "
+                              "moves (payloads of a variant included); links fixed to the world "
+                              "are not in it (see `fixed_mass`).")
+    moving_mass: float = Field(description="The same as `total_mass`, kg, under a name that "
+                               "says what it is.")
+    fixed_mass: float = Field(description="The links fixed to the world, kg (a fixed-base "
+                              "robot's base link): no joint moves them, so they take no part "
+                              "in the dynamics. moving_mass + fixed_mass is the description's "
+                              "mass.")
     neutral_configuration: list[float]
     default_configuration: list[float] = Field(description="The posture example-robot-data's "
                                                "loader used as q0 (neutral when none).")
@@ -158,6 +166,11 @@ class RobotInfo(RobotSummary):
                                     "(links, joints, fixed frames): the valid names for "
                                     "`frame` in jacobian, operational-space and external_forces.")
     reduced_from: ReducedFrom | None = Field(None, description="Present for a reduced model.")
+    parent: str | None = Field(None, description="For a variant (and a reduced model): the id "
+                               "of the robot it derives from.")
+    modifications: dict[str, Any] | None = Field(
+        None, description="For a variant: what was changed, as requested: `payloads` (with "
+        "their defaults, in canonical order) and/or `locked_joints`.")
     friction: list[JointFriction] | None = Field(
         None, description="Present for a robot stored by identification: its joints' friction "
         "(inverse-dynamics adds it with \"friction\": true).")

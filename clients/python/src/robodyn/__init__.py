@@ -65,7 +65,7 @@ from robodyn.identification import (
 )
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
-from robodyn.payloads import Payload
+from robodyn.payloads import CapacityMinimum, Payload, PayloadCapacity
 from robodyn.progress import Progress, ProgressCallback
 from robodyn.request_options import (
     Fill,
@@ -100,6 +100,7 @@ __all__ = [
     "AsyncStream",
     "BadRequestError",
     "BodyInertia",
+    "CapacityMinimum",
     "CatalogRobotError",
     "CenterOfMass",
     "Centroidal",
@@ -137,6 +138,7 @@ __all__ = [
     "OperationalSpace",
     "OverloadedError",
     "Payload",
+    "PayloadCapacity",
     "PayloadTooLargeError",
     "Progress",
     "ProgressCallback",

@@ -184,10 +184,13 @@ class RobotInfo:
     """Everything `robot(id)` (and `upload`) tells about a model.
 
     `nq`/`nv` are the lengths of q and of v, a, τ; `joints` says where each joint sits in them.
-    `gravity` (m/s², world frame), `total_mass` (kg), `neutral_configuration`,
+    `gravity` (m/s², world frame), `total_mass` (kg: the mass the dynamics moves, also
+    `moving_mass`; `fixed_mass` is that of the links fixed to the world), `neutral_configuration`,
     `default_configuration` and each of `reference_configurations` (length nq) are ready to pass
     as q. `warnings` lists physical findings in the description. `created` is True or False in
-    the answer of an upload (a new model, or one already stored) and None otherwise.
+    the answer of an upload (a new model, or one already stored) and None otherwise. A variant
+    (and a reduced model) names its `parent` and its `modifications` (payloads, locked joints, as
+    requested); other robots have None.
     Compare two infos by `id` (their arrays make `==` ambiguous, so it is identity).
     """
 
@@ -207,6 +210,10 @@ class RobotInfo:
     frames: tuple[FrameInfo, ...]
     raw: Mapping[str, Any] = field(repr=False)
     created: bool | None = None
+    moving_mass: float = 0.0
+    fixed_mass: float = 0.0
+    parent: str | None = None
+    modifications: Mapping[str, Any] | None = None
 
     @property
     def joint_names(self) -> list[str]:
@@ -244,4 +251,8 @@ class RobotInfo:
             warnings=tuple(Finding.from_json(w) for w in data.get("warnings") or ()),
             joints=tuple(JointInfo.from_json(j) for j in data["joints"]),
             frames=tuple(FrameInfo.from_json(f) for f in data.get("frames") or ()),
-            raw=_frozen(data), created=created)
+            raw=_frozen(data), created=created,
+            moving_mass=float(data.get("moving_mass", data["total_mass"])),
+            fixed_mass=float(data.get("fixed_mass", 0.0)), parent=data.get("parent"),
+            modifications=(_frozen(data["modifications"]) if data.get("modifications")
+                           is not None else None))

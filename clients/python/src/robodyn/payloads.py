@@ -1,4 +1,5 @@
-"""Payloads: rigid bodies held by a frame, which every computing method takes as `payloads=`.
+"""Payloads: rigid bodies held by a frame, which every computing method takes as `payloads=`,
+and the answer of `payload_capacity` (`PayloadCapacity`).
 
 A payload is added rigidly to the body that carries its frame, so every quantity (M, g, τ, the
 total mass, the centre of mass, ...) is that of the robot holding it. The server checks the
@@ -105,3 +106,63 @@ def payloads_body(payloads: PayloadsLike | None) -> dict[str, Any]:
                                  payload.get("center_of_mass", np.zeros(3)),
                                  payload.get("inertia", np.zeros((3, 3)))))
     return {"payloads": out} if out else {}
+
+
+def _masses(value: Any) -> np.ndarray:
+    """Masses of an answer (kg) as float64, `inf` where the server says null (nothing limits):
+    from JSON (numbers and nulls, nested) or the binary form (arrays with inf already)."""
+    if isinstance(value, np.ndarray):
+        return value.astype(np.float64, copy=False)
+    out = np.asarray(value if value is not None else np.inf, dtype=np.float64)
+    return np.where(np.isnan(out), np.inf, out)
+
+
+@dataclass(frozen=True)
+class CapacityMinimum:
+    """The smallest capacity over a batch: `mass` (kg; inf when nothing limits any state), the
+    first `state` (index) that has it, and its `limiting_joint` (None when nothing limits)."""
+
+    mass: float
+    state: int | None
+    limiting_joint: str | None
+
+
+@dataclass(frozen=True, eq=False)
+class PayloadCapacity:
+    """The answer of `payload_capacity`: the heaviest point mass the frame can hold with no joint
+    over its effort limit, exact (τ(m) = τ₀ + m τ₁ is affine in the mass m).
+
+    `mass` (kg: a float for one state, an array (N,) for a batch; `inf` where no joint limits
+    it, 0 where a joint is over its limit with no payload), `limiting_joint` (the joint that
+    sets it; None where nothing limits; a tuple for a batch), `mass_per_joint` (nv,) or (N, nv)
+    (the largest mass each velocity coordinate alone allows, kg; `inf` where it never limits),
+    `tau` (nv,) or (N, nv) (the torques at that mass, N·m or N) and, for a batch, `minimum`
+    (`CapacityMinimum`: the smallest capacity over the batch and where it occurs; else None).
+    """
+
+    mass: float | np.ndarray
+    limiting_joint: str | tuple[str | None, ...] | None
+    mass_per_joint: np.ndarray
+    tau: np.ndarray
+    minimum: CapacityMinimum | None = None
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
+                  ) -> PayloadCapacity:
+        mass = _masses(body["mass"])
+        per = _masses(body["mass_per_joint"])
+        tau = np.asarray(body["tau"], dtype=np.float64)
+        expected = 1 if batched else 0
+        if mass.ndim != expected or per.ndim != expected + 1 or tau.shape != per.shape:
+            raise ValueError("the payload-capacity answer does not have the shapes sent")
+        if batched and rows is not None and mass.shape[0] != rows:
+            raise ValueError(f"'mass' has {mass.shape[0]} states; {rows} were sent")
+        joint = body.get("limiting_joint")
+        if not batched:
+            return cls(float(mass), joint, per, tau)
+        low = body.get("minimum") or {}
+        minimum = CapacityMinimum(
+            mass=float(np.inf if low.get("mass") is None else low["mass"]),
+            state=None if low.get("state") is None else int(low["state"]),
+            limiting_joint=low.get("limiting_joint"))
+        return cls(mass, tuple(joint or ()), per, tau, minimum)

@@ -1,5 +1,6 @@
 """Request builders of the service and robot routes: health, the robot list, one robot,
-uploads, reductions, deletions and body inertias. (The clients' docstrings describe them.)"""
+uploads, reductions, variants, deletions and body inertias. (The clients' docstrings describe
+them.)"""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from robodyn.arrays import ArrayLike, gravity_vector
 from robodyn.core import Call
 from robodyn.errors import InputError
 from robodyn.models import RobotInfo, RobotList
+from robodyn.payloads import PayloadsLike, payloads_body
 from robodyn.request_options import InertiaCheck, RootJoint
 from robodyn.results import Inertias
 from robodyn.uploads import AssetValue, Source, upload_body
@@ -77,6 +79,19 @@ def reduce(robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str |
     if name is not None:
         body["name"] = name
     return route_call("POST", f"{ROBOT}/reduce", _created, robot_id, body)
+
+
+def variant(robot_id: str, *, payloads: PayloadsLike | None = None,
+            locked_joints: Mapping[str, ArrayLike] | None = None, name: str | None = None
+            ) -> Call[RobotInfo]:
+    body: dict[str, Any] = payloads_body(payloads)
+    if locked_joints is not None:
+        body["locked_joints"] = _locked_joints(locked_joints)
+    if not body:
+        raise InputError("a variant needs payloads, locked_joints or both")
+    if name is not None:
+        body["name"] = name
+    return route_call("POST", f"{ROBOT}/variants", _created, robot_id, body)
 
 
 def _locked_joints(locked: Mapping[str, ArrayLike]) -> dict[str, Any]:

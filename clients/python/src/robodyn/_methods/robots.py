@@ -1,5 +1,6 @@
 """Client methods of the service and its robots: health, the robot list, one robot,
-uploads, reductions, deletions and body inertias (`Client` and `AsyncClient` inherit them)."""
+uploads, reductions, variants, deletions and body inertias (`Client` and `AsyncClient`
+inherit them)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from robodyn._calls import robots as calls
 from robodyn._client import AsyncSender, SyncSender
 from robodyn.arrays import ArrayLike
 from robodyn.models import RobotInfo, RobotList
+from robodyn.payloads import PayloadsLike
 from robodyn.request_options import InertiaCheck, RootJoint
 from robodyn.results import Inertias
 from robodyn.uploads import AssetValue, Source
@@ -99,6 +101,22 @@ class RobotMethods(SyncSender):
         return self._send(calls.inertias(robot_id))
 
 
+    def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
+                locked_joints: Mapping[str, ArrayLike] | None = None,
+                name: str | None = None) -> RobotInfo:
+        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
+        the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
+        that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
+        one of the two. Its id derives from the parent's id and the modifications (the same on
+        every server, whatever the payloads' order; `created` tells whether it is new), its
+        `parent` and `modifications` say what it derives from, and it works on after the parent
+        is deleted. Locked joints alone give `reduce`'s model and id. Raises `ValidationError`
+        for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
+        frame the robot lacks.
+        """
+        return self._send(calls.variant(robot_id, payloads=payloads,
+                                        locked_joints=locked_joints, name=name))
+
 class AsyncRobotMethods(AsyncSender):
     """The service and robot methods of `AsyncClient`."""
 
@@ -182,3 +200,19 @@ class AsyncRobotMethods(AsyncSender):
         the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
         """
         return await self._send(calls.inertias(robot_id))
+
+    async def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
+                      locked_joints: Mapping[str, ArrayLike] | None = None,
+                      name: str | None = None) -> RobotInfo:
+        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
+        the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
+        that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
+        one of the two. Its id derives from the parent's id and the modifications (the same on
+        every server, whatever the payloads' order; `created` tells whether it is new), its
+        `parent` and `modifications` say what it derives from, and it works on after the parent
+        is deleted. Locked joints alone give `reduce`'s model and id. Raises `ValidationError`
+        for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
+        frame the robot lacks.
+        """
+        return await self._send(calls.variant(robot_id, payloads=payloads,
+                                              locked_joints=locked_joints, name=name))

@@ -30,9 +30,11 @@ from service.api.schemas.identification import (
 )
 from service.dynamics.identification.regressor import inertial_parameters_answer
 from service.dynamics.identification.worker import IdentificationWorker
-from service.errors import DimensionMismatch
+from service.dynamics.payloads import check_payloads
+from service.errors import DimensionMismatch, InvalidInput
 from service.registry import Registry
 from service.registry.robot import Robot
+from service.registry.variants import Fitted
 
 router = APIRouter(prefix=PREFIX, tags=["identification"])
 
@@ -97,11 +99,12 @@ def _inputs(parsed: IdentifyRequest) -> dict[str, Any]:
 
 
 def identification_answer(result: Any, robot_info: dict[str, Any] | None,
-                          include_series: bool) -> dict[str, Any]:
+                          include_series: bool, not_stored: str | None = None
+                          ) -> dict[str, Any]:
     """The IdentifyAnswer document of an `Identification` (an infinite condition number is
     null)."""
     condition = float(result.condition_number)
-    answer = {
+    answer = {"not_stored": not_stored,
         "parameters": result.parameters, "bodies": result.bodies, "friction": result.friction,
         "base_parameters": result.base_parameters,
         "condition_number": condition if np.isfinite(condition) else None,
@@ -113,9 +116,27 @@ def identification_answer(result: Any, robot_info: dict[str, Any] | None,
     return answer
 
 
-def _store(registry: Registry, robot: Robot, result: Any) -> dict[str, Any] | None:
-    """Store the identified robot as a variant of `robot`; its RobotInfo (None: not stored)."""
-    return None
+def _store(registry: Registry, robot: Robot, result: Any
+           ) -> tuple[dict[str, Any] | None, str | None]:
+    """Store the identified robot as a variant of `robot`: (its RobotInfo, None), or (None,
+    why it was not stored) when the fit is not a physically possible robot."""
+    friction = Fitted.from_dict({"friction": result.friction}).friction
+    if result.payload is None:
+        if not result.physically_consistent:
+            return None, ("not stored: these least-squares parameters are not physically "
+                          "consistent (a pseudo-inertia has a negative eigenvalue); method "
+                          "'physically-consistent' gives parameters that can be stored")
+        fitted = Fitted(tuple(float(x) for x in result.parameters), friction)
+        stored, _ = registry.variant(robot.id, fitted=fitted,
+                                     name=f"{robot.name} (identified)")
+        return stored.info(), None
+    try:
+        payloads = check_payloads(robot, [result.payload])
+    except InvalidInput as exc:
+        return None, f"not stored: the identified payload is not physically possible ({exc})"
+    stored, _ = registry.variant(robot.id, payloads=payloads, fitted=Fitted(None, friction),
+                                 name=f"{robot.name} (identified payload)")
+    return stored.info(), None
 
 
 async def identify(request: Request) -> Response:
@@ -129,8 +150,9 @@ async def identify(request: Request) -> Response:
         await require_api_key(request)  # storing a model, like an upload
     fit = functools.partial(worker_of(request).identify, robot, **_inputs(parsed))
     result = await off_loop(request, fit)
-    info = await run_in_threadpool(_store, registry, robot, result) if parsed.store else None
-    return JSONAnswer(identification_answer(result, info, parsed.include_series))
+    info, not_stored = (await run_in_threadpool(_store, registry, robot, result)
+                        if parsed.store else (None, None))
+    return JSONAnswer(identification_answer(result, info, parsed.include_series, not_stored))
 
 
 def routes() -> list[Route]:

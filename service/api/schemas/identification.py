@@ -136,7 +136,12 @@ class IdentifyAnswer(BaseModel):
     filter_hz: float | None = Field(description="The cut-off used; null when the log was "
                                     "used as given.")
     samples: Samples
-    robot: RobotInfo | None = Field(description="The stored variant (with `store`), else null.")
+    robot: RobotInfo | None = Field(description="The stored variant (with `store`), else null: "
+                                    "a robot of its own (201-like: the same log gives the same "
+                                    "id) whose RobotInfo lists `friction` and `modifications`.")
+    not_stored: str | None = Field(None, description="With `store`, why nothing was stored "
+                                   "(a least-squares fit that is not physically consistent, "
+                                   "or an impossible payload); else null.")
     payload: IdentifiedPayload | None = Field(None, description="With `payload`: the "
                                               "identified payload.")
     validation_series: ValidationSeries | None = Field(None, description="With "

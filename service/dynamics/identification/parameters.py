@@ -24,7 +24,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
+
+from service.registry.variants import with_parameters
 
 LAYOUT: tuple[str, ...] = ("m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz",
                            "Izz")
@@ -87,14 +88,9 @@ def with_inertial_parameters(model: Any, pi: np.ndarray) -> Any:
     """A copy of `model` whose bodies carry the parameters π (10 · bodies,); the shared model
     is never mutated. A massless body (m = 0) keeps its rotational inertia about the joint
     origin and no centre of mass (a first moment without mass has no rigid body: it is
-    dropped; a physically consistent π never has one)."""
-    out = model.copy()
-    for j, pi_body in enumerate(np.asarray(pi, dtype=float).reshape(-1, PER_BODY), start=1):
-        if pi_body[0] == 0.0:
-            out.inertias[j] = pin.Inertia(0.0, np.zeros(3), rotational_inertia(pi_body))
-        else:
-            out.inertias[j] = pin.Inertia.FromDynamicParameters(pi_body)
-    return out
+    dropped; a physically consistent π never has one). (The variants' own composition,
+    `service.registry.variants.with_parameters`.)"""
+    return with_parameters(model, pi)
 
 
 def transform_parameters(placement: Any) -> np.ndarray:

@@ -163,3 +163,81 @@ def test_identify_a_free_flyer_is_unsupported(client, registry):
         "t": np.arange(n).tolist(), "q": q.tolist(), "tau": np.zeros((n, robot.nv)).tolist(),
         "store": False}), 422, "unsupported_model")
     assert "fixed-base" in detail
+
+
+def test_identify_stores_a_variant_with_its_friction(client, registry, log):
+    from service.dynamics.identification import with_inertial_parameters
+
+    answer = client.post("/v1/robots/ur5/identify", json=_body(log)).json()
+    info = answer["robot"]
+    assert info["id"].startswith("v-") and info["parent"] == "ur5"
+    assert answer["not_stored"] is None
+    assert [f["joint"] for f in info["friction"]] == [f["joint"] for f in answer["friction"]]
+    np.testing.assert_allclose(info["modifications"]["inertial_parameters"],
+                               answer["parameters"])
+    again = client.post("/v1/robots/ur5/identify", json=_body(log)).json()
+    assert again["robot"]["id"] == info["id"]  # the same log, the same robot
+    # the stored robot computes with the identified parameters and friction
+    model = with_inertial_parameters(registry.get("ur5").model, np.array(answer["parameters"]))
+    rng = np.random.default_rng(6)
+    q, v, a = rng.uniform(-1, 1, (3, 6))
+    tau = client.post(f"/v1/robots/{info['id']}/inverse-dynamics",
+                      json={"q": q.tolist(), "v": v.tolist(), "a": a.tolist(),
+                            "friction": True}).json()["tau"]
+    coulomb, viscous, offset = (np.array([f[k] for f in answer["friction"]])
+                                for k in ("coulomb", "viscous", "offset"))
+    import pinocchio as pin
+    expected = pin.rnea(model, model.createData(), q, v, a) + offset + coulomb * np.sign(v) \
+        + viscous * v
+    np.testing.assert_allclose(tau, expected, rtol=1e-9, atol=1e-9)
+    plain = client.post("/v1/robots/ur5/inverse-dynamics",
+                        json={"q": q.tolist(), "v": v.tolist(), "a": a.tolist(),
+                              "friction": True})
+    _problem(plain, 422, "validation_error")
+    # a registry restarted on the same store rebuilds it, friction included
+    again_registry = Registry(registry.store.dir.parent, ["ur5"])
+    again_registry.load()
+    rebuilt = again_registry.get(info["id"])
+    assert rebuilt.info()["friction"] == info["friction"]
+    np.testing.assert_allclose(
+        pin.crba(rebuilt.model, rebuilt.model.createData(), q),
+        pin.crba(model, model.createData(), q), rtol=1e-12, atol=1e-12)
+
+
+def test_identify_stores_a_payload_variant(client, registry):
+    import pinocchio as pin
+
+    from tests.service.dynamics.identification_logs import loaded_parameters
+
+    model = registry.get("ur5").model
+    box = pin.Inertia(1.2, np.array([0.0, 0.01, 0.06]), np.diag([0.003, 0.004, 0.002]))
+    held_log = synthetic_log(model, seed=7, duration=10.0, rate=100.0, noise=0.05,
+                             pi=loaded_parameters(model, "tool0", box))
+    answer = client.post("/v1/robots/ur5/identify", json=_body(
+        held_log, payload={"frame": "tool0"})).json()
+    assert answer["payload"]["mass"] == pytest.approx(1.2, rel=0.02)
+    info = answer["robot"]
+    assert answer["not_stored"] is None and info["parent"] == "ur5"
+    assert info["modifications"]["payloads"][0]["frame"] == "tool0"
+    q = [0.1, -1.2, 1.0, 0.3, 0.2, 0.1]
+    held = client.post(f"/v1/robots/{info['id']}/gravity", json={"q": q}).json()["gravity"]
+    direct = client.post("/v1/robots/ur5/gravity", json={
+        "q": q, "payloads": [answer["payload"]]}).json()["gravity"]
+    np.testing.assert_allclose(held, direct, rtol=1e-9, atol=1e-9)
+
+
+def test_an_inconsistent_least_squares_fit_is_not_stored(client, log):
+    answer = client.post("/v1/robots/ur5/identify",
+                         json=_body(log, method="least-squares")).json()
+    assert answer["physically_consistent"] is False  # (this log: two bodies' inertias)
+    assert answer["robot"] is None and "not physically consistent" in answer["not_stored"]
+
+
+def test_storing_needs_the_api_key(registry, log, tmp_path):
+    settings = Settings(data_dir=registry.store.dir.parent, catalog="ur5,bolt,panda",
+                        api_keys="secret")
+    with TestClient(create_app(settings, registry=registry),
+                    raise_server_exceptions=False) as keyed:
+        _problem(keyed.post("/v1/robots/ur5/identify", json=_body(log)), 401, "unauthorized")
+        assert keyed.post("/v1/robots/ur5/identify",
+                          json=_body(log, store=False)).status_code == 200

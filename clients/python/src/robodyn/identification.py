@@ -102,8 +102,9 @@ class Identification:
     `friction` per joint, `base_parameters`, `condition_number` (None when the log leaves a
     base parameter undetermined), `physically_consistent`, `rmse` (train, validation,
     validation_before), `filter_hz` (None: the log was used as given), `samples`, the stored
-    variant's `robot` (None without `store`), and with a payload frame `payload` (a `Payload`
-    usable in `payloads=` as it is). `validation_series` with `include_series`."""
+    variant's `robot` (None without `store`, or when `not_stored` says why nothing was
+    stored), and with a payload frame `payload` (a `Payload` usable in `payloads=` as it
+    is). `validation_series` with `include_series`."""
 
     parameters: np.ndarray
     bodies: tuple[IdentifiedBody, ...]
@@ -117,6 +118,7 @@ class Identification:
     robot: RobotInfo | None
     payload: Payload | dict[str, Any] | None
     validation_series: Mapping[str, np.ndarray] | None
+    not_stored: str | None = None
 
     @property
     def robot_id(self) -> str | None:
@@ -148,4 +150,5 @@ class Identification:
             robot=None if body.get("robot") is None else RobotInfo.from_json(body["robot"]),
             payload=None if payload is None else _payload(payload),
             validation_series=None if series is None else {
-                k: _vector(v) for k, v in series.items()})
+                k: _vector(v) for k, v in series.items()},
+            not_stored=body.get("not_stored"))

@@ -39,7 +39,7 @@ def test_identified_values_and_a_reduction_of_them(registry, tmp_path):
     reduced, _ = registry.variant(robot.id, locked_joints={"shoulder_pan_joint": 0.0})
     assert reduced.nv == 5
     np.testing.assert_allclose(reduced.friction["coulomb"], [0.1 * j for j in range(2, 7)])
-    assert [row["joint"] for row in reduced.info()["friction"]][0] == "shoulder_lift_joint"
+    assert reduced.info()["friction"][0]["joint"] == "shoulder_lift_joint"
     # both rebuilt from their records by another registry on the same store
     again = Registry(tmp_path, ["ur5"])
     again.load()

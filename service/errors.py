@@ -122,7 +122,9 @@ class NonFiniteResult(RobodynError):
 
 
 class UnsupportedModel(RobodynError):
-    """The computation needs what this model lacks (e.g. identification needs a fixed base)."""
+    """The route needs what this model lacks: e.g. a fixed base and 1-DoF joints for
+    identification and for the equations of motion in explicit form, or a size their
+    derivation can finish in time."""
 
     code = "unsupported_model"
     title = "Unsupported model"

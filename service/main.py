@@ -19,7 +19,8 @@ from service.api.middleware.observability import Metrics, ObservabilityMiddlewar
 from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
-from service.api.routes import health, identification, pages, robots, stream, visuals
+from service.api.routes import equations, health, identification, pages, robots, stream, visuals
+from service.dynamics.equations.cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import BuildSlots, build_slot_count
@@ -76,6 +77,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
     app.state.batches_in_flight = 0
+    # Each robot's equations in explicit form, derived once in a child process (sharing the
+    # builders' slots: both are CPU-bound child processes) and kept in memory and on disk.
+    app.state.equations = EquationsCache(
+        settings.data_dir, settings.equations_timeout_s, registry.build_slots,
+        max_bytes=settings.equations_cache_mb * 1024 * 1024,
+        memory_mb=settings.equations_memory_mb)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
     twins = identification.openapi_routes().routes
@@ -86,6 +93,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     private = [Depends(require_api_key_for_all)]
     app.include_router(robots.router, dependencies=private)
     app.include_router(visuals.router, dependencies=private)
+    app.include_router(equations.router, dependencies=private)
     app.include_router(identification.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
     app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes(),

@@ -107,6 +107,18 @@ class Settings(BaseSettings):
         30.0, gt=0, description="How long an upload may wait for a free builder, in seconds; "
         "beyond it (or with more than 4 uploads per builder waiting) the answer is 503 "
         "overloaded with Retry-After. The build timeout starts when the build does.")
+    equations_timeout_s: float = Field(
+        60.0, gt=0, description="Time limit of deriving one robot's equations of motion in "
+        "explicit form (GET /v1/robots/{id}/equations), in seconds of wall clock and of CPU "
+        "time, in a child process; past it the answer is 422 unsupported_model. A UR5 takes "
+        "about 0.3 s.")
+    equations_memory_mb: int = Field(
+        2048, ge=256, description="Address-space limit of the process deriving a robot's "
+        "equations, in MB.")
+    equations_cache_mb: int = Field(
+        256, ge=1, description="Memory kept for derived equations (JSON answers), per server "
+        "process, in MB; the least recently used are dropped beyond it (stored models keep "
+        "theirs on disk in the data directory).")
 
     # -- identification (service/dynamics/identification/worker.py; docs/identification.md) --
     identify_timeout_s: float = Field(

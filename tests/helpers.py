@@ -111,3 +111,28 @@ def registry_client(registry) -> Iterator[TestClient]:
     app = create_app(Settings(data_dir=registry.store.dir.parent), registry=registry)
     with TestClient(app, raise_server_exceptions=False) as client:
         yield client
+
+
+def skewed_arm_urdf(joints: int, seed: int = 1) -> str:
+    """A chain of `joints` revolute joints with random placements, rpy and axes, and bodies
+    with random centres of mass and full inertia tensors: no two axes parallel, the worst case
+    for the size of the explicit form."""
+    rng = np.random.default_rng(seed)
+    links, chain = ['<link name="l0"/>'], []
+    for i in range(1, joints + 1):
+        ii = rng.uniform(0.06, 0.1, 3)  # principal moments: triangle inequality
+        c, rpy = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1, 1, 3)
+        links.append(
+            f'<link name="l{i}"><inertial><origin xyz="{c[0]} {c[1]} {c[2]}" '
+            f'rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/><mass value="{rng.uniform(0.5, 3)}"/>'
+            f'<inertia ixx="{ii[0]}" ixy="0.001" ixz="0" iyy="{ii[1]}" iyz="0.002" '
+            f'izz="{ii[2]}"/></inertial></link>')
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        p, rpy = rng.uniform(-0.3, 0.3, 3), rng.uniform(-2, 2, 3)
+        chain.append(
+            f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
+            f'<origin xyz="{p[0]} {p[1]} {p[2]}" rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/>'
+            f'<axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
+            f'<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>')
+    return f'<robot name="skewed">{"".join(links + chain)}</robot>'

@@ -159,6 +159,13 @@ def _mp_context() -> Any:
     return _context
 
 
+def forkserver_context() -> Any:
+    """The multiprocessing context of the isolated children (builders, and the derivation of
+    the equations in `service.dynamics.equations.isolated`): a forkserver with Pinocchio,
+    NumPy and MuJoCo imported."""
+    return _mp_context()
+
+
 def _death(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
     """Why the builder child ended without an answer, for the user."""
     if exitcode is not None and exitcode < 0:
@@ -202,7 +209,7 @@ STARVED_CPU_FRACTION = 0.5
 timeout was starved by the machine's load: the answer is 503 overloaded, not invalid_model."""
 
 
-def _cpu_seconds(pid: int) -> float | None:
+def cpu_seconds(pid: int) -> float | None:
     """CPU time (user + system, s) a live child has used, from /proc (None where unknown)."""
     try:
         with open(f"/proc/{pid}/stat", "rb") as fh:
@@ -213,7 +220,7 @@ def _cpu_seconds(pid: int) -> float | None:
 
 
 def _timed_out(pid: int, timeout_s: float) -> Exception:
-    cpu = _cpu_seconds(pid)
+    cpu = cpu_seconds(pid)
     if cpu is not None and cpu < STARVED_CPU_FRACTION * timeout_s:
         return Overloaded(f"building the model got only {cpu:.1f} s of CPU time in its "
                           f"{timeout_s:g} s (ROBODYN_BUILD_TIMEOUT_S): the server is too busy "

@@ -46,8 +46,8 @@ class BuildSlots:
         time. Blocking: call it off the event loop."""
         with self._lock:
             if self.waiting >= self.max_waiting:
-                raise Overloaded(f"{self.building} models are being built and {self.waiting} "
-                                 "are waiting; retry shortly")
+                raise Overloaded(f"{self.building} models are being built (or their equations "
+                                 f"derived) and {self.waiting} are waiting; retry shortly")
             self.waiting += 1
         try:
             acquired = self._free.acquire(timeout=self.wait_s)

@@ -1,6 +1,7 @@
 // robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+import { EquationsView } from "./equations_view.js";
 import { IdentificationView } from "./view_identification.js";
 import { PayloadPanel } from "./payload_panel.js";
 import { ViewPanel } from "./view_panel.js";
@@ -25,6 +26,7 @@ const state = {
   chooseScale: false,
   view: null, // the 3-D view panel (view_panel.js)
   payload: null, // the payload view (payload_panel.js)
+  equations: null, // the equations view (equations_view.js)
   identification: null, // the identification view (view_identification.js)
 };
 
@@ -281,6 +283,7 @@ async function compute() {
     renderBars(el("gravity-chart"), g.gravity, "f");
     renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
     state.view.colour(g.gravity, c.coriolis_forces);
+    state.equations.update({ M: mm.mass_matrix, g: g.gravity, C: c.coriolis_matrix });
     renderEnergy(mm.mass_matrix, v);
     setStatus("Computed by the service for the state set on the left.");
     state.payload.compute();
@@ -564,6 +567,7 @@ async function selectRobot(id) {
   posture.value = "default";
   renderFacts(info);
   state.payload.setRobot(info);
+  state.equations.setRobot(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
   if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
@@ -655,7 +659,7 @@ async function upload(ev) {
   }
 }
 
-// ---- Views of the results (dynamics, payload) -----------------------------------------------
+// ---- Views of the results (dynamics, payload, equations) -----------------------------------------------
 
 function showView(button) {
   const tabs = [...document.querySelectorAll('#result-views [role="tab"]')];
@@ -664,9 +668,13 @@ function showView(button) {
     tab.tabIndex = tab === button ? 0 : -1;
   }
   const payload = button.id === "payload-view-button";
+  const equations = button.id === "equations-view-button";
   el("payload-view").hidden = !payload;
+  el("equations-view").hidden = !equations;
   el("results").classList.toggle("payload-shown", payload);
+  el("results").classList.toggle("equations-shown", equations);
   if (payload) state.payload.compute();
+  if (equations) state.equations.show();
 }
 
 function setUpViews() {
@@ -691,6 +699,7 @@ async function start() {
   state.payload = new PayloadPanel({ api, robotPath, currentQ, fmt, renderBars,
                                      rows: () => state.rows,
                                      onError: (err) => setStatus(err.message, true) });
+  state.equations = new EquationsView({ api, robotPath, fmt });
   setUpViews();
   state.identification = new IdentificationView(el("identification"), { api, robotPath });
   el("robot").addEventListener("change", (ev) => {

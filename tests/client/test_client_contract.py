@@ -42,6 +42,17 @@ ANSWERS = {"mass_matrix": [[1.0]], "gravity": [0.0], "coriolis_matrix": [[0.0]],
            "dtau_dq": [[0.0]], "dtau_dv": [[0.0]], "dtau_da": [[1.0]], "da_dq": [[0.0]],
            "da_dv": [[0.0]], "da_dtau": [[1.0]], "momentum": [0.0] * 6,
            "momentum_matrix": [[0.0]] * 6, "center_of_mass": [0.0] * 3}
+# the equations in explicit form of a 1-joint robot
+_ONE = {"expressions": [["0.5"]], "latex": [["0.5"]]}
+EQUATIONS = {"joints": ["j"], "coordinates": ["q1"], "velocities": ["dq1"],
+             "mass_matrix": _ONE, "coriolis_matrix": _ONE,
+             "gravity": {"expressions": ["0"], "latex": ["0"]},
+             "christoffel": {"expressions": [[["0"]]], "latex": [[["0"]]]},
+             "kinetic_energy": {"expressions": "0.25*dq1**2", "latex": r"0.25 \dot{q}_{1}^{2}"},
+             "potential_energy": {"expressions": "0", "latex": "0"},
+             "structure": {"mass_matrix": [[{"depends_on": [], "constant": True,
+                                             "zero": False}]],
+                           "gravity": [{"depends_on": [], "constant": True, "zero": True}]}}
 # a trajectory's mechanical energy has one value per sample (energy's has one per state)
 TRAJECTORY = {"t": [0.0], "q": [[0.0]], "v": [[0.0]], "mechanical_energy": [0.0]}
 ARGS: dict[str, tuple[Any, ...]] = {
@@ -58,6 +69,7 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "centroidal": ("r", [0.0], [0.0]),
     "simulate": ("r", [0.0], [0.0]),
     "reduce": ("r", {"elbow": 0.5, "base": [0, 0, 1, 0, 0, 0, 1]}),
+    "equations": ("r",),
 }
 KWARGS: dict[str, dict[str, Any]] = {"simulate": {"dt": 1e-3, "steps": 1}}
 # contacts
@@ -92,6 +104,8 @@ def sent_requests() -> dict[str, httpx.Request]:
     def handler(request: httpx.Request) -> httpx.Response:
         seen.append(request)
         simulate = request.url.path.endswith("/simulate")
+        if request.url.path.endswith("/equations"):
+            return httpx.Response(200, json=EQUATIONS)
         return httpx.Response(200, json={**ANSWERS, **TRAJECTORY} if simulate else ANSWERS)
 
     out = {}

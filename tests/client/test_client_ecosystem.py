@@ -357,3 +357,4 @@ def test_the_examples_of_the_client_guide_run(server: str,
     out = capsys.readouterr().out
     assert "6000/6000 steps" in out and "422 dimension_mismatch ['panda_joint2'" in out
     assert "34.87 shoulder_lift_joint" in out
+    assert "4.235 + 2.1*cos(q2)" in out  # the equations example

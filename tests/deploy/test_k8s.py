@@ -149,7 +149,8 @@ def test_graceful_termination_outlasts_the_longest_request(pod, container):
     server_drain = 30  # uvicorn's timeout_graceful_shutdown in `python -m service`
     main_source = (ROOT / "service" / "__main__.py").read_text()
     assert f"timeout_graceful_shutdown={server_drain}" in main_source
-    longest_request = float(env["ROBODYN_BUILD_TIMEOUT_S"])  # an upload's model build
+    longest_request = max(float(env["ROBODYN_BUILD_TIMEOUT_S"]),  # an upload's model build
+                          float(env["ROBODYN_EQUATIONS_TIMEOUT_S"]))  # a first derivation
     grace = pod["terminationGracePeriodSeconds"]
     assert grace > int(pre_stop[1]) + max(server_drain, longest_request)
 

@@ -29,7 +29,7 @@ STATUS_BY_CODE: dict[str, int] = {
     "unknown_frame": 422,
     "singular_configuration": 422,
     "non_finite_result": 422,
-    "unsupported_model": 422,
+    "unsupported_model": 422,  # the route needs what the model lacks (a fixed base, …)
     "payload_too_large": 413,
     "unauthorized": 401,
     "not_ready": 503,

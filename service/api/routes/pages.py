@@ -41,7 +41,8 @@ EXPLORER_FILES = {"explorer.js": _JS,
 # vendored three.js files it uses (each module's own relative imports included).
 THREE_DIR = "vendor/three/"
 MODULE_FILES = {name: _JS for name in [
-    "view3d.js", "view_panel.js", "payload_panel.js", "view_identification.js",
+    "view3d.js", "view_panel.js", "payload_panel.js", "equations_view.js",
+    "view_identification.js",
     THREE_DIR + "build/three.module.min.js",
     THREE_DIR + "examples/jsm/controls/OrbitControls.js",
     THREE_DIR + "examples/jsm/loaders/STLLoader.js",
@@ -51,7 +52,14 @@ MODULE_FILES = {name: _JS for name in [
     THREE_DIR + "examples/jsm/loaders/GLTFLoader.js",
     THREE_DIR + "examples/jsm/utils/BufferGeometryUtils.js",
 ]}
-STATIC_FILES = {**EXPLORER_FILES, **MODULE_FILES}
+# KaTeX (vendored, see its README), loaded by the "Equations" view on first use: its script,
+# stylesheet and the woff2 fonts the stylesheet names.
+KATEX_DIR = "vendor/katex/"
+KATEX_FILES = {KATEX_DIR + "katex.min.js": _JS,
+               KATEX_DIR + "katex.min.css": "text/css; charset=utf-8",
+               **{KATEX_DIR + "fonts/" + font.name: "font/woff2"
+                  for font in sorted((WEB_DIR / KATEX_DIR / "fonts").glob("*.woff2"))}}
+STATIC_FILES = {**EXPLORER_FILES, **MODULE_FILES, **KATEX_FILES}
 
 
 def _inline_script_hashes(html: str) -> str:

@@ -25,6 +25,7 @@ from robodyn.contacts import (
     ContactTrajectory,
     ImpulseDynamics,
 )
+from robodyn.equations import EntryStructure, Equations, EquationsStructure, Expressions
 from robodyn.errors import (
     APIError,
     AssetNotFoundError,
@@ -112,6 +113,10 @@ __all__ = [
     "ContactTrajectory",
     "DimensionMismatchError",
     "Energy",
+    "EntryStructure",
+    "Equations",
+    "EquationsStructure",
+    "Expressions",
     "Fill",
     "Finding",
     "ForwardDynamicsDerivatives",

@@ -1,6 +1,6 @@
 """Request builders of the service and robot routes: health, the robot list, one robot,
-uploads, reductions, variants, deletions and body inertias. (The clients' docstrings describe
-them.)"""
+uploads, reductions, variants, deletions, body inertias and the equations of motion in explicit
+form. (The clients' docstrings describe them.)"""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import numpy as np
 from robodyn._calls.request import ROBOT, route_call
 from robodyn.arrays import ArrayLike, gravity_vector
 from robodyn.core import Call
+from robodyn.equations import Equations
 from robodyn.errors import InputError
 from robodyn.models import RobotInfo, RobotList
 from robodyn.payloads import PayloadsLike, payloads_body
@@ -40,6 +41,11 @@ def robot(robot_id: str) -> Call[RobotInfo]:
 def inertias(robot_id: str) -> Call[Inertias]:
     return route_call("GET", f"{ROBOT}/inertias",
                       lambda status, body: Inertias.from_json(body), robot_id)
+
+
+def equations(robot_id: str) -> Call[Equations]:
+    return route_call("GET", f"{ROBOT}/equations",
+                      lambda status, body: Equations.from_json(body), robot_id)
 
 
 def _created(status: int, body: Any) -> RobotInfo:

@@ -1,6 +1,6 @@
 """Client methods of the service and its robots: health, the robot list, one robot,
-uploads, reductions, variants, deletions and body inertias (`Client` and `AsyncClient`
-inherit them)."""
+uploads, reductions, variants, deletions, body inertias and the equations of motion in explicit
+form (`Client` and `AsyncClient` inherit them)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from typing import Any
 from robodyn._calls import robots as calls
 from robodyn._client import AsyncSender, SyncSender
 from robodyn.arrays import ArrayLike
+from robodyn.equations import Equations
 from robodyn.models import RobotInfo, RobotList
 from robodyn.payloads import PayloadsLike
 from robodyn.request_options import InertiaCheck, RootJoint
@@ -100,6 +101,22 @@ class RobotMethods(SyncSender):
         """
         return self._send(calls.inertias(robot_id))
 
+    def equations(self, robot_id: str) -> Equations:
+        """The equations of motion in explicit form, M(q) q̈ + C(q, q̇) q̇ + g(q) = τ, derived
+        symbolically by the server from the model's own numbers, for a fixed-base robot with at
+        most 6 moving joints, each revolute or prismatic: `Equations` with M(q), g(q), C(q, q̇),
+        the Christoffel symbols c_ijk and the energies T and U, each as text SymPy parses
+        (`.expressions`), LaTeX (`.latex`) and, with SymPy installed (the `sympy` extra),
+        SymPy objects (`.sympy()`); and the structure of M and g (per entry: the coordinates
+        it depends on, constant, zero). Coordinates q1 … qn follow `joints` (rad or m).
+
+        The server derives a robot's equations on its first request (a UR5: about 0.3 s; at
+        most its ROBODYN_EQUATIONS_TIMEOUT_S, 60 s by default) and keeps them. Raises
+        `RobotNotFoundError` for an unknown id, `UnsupportedModelError` for a model out of scope
+        (a floating base, a continuous or multi-DoF joint, more than 6 moving joints, or a
+        derivation past the server's time limit), the detail saying which.
+        """
+        return self._send(calls.equations(robot_id))
 
     def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
                 locked_joints: Mapping[str, ArrayLike] | None = None,
@@ -200,6 +217,23 @@ class AsyncRobotMethods(AsyncSender):
         the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
         """
         return await self._send(calls.inertias(robot_id))
+
+    async def equations(self, robot_id: str) -> Equations:
+        """The equations of motion in explicit form, M(q) q̈ + C(q, q̇) q̇ + g(q) = τ, derived
+        symbolically by the server from the model's own numbers, for a fixed-base robot with at
+        most 6 moving joints, each revolute or prismatic: `Equations` with M(q), g(q), C(q, q̇),
+        the Christoffel symbols c_ijk and the energies T and U, each as text SymPy parses
+        (`.expressions`), LaTeX (`.latex`) and, with SymPy installed (the `sympy` extra),
+        SymPy objects (`.sympy()`); and the structure of M and g (per entry: the coordinates
+        it depends on, constant, zero). Coordinates q1 … qn follow `joints` (rad or m).
+
+        The server derives a robot's equations on its first request (a UR5: about 0.3 s; at
+        most its ROBODYN_EQUATIONS_TIMEOUT_S, 60 s by default) and keeps them. Raises
+        `RobotNotFoundError` for an unknown id, `UnsupportedModelError` for a model out of scope
+        (a floating base, a continuous or multi-DoF joint, more than 6 moving joints, or a
+        derivation past the server's time limit), the detail saying which.
+        """
+        return await self._send(calls.equations(robot_id))
 
     async def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
                       locked_joints: Mapping[str, ArrayLike] | None = None,

@@ -1,0 +1,43 @@
+"""`GET /v1/robots/{id}/equations`: a robot's equations of motion in explicit form.
+
+The derivation (`service.dynamics.equations`) runs in a child process with a time limit, never
+in the serving process, and each robot's answer is kept (`EquationsCache`, on
+`app.state.equations`): a cached answer is served straight from memory on the event loop; a
+first request waits for the derivation in a worker thread, so the loop keeps answering.
+"""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Request, Response
+from starlette.concurrency import run_in_threadpool
+
+from service.api.deps import RegistryDep
+from service.api.schemas.common import Problem
+from service.api.schemas.equations import Equations
+from service.dynamics.equations.cache import EquationsCache
+
+router = APIRouter(prefix="/v1/robots", tags=["robots"])
+
+
+@router.get("/{robot_id}/equations", response_model=Equations, name="equations",
+            responses={404: {"model": Problem, "description": "robot_not_found"},
+                       422: {"model": Problem, "description": "unsupported_model: a floating "
+                             "base, a joint other than revolute or prismatic, more than 6 "
+                             "moving joints, or a derivation past its time limit"},
+                       503: {"model": Problem, "description": "not_ready, overloaded"}},
+            summary="The equations of motion in explicit form: M(q), C(q, q̇), g(q), the "
+            "Christoffel symbols and the energies as SymPy text and LaTeX, with the structure "
+            "of M and g")
+async def equations(robot_id: str, request: Request, registry: RegistryDep) -> Response:
+    """M(q) q̈ + C(q, q̇) q̇ + g(q) = τ in closed form, derived symbolically from the model's
+    own joint placements, axes and inertias (exact decimals), for a fixed-base robot with at
+    most 6 moving joints, each revolute or prismatic. Coordinates q1 … qn and velocities
+    dq1 … dqn follow the order of `joints`. The first request for a robot derives them (a UR5
+    takes about 0.3 s; at most `ROBODYN_EQUATIONS_TIMEOUT_S`), later ones are answered from
+    memory (stored models also from disk). See docs/equations.md."""
+    robot = registry.get(robot_id)
+    cache: EquationsCache = request.app.state.equations
+    body = cache.cached(robot)
+    if body is None:
+        body = await run_in_threadpool(cache.answer, robot)
+    return Response(body, media_type="application/json")

@@ -1,0 +1,18 @@
+"""The equations of motion in explicit form: M(q), C(q, q̇), g(q), the Christoffel symbols and
+the energies of a fixed-base robot with at most six revolute or prismatic joints, derived
+symbolically from the model's own numbers (see docs/equations.md).
+
+    series          exact trigonometric polynomials (the algebra)
+    model_numbers   the model's joints, placements, axes and inertias as exact decimals; scope
+    derivation      M(q) and U(q) by the composite-rigid-body recursion on series
+    explicit_form   g, Christoffel symbols, C, T from M and U; the noise cut; `derive_equations`
+    printing        text SymPy parses, and LaTeX
+    answer          the JSON answer with the structure of M and g
+    isolated        the derivation in a child process with a time limit
+    cache           each robot's answer, in memory and on disk, derived once
+"""
+
+from service.dynamics.equations.answer import equations_answer
+from service.dynamics.equations.explicit_form import Equations, derive_equations
+
+__all__ = ["Equations", "derive_equations", "equations_answer"]

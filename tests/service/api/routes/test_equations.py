@@ -1,0 +1,155 @@
+"""GET /v1/robots/{id}/equations: answers equal to the in-process derivation, the cache (memory
+and disk), every refusal a 422 unsupported_model, and the event loop free meanwhile."""
+
+from __future__ import annotations
+
+import statistics
+import threading
+import time
+from pathlib import Path
+
+import orjson
+import pytest
+from fastapi.testclient import TestClient
+
+from service.api.schemas.equations import Equations
+from service.dynamics.equations import cache as cache_module
+from service.dynamics.equations import derive_equations, equations_answer
+from service.main import create_app
+from service.registry import Registry
+from service.settings import Settings
+from tests.helpers import skewed_arm_urdf
+
+CATALOG = "ur5,planar_arm,talos_arm,double_pendulum_continuous,solo12"
+
+
+def _client(data_dir: Path, **settings_kw) -> TestClient:
+    settings = Settings(data_dir=data_dir, catalog=CATALOG, **settings_kw)
+    registry = Registry(settings.data_dir, settings.catalog_names())
+    registry.load()
+    return TestClient(create_app(settings, registry=registry), raise_server_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory: pytest.TempPathFactory):
+    with _client(tmp_path_factory.mktemp("equations")) as c:
+        yield c
+
+
+def _in_process(client: TestClient, robot_id: str) -> dict:
+    model = client.app.state.registry.get(robot_id).model  # type: ignore[attr-defined]
+    return orjson.loads(orjson.dumps(equations_answer(derive_equations(model))))
+
+
+@pytest.mark.parametrize("robot_id", ["planar_arm", "ur5"])
+def test_answer_equals_the_in_process_derivation(client, robot_id):
+    r = client.get(f"/v1/robots/{robot_id}/equations")
+    assert r.status_code == 200, r.text
+    assert r.headers["content-type"] == "application/json"
+    body = r.json()
+    assert body == _in_process(client, robot_id)
+    Equations.model_validate(body)  # the documented schema
+    if robot_id == "planar_arm":
+        assert body["mass_matrix"]["expressions"][0][0] == "4.235 + 2.1*cos(q2)"
+
+
+def test_a_cached_answer_takes_under_50_ms(client):
+    first = client.get("/v1/robots/ur5/equations")
+    assert first.status_code == 200
+    times = []
+    for _ in range(5):
+        started = time.perf_counter()
+        r = client.get("/v1/robots/ur5/equations")
+        times.append(time.perf_counter() - started)
+        assert r.content == first.content
+    assert statistics.median(times) < 0.05, times
+
+
+@pytest.mark.parametrize(("robot_id", "status", "code", "says"), [
+    ("talos_arm", 422, "unsupported_model", "7 moving joints"),
+    ("double_pendulum_continuous", 422, "unsupported_model", "is continuous"),
+    ("solo12", 422, "unsupported_model", "free-flyer root joint"),
+    ("no_such_robot", 404, "robot_not_found", "no robot has id"),
+])
+def test_refusals_are_problems_with_the_contract_codes(client, robot_id, status, code, says):
+    for _ in range(2):  # the second time from the remembered refusal
+        r = client.get(f"/v1/robots/{robot_id}/equations")
+        assert r.status_code == status, r.text
+        assert r.headers["content-type"] == "application/problem+json"
+        assert r.json()["code"] == code and says in r.json()["detail"]
+
+
+def test_an_upload_is_derived_once_and_kept_on_disk(tmp_path, monkeypatch):
+    with _client(tmp_path) as c:
+        r = c.post("/v1/robots", json={"urdf": skewed_arm_urdf(3), "name": "skewed"})
+        assert r.status_code in (200, 201), r.text
+        robot_id = r.json()["id"]
+        answer = c.get(f"/v1/robots/{robot_id}/equations")
+        assert answer.status_code == 200, answer.text
+        assert answer.json() == _in_process(c, robot_id)
+    assert (tmp_path / "equations" / "v1" / f"{robot_id}.json").read_bytes() == answer.content
+
+    def no_derivation(*args):
+        raise AssertionError("derived again")
+
+    monkeypatch.setattr(cache_module, "derive_isolated", no_derivation)
+    with _client(tmp_path) as restarted:  # a restart, or a replica sharing the data directory
+        again = restarted.get(f"/v1/robots/{robot_id}/equations")
+        assert again.status_code == 200 and again.content == answer.content
+
+
+def test_a_derivation_past_its_time_limit_is_unsupported_model(tmp_path):
+    with _client(tmp_path, equations_timeout_s=0.3) as c:
+        robot_id = c.post("/v1/robots", json={"urdf": skewed_arm_urdf(5)}).json()["id"]
+        r = c.get(f"/v1/robots/{robot_id}/equations")
+        assert r.status_code == 422, r.text
+        assert r.json()["code"] == "unsupported_model"
+        assert "time limit of 0.3 s" in r.json()["detail"]
+
+
+def test_health_stays_fast_while_a_derivation_runs(tmp_path):
+    """The derivation runs in a child process and its request waits in a worker thread: the
+    event loop answers /health/live meanwhile (probed every 5 ms)."""
+    with _client(tmp_path) as c:
+        robot_id = c.post("/v1/robots", json={"urdf": skewed_arm_urdf(4)}).json()["id"]
+        c.get("/v1/robots/planar_arm/equations")  # the child process machinery is warm
+        done = threading.Event()
+        latencies: list[float] = []
+        result: dict = {}
+
+        def derive() -> None:
+            started = time.perf_counter()
+            result["response"] = c.get(f"/v1/robots/{robot_id}/equations")
+            result["seconds"] = time.perf_counter() - started
+            done.set()
+
+        worker = threading.Thread(target=derive)
+        worker.start()
+        while not done.is_set():
+            started = time.perf_counter()
+            assert c.get("/health/live").status_code == 200
+            latencies.append(time.perf_counter() - started)
+            time.sleep(0.005)
+        worker.join()
+    assert result["response"].status_code == 200
+    assert result["seconds"] > 0.2 and len(latencies) >= 10, (result, len(latencies))
+    assert max(latencies) < 0.1 and statistics.median(latencies) < 0.02, latencies
+
+
+@pytest.mark.slow  # a real server: with the other latency probes of the slow suite
+def test_a_real_server_answers_health_while_it_derives(tmp_path):
+    """`python -m service`: /health/live probed every 5 ms while a skewed 5-joint arm (a few
+    seconds of derivation in a child process) is derived."""
+    import httpx
+
+    from tests.hardening.health_probe import health_latencies_during
+    from tests.servers import running_server
+
+    with running_server(tmp_path, catalog="planar_arm") as url, \
+            httpx.Client(base_url=url, timeout=120) as http:
+        robot_id = http.post("/v1/robots", json={"urdf": skewed_arm_urdf(5)}).json()["id"]
+        answer, latencies = health_latencies_during(
+            url, lambda: http.get(f"/v1/robots/{robot_id}/equations"))
+    assert answer.status_code == 200, answer.text
+    assert len(latencies) >= 20, latencies
+    assert max(latencies) < 0.5 and statistics.median(latencies) < 0.05, latencies

@@ -162,7 +162,10 @@ export class IdentificationView {
     this.say(`Identifying ${info.name} from ${log.t.length} samples…`);
     this.results.replaceChildren();
     try {
-      const answer = await this.api(this.robotPath(info.id, "identify"), body);
+      // identify is a write where the server has API keys: the upload form's key is sent
+      const key = (document.querySelector("#api-key")?.value || "").trim();
+      const headers = key ? { Authorization: `Bearer ${key}` } : {};
+      const answer = await this.api(this.robotPath(info.id, "identify"), body, headers);
       if (this.info !== info) return;
       this.say(`Identified: condition number ${answer.condition_number.toPrecision(3)}, ` +
                (answer.physically_consistent ? "every body physically consistent."

@@ -19,7 +19,7 @@ from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.routing import Route
 
-from service.api.deps import RegistryDep, check_api_key_for_all, require_api_key
+from service.api.deps import RegistryDep, require_api_key
 from service.api.encoding.answers import JSONAnswer
 from service.api.routes.dynamics import PREFIX, off_loop
 from service.api.schemas.common import Problem
@@ -39,8 +39,8 @@ from service.registry.variants import Fitted
 router = APIRouter(prefix=PREFIX, tags=["identification"])
 
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
-    401: {"model": Problem, "description": "unauthorized (storing the result needs a key "
-          "where keys are set)"},
+    401: {"model": Problem, "description": "unauthorized (identify stores a model: it needs "
+          "a key where keys are set, like an upload)"},
     404: {"model": Problem, "description": "robot_not_found"},
     413: {"model": Problem, "description": "payload_too_large"},
     422: {"model": Problem, "description": "validation_error (NaN, non-increasing t, too few "
@@ -141,13 +141,11 @@ def _store(registry: Registry, robot: Robot, result: Any
 
 async def identify(request: Request) -> Response:
     """POST /v1/robots/{id}/identify (see `describe_identify` for the documentation)."""
-    check_api_key_for_all(request)
+    await require_api_key(request)  # it stores a model (by default), like an upload
     registry: Registry = request.app.state.registry
     robot = registry.get(request.path_params["robot_id"])
     body = await request.body()
     parsed = await off_loop(request, _parse, body, request.app.state.settings.max_identify_samples)
-    if parsed.store:
-        await require_api_key(request)  # storing a model, like an upload
     fit = functools.partial(worker_of(request).identify, robot, **_inputs(parsed))
     result = await off_loop(request, fit)
     info, not_stored = (await run_in_threadpool(_store, registry, robot, result)

@@ -233,11 +233,13 @@ def test_an_inconsistent_least_squares_fit_is_not_stored(client, log):
     assert answer["robot"] is None and "not physically consistent" in answer["not_stored"]
 
 
-def test_storing_needs_the_api_key(registry, log, tmp_path):
+def test_identify_needs_the_api_key(registry, log, tmp_path):
+    """It stores a model (by default): a write, like an upload, whatever the body."""
     settings = Settings(data_dir=registry.store.dir.parent, catalog="ur5,bolt,panda",
                         api_keys="secret")
     with TestClient(create_app(settings, registry=registry),
                     raise_server_exceptions=False) as keyed:
         _problem(keyed.post("/v1/robots/ur5/identify", json=_body(log)), 401, "unauthorized")
-        assert keyed.post("/v1/robots/ur5/identify",
-                          json=_body(log, store=False)).status_code == 200
+        _problem(keyed.post("/v1/robots/ur5/identify", json={}), 401, "unauthorized")
+        assert keyed.post("/v1/robots/ur5/identify", json=_body(log, store=False),
+                          headers={"Authorization": "Bearer secret"}).status_code == 200

@@ -23,6 +23,7 @@ that could be huge or non-finite, and never carries a backend path or C++ source
     ├── NotReady                      not_ready
     ├── Overloaded                    overloaded
     │   └── ComputationStopped        overloaded
+    ├── DeadlineExceeded              deadline_exceeded
     └── UnsupportedMediaType          unsupported_media_type
 """
 
@@ -157,6 +158,14 @@ class ComputationStopped(Overloaded):
     title = "Computation stopped"
 
 
+class DeadlineExceeded(RobodynError):
+    """A long computation stopped at the request's deadline (ROBODYN_REQUEST_DEADLINE_S).
+    Not `overloaded`: the same request would stop again, so clients do not retry it."""
+
+    code = "deadline_exceeded"
+    title = "Deadline exceeded"
+
+
 class UnsupportedMediaType(RobodynError):
     code = "unsupported_media_type"
     title = "Unsupported media type"
@@ -178,5 +187,6 @@ ALL_ERRORS: tuple[type[RobodynError], ...] = (
     Unauthorized,
     NotReady,
     Overloaded,
+    DeadlineExceeded,
     UnsupportedMediaType,
 )

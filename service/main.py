@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio
 import inspect
 import logging
+import os
 import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -13,6 +15,7 @@ from fastapi import Depends, FastAPI
 
 from service import __version__, heap, unpin_this_thread
 from service.api.deps import require_api_key_for_all
+from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.middleware.body_limit import BodyLimitMiddleware
 from service.api.middleware.fast_path import DynamicsFastPath
 from service.api.middleware.observability import Metrics, ObservabilityMiddleware
@@ -83,6 +86,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         settings.data_dir, settings.equations_timeout_s, registry.build_slots,
         max_bytes=settings.equations_cache_mb * 1024 * 1024,
         memory_mb=settings.equations_memory_mb)
+    app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
+    app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
     twins = identification.openapi_routes().routes
@@ -106,6 +111,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,
                        catalog_ids=lambda: registry.catalog)  # outermost: sees every answer
     return app
+
+
+def _usable_cpus() -> int:
+    """The CPUs this process may run on: how many large batches are computed at once."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return max(1, len(affinity(0)) if affinity is not None else os.cpu_count() or 1)
 
 
 def app_from_environment() -> FastAPI:

@@ -59,6 +59,17 @@ class Settings(BaseSettings):
         "the work of one constrained evaluation, which grows with the contacts (m³ for m "
         "constraint rows) and, with damping, the worst case of its iterations. The default "
         "admits about 10 s of computing on one core.")
+    request_deadline_s: float = Field(
+        60.0, gt=0, description="Longest time a dynamics request computed off the event loop "
+        "(a large batch, a simulation, a contact batch) may compute, in seconds from the "
+        "start of its computation; past it the computation stops between chunks or steps and "
+        "the answer is 503 overloaded (it also stops at once when the client disconnects).")
+    max_answer_bytes_in_flight: int = Field(
+        1024 * 1024 * 1024, ge=1024, description="Largest total of the large HTTP answers (1 "
+        "MiB or more, by their size estimate, then their encoded size) held by one process "
+        "from admission until their clients have read them, in bytes; a request whose answer "
+        "would pass it is answered 503 overloaded with Retry-After before computing (one "
+        "answer alone always passes). It bounds the memory held for clients that do not read.")
     data_pool_mb: int = Field(
         1024, ge=0, description="Memory kept for idle Pinocchio Data between computations, "
         "over all robots, in MB (a Data takes about 80·nv³ bytes; the whole catalog needs "

@@ -170,6 +170,20 @@ def by_name(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]) -> 
     return out
 
 
+def joint_layout(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]
+                 ) -> dict[str, Any]:
+    """`results` as they are (the joint-space vectors stay arrays), with `joint_names`: for
+    each of `fields` present, its joints as `[name, start, size]` over the last axis (nq
+    for "q", else nv). The binary form's answer with `"joint_names": true`: the names once,
+    not per row (a 40,000-step trajectory keyed per row made a header of 100 MB)."""
+    out = dict(results)
+    out["joint_names"] = {
+        field: [[name, start, size] for name, (start, size, _) in
+                _layout(robot, "nq" if field == "q" else "nv").items()]
+        for field in fields if field in out}
+    return out
+
+
 def _keyed(values: np.ndarray, parts: list[tuple[str, int, int]]) -> Any:
     if values.ndim > 1:
         return [_keyed(row, parts) for row in values]

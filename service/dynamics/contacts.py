@@ -87,7 +87,7 @@ def _admit(name: str, robot: Robot, s: States, contacts: Contacts, damping: floa
     each = _state_work(robot, contacts, mu)
     check_work(name, s.count * each, max_work,
                f"{s.count} states × {each:,.0f} (one evaluation of m = {m} constraint rows on "
-               f"nv = {robot.nv}{', damped' if mu else ''})")
+               f"nv = {robot.nv}{', damped' if mu else ''})", each, "states")
     return mu
 
 

@@ -144,12 +144,21 @@ def evaluation_work(nv: int, m: int, damping: float, python_iterations: bool = F
     return work
 
 
-def check_work(quantity: str, work: float, max_work: float | None, factors: str) -> None:
+_LARGEST = {"states": "largest_batch", "steps": "largest_steps"}
+
+
+def check_work(quantity: str, work: float, max_work: float | None, factors: str,
+               each: float = 0.0, unit: str = "states") -> None:
     """`InvalidInput` naming the limit when the estimated `work` is over `max_work` (None:
-    no limit, as for a script)."""
+    no limit, as for a script), and what fits: at most max_work // `each` `unit` (the work
+    of one state or step), given as the member `largest_batch` (states) or `largest_steps`
+    too."""
     if max_work is not None and work > max_work:
+        fits = int(max_work // each) if each > 0 else 0
+        hint = (f"at most {fits:,} {unit} of this request fit; " if fits >= 1 else
+                f"not even one of its {unit} fits; ")
         raise InvalidInput(
             f"{quantity}: the estimated work of this request, {factors} = {work:,.0f} units, is "
-            f"over the limit of {max_work:,} (ROBODYN_MAX_WORK; a unit is about 0.3–0.4 µs): send "
-            "fewer states, steps or contacts, or no damping", work=int(work),
-            max_work=int(max_work))
+            f"over the limit of {max_work:,} (ROBODYN_MAX_WORK; a unit is about 0.3–0.4 µs): "
+            f"{hint}send fewer {unit} or contacts, or no damping", work=int(work),
+            max_work=int(max_work), **{_LARGEST.get(unit, "largest"): fits})

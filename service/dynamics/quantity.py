@@ -15,13 +15,15 @@ bit for bit, faster for large N (Pinocchio's OpenMP batch algorithms).
 from __future__ import annotations
 
 import functools
+import inspect
 from collections.abc import Callable
 from dataclasses import KW_ONLY, dataclass
 from typing import Any
 
 import numpy as np
 
-from service.errors import NonFiniteResult, SingularConfiguration
+from service.dynamics.stopping import ShouldStop
+from service.errors import ComputationStopped, NonFiniteResult, SingularConfiguration
 from service.registry.robot import Robot
 from service.states import States, all_finite
 
@@ -52,7 +54,9 @@ class Quantity:
     `named_options` the options that may be given keyed by joint name (a dotted path into the
     option, "nq" or "nv") pairs, turned into arrays by the request layer before `compute` runs.
     `work(robot, states, options)` estimates the cost in state×dof units (default: states ×
-    nv); larger work than the inline limit is computed off the event loop.
+    nv); larger work than the inline limit is computed off the event loop. A `compute` that
+    takes `should_stop` (`stoppable`) asks it between its steps or states; any other batch is
+    stopped between chunks by `run`.
     """
 
     name: str
@@ -69,6 +73,11 @@ class Quantity:
     settings: tuple[str, ...] = ()
     work: Work | None = None
     smaller_request: SmallerRequest | None = None
+
+    @functools.cached_property
+    def stoppable(self) -> bool:
+        """Whether `compute` takes `should_stop` (asked between its steps or states)."""
+        return "should_stop" in inspect.signature(self.compute).parameters
 
 
 @functools.cache
@@ -107,12 +116,23 @@ def finite(quantity: str, **results: np.ndarray) -> Results:
     return results
 
 
-def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) -> dict[str, Any]:
+def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any],
+        should_stop: ShouldStop | None = None) -> dict[str, Any]:
     """Compute one quantity and drop the batch axis again for a single-state request.
 
     Every computation runs inside the one guard of numerical linear algebra: a factorization
     or eigen-decomposition that fails (numpy's `LinAlgError`: no convergence, a singular
-    matrix, values beyond float64) is `SingularConfiguration` (422), never a 500."""
+    matrix, values beyond float64) is `SingularConfiguration` (422), never a 500.
+
+    `should_stop` (optional, `service.dynamics.stopping`) makes the computation stoppable: a
+    quantity whose function takes `should_stop` (simulate, the contact quantities) asks it
+    between steps or states; any other batch is computed in chunks of about CHUNK_WORK
+    states × nv, and `should_stop` is asked before each."""
+    if should_stop is not None:
+        if quantity.stoppable:
+            options = {**options, "should_stop": should_stop}
+        elif s.count > _chunk_states(robot, quantity):
+            return _run_in_chunks(robot, quantity, s, options, should_stop)
     try:
         if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
             results = finite(quantity.name, **quantity.parallel(robot, s))
@@ -125,6 +145,37 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any]) ->
     # (a non-array answer, e.g. the frame names of frame-placements, is given once as it is)
     return {name: s.unbatch(value) if isinstance(value, np.ndarray) else value
             for name, value in results.items()}
+
+
+CHUNK_WORK = 50_000
+"""States × nv of one chunk of a stoppable batch: a few to a few tens of milliseconds."""
+
+
+def _chunk_states(robot: Robot, quantity: Quantity) -> int:
+    return max(quantity.parallel_from, CHUNK_WORK // max(robot.nv, 1))
+
+
+def _run_in_chunks(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any],
+                   should_stop: ShouldStop) -> dict[str, Any]:
+    """`run` over consecutive chunks of the batch, asking `should_stop` before each; the
+    answers are written into arrays of the whole batch (non-array answers, e.g. frame names,
+    come from the first chunk). A true `should_stop` raises `ComputationStopped`."""
+    n, size = s.count, _chunk_states(robot, quantity)
+    out: dict[str, Any] = {}
+    for start in range(0, n, size):
+        if should_stop():
+            raise ComputationStopped(f"{quantity.name}: stopped at state {start} of {n} "
+                                     "(the client went away or the request's deadline "
+                                     "passed)")
+        part = States({name: a[start:start + size] for name, a in s.arrays.items()}, True)
+        for name, value in run(robot, quantity, part, options).items():
+            if not isinstance(value, np.ndarray):
+                out.setdefault(name, value)
+                continue
+            if name not in out:
+                out[name] = np.empty((n, *value.shape[1:]), dtype=value.dtype)
+            out[name][start:start + value.shape[0]] = value
+    return out
 
 
 def linear_algebra_failure(quantity: str, exc: np.linalg.LinAlgError) -> SingularConfiguration:

@@ -119,10 +119,12 @@ def check_limits(robot: Robot, s: States, steps: int, integrator: str, max_steps
                            "request (ROBODYN_MAX_SIMULATION_STEPS)")
     work = s.count * steps * robot.nv * STAGES[integrator]
     if work > max_work:
+        fits = max_work // max(s.count * robot.nv * STAGES[integrator], 1)
         raise InvalidInput(
             f"this simulation's work, states × steps × nv × stages = {s.count} × {steps} × "
             f"{robot.nv} × {STAGES[integrator]} = {work}, is over the limit of {max_work} "
-            "(ROBODYN_MAX_SIMULATION_WORK); simulate fewer steps or states")
+            f"(ROBODYN_MAX_SIMULATION_WORK): at most {fits:,} steps of this request fit; "
+            "simulate fewer steps or states", work=work, max_work=max_work, largest_steps=fits)
 
 
 def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
@@ -157,7 +159,8 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
         each = rollout_evaluation_work(robot, contacts, damping, controller is not None)
         check_work("simulate", simulation_work(robot, s, options), max_work,
                    f"states × steps × stages × one constrained evaluation = {s.count} × "
-                   f"{steps} × {STAGES[integrator]} × {each:,.0f}")
+                   f"{steps} × {STAGES[integrator]} × {each:,.0f}",
+                   s.count * STAGES[integrator] * each, "steps")
     stop = Stopper(should_stop, "simulate", "step")
     # contacts: the PD's gravity compensation is replaced by a contact-consistent one
     contact = (ContactRollout(robot, contacts, dt, damping) if contacts is not None else None)

@@ -358,3 +358,23 @@ def test_the_examples_of_the_client_guide_run(server: str,
     assert "6000/6000 steps" in out and "422 dimension_mismatch ['panda_joint2'" in out
     assert "34.87 shoulder_lift_joint" in out
     assert "4.235 + 2.1*cos(q2)" in out  # the equations example
+
+
+def test_a_request_stopped_at_the_server_deadline_is_not_retried(real_retries: Any) -> None:
+    """504 deadline_exceeded: the same request would stop again, so it is raised at once
+    (a `DeadlineExceededError`, also a builtin `TimeoutError`)."""
+    log: list[float] = []
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        log.append(time.monotonic())
+        return httpx.Response(504, json={
+            "type": "about:blank", "title": "Deadline exceeded", "status": 504,
+            "detail": "simulate: stopped after 60 s of computing", "code": "deadline_exceeded",
+            "deadline_s": 60.0})
+
+    http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://mock")
+    with Client(http_client=http, retry=Retry(attempts=5, timeout=10.0)) as client, \
+            pytest.raises(robodyn.DeadlineExceededError) as raised:
+        client.gravity("ur5", np.zeros(6))
+    assert len(log) == 1 and isinstance(raised.value, TimeoutError)
+    assert raised.value.body["deadline_s"] == 60.0

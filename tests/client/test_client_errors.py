@@ -33,6 +33,7 @@ EXPECTED: dict[str, tuple[int, type[robodyn.APIError], type[BaseException]]] = {
     "unauthorized": (401, robodyn.UnauthorizedError, PermissionError),
     "not_ready": (503, robodyn.NotReadyError, robodyn.ServiceUnavailableError),
     "overloaded": (503, robodyn.OverloadedError, robodyn.ServiceUnavailableError),
+    "deadline_exceeded": (504, robodyn.DeadlineExceededError, TimeoutError),
     "internal_error": (500, robodyn.InternalServerError, robodyn.ServerError),
     "bad_request": (400, robodyn.BadRequestError, robodyn.APIError),
     "not_found": (404, robodyn.NotFoundError, LookupError),

@@ -120,6 +120,9 @@ def test_resources_are_requested_and_limited(container):
     env = _env(container)
     assert env["ROBODYN_WORKERS"] == "1"  # one process per pod: its /metrics is the pod's
     assert int(env["ROBODYN_MAX_BATCH"]) <= Settings().max_batch  # caps one answer's memory
+    # answers held for clients that do not read: at most a quarter of the pod's memory
+    held = int(env["ROBODYN_MAX_ANSWER_BYTES_IN_FLIGHT"])
+    assert held <= mib(resources["limits"]["memory"]) * 2**20 / 4
 
 
 def test_every_replica_shares_one_read_write_many_volume_as_data_dir(pod, container):

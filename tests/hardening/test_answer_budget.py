@@ -16,6 +16,7 @@ import pytest
 
 from service import dynamics
 from service.api.encoding import answers
+from service.api.encoding import budget as budget_module
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.encoding.budget import (
     BINARY_BYTES_PER_NUMBER,
@@ -112,21 +113,26 @@ def test_json_pieces_are_the_same_text(monkeypatch, shape) -> None:
 
 def test_answers_keyed_by_joint_name_count_their_keys(app_factory) -> None:
     client = app_factory(catalog="ur5", max_answer_bytes=100_000)
-    per_state = 6 * JSON_BYTES_PER_NUMBER  # gravity: nv = 6 numbers
-    states = 100_000 // per_state  # fits as plain numbers
-    q = [[0.1] * 6] * states
-    assert client.post("/v1/robots/ur5/gravity", json={"q": q}).status_code == 200
+    q = [[0.1] * 6] * 2000  # over the budget either way
+    plain = client.post("/v1/robots/ur5/gravity", json={"q": q})
     named = client.post("/v1/robots/ur5/gravity", json={"q": q, "joint_names": True})
-    assert named.status_code == 413, named.text
-    fits = named.json()["largest_batch"]
-    assert 0 < fits < states
-    ok = client.post("/v1/robots/ur5/gravity", json={"q": q[:fits], "joint_names": True})
+    assert plain.status_code == named.status_code == 413, named.text
+    fits, fits_named = plain.json()["largest_batch"], named.json()["largest_batch"]
+    assert 0 < fits_named < fits < 2000
+    ok = client.post("/v1/robots/ur5/gravity", json={"q": q[:fits_named], "joint_names": True})
     assert ok.status_code == 200 and len(ok.content) <= 100_000
+    assert client.post("/v1/robots/ur5/gravity", json={"q": q[:fits]}).status_code == 200
+    assert client.post("/v1/robots/ur5/gravity", json={"q": q[:fits_named + 1],
+                                                        "joint_names": True}).status_code == 413
 
 
 # -- a real server ---------------------------------------------------------------------------
 
 TALOS_NV, TALOS_NQ = 38, 39
+
+
+def talos_robot():
+    return load_catalog(["talos"])[0]["talos"]
 
 
 def _talos_q(n: int, seed: int = 0) -> list:
@@ -145,8 +151,9 @@ def base(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
 def test_a_batch_over_the_budget_is_refused_before_computing(base: str) -> None:
     budget = 256 * 1024 * 1024  # the default
     per_state = TALOS_NV * TALOS_NV
-    fits = budget // (per_state * JSON_BYTES_PER_NUMBER)
-    fits_binary = budget // (per_state * BINARY_BYTES_PER_NUMBER)
+    fixed = budget_module.ANSWER_ALLOWANCE + budget_module.frame_names_bytes(talos_robot())
+    fits = (budget - fixed) // (per_state * JSON_BYTES_PER_NUMBER)
+    fits_binary = (budget - fixed) // (per_state * BINARY_BYTES_PER_NUMBER)
     q = [[0.0] * 6 + [1.0] + [0.0] * 32] * 100_000  # the default ROBODYN_MAX_BATCH
     started = time.perf_counter()
     r = httpx.post(base + "/v1/robots/talos/mass-matrix", json={"q": q}, timeout=120)
@@ -175,7 +182,9 @@ def test_a_long_simulation_over_the_budget_names_the_steps_that_fit(app_factory)
     start = {"q": [0.0] * 6, "v": [0.0] * 6, "dt": 1e-3}
     r = client.post("/v1/robots/ur5/simulate", json={**start, "steps": 10_000})
     assert r.status_code == 413, r.text
-    steps = 1_000_000 // ((6 + 6 + 2) * JSON_BYTES_PER_NUMBER) - 1
+    ur5 = load_catalog(["ur5"])[0]["ur5"]
+    fixed = budget_module.ANSWER_ALLOWANCE + budget_module.frame_names_bytes(ur5)
+    steps = (1_000_000 - fixed) // ((6 + 6 + 2) * JSON_BYTES_PER_NUMBER) - 1
     assert f"simulate at most {steps:,} steps per request" in r.json()["detail"]
     ok = client.post("/v1/robots/ur5/simulate", json={**start, "steps": steps})
     assert ok.status_code == 200 and len(ok.content) <= 1_000_000

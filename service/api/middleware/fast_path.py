@@ -12,14 +12,16 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
-from starlette.requests import ClientDisconnect, HTTPConnection, Request
+from starlette.requests import ClientDisconnect, Request
 from starlette.types import Message, Receive, Scope, Send
 
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
+from service.api.encoding.in_flight import release_answer_bytes
 from service.api.routes.dynamics import ENDPOINTS, PREFIX
 from service.errors import InvalidInput
 
 _START = PREFIX + "/"
+BINARY_PIECE_BYTES = 1 << 20  # a large binary answer is sent in pieces of this size
 _MEDIA_TYPES = {"application/json": b"application/json",
                 BINARY_MEDIA_TYPE: BINARY_MEDIA_TYPE.encode()}
 
@@ -40,26 +42,37 @@ class DynamicsFastPath:
                     scope["path_params"] = {"robot_id": robot_id}
                     scope["route"] = endpoint.route  # for the metrics and the access log
                     try:
-                        content, media_type = await endpoint.handle(
-                            HTTPConnection(scope), await _body(scope, receive))
-                    except Exception as exc:
-                        handler = _handler(scope["app"].exception_handlers, exc)
-                        if handler is None:
-                            raise  # the server-error middleware answers 500, as for any route
-                        response = await handler(Request(scope, receive), exc)
-                        await response(scope, receive, send)
-                        return
-                    length = (sum(len(p) for p in content) if isinstance(content, list)
-                              else len(content))
-                    await send({"type": "http.response.start", "status": 200, "headers": [
-                        (b"content-length", str(length).encode()),
-                        (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode())]})
-                    if isinstance(content, list):
-                        await _send_pieces(send, content)
-                    else:
-                        await send({"type": "http.response.body", "body": content})
+                        await _answer(endpoint, scope, receive, send)
+                    finally:  # sent, failed or abandoned: the answer's bytes are no longer held
+                        release_answer_bytes(scope, scope["app"])
                     return
         await self.app(scope, receive, send)
+
+
+async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> None:
+    """Answer one dynamics request: the endpoint's content, or the app's problem answer."""
+    try:
+        content, media_type = await endpoint.handle(Request(scope, receive),
+                                                    await _body(scope, receive))
+    except Exception as exc:
+        handler = _handler(scope["app"].exception_handlers, exc)
+        if handler is None:
+            raise  # the server-error middleware answers 500, as for any route
+        response = await handler(Request(scope, receive), exc)
+        await response(scope, receive, send)
+        return
+    length = (sum(len(p) for p in content) if isinstance(content, list) else len(content))
+    await send({"type": "http.response.start", "status": 200, "headers": [
+        (b"content-length", str(length).encode()),
+        (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode())]})
+    if isinstance(content, bytes) and len(content) > BINARY_PIECE_BYTES:
+        view = memoryview(content)  # pieces, so that `send` returns once they are read
+        content = [view[i:i + BINARY_PIECE_BYTES]  # type: ignore[misc]
+                   for i in range(0, len(content), BINARY_PIECE_BYTES)]
+    if isinstance(content, list):
+        await _send_pieces(send, content)
+    else:
+        await send({"type": "http.response.body", "body": content})
 
 
 async def _send_pieces(send: Send, pieces: list[bytes]) -> None:

@@ -29,6 +29,7 @@ from prometheus_client.core import CounterMetricFamily
 from prometheus_client.registry import Collector
 from starlette.requests import ClientDisconnect
 
+from service.api.cancellation import STOPPED
 from service.api.problems.handlers import problem
 from service.logs import REQUEST_ID, sole_json_handler
 from service.server.limits import CLOSED as CONNECTIONS_CLOSED
@@ -78,6 +79,7 @@ class Metrics:
             "robodyn_batch_size", "States per dynamics request (1 for a single state)",
             ["quantity"], registry=self.registry, buckets=_BATCH_BUCKETS)
         self.registry.register(_ConnectionsClosed())
+        self.registry.register(_ComputationsStopped())
         self._request_children: dict[tuple[str, str, str, int], tuple[Any, Any]] = {}
         self._compute_children: dict[tuple[str, str], tuple[Any, Any]] = {}
 
@@ -112,6 +114,19 @@ class _ConnectionsClosed(Collector):
             "robodyn_connections_closed", "Connections closed by the server's HTTP protocol "
             "for a timeout, the connection cap or malformed HTTP", labels=["reason"])
         for reason, count in CONNECTIONS_CLOSED.items():
+            family.add_metric([reason], count)
+        yield family
+
+
+class _ComputationsStopped(Collector):
+    """`robodyn_computations_stopped_total{reason}`: long computations stopped before their
+    end (`service.api.cancellation`): deadline (ROBODYN_REQUEST_DEADLINE_S) or disconnect."""
+
+    def collect(self) -> Iterator[CounterMetricFamily]:
+        family = CounterMetricFamily(
+            "robodyn_computations_stopped", "Long computations stopped before their end: "
+            "the request's deadline passed or its client disconnected", labels=["reason"])
+        for reason, count in STOPPED.items():
             family.add_metric([reason], count)
         yield family
 

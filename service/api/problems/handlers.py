@@ -34,6 +34,7 @@ STATUS_BY_CODE: dict[str, int] = {
     "unauthorized": 401,
     "not_ready": 503,
     "overloaded": 503,
+    "deadline_exceeded": 504,
     "internal_error": 500,
     # Protocol-level problems raised by the framework itself:
     "bad_request": 400,

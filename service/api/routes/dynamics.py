@@ -11,7 +11,7 @@ routes with the very same models (`openapi_routes`), and failures are the same p
 # No `from __future__ import annotations`: FastAPI must see the closures' request models.
 import time
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 from fastapi import APIRouter, Request, Response
@@ -23,15 +23,12 @@ from starlette.routing import Route
 
 from service import dynamics
 from service.api import inputs
+from service.api.cancellation import cancellable
 from service.api.deps import check_api_key_for_all
 from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
-from service.api.encoding.budget import (
-    BINARY_BYTES_PER_NUMBER,
-    JSON_BYTES_PER_NUMBER,
-    check_answer_size,
-    key_bytes,
-)
+from service.api.encoding.budget import check_answer_size
+from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
 from service.api.quantities import SPECS, Spec
 from service.api.schemas.common import Problem
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
@@ -51,21 +48,34 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
     422: {"model": Problem, "description": "validation_error, dimension_mismatch, "
           "invalid_configuration, non_finite_result (and the quantity's own codes)"},
     503: {"model": Problem, "description": "not_ready, overloaded"},
+    504: {"model": Problem, "description": "deadline_exceeded"},
 }
 
 
 async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) -> T:
-    """Run `fn(*args)` (a large batch's work) in a worker thread; shed load (503 overloaded)
-    past `max_pending_batches` in flight."""
+    """Run `fn(*args)` (a large batch's work) in a worker thread, at most as many at once as
+    the process has CPUs (the others wait their turn on the event loop: Python code and
+    Pinocchio hold the GIL, so more threads would only take turns with the event loop's);
+    shed load (503 overloaded) past `max_pending_batches` computed or waiting."""
     state = request.app.state
     if state.batches_in_flight >= state.settings.max_pending_batches:
         raise Overloaded(f"{state.batches_in_flight} large batches are already being computed; "
                          "retry shortly")
     state.batches_in_flight += 1  # only touched on the event loop: no lock needed
     try:
-        return await run_in_threadpool(fn, *args)
+        async with state.off_loop_slots:  # a few at once: the loop keeps its share of the GIL
+            return await run_in_threadpool(fn, *args)
     finally:
         state.batches_in_flight -= 1
+
+
+class _Sizing(NamedTuple):
+    """How a request's answer is sized: its connection, the answer budget, its form."""
+
+    connection: HTTPConnection
+    limit: int
+    binary: bool
+    named: bool
 
 
 def _rows(arrays: dict[str, Any]) -> int:
@@ -148,13 +158,14 @@ class Endpoint:
         return arrays, (options.model_dump(include=given) if given else {})
 
     async def compute(self, request: HTTPConnection, robot: Any, arrays: dict[str, Any],
-                      options: dict[str, Any],
-                      bytes_per_number: int = JSON_BYTES_PER_NUMBER) -> dict[str, Any]:
+                      options: dict[str, Any], as_binary: bool = False) -> dict[str, Any]:
         """Validate the states, check the answer's size against the budget
-        (`service.api.encoding.budget`, at `bytes_per_number`) and compute: inline when small,
-        in a worker thread when large. Name-keyed inputs and options become arrays first
-        (`fill` fills missing joints); with `"joint_names": true` the joint-space answers are
-        keyed by joint name. The robot computed with is `inputs.robot_for(robot, options)`.
+        (`service.api.encoding.budget`, for the form asked for) and compute: inline when
+        small, in a worker thread when large, stoppable there by the request's deadline and
+        its client's disconnect (`service.api.cancellation`). Name-keyed inputs and options
+        become arrays first (`fill` fills missing joints); with `"joint_names": true` the
+        joint-space answers are keyed by joint name (in the binary form: arrays, with their
+        joint layout once). The robot computed with is `inputs.robot_for(robot, options)`.
         Records what was computed in the ASGI scope (`scope["robodyn"]`) for logs and
         Server-Timing."""
         named = options.pop("joint_names", False) if options else False
@@ -168,44 +179,52 @@ class Endpoint:
             options[setting] = getattr(settings, setting)
         started = time.perf_counter()
         work = self.quantity.work
-        if named and self.quantity.joint_answers:  # each number then also carries its key
-            bytes_per_number += key_bytes(robot)
-        budget = (bytes_per_number, settings.max_answer_bytes)
+        sizing = _Sizing(request, settings.max_answer_bytes, as_binary, named)
         large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
         if large:
-            states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
-                                             options, settings.max_batch, budget, fill)
+            async with cancellable(request, self.quantity.name) as stop:
+                states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
+                                                 options, settings.max_batch, sizing, fill,
+                                                 stop)
         else:
             states = inputs.prepare_states(robot, arrays, settings.max_batch, fill)
-            self._check_size(robot, states, options, budget)
+            self._check_size(robot, states, options, sizing)
             large = (states.count * robot.nv if work is None else work(robot, states, options)
                      ) > INLINE_WORK
             if large:
-                result = await off_loop(request, dynamics.run, robot, self.quantity, states,
-                                         options)
+                async with cancellable(request, self.quantity.name) as stop:
+                    result = await off_loop(request, dynamics.run, robot, self.quantity,
+                                             states, options, stop)
             else:
                 result = dynamics.run(robot, self.quantity, states, options)
         request.scope["robodyn"] = {
             "robot": robot.id, "quantity": self.quantity.name, "batch_size": states.count,
             "compute_seconds": time.perf_counter() - started, "large": large}
         if named:
-            result = inputs.by_name(robot, result, self.quantity.joint_answers)
+            keyed = inputs.joint_layout if as_binary else inputs.by_name
+            result = keyed(robot, result, self.quantity.joint_answers)
         return result
 
     def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
-                         max_batch: int, budget: tuple[int, int], fill: str | None = None
-                         ) -> tuple[Any, dict[str, Any]]:
+                         max_batch: int, sizing: "_Sizing", fill: str | None = None,
+                         should_stop: Any = None) -> tuple[Any, dict[str, Any]]:
         states = inputs.prepare_states(robot, arrays, max_batch, fill)
-        self._check_size(robot, states, options, budget)
-        return states, dynamics.run(robot, self.quantity, states, options)
+        self._check_size(robot, states, options, sizing)
+        return states, dynamics.run(robot, self.quantity, states, options, should_stop)
 
     def _check_size(self, robot: Any, states: Any, options: dict[str, Any],
-                    budget: tuple[int, int]) -> None:
-        """413 before computing an answer over `ROBODYN_MAX_ANSWER_BYTES` (single states of
-        fixed-size quantities are far below it: not checked, the hot path stays as it was)."""
+                    sizing: "_Sizing") -> None:
+        """413 before computing an answer over `ROBODYN_MAX_ANSWER_BYTES`, and 503 when a large
+        answer would pass the bytes of answers in flight (`encoding.in_flight`; reserved in
+        the request's scope, released once sent). Single states of fixed-size quantities are
+        far below both: not checked, the hot path stays as it was."""
         if states.count > 1 or self.quantity.work is not None:
-            check_answer_size(self.quantity, robot, options, "v" in states.arrays,
-                              states.count, *budget)
+            size = check_answer_size(self.quantity, robot, options, "v" in states.arrays,
+                                     states.count, sizing.limit, sizing.binary, sizing.named)
+            scope = sizing.connection.scope
+            if scope.get("type") == "http" and not scope.get(ANSWER_BYTES):
+                in_flight = sizing.connection.app.state.answers_in_flight
+                scope[ANSWER_BYTES] = in_flight.reserve(size)
 
     async def handle(self, request: HTTPConnection, body: bytes | bytearray
                      ) -> tuple[bytes | list[bytes], str]:
@@ -226,8 +245,7 @@ class Endpoint:
         else:
             arrays, options = self.parse_json(body)
         as_binary = binary.BINARY_MEDIA_TYPE in accept
-        result = await self.compute(request, robot, arrays, options,
-                                    BINARY_BYTES_PER_NUMBER if as_binary else JSON_BYTES_PER_NUMBER)
+        result = await self.compute(request, robot, arrays, options, as_binary)
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
         if request.scope["robodyn"]["large"]:
             # In a worker thread (~0.1 s for 10k mass matrices); JSON in pieces, each encoded
@@ -237,12 +255,18 @@ class Endpoint:
             content: bytes | list[bytes] = await off_loop(request, encode_large, result)
         else:
             content = binary.encode(result) if as_binary else json_bytes(result)
+        if request.scope.get(ANSWER_BYTES):  # from the estimate to what is really held
+            sent = (sum(len(p) for p in content) if isinstance(content, list) else len(content))
+            request.app.state.answers_in_flight.resize(request.scope, ANSWER_BYTES, sent)
         return content, media_type
 
     async def answer(self, request: Request) -> Response:
         """The Starlette endpoint (`service.api.middleware.fast_path` calls `handle` directly)."""
         request.scope["route"] = self.route  # FastAPI's router records only its own routes
-        content, media_type = await self.handle(request, await request.body())
+        try:
+            content, media_type = await self.handle(request, await request.body())
+        finally:
+            release_answer_bytes(request.scope, request.app)
         return Response(content if isinstance(content, bytes) else b"".join(content),
                         media_type=media_type)
 

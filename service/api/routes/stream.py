@@ -61,7 +61,7 @@ async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) 
         fields, arrays = binary.decode(data)
         endpoint = _endpoint(fields.pop("quantity", None))
         arrays, options = endpoint.parse_binary(fields, arrays)
-        result = await endpoint.compute(websocket, robot, arrays, options)
+        result = await endpoint.compute(websocket, robot, arrays, options, as_binary=True)
         large = websocket.scope["robodyn"]["large"]
         await websocket.send_bytes(await off_loop(websocket, binary.encode, result) if large
                                    else binary.encode(result))

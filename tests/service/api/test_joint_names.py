@@ -137,12 +137,20 @@ def test_binary_answers_can_be_keyed_by_name(api):
     r = api.post("/v1/robots/ur5/gravity", content=body,
                  headers={"content-type": binary.BINARY_MEDIA_TYPE,
                           "accept": binary.BINARY_MEDIA_TYPE})
-    fields, arrays = binary.decode(r.content)  # keyed answers: JSON in __metadata__
-    assert arrays == {} and fields["gravity"] == {
-        name: value for name, value in zip(
-            ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
-             "wrist_2_joint", "wrist_3_joint"], api.post("/v1/robots/ur5/gravity", json={
-                "q": [0.0] * 6}).json()["gravity"], strict=True)}
+    fields, arrays = binary.decode(r.content)  # arrays stay arrays; the names come once
+    plain = api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6}).json()["gravity"]
+    assert arrays["gravity"].tolist() == plain
+    layout = fields["joint_names"]["gravity"]
+    assert [name for name, _, _ in layout] == [
+        "shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+        "wrist_2_joint", "wrist_3_joint"]
+    by_name = r_json_named(api)
+    assert {name: arrays["gravity"][start] for name, start, size in layout} == by_name
+
+
+def r_json_named(api) -> dict:
+    body = {"q": [0.0] * 6, "joint_names": True}
+    return api.post("/v1/robots/ur5/gravity", json=body).json()["gravity"]
 
 
 def _ur5(api, **change) -> dict:

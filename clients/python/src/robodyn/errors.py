@@ -31,9 +31,10 @@ nothing of robodyn can still catch them (`except LookupError`, `except ValueErro
         │   └── UnsupportedModelError             422 unsupported_model
         └── ServerError                           5xx
             ├── InternalServerError               500 internal_error
-            └── ServiceUnavailableError           503
-                ├── NotReadyError                 503 not_ready
-                └── OverloadedError               503 overloaded
+            ├── ServiceUnavailableError           503
+            │   ├── NotReadyError                 503 not_ready
+            │   └── OverloadedError               503 overloaded
+            └── DeadlineExceededError (builtins.TimeoutError)  504 deadline_exceeded
 
 A code this client does not know yet falls back by HTTP status to the class of that status in
 the tree (a new 422 code raises `UnprocessableError`, a new 503 code `ServiceUnavailableError`,
@@ -242,6 +243,13 @@ class NotReadyError(ServiceUnavailableError):
 
 class OverloadedError(ServiceUnavailableError):
     error_code = "overloaded"
+
+
+class DeadlineExceededError(ServerError, builtins.TimeoutError):
+    """The computation stopped at the server's request deadline (504): ask for less work per
+    request (fewer states or steps). Not retried: the same request would stop again."""
+
+    status_code, error_code = 504, "deadline_exceeded"
 
 
 def _tree(cls: type[APIError]) -> list[type[APIError]]:

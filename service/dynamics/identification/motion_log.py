@@ -42,6 +42,7 @@ FILTER_ORDER = 4
 MARGIN_PERIODS = 3.0  # edge margin, in periods of the cut-off frequency
 DECIMATION_RATE = 2.0  # fit samples per period of the cut-off: the filtered band's Nyquist rate
 DEFAULT_VALIDATION_FRACTION = 0.2
+RESAMPLING_GROWTH = 4  # a uniform grid of at most this many times a part's samples (+ 1000)
 ONE_DOF = ("revolute", "prismatic", "continuous")
 
 
@@ -198,8 +199,14 @@ def _part(robot: Robot, t: np.ndarray, q: np.ndarray, tau: np.ndarray,
     if lowpass is None:
         return Part(t=t, q=q, v=given["v"], a=given["a"], tau=tau, keep=slice(None))
     step = 1.0 / lowpass.sample_rate
-    grid = t[0] + step * np.arange(math.floor((t[-1] - t[0]) / step + 1e-9) + 1) \
-        if t.size else t
+    count = math.floor((t[-1] - t[0]) / step + 1e-9) + 1 if t.size else 0
+    if count > RESAMPLING_GROWTH * t.size + 1000:
+        raise InvalidInput(
+            f"the log's sampling is too irregular to resample: at its median interval "
+            f"({step:.3g} s) its duration would take {count:.3g} samples, more than "
+            f"{RESAMPLING_GROWTH} times the {t.size} it has; send v and a (then it is used as "
+            "it is), or a log sampled more evenly")
+    grid = t[0] + step * np.arange(count) if t.size else t
     padlen = 3 * (2 * len(lowpass.sos) + 1)
     if grid.size <= max(padlen, 2 * lowpass.margin + 1):  # too short to filter: no samples
         zero = np.zeros((0, tau.shape[1]))

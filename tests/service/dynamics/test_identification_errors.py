@@ -108,3 +108,10 @@ def test_continuous_joint_needs_unit_cos_sin():
     log.q[3, 0] = 2.0
     with pytest.raises(InvalidConfiguration, match="unit norm"):
         identify(kinova, log.t, log.q, log.tau)
+
+
+def test_a_log_too_irregular_to_resample(ur5, log):
+    t = log.t + 100.0 * (np.arange(log.t.size) // 50)  # a 100 s gap every 50 samples
+    with pytest.raises(InvalidInput, match="too irregular to resample"):
+        identify(ur5, t, log.q, log.tau)
+    identify(ur5, t, log.q, log.tau, v=log.v, a=log.a, method="least-squares")  # as it is

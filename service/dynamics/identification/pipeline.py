@@ -192,13 +192,13 @@ def _answer(robot: Robot, columns: Columns, base: BaseParameters, result: Fit, l
         summary = body_summary("payload", result.theta[:PER_BODY])
         payload = {"frame": columns.payload_frame, "mass": summary["mass"],
                    "center_of_mass": summary["center_of_mass"], "inertia": summary["inertia"]}
-    margin_ok = bool((pseudo_inertia_min_eigenvalues(own) >= -CONSISTENCY_TOLERANCE).all())
+    consistent = bool((pseudo_inertia_min_eigenvalues(own) >= -CONSISTENCY_TOLERANCE).all())
     valid_t = log.validation.t[log.validation.keep]
     return Identification(
         parameters=pi, bodies=bodies, friction=friction,
         base_parameters={"expressions": base.expressions(), "values": result.beta,
                          "standard_deviation": result.beta_std},
-        condition_number=result.condition_number, physically_consistent=margin_ok,
+        condition_number=result.condition_number, physically_consistent=consistent,
         rmse={"train": _rmse(predicted_train - train[2]),
               "validation": _rmse(predicted - validation[2]),
               "validation_before": _rmse(before - validation[2])},

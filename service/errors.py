@@ -33,6 +33,7 @@ import difflib
 from collections.abc import Iterable
 from typing import Any, ClassVar
 
+MAX_DETAIL_CHARS = 4000
 _SUGGESTED_NAME_CHARS = 64  # a name longer than this (or unprintable) gets no suggestion
 
 
@@ -53,7 +54,10 @@ def did_you_mean(name: str, valid: Iterable[str], most: int = 3) -> str:
 def problem_document(code: str, title: str, status: int, detail: str, **extra: Any
                      ) -> dict[str, Any]:
     """The RFC 9457 problem details object of an error answer, with its stable `code` (and
-    `extra` members, e.g. `errors` or `largest_batch`)."""
+    `extra` members, e.g. `errors` or `largest_batch`). A `detail` longer than
+    `MAX_DETAIL_CHARS` is cut (its names are shortened where it is written; this is the net)."""
+    if len(detail) > MAX_DETAIL_CHARS:
+        detail = detail[:MAX_DETAIL_CHARS] + "…"
     return {"type": "about:blank", "title": title, "status": status, "detail": detail,
             "code": code, **extra}
 

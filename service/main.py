@@ -16,8 +16,10 @@ from fastapi import Depends, FastAPI
 from service import __version__, heap, unpin_this_thread
 from service.api.deps import require_api_key_for_all
 from service.api.encoding.in_flight import AnswerBytesInFlight
+from service.api.middleware.api_keys import KeyBeforeBody
 from service.api.middleware.body_limit import BodyLimitMiddleware
 from service.api.middleware.fast_path import DynamicsFastPath
+from service.api.middleware.head import HeadAsGet
 from service.api.middleware.observability import Metrics, ObservabilityMiddleware
 from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
@@ -56,6 +58,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if not injected and not registry.ready:
             threading.Thread(target=registry.load, name="catalog-loader", daemon=True).start()
+        # The OpenAPI document (~0.5 s to build) is read by the first validation error, for
+        # close-match suggestions: built now, not on the event loop under that request.
+        app.openapi()
         yield
         worker = getattr(app.state, "identification", None)
         if worker is not None:  # the identification worker process, if one was started
@@ -105,6 +110,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
                               *identification.routes()]
     app.include_router(pages.router)
     app.add_middleware(DynamicsFastPath)  # innermost: after the body limit and observability
+    app.add_middleware(HeadAsGet)  # HEAD on every GET route
+    app.add_middleware(KeyBeforeBody)  # 401 before a body is read
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
                        upload_limit=settings.max_upload_bytes,
                        json_limit=settings.max_json_body_bytes)

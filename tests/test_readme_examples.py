@@ -89,6 +89,11 @@ def test_the_curl_examples_run(server: str) -> None:
     assert len(answers[0]["mass_matrix"]) == 6
     standing = answers[1]  # Solo-12 on its four feet: the base needs no torque
     assert standing["tau"][:6] == [0.0] * 6 and standing["residual"] < 1e-9
+    readme = (ROOT / "README.md").read_text()
+    shown = float(re.search(r'"residual": ([0-9.e+-]+)\}', readme).group(1))  # type: ignore[union-attr]
+    assert (shown == standing["residual"] == 0.0
+            or 1e-3 < shown / max(standing["residual"], 1e-300) < 1e3), (
+        shown, standing["residual"])  # the README shows what the server answers, roughly
     mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
     assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
     _check_payload_examples(server, answers[2], answers[3])

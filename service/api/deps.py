@@ -46,6 +46,11 @@ def _check_key(connection: HTTPConnection, what: str) -> None:
 
 async def require_api_key(connection: HTTPConnection) -> None:
     """Where `ROBODYN_API_KEYS` is set, demand `Authorization: Bearer <key>` (constant time)."""
+    check_api_key(connection)
+
+
+def check_api_key(connection: HTTPConnection) -> None:
+    """`require_api_key` as a plain call (`service.api.middleware.api_keys`)."""
     _check_key(connection, "this operation")
 
 

@@ -14,6 +14,12 @@ Every joint must be named once, unless the request says how to fill the others (
 `"neutral"` or the name of one of the robot's reference configurations (e.g. `"standing"`)
 gives a missing joint's q from that configuration; a missing joint's v, a and τ are zero.
 
+A ROS `sensor_msgs/JointState` as JSON (`{"name": [...], "position": [...], "velocity": [...],
+"effort": [...]}`, what rosbridge and `json.dumps` of a message give) is taken the same way:
+q (and simulate's `q_target`) takes its positions, v its velocities, τ its efforts, one number
+per name; a list of them is a batch. A joint named twice — in a JointState or, in a JSON body,
+as a key given twice in one object (JSON parsers keep the last silently) — is a 422 naming it.
+
 `by_name` turns answers the other way round: `{"joint": value}` for one state and a list of
 objects for a batch (or a trajectory).
 
@@ -25,12 +31,15 @@ keyed by joint name are declared by their quantity (`Quantity.named_options`, e.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
+from pydantic import ValidationError
 
+from service.api.schemas.common import JointState
 from service.dynamics import Quantity
 from service.dynamics.payloads import robot_with_payloads
 from service.errors import DimensionMismatch, InvalidInput, did_you_mean
@@ -42,9 +51,51 @@ _NAME_CHARS = 64  # characters of an unknown name shown at most
 
 
 def is_named(value: Any) -> bool:
-    """True for a name-keyed object, or a list of them (a batch)."""
-    return type(value) is dict or (type(value) is list and len(value) > 0
-                                   and type(value[0]) is dict)
+    """True for a name-keyed object or a JointState, or a list of them (a batch)."""
+    kind = type(value[0]) if type(value) is list and len(value) > 0 else type(value)
+    return kind is dict or kind is JointState
+
+
+# Which of a JointState's vectors a joint-space input (by its field's last name) takes.
+_JOINT_STATE_VECTORS = {"q": "position", "q_target": "position", "v": "velocity",
+                        "tau": "effort"}
+_JOINT_STATE_KEYS = frozenset(("name", "position", "velocity", "effort", "header"))
+
+
+def _joint_state(value: Any) -> JointState | None:
+    """`value` as a JointState: the model itself, or its dump (an option's `model_dump`)."""
+    if type(value) is JointState:
+        return value
+    if (type(value) is dict and type(value.get("name")) is list
+            and value.keys() <= _JOINT_STATE_KEYS):
+        try:
+            return JointState.model_validate(value)
+        except ValidationError:  # e.g. joints called "name" and "position": keyed by name
+            return None
+    return None
+
+
+def _from_joint_state(state: JointState, field: str) -> dict[str, Any]:
+    """The name-keyed object of `state`'s vector that `field` takes (positions for q, ...)."""
+    leaf = field.split("[")[0].rsplit(".", 1)[-1]
+    vector = _JOINT_STATE_VECTORS.get(leaf)
+    if vector is None:
+        raise InvalidInput(f"{field} cannot be given as a JointState (it has positions for q, "
+                           "velocities for v and efforts for τ); give an object keyed by joint "
+                           "name or an array")
+    values = getattr(state, vector)
+    if len(values) != len(state.name):
+        raise DimensionMismatch(f"{field} as a JointState takes its `{vector}`, one number per "
+                                f"name: it has {len(values)} for {len(state.name)} names")
+    by_name = dict(zip(state.name, values, strict=True))
+    if len(by_name) != len(state.name):
+        seen: set[str] = set()
+        for name in state.name:
+            if name in seen:
+                raise InvalidInput(f"{field} names joint '{_names([name])[0]}' twice; name "
+                                   "each joint once")
+            seen.add(name)
+    return by_name
 
 
 def any_named(arrays: Mapping[str, Any]) -> bool:
@@ -140,13 +191,19 @@ def from_names(robot: Robot, field: str, value: Any, dim: str, fill: str | None 
         return value
     layout = _layout(robot, dim)
     base = fill_values(robot, fill, dim)
-    if type(value) is dict:
-        return _state(robot, field, value, dim, layout, base)
-    if not all(type(v) is dict for v in value):
+    if type(value) is not list:
+        return _state(robot, field, _mapping(value, field), dim, layout, base)
+    if not all(type(v) is dict or type(v) is JointState for v in value):
         raise DimensionMismatch(f"{field} mixes joint-name objects and arrays; a batch is a "
                                 "list of objects or a list of arrays")
-    return np.stack([_state(robot, f"{field}[{i}]", v, dim, layout, base)
-                     for i, v in enumerate(value)])
+    return np.stack([_state(robot, f"{field}[{i}]", _mapping(v, f"{field}[{i}]"), dim, layout,
+                            base) for i, v in enumerate(value)])
+
+
+def _mapping(value: Any, field: str) -> Mapping[str, Any]:
+    """A name-keyed object (as it is) or a JointState's vector for `field`, keyed by name."""
+    state = _joint_state(value)
+    return value if state is None else _from_joint_state(state, field)
 
 
 def arrays_from_names(robot: Robot, arrays: Mapping[str, Any], fill: str | None = None
@@ -214,6 +271,48 @@ def options_from_names(robot: Robot, quantity: Quantity, options: dict[str, Any]
         if isinstance(holder, dict) and is_named(holder.get(leaf)):
             holder[leaf] = from_names(robot, path, holder[leaf], dim)
     return options
+
+
+class _RepeatedName(Exception):
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+
+def _unique_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise _RepeatedName(key)
+        out[key] = value
+    return out
+
+
+def refuse_repeated_names(body: bytes | bytearray | str) -> None:
+    """422 for a JSON body in which one object gives a member twice (a joint named twice in a
+    name-keyed input): JSON parsers keep the last value silently. Called only for bodies with
+    name-keyed inputs (a second parse, with a check per object)."""
+    try:
+        json.loads(body, object_pairs_hook=_unique_pairs)
+    except _RepeatedName as repeated:
+        name = _names([repeated.name])[0]
+        raise InvalidInput(f"'{name}' is given twice in one object of the body (a joint named "
+                           "twice?); JSON keeps only the last one: name each joint once") from None
+    except (ValueError, RecursionError):  # the body was read as JSON already: not ours to judge
+        pass
+
+
+def names_keyed(quantity: Quantity, arrays: Mapping[str, Any], options: Mapping[str, Any]
+                ) -> bool:
+    """True when a request's inputs or named options are keyed by joint name."""
+    if any_named(arrays):
+        return True
+    for path, _ in quantity.named_options:
+        holder: Any = options
+        for part in path.split("."):
+            holder = holder.get(part) if isinstance(holder, dict) else None
+        if is_named(holder):
+            return True
+    return False
 
 
 def robot_for(robot: Robot, options: dict[str, Any]) -> Robot:

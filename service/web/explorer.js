@@ -526,8 +526,52 @@ function renderEnergy(M, v) {
 
 // ---- Robots -------------------------------------------------------------------------------
 
-async function loadRobots(chosen) {
+// The robot list as the server has it now: models uploaded through the API (or deleted)
+// since the page loaded appear (or go) when the page comes back into view, every
+// ROBOT_LIST_POLL_MS while it is visible, and when a #robot=<id> link names a robot the list
+// does not have yet. The chosen robot stays chosen.
+const ROBOT_LIST_POLL_MS = 30000;
+
+function hashRobot() {
+  return new URLSearchParams(location.hash.slice(1)).get("robot");
+}
+
+async function refreshRobots() {
+  const select = el("robot");
+  const current = select.value;
   const { robots } = await api("v1/robots");
+  fillRobotList(robots);
+  if (robots.some((r) => r.id === current)) select.value = current;
+  return robots.map((r) => r.id);
+}
+
+function refreshQuietly() {
+  if (document.visibilityState !== "visible") return;
+  refreshRobots().catch(() => {}); // a failed refresh keeps the list as it was
+}
+
+async function followHash() {
+  const id = hashRobot();
+  if (!id || id === el("robot").value) return;
+  const ids = await refreshRobots();
+  if (!ids.includes(id)) {
+    setStatus(`No robot '${id}' on this server (yet): the list has every robot it serves.`, true);
+    return;
+  }
+  el("robot").value = id;
+  await selectRobot(id);
+}
+
+function watchRobotList() {
+  document.addEventListener("visibilitychange", refreshQuietly);
+  window.addEventListener("focus", refreshQuietly);
+  window.addEventListener("hashchange", () => {
+    followHash().catch((err) => setStatus(err.message, true));
+  });
+  setInterval(refreshQuietly, ROBOT_LIST_POLL_MS);
+}
+
+function fillRobotList(robots) {
   const select = el("robot");
   select.replaceChildren();
   const groups = [["catalog", "Catalog"], ["upload", "Uploaded"]];
@@ -544,8 +588,14 @@ async function loadRobots(chosen) {
     }
     select.append(group);
   }
+}
+
+async function loadRobots(chosen) {
+  const { robots } = await api("v1/robots");
+  fillRobotList(robots);
+  const select = el("robot");
   const ids = robots.map((r) => r.id);
-  const fromHash = new URLSearchParams(location.hash.slice(1)).get("robot");
+  const fromHash = hashRobot();
   select.value = [chosen, fromHash, "ur5", ids[0]].find((x) => x && ids.includes(x)) || "";
   return select.value;
 }
@@ -722,6 +772,7 @@ async function start() {
   el("log-scale").addEventListener("change", () => {
     if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
   });
+  watchRobotList();
   for (;;) {
     try {
       await selectRobot(await loadRobots());

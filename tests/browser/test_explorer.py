@@ -456,3 +456,41 @@ def test_planar_root_gives_x_y_and_an_angle(page, server, api) -> None:
     q, v = shown_state(page)
     assert q[:4] == pytest.approx([0.25, 0.0, math.cos(2.0), math.sin(2.0)], abs=1e-15)
     assert_matches_api(page, api, robot, q, v)
+
+
+def _listed(page) -> list[str]:
+    return page.eval_on_selector_all("#robot option", "os => os.map(o => o.value)")
+
+
+def test_an_upload_made_through_the_api_appears_when_the_page_comes_back(page, server,
+                                                                          api) -> None:
+    open_explorer(page, server, "planar_arm")
+    urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text().replace("planar_arm", "api_arm")
+    robot = api.post("/v1/robots", json={"urdf": urdf, "name": "made by a script"}).json()["id"]
+    assert robot not in _listed(page)
+    page.evaluate("() => window.dispatchEvent(new Event('focus'))")  # the user comes back
+    page.wait_for_function("(r) => [...document.querySelectorAll('#robot option')]"
+                           ".some(o => o.value === r)", arg=robot)
+    assert page.locator("#robot").input_value() == "planar_arm"  # the choice stays
+    api.delete(f"/v1/robots/{robot}")
+    page.evaluate("() => window.dispatchEvent(new Event('focus'))")
+    page.wait_for_function("(r) => ![...document.querySelectorAll('#robot option')]"
+                           ".some(o => o.value === r)", arg=robot)
+    assert page.log.console_errors == []
+
+
+def test_a_deep_link_to_a_robot_uploaded_after_the_page_loaded_opens_it(page, server,
+                                                                        api) -> None:
+    open_explorer(page, server)
+    urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text().replace("planar_arm", "linked_arm")
+    robot = api.post("/v1/robots", json={"urdf": urdf, "name": "linked"}).json()["id"]
+    page.evaluate("(r) => { location.hash = 'robot=' + r; }", robot)
+    page.wait_for_function(
+        "(r) => document.querySelector('#heatmap').dataset.robot === r", arg=robot)
+    wait_computed(page)
+    assert page.locator("#robot").input_value() == robot
+    page.evaluate("() => { location.hash = 'robot=no-such-robot'; }")
+    page.wait_for_function("() => document.querySelector('#status').textContent"
+                           ".includes(\"No robot 'no-such-robot'\")")
+    assert page.locator("#robot").input_value() == robot
+    api.delete(f"/v1/robots/{robot}")

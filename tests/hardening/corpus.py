@@ -312,6 +312,18 @@ CASES: list[Case] = [
          "validation_error", "gravity"),
     Case("unknown-option", "request", _u(arm(), inertia_check="ignore"), 422,
          "validation_error", "inertia_check"),
+    # the cost of refusing is bounded by what the answer says (tests/hardening/floods.py for
+    # the dynamics routes)
+    Case("unknown-members-by-the-100000", "huge",
+         _u(arm(), **{f"m{i}": 1 for i in range(100_000)}), 422, "validation_error",
+         "has 100000 members that are not fields of this request"),
+    Case("megabyte-member-name", "request", _u(arm(), **{"x" * 1_000_000: 1}), 422,
+         "validation_error", "x" * 64 + "…: is not a field"),
+    Case("assets-of-100000-numbers", "huge",
+         _u(arm(), assets={f"m{i}.stl": i for i in range(100_000)}), 422, "validation_error",
+         "must be a valid string"),
+    Case("locked-joint-of-100000-strings", "huge", _u(arm(), locked_joints={"j": ["x"] * 100_000}),
+         422, "validation_error", "locked_joints"),
     # -- MJCF numbers MuJoCo's compiler accepts -------------------------------------------------
     Case("mjcf-nan-gravity", "numbers", {"mjcf": MJCF_ARM.replace(
         "<worldbody>", "<option gravity='nan 0 0'/><worldbody>")}, 422, "invalid_model",

@@ -13,7 +13,7 @@ from starlette.requests import ClientDisconnect
 from starlette.responses import Response
 
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
-from service.api.problems.validation_errors import user_errors
+from service.api.problems.validation_errors import MAX_ERRORS_READ, TOO_MANY, user_errors
 from service.errors import ALL_ERRORS, RobodynError, problem_document
 
 log = logging.getLogger("robodyn.api")
@@ -103,12 +103,19 @@ def validation_details(exc: RequestValidationError, schema: dict[str, Any] | Non
     """`detail` (the first mistake, located) and `errors` (up to 20, one per mistake) of a
     validation failure (`service.api.problems.validation_errors`; `schema`: the body's JSON
     schema)."""
-    errors = user_errors(list(exc.errors()), schema, schemas)
+    raw = list(exc.errors()[:MAX_ERRORS_READ + 1])  # bounded by `pydantic_errors` upstream
+    count = next((e["ctx"]["count"] for e in raw if e.get("type") == TOO_MANY), None)
+    errors = user_errors([e for e in raw if e.get("type") != TOO_MANY], schema, schemas)
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
     detail = f"{first['loc']}: {first['msg']}"
-    if len(errors) > 1:
-        detail += f" (and {len(errors) - 1} more)"
-    return {"detail": detail, "errors": errors[:20]}
+    more = (count if count is not None else len(errors)) - 1
+    if more > 0:
+        detail += f" (and {more} more)"
+    shown = errors[:20]
+    if count is not None:
+        shown.append({"loc": "body", "msg": f"has {count} mistakes in all (the first are "
+                      "listed)"})
+    return {"detail": detail, "errors": shown}
 
 
 def problem_body(code: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:

@@ -8,25 +8,124 @@ the fewest wrong types, then the one that got deepest into the value — or, whe
 the value at all, one entry saying what the field accepts ("an array of numbers, an array of
 arrays of numbers or an object"). Locations read like the body: `q[2]`,
 `external_forces[0].wrench`.
+
+The work is bounded by what is reported, not by the body: pydantic's error objects are built
+(`errors()`) only when there are at most `MAX_ERRORS_READ` of them (`error_count()` is free);
+beyond, `pydantic_errors` re-validates a truncated view of the body (each object cut to its
+first members plus the field names, each array to its first items) for a sample, and adds one
+entry with the count. Every name echoed in a location is shortened to 64 characters.
 """
 
 from __future__ import annotations
 
+import itertools
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from pydantic import BaseModel, ValidationError
+from pydantic_core import from_json
+
 from service.errors import did_you_mean
+
+MAX_ERRORS_READ = 200
+"""pydantic errors turned into objects at most; beyond, a sample of a truncated view."""
+_VIEW_ITEMS = 20  # members (besides field names) and items kept per object and array
+_NAME_CHARS = 64  # characters of a name shown at most in a location
+TOO_MANY = "too_many_errors"
+_PREFIX_BYTES = 64 * 1024
+_CUT_OFF = frozenset(("missing", "too_short"))  # what a body's prefix lacks by being cut
+
+
+def pydantic_errors(exc: ValidationError, model: type[BaseModel] | None = None,
+                    data: Callable[[], Any] | None = None, partial: bool = False
+                    ) -> list[dict[str, Any]]:
+    """pydantic's error objects of `exc` (loc, type, msg; no input, context or URL), at most
+    about `MAX_ERRORS_READ`: with more, the errors of a truncated view of the body (`data()`,
+    validated by `model`) and one last entry giving the count. `partial`: `data()` is only the
+    beginning of the body (`json_prefix`), so members and items it cut off are not errors."""
+    count = exc.error_count()
+    if count <= MAX_ERRORS_READ:
+        return [dict(e) for e in exc.errors(include_url=False, include_context=False,
+                                            include_input=False)]
+    sample: list[dict[str, Any]] = []
+    if model is not None and data is not None:
+        try:
+            model.model_validate(_truncated(data(), _field_names(model)))
+        except ValidationError as again:
+            if again.error_count() <= MAX_ERRORS_READ:
+                sample = [dict(e) for e in again.errors(include_url=False, include_context=False,
+                                                        include_input=False)
+                          if not (partial and e["type"] in _CUT_OFF)]
+        except Exception:
+            sample = []
+    return [*sample[:MAX_ERRORS_READ], {"loc": (), "type": TOO_MANY, "ctx": {"count": count},
+                                        "msg": f"has {count} mistakes in all (the first are "
+                                        "listed)"}]
+
+
+def json_prefix(body: bytes | bytearray | str) -> Any:
+    """The decoded beginning (`_PREFIX_BYTES`) of a JSON body, what is cut off left out:
+    constant work, for a sample of the errors of a body of any size."""
+    return from_json(bytes(body[:_PREFIX_BYTES]) if not isinstance(body, str)
+                     else body[:_PREFIX_BYTES], allow_partial=True)
+
+
+def _field_names(model: type[BaseModel]) -> frozenset[str]:
+    """The field names of `model` and of the models inside it (kept in a truncated view)."""
+    names: set[str] = set()
+    todo: list[Any] = [model]
+    seen: set[Any] = set()
+    while todo:
+        cls = todo.pop()
+        if cls in seen:
+            continue
+        seen.add(cls)
+        for name, info in cls.model_fields.items():
+            names.add(name)
+            todo.extend(_models_in(info.annotation))
+    return frozenset(names)
+
+
+def _models_in(annotation: Any) -> list[Any]:
+    out: list[Any] = []
+    todo = [annotation]
+    while todo and len(out) < 64:
+        t = todo.pop()
+        if isinstance(t, type) and issubclass(t, BaseModel):
+            out.append(t)
+        todo.extend(getattr(t, "__args__", ()) or ())
+    return out
+
+
+def _truncated(value: Any, keep: frozenset[str], depth: int = 0) -> Any:
+    """`value` with every object cut to its first `_VIEW_ITEMS` members plus those named in
+    `keep`, and every array to its first `_VIEW_ITEMS` items (work: what is kept)."""
+    if depth > 32:
+        return value
+    if isinstance(value, dict):
+        if len(value) <= _VIEW_ITEMS:
+            items = list(value.items())
+        else:
+            first = list(itertools.islice(value.items(), _VIEW_ITEMS))
+            kept = {k for k, _ in first}
+            items = first + [(k, value[k]) for k in keep if k in value and k not in kept]
+        return {k: _truncated(v, keep, depth + 1) for k, v in items}
+    if isinstance(value, list):
+        return [_truncated(v, keep, depth + 1) for v in value[:_VIEW_ITEMS]]
+    return value
 
 # pydantic's names of union members: types (`float`, `list[float]`, `constrained-str`,
 # `function-after[...]`, ...) as opposed to field names, keys and indices.
 _MEMBER = re.compile(r"^(float|int|str|bool|bytes|none|list|dict|set|tuple|union|literal|model|"
                      r"nullable|tagged-union|lax-or-strict|json-or-python|is-instance|"
-                     r"constrained-\w+|function-\w+)(\[.*\])?$")
+                     r"constrained-\w+|function-\w+|JointState)(\[.*\])?$")
 _KINDS = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true or false",
           "none": "null", "list": "an array", "dict": "an object", "tuple": "an array"}
 _PLURALS = {"a number": "numbers", "an integer": "integers", "a string": "strings",
             "true or false": "booleans", "an object": "objects", "an array": "arrays"}
+_NOT_ITS_MEMBERS = ("missing", "extra_forbidden")
 _REWORDED = {"extra_forbidden": "is not a field of this request"}
 
 
@@ -132,14 +231,17 @@ def _resolve(errors: list[_Error]) -> list[_Error]:
 def _best(prefix: tuple[Any, ...], members: dict[str, list[_Error]]) -> list[_Error]:
     """The errors of the member matching best, or one error listing what the field takes."""
     def misfit(errs: list[_Error]) -> bool:  # the value itself is not of the member's type
-        return any(e.wrong_type and len(e.loc) == len(prefix) for e in errs)
+        return any((e.wrong_type and len(e.loc) == len(prefix))  # (nor an object lacking a
+                   or (e.type == "missing" and len(e.loc) == len(prefix) + 1)  # model's field)
+                   for e in errs)
 
     fitting = {name: errs for name, errs in members.items() if not misfit(errs)}
     if not fitting:
         accepted = _alternatives([_describe(name) for name in members])
         return [_Error(prefix, "union_type", f"must be {accepted}")]
-    best = min(fitting.values(), key=lambda errs: (
-        sum(e.wrong_type for e in errs), -max(len(e.loc) for e in errs), len(errs)))
+    best = min(fitting.values(), key=lambda errs: (  # a member missing, or not having, a
+        sum(e.wrong_type or e.type in _NOT_ITS_MEMBERS for e in errs),  # model's field fits less
+        -max(len(e.loc) for e in errs), len(errs)))
     return best
 
 
@@ -180,9 +282,12 @@ def _alternatives(items: list[str]) -> str:
 
 
 def _location(loc: tuple[Any, ...]) -> str:
-    """`('body', 'external_forces', 0, 'wrench')` → `external_forces[0].wrench`."""
+    """`('body', 'external_forces', 0, 'wrench')` → `external_forces[0].wrench`; names longer
+    than 64 characters shortened."""
     out = ""
     for part in loc:
+        if isinstance(part, str) and len(part) > _NAME_CHARS:
+            part = part[:_NAME_CHARS] + "…"
         if part == "body" and not out:
             continue
         if isinstance(part, int) or (isinstance(part, str) and part.isdigit()):

@@ -29,8 +29,9 @@ from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
+from service.api.problems.validation_errors import json_prefix, pydantic_errors
 from service.api.quantities import SPECS, Spec
-from service.api.schemas.common import Problem
+from service.api.schemas.common import Problem, StrictRequest, many_unknown_members
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
 
 T = TypeVar("T")
@@ -98,8 +99,13 @@ def _media_types(headers: list[tuple[bytes, bytes]]) -> tuple[str, str]:
     return content_type or "", accept or ""
 
 
-def _invalid(exc: ValidationError) -> RequestValidationError:
-    return RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in exc.errors()])
+def _invalid(exc: ValidationError, model: type[BaseModel], data: Callable[[], Any],
+             partial: bool = False) -> RequestValidationError:
+    """The request error of a failed validation by `model`, with at most a few hundred error
+    objects built whatever the number of mistakes (`pydantic_errors`; `data()`: the body, or
+    with `partial` its beginning, as decoded JSON, read again only then)."""
+    return RequestValidationError([{**e, "loc": ("body", *e["loc"])}
+                                   for e in pydantic_errors(exc, model, data, partial)])
 
 
 class Endpoint:
@@ -115,7 +121,7 @@ class Endpoint:
             name: (info.annotation, info) for name, info in self.model.model_fields.items()
             if name not in self.joint_inputs}
         self.options_model = create_model(  # the non-array fields, for binary bodies
-            f"{self.model.__name__}Options", __config__=self.model.model_config, **fields)
+            f"{self.model.__name__}Options", __base__=StrictRequest, **fields)
 
     def parse_json(self, body: bytes | bytearray | str
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -123,15 +129,28 @@ class Endpoint:
         try:
             parsed = self.model.model_validate_json(body)
         except ValidationError as exc:
-            raise _invalid(exc) from None
-        return self._split(parsed)
+            raise _invalid(exc, self.model, lambda: json_prefix(body), partial=True) from None
+        arrays, options = self._split(parsed)
+        self.refuse_repeated_names(body, arrays, options)
+        return arrays, options
+
+    def refuse_repeated_names(self, body: bytes | bytearray | str, arrays: dict[str, Any],
+                              options: dict[str, Any]) -> None:
+        """422 for a joint named twice in a name-keyed input of the JSON `body` (checked only
+        when some input is keyed by name)."""
+        if inputs.names_keyed(self.quantity, arrays, options):
+            inputs.refuse_repeated_names(body)
 
     def parse_object(self, body: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
         """(joint-space arrays, options) of an already decoded JSON object."""
+        many = many_unknown_members(self.model.model_fields, body)  # counted, not listed
+        if many is not None:
+            raise InvalidInput(f"the message has {many[0]} members that are not fields of "
+                               f"{self.quantity.name} (the first: {many[1]!r})")
         try:
             parsed = self.model.model_validate(body)
         except ValidationError as exc:
-            raise _invalid(exc) from None
+            raise _invalid(exc, self.model, lambda: body) from None
         return self._split(parsed)
 
     def _split(self, parsed: BaseModel) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -150,10 +169,16 @@ class Endpoint:
                      f"missing array {missing[0]!r}")
             raise InvalidInput(f"binary body: {wrong}; {self.quantity.name} takes "
                                f"the arrays {', '.join(self.joint_inputs)}")
+        allowed = self.options_model.model_fields
+        many = many_unknown_members(allowed, fields)  # counted, not one error each
+        if many is not None:
+            raise InvalidInput(f"binary body: __metadata__ has {many[0]} names that are not "
+                               f"fields of this request (the first: {many[1]!r}); "
+                               f"{self.quantity.name} takes {', '.join(allowed)}")
         try:
             options = self.options_model.model_validate(fields)
         except ValidationError as exc:
-            raise _invalid(exc) from None
+            raise _invalid(exc, self.options_model, lambda: fields) from None
         given = options.model_fields_set
         return arrays, (options.model_dump(include=given) if given else {})
 

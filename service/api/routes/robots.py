@@ -50,7 +50,8 @@ async def robot_inertias(robot_id: str, registry: RegistryDep) -> Response:
              responses={200: {"model": RobotInfo, "description": "the model was already stored"},
                         401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
              dependencies=[Depends(require_api_key)],
-             summary="Upload a URDF or MJCF: 201 for a new model, 200 for one already stored")
+             summary="Upload a URDF, xacro or MJCF: 201 for a new model, 200 for one already "
+             "stored")
 async def upload_robot(body: UploadRequest, registry: RegistryDep) -> Response:
     robot, created = await run_in_threadpool(
         registry.upload, urdf=body.urdf, mjcf=body.mjcf, root_joint=body.root_joint,

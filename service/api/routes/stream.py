@@ -5,9 +5,11 @@ One connection serves one robot. Each message is a request object with a `quanti
 endpoint of that quantity gives (the quantities are those of `service.api.quantities`). A text
 message is JSON and is answered in JSON; a binary message is the binary form
 (`service.api.encoding.binary`, `quantity` in its `__metadata__`) and is answered in the binary
-form. An error is answered by a problem object (JSON text) and the stream stays open. An unknown
-robot refuses the handshake with a 404 problem+json answer (on servers without the ASGI
-denial-response extension: the problem object as the first message, then close code 4404).
+form. An error is answered by a problem object (JSON text) and the stream stays open; a robot
+deleted while its stream is open answers the next message with a 404 `robot_not_found`
+problem. An unknown robot refuses the handshake with a 404 problem+json answer (on servers
+without the ASGI denial-response extension: the problem object as the first message, then close
+code 4404).
 """
 
 from __future__ import annotations
@@ -50,7 +52,9 @@ def _parse_text(text: str) -> tuple[Endpoint, dict[str, Any], dict[str, Any]]:
     if not isinstance(body, dict):
         raise InvalidInput("the message must be a JSON object with a 'quantity' member")
     endpoint = _endpoint(body.pop("quantity", None))
-    return (endpoint, *endpoint.parse_object(body))
+    arrays, options = endpoint.parse_object(body)
+    endpoint.refuse_repeated_names(text, arrays, options)
+    return endpoint, arrays, options
 
 
 async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) -> None:
@@ -97,6 +101,9 @@ async def stream(websocket: WebSocket) -> None:
         if message["type"] == "websocket.disconnect":
             return
         try:
+            # Each message computes with the robot as it is now: one deleted under the stream
+            # is a 404 robot_not_found (a stat of its record; catalog robots stay).
+            robot = websocket.app.state.registry.get(robot.id)
             await _answer(websocket, robot, message)
         except RobodynError as exc:
             problem = problem_body(exc.code, exc.title, exc.detail, **exc.extra)

@@ -10,12 +10,20 @@ from __future__ import annotations
 import functools
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    GetCoreSchemaHandler,
+    create_model,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError, core_schema
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
+JointName = Annotated[str, Field(max_length=256)]
 # A joint-space vector keyed by joint name (see service.api.inputs): a number or a list per joint.
-JointsByName = dict[Annotated[str, Field(max_length=256)], Number | list[Number]]
-JointArray = list[Number] | list[list[Number]] | JointsByName | list[JointsByName]
+JointsByName = dict[JointName, Number | list[Number]]
 
 
 def joint_field(desc: str, default: Any = ...) -> Any:
@@ -24,7 +32,9 @@ def joint_field(desc: str, default: Any = ...) -> Any:
                  "Instead of an array, an object keyed by joint name (every joint named once, "
                  "or some left out with `fill`; a number or a 1-list for a 1-dof joint, the "
                  "angle θ or [cos θ, sin θ] for a continuous joint's q, the joint's entries "
-                 "for others), or a list of such objects for a batch.")
+                 "for others), or a list of such objects for a batch; or a ROS JointState "
+                 "as JSON ({\"name\": [...], \"position\": [...], \"velocity\": [...], "
+                 "\"effort\": [...]}: q takes its positions, v its velocities, τ its efforts).")
 
 
 Q_DESC = ("Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "
@@ -38,10 +48,100 @@ A_DESC = "Acceleration a, length nv: rad/s² or m/s² (free-flyer: linear then a
 TAU_DESC = "Generalized force τ, length nv: N·m for revolute joints, N for prismatic ones."
 
 
+_SEQUENCES = frozenset(("list", "dict", "set", "frozenset", "tuple"))
+
+
+def fail_fast(schema: Any) -> None:
+    """Mark every array and object schema inside the core `schema` fail-fast: its validation
+    stops at the first wrong item, so 100,000 wrong numbers cost one error, not 100,000 (each
+    union member would add its own, and building them took seconds on the event loop)."""
+    todo = [schema]
+    while todo:
+        node = todo.pop()
+        if isinstance(node, dict):
+            kind = node.get("type")
+            if isinstance(kind, str) and kind in _SEQUENCES:
+                node["fail_fast"] = True
+            todo.extend(value for key, value in node.items() if key != "metadata")
+        elif isinstance(node, list):
+            todo.extend(node)
+
+
 class StrictRequest(BaseModel):
-    """The base of every request body: unknown members and type coercions are refused."""
+    """The base of every request body: unknown members and type coercions are refused, and
+    every array or object member fails fast (`fail_fast`): validation stops at its first wrong
+    item, so the number of errors, and their cost, is bounded whatever the body's size."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
+
+    @classmethod
+    def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler
+                                     ) -> core_schema.CoreSchema:
+        schema = handler(source)
+        fail_fast(schema)
+        return schema
+
+
+MAX_UNKNOWN_MEMBERS = 20
+"""Unknown members of a body validated by FastAPI's router reported one by one at most; more
+are one error with their count (pydantic would build an error object for each)."""
+_NAME_CHARS = 64
+
+
+def shortened(name: Any, chars: int = _NAME_CHARS) -> str:
+    """`name` as echoed in an error: at most `chars` characters, then "…"."""
+    text = str(name)
+    return text if len(text) <= chars else text[:chars] + "…"
+
+
+def many_unknown_members(allowed: Any, data: Any) -> tuple[int, str] | None:
+    """(how many, the first) of the members of the object `data` not among `allowed` (a
+    mapping or set of names) when there are more than `MAX_UNKNOWN_MEMBERS`; else None.
+    Work: constant unless there are that many (then a pass over the member names)."""
+    if isinstance(data, dict) and len(data) > len(allowed) + MAX_UNKNOWN_MEMBERS:
+        unknown = len(data) - len(data.keys() & set(allowed))
+        if unknown > MAX_UNKNOWN_MEMBERS:
+            return unknown, shortened(next(k for k in data if k not in allowed))
+    return None
+
+
+def _refuse_many_unknown(fields: frozenset[str], data: Any) -> Any:
+    many = many_unknown_members(fields, data)
+    if many is not None:
+        raise PydanticCustomError(
+            "too_many_unknown_members",
+            "has {count} members that are not fields of this request (the first: '{first}')",
+            {"count": many[0], "first": many[1]})
+    return data
+
+
+class RoutedRequest(StrictRequest):
+    """A request body validated by FastAPI's router (uploads, reductions), which turns every
+    pydantic error into an object: more than `MAX_UNKNOWN_MEMBERS` unknown members are refused
+    by one error with their count, before pydantic validates anything (a set intersection of
+    the few field names: constant work whatever the number of members)."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _many_unknown_members(cls, data: Any) -> Any:
+        return _refuse_many_unknown(frozenset(cls.model_fields), data)
+
+
+class JointState(StrictRequest):
+    """A ROS `sensor_msgs/JointState` as JSON (what rosbridge and `json.dumps` of a message
+    give): joint names with their positions (rad or m), velocities (rad/s or m/s) and efforts
+    (N·m or N), one number per name; empty lists where not measured. Taken as q (`position`),
+    v (`velocity`) or τ (`effort`) wherever a joint-space input may be keyed by joint name."""
+
+    name: list[JointName] = Field(max_length=10_000, description="Joint names, each once.")
+    position: list[Number] = Field([], description="One per name, rad or m (q).")
+    velocity: list[Number] = Field([], description="One per name, rad/s or m/s (v).")
+    effort: list[Number] = Field([], description="One per name, N·m or N (τ).")
+    header: dict[str, Any] | None = Field(None, description="The message's header: ignored.")
+
+
+JointArray = (list[Number] | list[list[Number]] | JointState | JointsByName | list[JointState]
+              | list[JointsByName])
 
 
 class QRequest(StrictRequest):

@@ -22,6 +22,7 @@ from service.api.schemas.common import (
     JointVector,
     Number,
     QRequest,
+    RoutedRequest,
     StrictRequest,
     joint_field,
 )
@@ -98,7 +99,7 @@ class PayloadCapacityAnswer(BaseModel):
                                             "smallest capacity, where it occurs and its joint.")
 
 
-class VariantRequest(StrictRequest):
+class VariantRequest(RoutedRequest):
     payloads: list[Payload] | None = Field(None, max_length=MAX_PAYLOADS, description=(
         f"Rigid bodies the variant carries (at most {MAX_PAYLOADS}), added to the bodies "
         "that carry their frames before any joint is locked."))

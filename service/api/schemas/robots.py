@@ -6,7 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, Field, model_validator
 
-from service.api.schemas.common import Number, StrictRequest
+from service.api.schemas.common import Number, RoutedRequest
 
 LockedJointValue = Number | Annotated[list[Number], Field(min_length=1, max_length=64)]
 LOCKED_DESC = (
@@ -21,7 +21,7 @@ LOCKED_DESC = (
 DESCRIPTION_LIMIT = 8 * 1024 * 1024
 
 
-class UploadRequest(StrictRequest):
+class UploadRequest(RoutedRequest):
     urdf: str | None = Field(None, description="The URDF text (XML). Give exactly one of "
                              "`urdf`, `mjcf` and `xacro`; meshes (for the 3-D view) as "
                              "`assets`.", max_length=DESCRIPTION_LIMIT)
@@ -71,7 +71,7 @@ class UploadRequest(StrictRequest):
         return self
 
 
-class ReduceRequest(StrictRequest):
+class ReduceRequest(RoutedRequest):
     locked_joints: dict[str, LockedJointValue] = Field(
         min_length=1, max_length=1000, description=LOCKED_DESC)
     name: str | None = Field(None, max_length=200, description="Optional label; defaults to "

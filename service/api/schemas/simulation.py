@@ -7,7 +7,15 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from service.api.schemas.common import JointsByName, JointVector, Number, QVRequest, StrictRequest
+from service.api.schemas.common import (
+    JointArray,
+    JointsByName,
+    JointState,
+    JointVector,
+    Number,
+    QVRequest,
+    StrictRequest,
+)
 from service.api.schemas.contacts import Contact, damping_field
 from service.dynamics.contacts_model import MAX_CONTACTS
 
@@ -22,7 +30,7 @@ class PDController(StrictRequest):
                      "nv numbers, or an object keyed by joint name.")
     kd: Gain = Field(description="Derivative gain, N·m·s/rad or N·s/m: a number, nv numbers, "
                      "or an object keyed by joint name.")
-    q_target: list[Number] | JointsByName = Field(
+    q_target: list[Number] | JointState | JointsByName = Field(
         description="Target configuration, length nq (unit quaternions and (cos, sin) pairs), "
         "or an object keyed by joint name. The error is the tangent vector "
         "difference(q, q_target) (nv entries): on the manifold, not q_target − q.")
@@ -36,7 +44,7 @@ class SimulateRequest(QVRequest):
                        "States × steps at most ROBODYN_MAX_SIMULATION_STEPS (default 100000), "
                        "and states × steps × nv × stages at most ROBODYN_MAX_SIMULATION_WORK "
                        "(default 2e7).")
-    tau: list[Number] | list[list[Number]] | JointsByName | list[JointsByName] | None = Field(
+    tau: JointArray | None = Field(
         None, description="Applied generalized forces, N·m or N (all nv entries, a free-flyer's "
         "6 included): nv numbers for a constant τ, or [steps][nv] for τ_k held during step k; "
         "objects keyed by joint name also work. Without tau and controller, τ = 0.")

@@ -95,3 +95,8 @@ def test_health_and_metrics_are_described(api):
     metrics = ops["get", "/metrics"]["responses"]["200"]
     assert list(metrics["content"]) == ["text/plain"] and "Prometheus" in metrics["description"]
     assert api.get("/health/ready").json()["status"] == "ready"
+
+
+def test_the_upload_summary_names_every_format_it_takes(api):
+    summary = api.get("/openapi.json").json()["paths"]["/v1/robots"]["post"]["summary"]
+    assert summary.startswith("Upload a URDF, xacro or MJCF")

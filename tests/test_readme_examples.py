@@ -38,9 +38,17 @@ def _run(args: list[str]) -> str:
 
 
 def test_the_python_example_runs(server: str) -> None:
-    (code,) = _blocks("python")
+    code = _blocks("python")[0]
     out = _run([sys.executable, "-c", code.replace("http://127.0.0.1:8000", server)])
     assert "(1000, 6, 6)" in out
+
+
+def test_the_identification_example_runs(server: str) -> None:
+    (code,) = [body for body in _blocks("python") if "client.identify(" in body]
+    out = _run([sys.executable, "-c", code.replace("http://127.0.0.1:8000", server)])
+    before, after = out.strip().splitlines()[-2:]
+    assert min(float(x) for x in before.strip("[]").split()) > 0.5  # the model lacks friction
+    assert max(float(x) for x in after.strip("[]").split()) < 0.02  # the identified has it
 
 
 @pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")

@@ -27,6 +27,7 @@ from service.dynamics.quantity import (
     nv_numbers,
     nv_squared_numbers,
 )
+from service.errors import InvalidInput
 from service.registry.robot import Robot
 from service.states import States
 
@@ -84,12 +85,15 @@ def nonlinear_effects(robot: Robot, s: States) -> Results:
 
 
 def inverse_dynamics(robot: Robot, s: States, *,
-                     external_forces: Sequence[Mapping[str, Any]] | None = None) -> Results:
+                     external_forces: Sequence[Mapping[str, Any]] | None = None,
+                     friction: bool = False) -> Results:
     """τ = M(q) a + C(q, v) v + g(q) by the recursive Newton–Euler algorithm, (N, nv).
 
     With `external_forces` (wrenches at named frames, see `service.dynamics.external_forces`)
     the answer is τ = M a + C v + g − Σ Jᵀ w: the forces the joints must add to the wrenches
-    the environment applies."""
+    the environment applies. With `friction` (a robot made by identification, whose RobotInfo
+    lists its `friction`), the joints' friction torque is added:
+    τ + offset + coulomb ∘ sign(v) + viscous ∘ v."""
     q, v, a = s["q"], s["v"], s["a"]
     out = np.empty((q.shape[0], robot.nv))
     forces = ExternalForces(robot, external_forces, s) if external_forces else None
@@ -101,6 +105,13 @@ def inverse_dynamics(robot: Robot, s: States, *,
             for i in range(q.shape[0]):
                 fext = forces.at(data, q[i], i)
                 out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i], fext)
+    if friction:
+        model = robot.friction
+        if model is None:
+            raise InvalidInput(f"robot '{robot.id}' has no friction model: only a robot "
+                               "stored by identification has one (its RobotInfo lists "
+                               "'friction')")
+        out += model["offset"] + model["coulomb"] * np.sign(v) + model["viscous"] * v
     return finite("inverse-dynamics", tau=out)
 
 

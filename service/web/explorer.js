@@ -2,6 +2,7 @@
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
 import { EquationsView } from "./equations_view.js";
+import { IdentificationView } from "./view_identification.js";
 import { PayloadPanel } from "./payload_panel.js";
 import { TrajectoryView } from "./trajectory_view.js";
 import { ViewPanel } from "./view_panel.js";
@@ -28,6 +29,7 @@ const state = {
   trajectory: null, // the trajectory tab (trajectory_view.js)
   payload: null, // the payload view (payload_panel.js)
   equations: null, // the equations view (equations_view.js)
+  identification: null, // the identification view (view_identification.js)
 };
 
 // ---- HTTP ---------------------------------------------------------------------------------
@@ -607,6 +609,7 @@ async function selectRobot(id) {
   const info = await api(robotPath(id));
   if (mine !== state.robotSeq) return;
   state.info = info;
+  state.identification.setRobot(info);
   history.replaceState(null, "", `#robot=${encodeURIComponent(id)}`);
   const posture = el("posture");
   posture.replaceChildren(new Option("default", "default"), new Option("neutral", "neutral"));
@@ -773,6 +776,7 @@ async function start() {
   setUpViews();
   state.trajectory = new TrajectoryView({ api, robotPath, fmt });
   setUpTabs();
+  state.identification = new IdentificationView(el("identification"), { api, robotPath });
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });

@@ -11,7 +11,7 @@ A non-finite result (e.g. forward dynamics of a robot with a massless moving bod
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -106,13 +106,21 @@ def inverse_dynamics(robot: Robot, s: States, *,
                 fext = forces.at(data, q[i], i)
                 out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i], fext)
     if friction:
-        model = robot.friction
-        if model is None:
-            raise InvalidInput(f"robot '{robot.id}' has no friction model: only a robot "
-                               "stored by identification has one (its RobotInfo lists "
-                               "'friction')")
-        out += model["offset"] + model["coulomb"] * np.sign(v) + model["viscous"] * v
+        out += joint_friction(robot)(v)
     return finite("inverse-dynamics", tau=out)
+
+
+def joint_friction(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
+    """The friction torque of the joints of a robot made by identification, as a function of
+    v (..., nv) → τ_f (..., nv), N·m or N: τ_f = offset + coulomb ∘ sign(v) + viscous ∘ v.
+    A robot without a friction model (its RobotInfo lists no `friction`) is an InvalidInput."""
+    model = robot.friction
+    if model is None:
+        raise InvalidInput(f"robot '{robot.id}' has no friction model: only a robot "
+                           "stored by identification has one (its RobotInfo lists "
+                           "'friction')")
+    offset, coulomb, viscous = model["offset"], model["coulomb"], model["viscous"]
+    return lambda v: offset + coulomb * np.sign(v) + viscous * v
 
 
 def forward_dynamics(robot: Robot, s: States, *,

@@ -43,6 +43,7 @@ from service.registry.variants import (
     variant_id,
     variant_robot,
 )
+from service.settings import Settings
 
 log = logging.getLogger("robodyn.registry")
 
@@ -51,7 +52,7 @@ NOT_FOUND_HINT = "GET /v1/robots lists the valid ids"
 
 class Registry:
     def __init__(self, data_dir: Path, catalog_names: list[str] | None = None,
-                 build_timeout_s: float = 30.0, *, limits: Limits | None = None,
+                 build_timeout_s: float = Settings.model_fields["build_timeout_s"].default, *, limits: Limits | None = None,
                  build_limits: dict[str, Any] | None = None,
                  build_slots: BuildSlots | None = None) -> None:
         self.store = ModelStore(data_dir)

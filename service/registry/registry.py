@@ -52,7 +52,8 @@ NOT_FOUND_HINT = "GET /v1/robots lists the valid ids"
 
 class Registry:
     def __init__(self, data_dir: Path, catalog_names: list[str] | None = None,
-                 build_timeout_s: float = Settings.model_fields["build_timeout_s"].default, *, limits: Limits | None = None,
+                 build_timeout_s: float = Settings.model_fields["build_timeout_s"].default,
+                 *, limits: Limits | None = None,
                  build_limits: dict[str, Any] | None = None,
                  build_slots: BuildSlots | None = None) -> None:
         self.store = ModelStore(data_dir)

@@ -97,6 +97,3 @@ async def test_async_identify(app: Any, registry: Any, log: Any) -> None:
     assert parameters.layout[0] == "m"
 
 
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"

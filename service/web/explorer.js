@@ -3,8 +3,11 @@
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
 import { EquationsView } from "./equations_view.js";
 import { IdentificationView } from "./view_identification.js";
+import { api, Problem, robotPath } from "./http.js";
 import { finite, jointCoordinates } from "./joint_coordinates.js";
+import { fmt, renderHeatmap, renderNumbers } from "./mass_matrix_view.js";
 import { PayloadPanel } from "./payload_panel.js";
+import { arrowKeys } from "./tabs.js";
 import { TrajectoryView } from "./trajectory_view.js";
 import { ViewPanel } from "./view_panel.js";
 
@@ -31,37 +34,6 @@ const state = {
   equations: null, // the equations view (equations_view.js)
   identification: null, // the identification view (view_identification.js)
 };
-
-// ---- HTTP ---------------------------------------------------------------------------------
-
-class Problem extends Error {
-  constructor(status, body) {
-    super(`${body.title || "Error"} (${status}${body.code ? ", " + body.code : ""}): ` +
-          `${body.detail || "no detail"}`);
-    this.status = status;
-    this.title = body.title || "Error";
-    this.code = body.code || "";
-    this.detail = body.detail || "";
-  }
-}
-
-async function api(path, body, headers = {}) {
-  const init = { headers: { Accept: "application/json", ...headers } };
-  if (body !== undefined) {
-    init.method = "POST";
-    init.headers["Content-Type"] = "application/json";
-    init.body = JSON.stringify(body);
-  }
-  const res = await fetch(path, init);
-  const text = await res.text();
-  let json = null;
-  try { json = text ? JSON.parse(text) : null; } catch { json = null; }
-  if (!res.ok) throw new Problem(res.status, json || { title: res.statusText });
-  return json;
-}
-
-const robotPath = (id, quantity) =>
-  `v1/robots/${encodeURIComponent(id)}${quantity ? "/" + quantity : ""}`;
 
 // ---- Controls -----------------------------------------------------------------------------
 
@@ -186,7 +158,7 @@ async function compute() {
       state.chooseScale = false;
     }
     state.last = { M: mm.mass_matrix, labels, stamp: { robot: id, q, v } };
-    renderHeatmap(mm.mass_matrix, labels, { robot: id, q, v });
+    renderHeatmap(mm.mass_matrix, labels, { robot: id, q, v }, state.info.joints);
     renderNumbers(mm.mass_matrix, labels);
     renderBars(el("gravity-chart"), g.gravity, "f");
     renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
@@ -200,159 +172,6 @@ async function compute() {
   } finally {
     if (seq === state.seq) el("results").setAttribute("aria-busy", "false");
   }
-}
-
-const fmt = (x, digits = 4) => (x === 0 ? "0" : Number(x).toPrecision(digits));
-
-const LOG_DECADES = 4;
-
-function scaled(x, maxAbs) {
-  // The position of x on the colour scale, in [−1, 1]: linear, or logarithmic over
-  // LOG_DECADES decades below max |M| (smaller magnitudes are drawn as 0).
-  if (!el("log-scale").checked) return x / maxAbs;
-  const decades = Math.log10(Math.abs(x) / maxAbs) + LOG_DECADES;
-  return x === 0 || decades <= 0 ? 0 : Math.sign(x) * Math.min(1, decades / LOG_DECADES);
-}
-
-function colour(t) {
-  // Diverging scale for t in [−1, 1]: blue (negative) – light grey (0) – red (positive).
-  const mid = [247, 247, 247], neg = [33, 102, 172], pos = [178, 24, 43];
-  const end = t < 0 ? neg : pos;
-  const a = Math.min(1, Math.abs(t));
-  const c = mid.map((m, k) => Math.round(m + (end[k] - m) * a));
-  return `rgb(${c[0]}, ${c[1]}, ${c[2]})`;
-}
-
-const SVG = "http://www.w3.org/2000/svg";
-function svgEl(name, attrs) {
-  const e = document.createElementNS(SVG, name);
-  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
-  return e;
-}
-
-function limbStarts() {
-  // Velocity rows where a limb begins: a multi-dof root (a free-flyer base) is its own block,
-  // and a new limb starts at each joint whose parent has several children (a branch point)
-  // or is such a root. Talos: base | left leg | right leg | torso | left arm | right arm | head.
-  const joints = state.info.joints;
-  const children = new Map();
-  for (const j of joints) children.set(j.parent, (children.get(j.parent) || 0) + 1);
-  const root = new Set(joints.filter((j) => j.nv > 1 && !joints.some((p) => p.name === j.parent))
-    .map((j) => j.name));
-  const starts = new Set();
-  for (const j of joints) {
-    if (j.idx_v > 0 && (children.get(j.parent) > 1 || root.has(j.parent) || root.has(j.name))) {
-      starts.add(j.idx_v);
-    }
-  }
-  return starts;
-}
-
-function renderHeatmap(M, labels, stamp) {
-  const box = el("heatmap");
-  const n = M.length;
-  const normalised = el("normalised").checked;
-  // Mij / sqrt(Mii Mjj): unitless in [-1, 1] (M is positive definite), 1 on the diagonal.
-  const shown = normalised
-    ? M.map((r, i) => r.map((x, j) => x / Math.sqrt(Math.abs(M[i][i] * M[j][j])) || 0)) : M;
-  const maxAbs = Math.max(...shown.flat().map(Math.abs)) || 1;
-  // Cells of at least 14 px and labels of at least 11 px: a large robot (talos, nv 38) scrolls
-  // sideways rather than shrinking its labels out of reach.
-  const cell = Math.max(14, Math.min(48, Math.floor(440 / Math.max(n, 1))));
-  const font = Math.max(11, Math.min(13, cell * 0.75));
-  const pad = Math.ceil(Math.max(0, ...labels.map((l) => l.length)) * font * 0.6) + 8;
-  const size = pad + n * cell;
-  const svg = svgEl("svg", { width: size, height: size, viewBox: `0 0 ${size} ${size}`,
-                             role: "img", "aria-label": `Heat map of the ${n}×${n} mass ` +
-                             "matrix; the table below lists the numbers" });
-  labels.forEach((label, i) => {
-    const row = svgEl("text", { x: pad - 4, y: pad + (i + 0.5) * cell, "font-size": font,
-                                "text-anchor": "end", "dominant-baseline": "middle" });
-    row.textContent = label;
-    const col = svgEl("text", { x: 0, y: 0, "font-size": font, "text-anchor": "start",
-                                "dominant-baseline": "middle",
-                                transform: `translate(${pad + (i + 0.5) * cell} ${pad - 4}) ` +
-                                           "rotate(-90)" });
-    col.textContent = label;
-    svg.append(row, col);
-  });
-  M.forEach((r, i) => r.forEach((value, j) => {
-    svg.append(svgEl("rect", { x: pad + j * cell, y: pad + i * cell, width: cell, height: cell,
-                               fill: colour(scaled(shown[i][j], maxAbs)), class: "cell",
-                               "data-row": i, "data-col": j, "data-value": String(value),
-                               "data-normalised": String(shown[i][j]) }));
-  }));
-  for (const k of limbStarts()) { // a line between limbs, across and down
-    const at = pad + k * cell;
-    svg.append(svgEl("line", { x1: pad, x2: pad + n * cell, y1: at, y2: at, class: "limb" }),
-               svgEl("line", { x1: at, x2: at, y1: pad, y2: pad + n * cell, class: "limb" }));
-  }
-  svg.addEventListener("mousemove", (ev) => showTooltip(ev, labels));
-  svg.addEventListener("mouseleave", () => { el("tooltip").hidden = true; });
-  box.replaceChildren(svg);
-  box.dataset.robot = stamp.robot;
-  box.dataset.q = JSON.stringify(stamp.q);
-  box.dataset.v = JSON.stringify(stamp.v);
-  renderLegend(maxAbs, normalised);
-}
-
-function showTooltip(ev, labels) {
-  const tip = el("tooltip");
-  const t = ev.target;
-  if (!t.classList || !t.classList.contains("cell")) { tip.hidden = true; return; }
-  const i = Number(t.dataset.row), j = Number(t.dataset.col);
-  tip.textContent = `M[${labels[i]}, ${labels[j]}] = ${fmt(Number(t.dataset.value), 6)}` +
-    (el("normalised").checked ? ` (÷ √(Mii Mjj): ${fmt(Number(t.dataset.normalised), 3)})` : "");
-  const fig = el("mass-matrix-figure").getBoundingClientRect();
-  tip.style.left = `${ev.clientX - fig.left + 14}px`;
-  tip.style.top = `${ev.clientY - fig.top + 14}px`;
-  tip.hidden = false;
-}
-
-function renderLegend(maxAbs, normalised) {
-  const legend = el("legend");
-  const bar = document.createElement("div");
-  bar.className = "legend-bar";
-  const ticks = document.createElement("div");
-  ticks.className = "legend-ticks";
-  // Ticks at −1, −½, 0, ½, 1 of the scale: on the log scale ½ is 10^(−decades/2) of the max.
-  const log = el("log-scale").checked;
-  const half = log ? maxAbs * 10 ** (-LOG_DECADES / 2) : maxAbs / 2;
-  const floor = `${normalised ? "" : "|M| "}< ${fmt(maxAbs * 10 ** -LOG_DECADES, 2)}`;
-  for (const x of [-maxAbs, -half, 0, half, maxAbs]) {
-    const s = document.createElement("span");
-    s.textContent = x === 0 && log ? floor : fmt(x, 3);
-    ticks.append(s);
-  }
-  legend.replaceChildren(bar, ticks);
-}
-
-function renderNumbers(M, labels) {
-  const table = document.createElement("table");
-  table.className = "numbers";
-  const head = document.createElement("tr");
-  head.append(document.createElement("td"));
-  for (const l of labels) {
-    const th = document.createElement("th");
-    th.scope = "col";
-    th.textContent = l;
-    head.append(th);
-  }
-  table.append(head);
-  M.forEach((r, i) => {
-    const tr = document.createElement("tr");
-    const th = document.createElement("th");
-    th.scope = "row";
-    th.textContent = labels[i];
-    tr.append(th);
-    for (const x of r) {
-      const td = document.createElement("td");
-      td.textContent = fmt(x, 6);
-      tr.append(td);
-    }
-    table.append(tr);
-  });
-  el("mass-matrix-numbers").replaceChildren(table);
 }
 
 function baseRows() {
@@ -620,19 +439,6 @@ async function upload(ev) {
 
 // ---- Tabs (the page's views: robot and dynamics, trajectory) ----------------------------
 
-function arrowKeys(tabs, select) {
-  for (const [k, tab] of tabs.entries()) {
-    tab.addEventListener("click", () => select(tab));
-    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
-      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
-      if (!step) return;
-      const next = tabs[(k + step + tabs.length) % tabs.length];
-      next.focus();
-      select(next);
-    });
-  }
-}
-
 function selectTab(button) {
   for (const tab of document.querySelectorAll('#tabs [role="tab"]')) {
     const mine = tab === button;
@@ -698,10 +504,14 @@ async function start() {
   });
   el("upload").addEventListener("submit", upload);
   el("normalised").addEventListener("change", () => {
-    if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
+    if (state.last) {
+      renderHeatmap(state.last.M, state.last.labels, state.last.stamp, state.info.joints);
+    }
   });
   el("log-scale").addEventListener("change", () => {
-    if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
+    if (state.last) {
+      renderHeatmap(state.last.M, state.last.labels, state.last.stamp, state.info.joints);
+    }
   });
   watchRobotList();
   for (;;) {

@@ -128,9 +128,9 @@ class NonFiniteResult(RobodynError):
 
 
 class UnsupportedModel(RobodynError):
-    """The route needs what this model lacks: e.g. a fixed base and 1-DoF joints for the
-    equations of motion in explicit form, or a size their derivation can finish in time, or
-    joints that are all revolute or prismatic for retiming."""
+    """The route needs what this model lacks: e.g. a fixed base and 1-DoF joints for
+    identification and for the equations of motion in explicit form, or a size their
+    derivation can finish in time, or joints that are all revolute or prismatic for retiming."""
 
     code = "unsupported_model"
     title = "Unsupported model"

@@ -24,7 +24,7 @@ from service.api.middleware.observability import Metrics, ObservabilityMiddlewar
 from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
-from service.api.routes import equations, health, pages, robots, stream, visuals
+from service.api.routes import equations, health, identification, pages, robots, stream, visuals
 from service.dynamics.equations.cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
@@ -62,6 +62,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         # close-match suggestions: built now, not on the event loop under that request.
         app.openapi()
         yield
+        worker = getattr(app.state, "identification", None)
+        if worker is not None:  # the identification worker process, if one was started
+            worker.close()
 
     options: dict[str, Any] = {}
     accepted = inspect.signature(FastAPI.__init__).parameters  # options of newer FastAPI only
@@ -92,9 +95,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
-    documented = robots.openapi_routes().routes  # the upload reads its body itself
-    app.openapi = lambda: problem_openapi(  # type: ignore[method-assign]
-        app, described, documented)
+    # JSON-only twins: identify, and the upload (which reads its body itself)
+    twins = [*identification.openapi_routes().routes, *robots.openapi_routes().routes]
+    app.openapi = lambda: problem_openapi(app, described, twins)  # type: ignore[method-assign]
     app.include_router(health.router)
     # With ROBODYN_API_KEYS_SCOPE=all every /v1 route needs a key (uploads always do); the
     # lean dynamics and stream routes check it themselves (deps.check_api_key_for_all).
@@ -102,8 +105,10 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(robots.router, dependencies=private)
     app.include_router(visuals.router, dependencies=private)
     app.include_router(equations.router, dependencies=private)
+    app.include_router(identification.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
-    app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes()]
+    app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes(),
+                              *identification.routes()]
     app.include_router(pages.router)
     app.add_middleware(DynamicsFastPath)  # innermost: after the body limit and observability
     app.add_middleware(HeadAsGet)  # HEAD on every GET route

@@ -131,6 +131,17 @@ class Settings(BaseSettings):
         "process, in MB; the least recently used are dropped beyond it (stored models keep "
         "theirs on disk in the data directory).")
 
+    # -- identification (service/dynamics/identification/worker.py; docs/identification.md) --
+    identify_timeout_s: float = Field(
+        120.0, gt=0, description="Wall-clock limit of one identification in its worker process, "
+        "in seconds; beyond it the fit is stopped (422, or 503 overloaded when the machine "
+        "starved it).")
+    identify_memory_mb: int = Field(
+        4096, ge=1024, description="Address-space limit of the identification worker process, "
+        "in MB.")
+    max_identify_samples: int = Field(
+        200_000, ge=100, description="Most samples in one identification log.")
+
     # -- connections and answers (service/server/protocol.py; see docs/security.md) --
     max_answer_bytes: int = Field(
         256 * 1024 * 1024, ge=1024, description="Largest answer of a dynamics request, in "

@@ -38,9 +38,17 @@ def _run(args: list[str]) -> str:
 
 
 def test_the_python_example_runs(server: str) -> None:
-    (code,) = _blocks("python")
+    code = _blocks("python")[0]
     out = _run([sys.executable, "-c", code.replace("http://127.0.0.1:8000", server)])
     assert "(1000, 6, 6)" in out
+
+
+def test_the_identification_example_runs(server: str) -> None:
+    (code,) = [body for body in _blocks("python") if "client.identify(" in body]
+    out = _run([sys.executable, "-c", code.replace("http://127.0.0.1:8000", server)])
+    before, after = out.strip().splitlines()[-2:]
+    assert min(float(x) for x in before.strip("[]").split()) > 0.5  # the model lacks friction
+    assert max(float(x) for x in after.strip("[]").split()) < 0.02  # the identified has it
 
 
 @pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
@@ -79,14 +87,14 @@ def test_the_curl_examples_run(server: str) -> None:
     answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
                for c in commands]
     assert len(answers[0]["mass_matrix"]) == 6
-    check, retimed = answers[1], answers[2]  # a violation between samples; a timed path
+    check, retimed = answers[4], answers[5]  # a violation between samples; a timed path
     assert not check["feasible"] and len(check["violations"]) == 1
     violation = check["violations"][0]
     assert violation["joint"] == "shoulder_pan_joint" and violation["kind"] == "velocity"
     assert 0.5 < violation["t_start"] <= violation["t_end"] < 1.0
     assert abs(retimed["duration"] - 0.5804) < 1e-4 and retimed["check"]["feasible"]
     assert retimed["t"][-1] == retimed["duration"] and len(retimed["q"]) == len(retimed["t"])
-    standing = answers[3]  # Solo-12 on its four feet: the base needs no torque
+    standing = answers[1]  # Solo-12 on its four feet: the base needs no torque
     assert standing["tau"][:6] == [0.0] * 6 and standing["residual"] < 1e-9
     readme = (ROOT / "README.md").read_text()
     shown = float(re.search(r'"residual": ([0-9.e+-]+)\}', readme).group(1))  # type: ignore[union-attr]
@@ -95,7 +103,7 @@ def test_the_curl_examples_run(server: str) -> None:
         shown, standing["residual"])  # the README shows what the server answers, roughly
     mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
     assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
-    _check_payload_examples(server, answers[4], answers[5])
+    _check_payload_examples(server, answers[2], answers[3])
     equations = answers[6]  # the planar arm's M(q) as the README shows it
     assert equations["mass_matrix"]["expressions"] == [
         ["2.1*cos(q2) + 4.235", "1.05*cos(q2) + 0.735"], ["1.05*cos(q2) + 0.735", "0.735"]]

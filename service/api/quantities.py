@@ -48,6 +48,7 @@ from service.api.schemas.equation_of_motion import (
     MassMatrixAnswer,
     NonlinearEffectsAnswer,
 )
+from service.api.schemas.identification import RegressorAnswer
 from service.api.schemas.operational_space import (
     CenterOfMassAnswer,
     EnergyAnswer,
@@ -100,6 +101,7 @@ _SCHEMAS: dict[str, tuple[type[BaseModel], type[BaseModel]]] = {
     "payload-capacity": (PayloadCapacityRequest, PayloadCapacityAnswer),
     "trajectory-check": (TrajectoryCheckRequest, TrajectoryCheckAnswer),
     "retime": (RetimeRequest, RetimeAnswer),
+    "regressor": (QVARequest, RegressorAnswer),
 }
 
 

@@ -9,6 +9,7 @@ from service.dynamics.contacts import CONTACTS
 from service.dynamics.derivatives import DERIVATIVES
 from service.dynamics.equation_of_motion import EQUATION_OF_MOTION
 from service.dynamics.frames import FRAMES
+from service.dynamics.identification.regressor import REGRESSOR
 from service.dynamics.lagrangian import LAGRANGIAN
 from service.dynamics.operational_space import OPERATIONAL_SPACE
 from service.dynamics.payload_capacity import PAYLOADS
@@ -19,6 +20,6 @@ from service.dynamics.trajectories.quantities import TRAJECTORIES
 
 QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
-    *SIMULATION, *CONTACTS, *PLACEMENTS, *PAYLOADS, *TRAJECTORIES)}
+    *SIMULATION, *CONTACTS, *PLACEMENTS, *PAYLOADS, *TRAJECTORIES, *REGRESSOR)}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

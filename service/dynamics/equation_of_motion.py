@@ -11,7 +11,7 @@ A non-finite result (e.g. forward dynamics of a robot with a massless moving bod
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -27,6 +27,7 @@ from service.dynamics.quantity import (
     nv_numbers,
     nv_squared_numbers,
 )
+from service.errors import InvalidInput
 from service.registry.robot import Robot
 from service.states import States
 
@@ -84,12 +85,15 @@ def nonlinear_effects(robot: Robot, s: States) -> Results:
 
 
 def inverse_dynamics(robot: Robot, s: States, *,
-                     external_forces: Sequence[Mapping[str, Any]] | None = None) -> Results:
+                     external_forces: Sequence[Mapping[str, Any]] | None = None,
+                     friction: bool = False) -> Results:
     """τ = M(q) a + C(q, v) v + g(q) by the recursive Newton–Euler algorithm, (N, nv).
 
     With `external_forces` (wrenches at named frames, see `service.dynamics.external_forces`)
     the answer is τ = M a + C v + g − Σ Jᵀ w: the forces the joints must add to the wrenches
-    the environment applies."""
+    the environment applies. With `friction` (a robot made by identification, whose RobotInfo
+    lists its `friction`), the joints' friction torque is added:
+    τ + offset + coulomb ∘ sign(v) + viscous ∘ v."""
     q, v, a = s["q"], s["v"], s["a"]
     out = np.empty((q.shape[0], robot.nv))
     forces = ExternalForces(robot, external_forces, s) if external_forces else None
@@ -101,7 +105,22 @@ def inverse_dynamics(robot: Robot, s: States, *,
             for i in range(q.shape[0]):
                 fext = forces.at(data, q[i], i)
                 out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i], fext)
+    if friction:
+        out += joint_friction(robot)(v)
     return finite("inverse-dynamics", tau=out)
+
+
+def joint_friction(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
+    """The friction torque of the joints of a robot made by identification, as a function of
+    v (..., nv) → τ_f (..., nv), N·m or N: τ_f = offset + coulomb ∘ sign(v) + viscous ∘ v.
+    A robot without a friction model (its RobotInfo lists no `friction`) is an InvalidInput."""
+    model = robot.friction
+    if model is None:
+        raise InvalidInput(f"robot '{robot.id}' has no friction model: only a robot "
+                           "stored by identification has one (its RobotInfo lists "
+                           "'friction')")
+    offset, coulomb, viscous = model["offset"], model["coulomb"], model["viscous"]
+    return lambda v: offset + coulomb * np.sign(v) + viscous * v
 
 
 def forward_dynamics(robot: Robot, s: States, *,

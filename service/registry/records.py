@@ -75,11 +75,23 @@ class StoredPayload(_Member):
     inertia: list[list[float]] = Field(min_length=3, max_length=3)
 
 
+class StoredFriction(_Member):
+    """An identified joint's friction (N·m or N, N·m·s/rad or N·s/m)."""
+
+    joint: str
+    coulomb: float
+    viscous: float
+    offset: float
+
+
 class EmbeddedVariant(_Embedded):
     format: Literal["variant"]
     base: BaseSpec
-    payloads: list[StoredPayload] = Field(min_length=1)
+    payloads: list[StoredPayload] = []
     locked_joints: dict[str, list[float]] = {}
+    # identified values (service.registry.variants.Fitted)
+    inertial_parameters: list[float] | None = None
+    friction: list[StoredFriction] | None = None
 
 
 class BaseSpec(_Member):

@@ -36,7 +36,14 @@ from service.registry.upload_formats import (
     rebuild_inputs,
 )
 from service.registry.urdf_check import Limits
-from service.registry.variants import modifications, variant_id, variant_robot
+from service.registry.variants import (
+    NOTHING_FITTED,
+    Fitted,
+    modifications,
+    variant_id,
+    variant_robot,
+)
+from service.settings import Settings
 
 log = logging.getLogger("robodyn.registry")
 
@@ -45,7 +52,8 @@ NOT_FOUND_HINT = "GET /v1/robots lists the valid ids"
 
 class Registry:
     def __init__(self, data_dir: Path, catalog_names: list[str] | None = None,
-                 build_timeout_s: float = 30.0, *, limits: Limits | None = None,
+                 build_timeout_s: float = Settings.model_fields["build_timeout_s"].default,
+                 *, limits: Limits | None = None,
                  build_limits: dict[str, Any] | None = None,
                  build_slots: BuildSlots | None = None) -> None:
         self.store = ModelStore(data_dir)
@@ -103,10 +111,12 @@ class Registry:
             base = self._base_robot(record["base"])
             locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
             payloads = [PlacedPayload.from_dict(p) for p in record.get("payloads", [])]
+            fitted = Fitted.from_dict(record)
             changes = record.get("modifications") or modifications(
-                payloads, record.get("locked_request", locked))
+                payloads, record.get("locked_request", locked), fitted)
             return variant_robot(base, payloads, locked, robot_id=model_id,
-                                 name=record.get("name", model_id), changes=changes)
+                                 name=record.get("name", model_id), changes=changes,
+                                 fitted=fitted)
         fmt, text, assets = rebuild_inputs(record, self.assets)
         model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
         check_moves(model)  # a record stored before nv = 0 was refused is not served
@@ -257,16 +267,18 @@ class Registry:
 
     def variant(self, robot_id: str, *, payloads: Sequence[PlacedPayload] = (),
                 locked_joints: Mapping[str, LockedValue] | None = None,
-                name: str | None = None) -> tuple[Robot, bool]:
+                name: str | None = None, fitted: Fitted | None = None) -> tuple[Robot, bool]:
         """Store the variant of any robot carrying `payloads` (checked against that robot by
-        `service.dynamics.payloads.check_payloads`) with `locked_joints` locked: (robot,
-        created). At least one modification; `InvalidInput` otherwise."""
-        if not payloads and not locked_joints:
+        `service.dynamics.payloads.check_payloads`) with `locked_joints` locked, and the
+        identified values `fitted` (checked by identification): (robot, created). At least one
+        modification; `InvalidInput` otherwise."""
+        if not payloads and not locked_joints and not fitted:  # (None or an empty Fitted)
             raise InvalidInput("a variant needs at least one modification: payloads or "
                                "locked_joints")
         base = self.get(robot_id)
         request = as_lists(locked_joints or {})
-        target = variant_id(base.id, payloads, request)
+        fitted = fitted or NOTHING_FITTED
+        target = variant_id(base.id, payloads, request, fitted)
         if self.store.exists(target):
             return self.get(target), False
         # the base's assets stay named from reading its record until the variant's is written
@@ -278,28 +290,32 @@ class Registry:
                 if record is None:
                     raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; "
                                         f"{NOT_FOUND_HINT}")
-                keys = (("format", "base", "locked_joints", "payloads")
+                keys = (("format", "base", "locked_joints", "payloads", "inertial_parameters",
+                         "friction")
                         if record.get("format") in ("reduced", "variant") else REBUILD_KEYS)
                 spec = {"source": "upload", "id": base.id,
                         "record": {**{k: record[k] for k in keys if k in record},
                                    "name": base.name, "warnings": base.warnings}}
-            return self._store_variant(base, spec, payloads, request, name), True
+            return self._store_variant(base, spec, payloads, request, name, fitted), True
 
     def _store_variant(self, base: Robot, spec: dict[str, Any],
                        payloads: Sequence[PlacedPayload], request: dict[str, list[float]],
-                       name: str | None) -> Robot:
+                       name: str | None, fitted: Fitted | None = None) -> Robot:
+        fitted = fitted or NOTHING_FITTED
         locked = locked_configuration(base, request) if request else {}
-        model_id = variant_id(spec["id"], payloads, request)
-        changes = modifications(payloads, request)
-        kind = "variant" if payloads else "reduced"
+        model_id = variant_id(spec["id"], payloads, request, fitted)
+        changes = modifications(payloads, request, fitted)
+        kind = "variant" if payloads or fitted else "reduced"
         robot = variant_robot(base, payloads, locked, robot_id=model_id,
-                              name=name or f"{base.name} ({kind})", changes=changes)
+                              name=name or f"{base.name} ({kind})", changes=changes,
+                              fitted=fitted)
         record: dict[str, Any] = {
             "format": kind, "base": spec, "locked_joints": locked, "locked_request": request,
             "modifications": changes, "id": model_id, "name": robot.name,
             "warnings": robot.warnings, "summary": robot.summary(), "created_at": time.time()}
         if payloads:
             record["payloads"] = changes["payloads"]
+        record.update(fitted.as_dict())
         self.store.write(record)
         with self._lock:
             self.uploads[model_id] = robot

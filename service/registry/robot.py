@@ -105,6 +105,9 @@ class Robot:
     # a variant (a stored derived model): its parent's id and the modifications as requested
     parent: str | None = None
     modifications: dict[str, Any] | None = None
+    # identified joint friction (a robot made by identification): "coulomb", "viscous",
+    # "offset", each (nv,) in N·m or N (N·m·s/rad or N·s/m for viscous); None: no model
+    friction: dict[str, np.ndarray] | None = None
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
@@ -241,7 +244,22 @@ class Robot:
             if self.parent is not None:
                 self._info["parent"] = self.parent
                 self._info["modifications"] = self.modifications or {}
+            if self.friction is not None:
+                self._info["friction"] = friction_table(m, self.friction)
         return self._info
+
+
+def friction_table(model: Any, friction: dict[str, np.ndarray]) -> list[dict[str, Any]]:
+    """RobotInfo's `friction`: one `{"joint", "coulomb", "viscous", "offset"}` per 1-DoF
+    joint (τ_f = offset + coulomb sign(v) + viscous v)."""
+    rows = []
+    for jid in range(1, model.njoints):
+        joint = model.joints[jid]
+        if joint.nv == 1:
+            rows.append({"joint": model.names[jid],
+                         **{k: float(friction[k][joint.idx_v])
+                            for k in ("coulomb", "viscous", "offset")}})
+    return rows
 
 
 class _BorrowedData:

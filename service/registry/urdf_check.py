@@ -38,6 +38,7 @@ import numpy as np
 from service.errors import InvalidModel
 from service.registry.mimic import mimic_problems
 from service.registry.safe_xml import check_name_lengths, parse_bounded, read_numbers, shown
+from service.settings import Settings
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 AXIS_TYPES = ("revolute", "continuous", "prismatic", "planar")
@@ -76,18 +77,22 @@ class URDFSummary:
     nv: int = 0  # velocity dimension of the description's own joints (without a root joint)
 
 
+# The defaults are the settings' (ROBODYN_MAX_LINKS, ...): one place for each.
+_SETTINGS = Settings.model_fields
+
+
 @dataclass(frozen=True)
 class Limits:
     """Caps that bound parse time and memory. The defaults admit every catalog robot (at most
     130 links, nv 101, kinematic depth 21, 3,851 XML elements, XML nesting 6) with a wide margin;
     `nv` matters most: a Pinocchio `Data` takes about 80·nv³ bytes (170 MB at nv = 128)."""
 
-    max_links: int = 1000
-    max_nv: int = 128
-    max_depth: int = 128
-    max_elements: int = 50_000
-    max_xml_depth: int = 32
-    max_name_length: int = 256  # of robot, link, joint, body, site... names (characters)
+    max_links: int = _SETTINGS["max_links"].default
+    max_nv: int = _SETTINGS["max_nv"].default
+    max_depth: int = _SETTINGS["max_depth"].default
+    max_elements: int = _SETTINGS["max_xml_elements"].default
+    max_xml_depth: int = _SETTINGS["max_xml_depth"].default
+    max_name_length: int = _SETTINGS["max_name_length"].default  # of robot, link, joint... names
 
 
 def _numbers(text: str | None, count: int, what: str, default: str | None = None) -> list[float]:

@@ -2,11 +2,15 @@
 // vendored three.js. Every request goes to this service through a relative URL (so the page
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
 import { EquationsView } from "./equations_view.js";
+import { IdentificationView } from "./view_identification.js";
+import { api, Problem, robotPath } from "./http.js";
+import { finite, jointCoordinates } from "./joint_coordinates.js";
+import { fmt, renderHeatmap, renderNumbers } from "./mass_matrix_view.js";
 import { PayloadPanel } from "./payload_panel.js";
+import { arrowKeys } from "./tabs.js";
 import { TrajectoryView } from "./trajectory_view.js";
 import { ViewPanel } from "./view_panel.js";
 
-const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
 const DEFAULT_VELOCITY = 0.5; // rad/s or m/s in every coordinate when a robot is chosen
 const UNITS = {
   angle: { q: "rad", v: "rad/s", f: "N·m" },
@@ -28,132 +32,8 @@ const state = {
   trajectory: null, // the trajectory tab (trajectory_view.js)
   payload: null, // the payload view (payload_panel.js)
   equations: null, // the equations view (equations_view.js)
+  identification: null, // the identification view (view_identification.js)
 };
-
-// ---- HTTP ---------------------------------------------------------------------------------
-
-class Problem extends Error {
-  constructor(status, body) {
-    super(`${body.title || "Error"} (${status}${body.code ? ", " + body.code : ""}): ` +
-          `${body.detail || "no detail"}`);
-    this.status = status;
-    this.title = body.title || "Error";
-    this.code = body.code || "";
-    this.detail = body.detail || "";
-  }
-}
-
-async function api(path, body, headers = {}) {
-  const init = { headers: { Accept: "application/json", ...headers } };
-  if (body !== undefined) {
-    init.method = "POST";
-    init.headers["Content-Type"] = "application/json";
-    init.body = JSON.stringify(body);
-  }
-  const res = await fetch(path, init);
-  const text = await res.text();
-  let json = null;
-  try { json = text ? JSON.parse(text) : null; } catch { json = null; }
-  if (!res.ok) throw new Problem(res.status, json || { title: res.statusText });
-  return json;
-}
-
-const robotPath = (id, quantity) =>
-  `v1/robots/${encodeURIComponent(id)}${quantity ? "/" + quantity : ""}`;
-
-// ---- Joint coordinates → q ----------------------------------------------------------------
-
-function rpyToQuat(roll, pitch, yaw) {
-  // R = Rz(yaw) Ry(pitch) Rx(roll), as Pinocchio's rpy; q = [x, y, z, w], unit length.
-  const [cr, sr] = [Math.cos(roll / 2), Math.sin(roll / 2)];
-  const [cp, sp] = [Math.cos(pitch / 2), Math.sin(pitch / 2)];
-  const [cy, sy] = [Math.cos(yaw / 2), Math.sin(yaw / 2)];
-  const q = [sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-             cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy];
-  const n = Math.hypot(...q);
-  return q.map((x) => x / n);
-}
-
-function quatToRpy([x, y, z, w]) {
-  return [Math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)),
-          Math.asin(Math.max(-1, Math.min(1, 2 * (w * y - z * x)))),
-          Math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))];
-}
-
-const finite = (x) => x !== null && Number.isFinite(x) && Math.abs(x) < LARGE;
-
-function coord(suffix, vSuffix, kind, lo, hi, value, fallback) {
-  // A slider range: the joint limits when both are finite, else the fallback, widened if
-  // needed so that the starting value itself is kept exactly.
-  let [min, max] = finite(lo) && finite(hi) && hi > lo ? [lo, hi] : fallback;
-  min = Math.min(min, value);
-  max = Math.max(max, value);
-  return { suffix, vSuffix, kind, min, max, value };
-}
-
-function jointCoordinates(j, q0) {
-  // One coordinate per velocity entry (nv of them) and the map back to the joint's nq entries.
-  const qj = q0.slice(j.idx_q, j.idx_q + j.nq);
-  const lo = j.lower, hi = j.upper, PI = Math.PI;
-  const ANGLE = [-PI, PI], LENGTH = [-1, 1];
-  if (j.type === "free_flyer") {
-    const [r, p, y] = quatToRpy(qj.slice(3, 7));
-    return {
-      coords: [coord("x", "vx", "length", lo[0], hi[0], qj[0], LENGTH),
-               coord("y", "vy", "length", lo[1], hi[1], qj[1], LENGTH),
-               coord("z", "vz", "length", lo[2], hi[2], qj[2], LENGTH),
-               coord("roll", "ωx", "angle", null, null, r, ANGLE),
-               coord("pitch", "ωy", "angle", null, null, p, [-PI / 2, PI / 2]),
-               coord("yaw", "ωz", "angle", null, null, y, ANGLE)],
-      toQ: (c) => [c[0], c[1], c[2], ...rpyToQuat(c[3], c[4], c[5])],
-    };
-  }
-  if (j.type === "spherical") {
-    // The identity in neutral_configuration shows the order: [1, 0, 0, 0] is w first (an MJCF
-    // model, whose q is MuJoCo's qpos), [0, 0, 0, 1] w last (Pinocchio's).
-    const wFirst = state.info.neutral_configuration[j.idx_q] === 1;
-    const [r, p, y] = quatToRpy(wFirst ? [...qj.slice(1), qj[0]] : qj);
-    return {
-      coords: [coord("roll", "ωx", "angle", null, null, r, ANGLE),
-               coord("pitch", "ωy", "angle", null, null, p, [-PI / 2, PI / 2]),
-               coord("yaw", "ωz", "angle", null, null, y, ANGLE)],
-      toQ: (c) => {
-        const xyzw = rpyToQuat(c[0], c[1], c[2]);
-        return wFirst ? [xyzw[3], ...xyzw.slice(0, 3)] : xyzw;
-      },
-    };
-  }
-  if (j.type === "planar") {
-    return {
-      coords: [coord("x", "vx", "length", lo[0], hi[0], qj[0], LENGTH),
-               coord("y", "vy", "length", lo[1], hi[1], qj[1], LENGTH),
-               coord("θ", "ω", "angle", null, null, Math.atan2(qj[3], qj[2]), ANGLE)],
-      toQ: (c) => [c[0], c[1], Math.cos(c[2]), Math.sin(c[2])],
-    };
-  }
-  if (j.type === "continuous") { // q = [cos θ, sin θ]
-    return {
-      coords: [coord("θ", "ω", "angle", null, null, Math.atan2(qj[1], qj[0]), ANGLE)],
-      toQ: (c) => [Math.cos(c[0]), Math.sin(c[0])],
-    };
-  }
-  if (j.nq === j.nv) { // revolute, prismatic, spherical_zyx, translation, ...
-    const kind = ["revolute", "spherical_zyx"].includes(j.type) ? "angle"
-      : ["prismatic", "translation"].includes(j.type) ? "length" : "other";
-    const fallback = kind === "angle" ? ANGLE : LENGTH;
-    const names = j.nv === 1 ? [""] : [...Array(j.nv).keys()].map(String);
-    return {
-      coords: names.map((s, k) => coord(s, s, kind, lo[k], hi[k], qj[k], fallback)),
-      toQ: (c) => c,
-    };
-  }
-  // An unknown joint whose q is not its v: held at the starting configuration.
-  return {
-    coords: [...Array(j.nv).keys()].map((k) => ({ suffix: String(k), vSuffix: String(k),
-                                                  kind: "other", held: true })),
-    toQ: () => qj,
-  };
-}
 
 // ---- Controls -----------------------------------------------------------------------------
 
@@ -194,7 +74,7 @@ function buildControls(q0, v0) {
   state.joints = [];
   state.rows = [];
   for (const j of state.info.joints) {
-    const spec = jointCoordinates(j, q0);
+    const spec = jointCoordinates(j, q0, state.info.neutral_configuration);
     const entry = { joint: j, toQ: spec.toQ, inputs: [] };
     spec.coords.forEach((c, k) => {
       const row = document.createElement("tr");
@@ -278,7 +158,7 @@ async function compute() {
       state.chooseScale = false;
     }
     state.last = { M: mm.mass_matrix, labels, stamp: { robot: id, q, v } };
-    renderHeatmap(mm.mass_matrix, labels, { robot: id, q, v });
+    renderHeatmap(mm.mass_matrix, labels, { robot: id, q, v }, state.info.joints);
     renderNumbers(mm.mass_matrix, labels);
     renderBars(el("gravity-chart"), g.gravity, "f");
     renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
@@ -292,159 +172,6 @@ async function compute() {
   } finally {
     if (seq === state.seq) el("results").setAttribute("aria-busy", "false");
   }
-}
-
-const fmt = (x, digits = 4) => (x === 0 ? "0" : Number(x).toPrecision(digits));
-
-const LOG_DECADES = 4;
-
-function scaled(x, maxAbs) {
-  // The position of x on the colour scale, in [−1, 1]: linear, or logarithmic over
-  // LOG_DECADES decades below max |M| (smaller magnitudes are drawn as 0).
-  if (!el("log-scale").checked) return x / maxAbs;
-  const decades = Math.log10(Math.abs(x) / maxAbs) + LOG_DECADES;
-  return x === 0 || decades <= 0 ? 0 : Math.sign(x) * Math.min(1, decades / LOG_DECADES);
-}
-
-function colour(t) {
-  // Diverging scale for t in [−1, 1]: blue (negative) – light grey (0) – red (positive).
-  const mid = [247, 247, 247], neg = [33, 102, 172], pos = [178, 24, 43];
-  const end = t < 0 ? neg : pos;
-  const a = Math.min(1, Math.abs(t));
-  const c = mid.map((m, k) => Math.round(m + (end[k] - m) * a));
-  return `rgb(${c[0]}, ${c[1]}, ${c[2]})`;
-}
-
-const SVG = "http://www.w3.org/2000/svg";
-function svgEl(name, attrs) {
-  const e = document.createElementNS(SVG, name);
-  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
-  return e;
-}
-
-function limbStarts() {
-  // Velocity rows where a limb begins: a multi-dof root (a free-flyer base) is its own block,
-  // and a new limb starts at each joint whose parent has several children (a branch point)
-  // or is such a root. Talos: base | left leg | right leg | torso | left arm | right arm | head.
-  const joints = state.info.joints;
-  const children = new Map();
-  for (const j of joints) children.set(j.parent, (children.get(j.parent) || 0) + 1);
-  const root = new Set(joints.filter((j) => j.nv > 1 && !joints.some((p) => p.name === j.parent))
-    .map((j) => j.name));
-  const starts = new Set();
-  for (const j of joints) {
-    if (j.idx_v > 0 && (children.get(j.parent) > 1 || root.has(j.parent) || root.has(j.name))) {
-      starts.add(j.idx_v);
-    }
-  }
-  return starts;
-}
-
-function renderHeatmap(M, labels, stamp) {
-  const box = el("heatmap");
-  const n = M.length;
-  const normalised = el("normalised").checked;
-  // Mij / sqrt(Mii Mjj): unitless in [-1, 1] (M is positive definite), 1 on the diagonal.
-  const shown = normalised
-    ? M.map((r, i) => r.map((x, j) => x / Math.sqrt(Math.abs(M[i][i] * M[j][j])) || 0)) : M;
-  const maxAbs = Math.max(...shown.flat().map(Math.abs)) || 1;
-  // Cells of at least 14 px and labels of at least 11 px: a large robot (talos, nv 38) scrolls
-  // sideways rather than shrinking its labels out of reach.
-  const cell = Math.max(14, Math.min(48, Math.floor(440 / Math.max(n, 1))));
-  const font = Math.max(11, Math.min(13, cell * 0.75));
-  const pad = Math.ceil(Math.max(0, ...labels.map((l) => l.length)) * font * 0.6) + 8;
-  const size = pad + n * cell;
-  const svg = svgEl("svg", { width: size, height: size, viewBox: `0 0 ${size} ${size}`,
-                             role: "img", "aria-label": `Heat map of the ${n}×${n} mass ` +
-                             "matrix; the table below lists the numbers" });
-  labels.forEach((label, i) => {
-    const row = svgEl("text", { x: pad - 4, y: pad + (i + 0.5) * cell, "font-size": font,
-                                "text-anchor": "end", "dominant-baseline": "middle" });
-    row.textContent = label;
-    const col = svgEl("text", { x: 0, y: 0, "font-size": font, "text-anchor": "start",
-                                "dominant-baseline": "middle",
-                                transform: `translate(${pad + (i + 0.5) * cell} ${pad - 4}) ` +
-                                           "rotate(-90)" });
-    col.textContent = label;
-    svg.append(row, col);
-  });
-  M.forEach((r, i) => r.forEach((value, j) => {
-    svg.append(svgEl("rect", { x: pad + j * cell, y: pad + i * cell, width: cell, height: cell,
-                               fill: colour(scaled(shown[i][j], maxAbs)), class: "cell",
-                               "data-row": i, "data-col": j, "data-value": String(value),
-                               "data-normalised": String(shown[i][j]) }));
-  }));
-  for (const k of limbStarts()) { // a line between limbs, across and down
-    const at = pad + k * cell;
-    svg.append(svgEl("line", { x1: pad, x2: pad + n * cell, y1: at, y2: at, class: "limb" }),
-               svgEl("line", { x1: at, x2: at, y1: pad, y2: pad + n * cell, class: "limb" }));
-  }
-  svg.addEventListener("mousemove", (ev) => showTooltip(ev, labels));
-  svg.addEventListener("mouseleave", () => { el("tooltip").hidden = true; });
-  box.replaceChildren(svg);
-  box.dataset.robot = stamp.robot;
-  box.dataset.q = JSON.stringify(stamp.q);
-  box.dataset.v = JSON.stringify(stamp.v);
-  renderLegend(maxAbs, normalised);
-}
-
-function showTooltip(ev, labels) {
-  const tip = el("tooltip");
-  const t = ev.target;
-  if (!t.classList || !t.classList.contains("cell")) { tip.hidden = true; return; }
-  const i = Number(t.dataset.row), j = Number(t.dataset.col);
-  tip.textContent = `M[${labels[i]}, ${labels[j]}] = ${fmt(Number(t.dataset.value), 6)}` +
-    (el("normalised").checked ? ` (÷ √(Mii Mjj): ${fmt(Number(t.dataset.normalised), 3)})` : "");
-  const fig = el("mass-matrix-figure").getBoundingClientRect();
-  tip.style.left = `${ev.clientX - fig.left + 14}px`;
-  tip.style.top = `${ev.clientY - fig.top + 14}px`;
-  tip.hidden = false;
-}
-
-function renderLegend(maxAbs, normalised) {
-  const legend = el("legend");
-  const bar = document.createElement("div");
-  bar.className = "legend-bar";
-  const ticks = document.createElement("div");
-  ticks.className = "legend-ticks";
-  // Ticks at −1, −½, 0, ½, 1 of the scale: on the log scale ½ is 10^(−decades/2) of the max.
-  const log = el("log-scale").checked;
-  const half = log ? maxAbs * 10 ** (-LOG_DECADES / 2) : maxAbs / 2;
-  const floor = `${normalised ? "" : "|M| "}< ${fmt(maxAbs * 10 ** -LOG_DECADES, 2)}`;
-  for (const x of [-maxAbs, -half, 0, half, maxAbs]) {
-    const s = document.createElement("span");
-    s.textContent = x === 0 && log ? floor : fmt(x, 3);
-    ticks.append(s);
-  }
-  legend.replaceChildren(bar, ticks);
-}
-
-function renderNumbers(M, labels) {
-  const table = document.createElement("table");
-  table.className = "numbers";
-  const head = document.createElement("tr");
-  head.append(document.createElement("td"));
-  for (const l of labels) {
-    const th = document.createElement("th");
-    th.scope = "col";
-    th.textContent = l;
-    head.append(th);
-  }
-  table.append(head);
-  M.forEach((r, i) => {
-    const tr = document.createElement("tr");
-    const th = document.createElement("th");
-    th.scope = "row";
-    th.textContent = labels[i];
-    tr.append(th);
-    for (const x of r) {
-      const td = document.createElement("td");
-      td.textContent = fmt(x, 6);
-      tr.append(td);
-    }
-    table.append(tr);
-  });
-  el("mass-matrix-numbers").replaceChildren(table);
 }
 
 function baseRows() {
@@ -607,6 +334,7 @@ async function selectRobot(id) {
   const info = await api(robotPath(id));
   if (mine !== state.robotSeq) return;
   state.info = info;
+  state.identification.setRobot(info);
   history.replaceState(null, "", `#robot=${encodeURIComponent(id)}`);
   const posture = el("posture");
   posture.replaceChildren(new Option("default", "default"), new Option("neutral", "neutral"));
@@ -711,19 +439,6 @@ async function upload(ev) {
 
 // ---- Tabs (the page's views: robot and dynamics, trajectory) ----------------------------
 
-function arrowKeys(tabs, select) {
-  for (const [k, tab] of tabs.entries()) {
-    tab.addEventListener("click", () => select(tab));
-    tab.addEventListener("keydown", (ev) => { // arrow keys move between tabs (ARIA tabs)
-      const step = { ArrowRight: 1, ArrowLeft: -1 }[ev.key];
-      if (!step) return;
-      const next = tabs[(k + step + tabs.length) % tabs.length];
-      next.focus();
-      select(next);
-    });
-  }
-}
-
 function selectTab(button) {
   for (const tab of document.querySelectorAll('#tabs [role="tab"]')) {
     const mine = tab === button;
@@ -773,6 +488,7 @@ async function start() {
   setUpViews();
   state.trajectory = new TrajectoryView({ api, robotPath, fmt });
   setUpTabs();
+  state.identification = new IdentificationView(el("identification"), { api, robotPath });
   el("robot").addEventListener("change", (ev) => {
     selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
   });
@@ -788,10 +504,14 @@ async function start() {
   });
   el("upload").addEventListener("submit", upload);
   el("normalised").addEventListener("change", () => {
-    if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
+    if (state.last) {
+      renderHeatmap(state.last.M, state.last.labels, state.last.stamp, state.info.joints);
+    }
   });
   el("log-scale").addEventListener("change", () => {
-    if (state.last) renderHeatmap(state.last.M, state.last.labels, state.last.stamp);
+    if (state.last) {
+      renderHeatmap(state.last.M, state.last.labels, state.last.stamp, state.info.joints);
+    }
   });
   watchRobotList();
   for (;;) {

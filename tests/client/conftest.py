@@ -3,10 +3,13 @@ in-process Pinocchio as the reference that answers are compared with."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Iterator
 from typing import Any
 
+import httpx
 import pytest
+from fastapi.testclient import TestClient
+from robodyn import AsyncClient, Client
 
 from service.main import create_app
 from service.registry import Registry
@@ -48,3 +51,24 @@ def _no_retries() -> Iterator[None]:
 
     with stamina.set_testing(True, attempts=1):
         yield
+
+
+@pytest.fixture(scope="module")
+def client(app: Any) -> Iterator[Client]:
+    """A `Client` on the real app in process (module scope: its connection pool is reused)."""
+    with TestClient(app, raise_server_exceptions=False) as http, Client(http_client=http) as c:
+        yield c
+
+
+@pytest.fixture
+def anyio_backend() -> str:
+    return "asyncio"
+
+
+@pytest.fixture
+async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
+    """An `AsyncClient` on the real app in process, through httpx's ASGI transport."""
+    transport = httpx.ASGITransport(app=app)
+    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
+                AsyncClient(http_client=http) as c):
+        yield c

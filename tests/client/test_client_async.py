@@ -26,11 +26,6 @@ QUANTITIES = {
 }
 
 
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
 @asynccontextmanager
 async def _client(app: Any, **options: Any) -> AsyncIterator[AsyncClient]:
     transport = httpx.ASGITransport(app=app)

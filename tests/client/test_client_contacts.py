@@ -5,14 +5,12 @@ process; their errors and local input checks."""
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Iterator
-from typing import Any
+from collections.abc import Iterator
 
-import httpx
 import numpy as np
 import pytest
 import robodyn
-from robodyn import AsyncClient, Client
+from robodyn import Client
 from robodyn._calls import BUILDERS
 
 from service.dynamics.contacts import (
@@ -29,19 +27,6 @@ SOLES = [{"frame": "left_sole_link", "type": "6d"}, {"frame": "right_sole_link",
 @pytest.fixture(scope="module")
 def client(server: str) -> Iterator[Client]:
     with Client(server) as c:
-        yield c
-
-
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
-@pytest.fixture
-async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
-    transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http) as c):
         yield c
 
 

@@ -20,6 +20,7 @@ from robodyn._calls import BUILDERS
 
 from service.api.problems.handlers import STATUS_BY_CODE
 from service.api.quantities import SPECS
+from service.api.schemas.identification import IdentifyRequest
 from service.api.schemas.robots import ReduceRequest, UploadRequest
 from service.main import create_app
 from service.settings import Settings
@@ -90,6 +91,19 @@ RETIMED = {"duration": 1.0, "t": [0.0, 1.0], "q": [[0.0], [1.0]], "v": [[0.0], [
 ARGS.update({"trajectory_check": ("r", [0.0, 1.0], [[0.0], [1.0]]),
              "retime": ("r", [[0.0], [1.0]])})
 
+# identification
+ANSWERS.update({"layout": ["m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz",
+                           "Izz"],
+                "parameters": [0.0] * 10, "regressor": [[0.0] * 10], "friction": [],
+                "base_parameters": {"expressions": [], "values": [],
+                                    "standard_deviation": []},
+                "condition_number": 1.0, "physically_consistent": True,
+                "rmse": {"train": [0.0], "validation": [0.0], "validation_before": [0.0]},
+                "filter_hz": None, "samples": {"train": 1, "validation": 1, "fit": 1},
+                "robot": None})
+ARGS.update({"inertial_parameters": ("r",), "regressor": ("r", [0.0], [0.0], [0.0]),
+             "identify": ("r", [0.0, 0.1], [[0.0], [0.1]], [[0.0], [0.0]])})
+
 
 def sent_requests() -> dict[str, httpx.Request]:
     """Call every client method against a mock; the request each one sent."""
@@ -136,6 +150,8 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
     requests = sent_requests()
     UploadRequest.model_validate_json(requests["upload"].content)
     ReduceRequest.model_validate_json(requests["reduce"].content)
+    IdentifyRequest.model_validate_json(requests["identify"].content)
+    SPECS["regressor"].request.model_validate_json(requests["regressor"].content)
     inputs = {"mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
               "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
               "forward_dynamics": ("q", "v", "tau")}

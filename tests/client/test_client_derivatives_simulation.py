@@ -202,11 +202,6 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
     assert json.loads(recorder.requests[3].content)["controller"]["kd"] == 2.0
 
 
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
 @pytest.mark.anyio
 async def test_async_client_has_the_same_answers(app: Any, client: Client,
                                                  reference: Reference) -> None:

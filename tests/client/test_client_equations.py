@@ -4,38 +4,16 @@ numbers, the structure, the errors, and SymPy as an optional extra."""
 from __future__ import annotations
 
 import sys
-from collections.abc import AsyncIterator, Iterator
 from typing import Any
 
-import httpx
 import numpy as np
 import pinocchio as pin
 import pytest
 import robodyn
 import sympy as sp
-from fastapi.testclient import TestClient
 from robodyn import AsyncClient, Client
 
 from tests.helpers import random_configuration
-
-
-@pytest.fixture(scope="module")
-def client(app: Any) -> Iterator[Client]:
-    with TestClient(app, raise_server_exceptions=False) as http, Client(http_client=http) as c:
-        yield c
-
-
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
-@pytest.fixture
-async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
-    transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http) as c):
-        yield c
 
 
 def test_planar_arm_equations_are_typed_and_read_back_by_sympy(client: Client) -> None:

@@ -110,11 +110,6 @@ METHODS = ["mass_matrix_inverse", "energy", "center_of_mass", "jacobian", "opera
 
 
 @pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
-@pytest.fixture
 async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
     transport = httpx.ASGITransport(app=app)
     async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,

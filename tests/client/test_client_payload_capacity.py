@@ -4,10 +4,9 @@ read as inf, and a variant answers as its parent carrying the payloads."""
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Iterator
+from collections.abc import Iterator
 from typing import Any
 
-import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -23,19 +22,6 @@ COM = [0.0, 0.01, 0.08]
 @pytest.fixture(scope="module")
 def client(app: Any) -> Iterator[Client]:
     with TestClient(app) as http, Client(http_client=http) as c:
-        yield c
-
-
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
-@pytest.fixture
-async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
-    transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http) as c):
         yield c
 
 

@@ -61,11 +61,6 @@ def test_sync_client_against_a_real_server_and_its_restart(tmp_path: Path) -> No
         np.testing.assert_array_equal(client.mass_matrix(info.id, q), M)
 
 
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
 @pytest.mark.anyio
 async def test_async_client_in_process(tmp_path: Path) -> None:
     registry = Registry(tmp_path, ["ur5", "planar_arm"])

@@ -3,10 +3,9 @@ the same numbers, and the errors as their classes."""
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Iterator
+from collections.abc import Iterator
 from typing import Any
 
-import httpx
 import numpy as np
 import pytest
 import robodyn
@@ -21,19 +20,6 @@ WAYPOINTS = np.random.default_rng(0).uniform(-2.0, 2.0, (3, 6))
 @pytest.fixture(scope="module")
 def client(app: Any) -> Iterator[Client]:
     with TestClient(app) as http, Client(http_client=http) as c:
-        yield c
-
-
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
-@pytest.fixture
-async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
-    transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http) as c):
         yield c
 
 

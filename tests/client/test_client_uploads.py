@@ -186,11 +186,6 @@ def test_local_errors(tmp_path: Path) -> None:
         upload_body(tmp_path / "missing.urdf")
 
 
-@pytest.fixture
-def anyio_backend() -> str:
-    return "asyncio"
-
-
 @pytest.mark.anyio
 async def test_async_client_uploads_a_directory(app, tmp_path: Path) -> None:
     root = _mjcf_dir(tmp_path / "async")

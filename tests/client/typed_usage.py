@@ -79,6 +79,17 @@ def carrying(client: Client, q: np.ndarray) -> float:
     return float(g[1]) / (limit if isinstance(limit, float) else 1.0) + float(cap.mass)
 
 
+def identifying(client: Client, t: np.ndarray, q: np.ndarray, tau: np.ndarray) -> float:
+    """The identification methods (type-checked only: a fit needs a real log)."""
+    params: robodyn.InertialParameters = client.inertial_parameters("ur5")
+    Y: np.ndarray = client.regressor("ur5", q[0], q[0], q[0])
+    result: robodyn.Identification = client.identify(
+        "ur5", t, q, tau, friction="viscous", method="least-squares", filter_hz=5.0,
+        store=False, payload_frame="tool0")
+    friction: robodyn.JointFriction = result.friction[0]
+    return float(Y @ params.parameters @ result.rmse.validation) + friction.viscous
+
+
 async def main_async(url: str) -> float:
     async with AsyncClient(url, retry=None, array_type="numpy") as client:
         info = await client.robot("ur5")

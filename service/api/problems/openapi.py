@@ -89,21 +89,21 @@ def problem_schema() -> dict[str, Any]:
 
 
 def problem_openapi(app: FastAPI, described: Sequence[BaseRoute] = (),
-                    documented: Sequence[BaseRoute] = ()) -> dict[str, Any]:
+                    twins: Sequence[BaseRoute] = ()) -> dict[str, Any]:
     """The app's OpenAPI document, rewritten as the module docstring says (computed once).
     `described`: routes documented but served by other (lean) routes of the app; they are
-    the dynamics routes, which also speak the binary form. `documented`: other such twins
-    (the upload's, whose body is read by the route itself), JSON only."""
+    the dynamics routes, which also speak the binary form. `twins`: other lean routes'
+    documentation (JSON only, e.g. identify)."""
     if app.openapi_schema:
         return app.openapi_schema
     doc = get_openapi(title=app.title, version=app.version, description=app.description,
-                      routes=[*app.routes, *described, *documented])
+                      routes=[*app.routes, *described, *twins])
     schemas = doc.setdefault("components", {}).setdefault("schemas", {})
     for name in ("HTTPValidationError", "ValidationError"):
         schemas.pop(name, None)
     schemas["Problem"] = problem_schema()
     paths = doc.get("paths", {})
-    _name_operations(paths, [*app.routes, *described, *documented])
+    _name_operations(paths, [*app.routes, *described, *twins])
     for operations in paths.values():
         for operation in _operations(operations):
             _problem_responses(operation)

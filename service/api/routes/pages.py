@@ -43,8 +43,9 @@ EXPLORER_FILES = {"explorer.js": _JS,
 # included) and the vendored uPlot (service/web/vendor/uplot/README.md).
 THREE_DIR = "vendor/three/"
 MODULE_FILES = {name: _JS for name in [
-    "view3d.js", "view_panel.js", "payload_panel.js", "equations_view.js",
-    "trajectory_view.js", "vendor/uplot/uPlot.esm.js",
+    "view3d.js", "view_panel.js", "joint_coordinates.js",
+    "mass_matrix_view.js", "http.js", "tabs.js", "payload_panel.js", "equations_view.js",
+    "trajectory_view.js", "vendor/uplot/uPlot.esm.js", "view_identification.js",
     THREE_DIR + "build/three.module.min.js",
     THREE_DIR + "examples/jsm/controls/OrbitControls.js",
     THREE_DIR + "examples/jsm/loaders/STLLoader.js",

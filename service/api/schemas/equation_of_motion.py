@@ -18,6 +18,9 @@ from service.api.schemas.external_forces import ExternalForce, forces_field
 
 class InverseDynamicsRequest(QVARequest):
     external_forces: list[ExternalForce] | None = forces_field()
+    friction: bool = Field(False, description="Add the joints' friction torque, offset + "
+                           "coulomb sign(v) + viscous v: for a robot stored by identification "
+                           "(its RobotInfo lists `friction`); any other robot is a 422.")
 
 
 class ForwardDynamicsRequest(QVTauRequest):

@@ -131,6 +131,13 @@ class RobotList(BaseModel):
                                         "load, with the reason.")
 
 
+class JointFriction(BaseModel):
+    joint: str
+    coulomb: float = Field(description="N·m (N): the Coulomb term's size, times sign(v).")
+    viscous: float = Field(description="N·m·s/rad (N·s/m): times v.")
+    offset: float = Field(description="N·m (N): a constant torque.")
+
+
 class RobotInfo(RobotSummary):
     gravity: list[float]
     total_mass: float = Field(description="The mass the dynamics moves, kg: every body a joint "
@@ -164,3 +171,6 @@ class RobotInfo(RobotSummary):
     modifications: dict[str, Any] | None = Field(
         None, description="For a variant: what was changed, as requested: `payloads` (with "
         "their defaults, in canonical order) and/or `locked_joints`.")
+    friction: list[JointFriction] | None = Field(
+        None, description="Present for a robot stored by identification: its joints' friction "
+        "(inverse-dynamics adds it with \"friction\": true).")

@@ -36,6 +36,10 @@ class TrajectoryCheckRequest(QRequest):
     a: JointArray | None = joint_field("Optional. " + A_DESC, None)
     effort_scale: Scale = _scale("effort")
     velocity_scale: Scale = _scale("velocity")
+    friction: bool = Field(False, description="Add the joints' friction torque to τ, offset + "
+                           "coulomb ∘ sign(v) + viscous ∘ v: only for a robot stored by "
+                           "identification (its RobotInfo lists `friction`); any other robot "
+                           "is a 422.")
     samples_per_interval: int = Field(4, ge=1, le=64, description=(
         "k: with the spline (v and a absent), the check also evaluates k − 1 evenly spaced "
         "points inside every interval, so that a limit broken between samples is found."))

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from service.dynamics.equation_of_motion import joint_friction
 from service.dynamics.quantity import Quantity
 from service.dynamics.stopping import ShouldStop
 from service.dynamics.trajectories import retiming
@@ -28,6 +29,7 @@ JSON_BYTES_PER_NUMBER = 25  # as the answer budget counts a number in JSON
 
 def trajectory_check(robot: Robot, s: States, *, t: Any, effort_scale: float = 1.0,
                      velocity_scale: float = 1.0, samples_per_interval: int = 4,
+                     friction: bool = False,
                      should_stop: ShouldStop | None = None) -> dict[str, Any]:
     """Check the motion sampled at times `t` [N] (s, strictly increasing, N ≥ 2) with
     configurations q [N][nq] and optional velocities v and accelerations a [N][nv] against the
@@ -39,7 +41,9 @@ def trajectory_check(robot: Robot, s: States, *, t: Any, effort_scale: float = 1
     [N][nv] at the samples, per 1-DoF joint its limits, peaks and ratios (peak ÷ limit over
     every evaluated point, null without a limit), the `violations` with their time spans,
     and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
-    never computed in chunks of states (`should_stop` is asked between its RNEA batches)."""
+    never computed in chunks of states (`should_stop` is asked between its RNEA batches).
+    With `friction` (a robot made by identification) τ includes the joints' friction torque,
+    offset + coulomb ∘ sign(v) + viscous ∘ v."""
     times = sample_times("t", t)
     q = s["q"]
     if q.shape[0] != times.shape[0]:
@@ -47,6 +51,7 @@ def trajectory_check(robot: Robot, s: States, *, t: Any, effort_scale: float = 1
     result = check_samples(robot, times, q, s.arrays.get("v"), s.arrays.get("a"),
                            effort_scale=effort_scale, velocity_scale=velocity_scale,
                            samples_per_interval=samples_per_interval,
+                           friction=joint_friction(robot) if friction else None,
                            should_stop=should_stop)
     return {"feasible": result.feasible, "tau": result.tau, "v": result.v,
             "joints": result.joints, "violations": result.violations, "work": result.work}

@@ -60,6 +60,12 @@ from robodyn.errors import (
     UnsupportedModelError,
     ValidationError,
 )
+from robodyn.identification import (
+    Identification,
+    IdentifiedBody,
+    InertialParameters,
+    JointFriction,
+)
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
 from robodyn.payloads import CapacityMinimum, Payload, PayloadCapacity
@@ -120,8 +126,11 @@ __all__ = [
     "ForwardDynamicsDerivatives",
     "FrameInfo",
     "FrameJacobian",
+    "Identification",
+    "IdentifiedBody",
     "ImpulseDynamics",
     "InertiaCheck",
+    "InertialParameters",
     "Inertias",
     "InfeasiblePathError",
     "InputError",
@@ -131,6 +140,7 @@ __all__ = [
     "InvalidModelError",
     "InverseDynamicsDerivatives",
     "JointCheck",
+    "JointFriction",
     "JointInfo",
     "MethodNotAllowedError",
     "NonFiniteResultError",

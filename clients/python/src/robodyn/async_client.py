@@ -16,6 +16,7 @@ from robodyn import progress as _progress
 from robodyn._methods.beyond import AsyncBeyondMethods
 from robodyn._methods.contacts import AsyncContactMethods
 from robodyn._methods.dynamics import AsyncDynamicsMethods
+from robodyn._methods.identification import AsyncIdentificationMethods
 from robodyn._methods.robots import AsyncRobotMethods
 from robodyn._methods.trajectories import AsyncTrajectoryMethods
 from robodyn.request_options import Fill
@@ -23,7 +24,8 @@ from robodyn.stream import AsyncStream, stream_url
 
 
 class AsyncClient(AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods,
-                  AsyncContactMethods, AsyncTrajectoryMethods):
+                  AsyncContactMethods, AsyncTrajectoryMethods,
+                  AsyncIdentificationMethods):
     """An async client of a robodyn server; use it with `async with`, or await `aclose()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else

@@ -16,13 +16,15 @@ from robodyn import progress as _progress
 from robodyn._methods.beyond import BeyondMethods
 from robodyn._methods.contacts import ContactMethods
 from robodyn._methods.dynamics import DynamicsMethods
+from robodyn._methods.identification import IdentificationMethods
 from robodyn._methods.robots import RobotMethods
 from robodyn._methods.trajectories import TrajectoryMethods
 from robodyn.request_options import Fill
 from robodyn.stream import Stream, stream_url
 
 
-class Client(RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, TrajectoryMethods):
+class Client(RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, TrajectoryMethods,
+             IdentificationMethods):
     """A blocking client of a robodyn server; use it as a context manager, or call `close()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else

@@ -217,9 +217,9 @@ class NonFiniteResultError(UnprocessableError, ArithmeticError):
 
 
 class UnsupportedModelError(UnprocessableError):
-    """The route needs what this model lacks (e.g. a fixed base and 1-DoF joints for the
-    equations in explicit form, or a size the derivation can finish in time); the detail
-    says which."""
+    """The route needs what this model lacks (e.g. a fixed base and 1-DoF joints for
+    identification or the equations in explicit form, or a size the derivation can finish in
+    time); the detail says which."""
 
     error_code = "unsupported_model"
 

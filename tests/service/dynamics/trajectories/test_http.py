@@ -241,3 +241,32 @@ def test_a_long_motion_is_checked_whole_and_can_be_stopped(tmp_path: Path) -> No
         assert quantity.stoppable
         with pytest.raises(ComputationStopped, match="stopped at"):
             dynamics.run(robot, quantity, States(arrays, True), options, lambda: True)
+
+
+def test_friction_of_an_identified_robot_adds_to_the_checked_torques(api, setup) -> None:
+    """`"friction": true` on a robot stored by identification: τ at the samples is the
+    frictionless τ of the same robot plus offset + coulomb ∘ sign(v) + viscous ∘ v, and the
+    work follows; on a robot without identified friction it is a 422 naming the reason."""
+    from service.dynamics.identification import inertial_parameters
+    from service.registry.variants import Fitted
+
+    registry = setup[1]
+    model = registry.get("ur5").model
+    friction = tuple((str(model.names[j]), 0.5 + 0.1 * j, 0.2 * j, -0.05 * j)
+                     for j in range(1, model.njoints))
+    fitted = Fitted(tuple(float(x) for x in inertial_parameters(model)), friction)
+    robot, _ = registry.variant("ur5", fitted=fitted, name="ur5 with friction")
+    t, q = _motion()
+    body = {"t": t.tolist(), "q": q.tolist()}
+    path = f"/v1/robots/{robot.id}/trajectory-check"
+    plain, rubbing = (api.post(path, json={**body, "friction": on}) for on in (False, True))
+    assert plain.status_code == 200 and rubbing.status_code == 200, rubbing.text
+    v = np.array(plain.json()["v"])
+    coulomb = np.array([f[1] for f in friction])
+    viscous = np.array([f[2] for f in friction])
+    offset = np.array([f[3] for f in friction])
+    expected = np.array(plain.json()["tau"]) + offset + coulomb * np.sign(v) + viscous * v
+    np.testing.assert_allclose(rubbing.json()["tau"], expected, rtol=1e-12, atol=1e-12)
+    assert rubbing.json()["work"]["positive"] > plain.json()["work"]["positive"]
+    refused = api.post("/v1/robots/ur5/trajectory-check", json={**body, "friction": True})
+    assert refused.status_code == 422 and "no friction model" in refused.json()["detail"]

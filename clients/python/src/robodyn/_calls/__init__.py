@@ -12,7 +12,7 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any
 
-from robodyn._calls import beyond, contacts, dynamics, robots, trajectories
+from robodyn._calls import beyond, contacts, dynamics, identification, robots, trajectories
 from robodyn.core import Call
 
 
@@ -22,10 +22,11 @@ def _builders(*modules: ModuleType) -> dict[str, Callable[..., Call[Any]]]:
             and not name.startswith("_")}
 
 
-BUILDERS = _builders(robots, dynamics, beyond, contacts, trajectories)
+BUILDERS = _builders(robots, dynamics, beyond, contacts, trajectories, identification)
 """Client method name → its request builder."""
 STREAMED = tuple(_builders(dynamics, beyond, contacts, trajectories))
 """The methods a stream offers: the quantities of one robot (`POST /v1/robots/{id}/<quantity>`
 routes the server's WebSocket also answers)."""
 
-__all__ = ["BUILDERS", "STREAMED", "beyond", "contacts", "dynamics", "robots", "trajectories"]
+__all__ = ["BUILDERS", "STREAMED", "beyond", "contacts", "dynamics", "identification",
+           "robots", "trajectories"]

@@ -53,10 +53,12 @@ def nonlinear_effects(robot_id: str, q: ArrayLike, v: ArrayLike, *,
 
 def inverse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
                      external_forces: Sequence[Mapping[str, Any]] | None = None,
-                     payloads: PayloadsLike | None = None
+                     payloads: PayloadsLike | None = None, friction: bool = False
                      ) -> Call[np.ndarray]:
-    return request(robot_id, "inverse-dynamics", array("tau", 1),
-                   request_options.external_forces(external_forces), payloads=payloads,
+    options = request_options.external_forces(external_forces)
+    if friction:
+        options = {**options, "friction": True}
+    return request(robot_id, "inverse-dynamics", array("tau", 1), options, payloads=payloads,
                    q=q, v=v, a=a)
 
 

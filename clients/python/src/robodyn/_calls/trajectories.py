@@ -18,6 +18,7 @@ from robodyn.trajectories import Retimed, TrajectoryCheck, positive, times
 def trajectory_check(robot_id: str, t: ArrayLike, q: ArrayLike, *, v: ArrayLike | None = None,
                      a: ArrayLike | None = None, effort_scale: float = 1.0,
                      velocity_scale: float = 1.0, samples_per_interval: int = 4,
+                     friction: bool = False,
                      payloads: PayloadsLike | None = None) -> Call[TrajectoryCheck]:
     if isinstance(samples_per_interval, bool) or not isinstance(samples_per_interval, int) \
             or not 1 <= samples_per_interval <= 64:
@@ -25,6 +26,8 @@ def trajectory_check(robot_id: str, t: ArrayLike, q: ArrayLike, *, v: ArrayLike 
     options = {"t": times(t), "effort_scale": positive("effort_scale", effort_scale),
                "velocity_scale": positive("velocity_scale", velocity_scale),
                "samples_per_interval": samples_per_interval}
+    if friction:
+        options["friction"] = True
     return request(robot_id, "trajectory-check", TrajectoryCheck.from_json, options,
                    payloads=payloads, optional=("v", "a"), independent_rows=False, q=q, v=v,
                    a=a)

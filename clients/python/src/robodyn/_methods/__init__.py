@@ -7,12 +7,14 @@ from __future__ import annotations
 from robodyn._methods.beyond import AsyncBeyondMethods, BeyondMethods
 from robodyn._methods.contacts import AsyncContactMethods, ContactMethods
 from robodyn._methods.dynamics import AsyncDynamicsMethods, DynamicsMethods
+from robodyn._methods.identification import AsyncIdentificationMethods, IdentificationMethods
 from robodyn._methods.robots import AsyncRobotMethods, RobotMethods
 from robodyn._methods.trajectories import AsyncTrajectoryMethods, TrajectoryMethods
 
-SYNC = (RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, TrajectoryMethods)
+SYNC = (RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, TrajectoryMethods,
+        IdentificationMethods)
 """The method classes `Client` joins (`AsyncClient` joins the `ASYNC` twins, in order)."""
 ASYNC = (AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods, AsyncContactMethods,
-         AsyncTrajectoryMethods)
+         AsyncTrajectoryMethods, AsyncIdentificationMethods)
 
 __all__ = ["ASYNC", "SYNC"]

@@ -68,17 +68,19 @@ class DynamicsMethods(SyncSender):
 
     def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
                          external_forces: Sequence[Mapping[str, Any]] | None = None,
-                         payloads: PayloadsLike | None = None) -> np.ndarray:
+                         payloads: PayloadsLike | None = None, friction: bool = False
+                         ) -> np.ndarray:
         """τ = M(q) a + C(q, v) v + g(q) (RNEA): the generalized forces, N·m or N, that give the
         accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch. `external_forces`:
         wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
         "reference_frame": "local_world_aligned"}]` (N, N·m; a wrench may be (N, 6), one per
         state); then τ = M a + C v + g − Σ Jᵀ w. `payloads`: rigid bodies the robot holds
-        (`Payload`s), added to its model for this call.
+        (`Payload`s), added to its model for this call. `friction`: add the joints' friction
+        (offset + Coulomb sign(v) + viscous v) of a robot stored by `identify`.
         """
         return self._send(calls.inverse_dynamics(robot_id, q, v, a,
                                                  external_forces=external_forces,
-                                                 payloads=payloads))
+                                                 payloads=payloads, friction=friction))
 
     def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
                          external_forces: Sequence[Mapping[str, Any]] | None = None,
@@ -188,17 +190,19 @@ class AsyncDynamicsMethods(AsyncSender):
 
     async def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
                                external_forces: Sequence[Mapping[str, Any]] | None = None,
-                               payloads: PayloadsLike | None = None) -> np.ndarray:
+                               payloads: PayloadsLike | None = None, friction: bool = False
+                               ) -> np.ndarray:
         """τ = M(q) a + C(q, v) v + g(q) (RNEA): the generalized forces, N·m or N, that give the
         accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch. `external_forces`:
         wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
         "reference_frame": "local_world_aligned"}]` (N, N·m; a wrench may be (N, 6), one per
         state); then τ = M a + C v + g − Σ Jᵀ w. `payloads`: rigid bodies the robot holds
-        (`Payload`s), added to its model for this call.
+        (`Payload`s), added to its model for this call. `friction`: add the joints' friction
+        (offset + Coulomb sign(v) + viscous v) of a robot stored by `identify`.
         """
         return await self._send(calls.inverse_dynamics(robot_id, q, v, a,
                                                        external_forces=external_forces,
-                                                       payloads=payloads))
+                                                       payloads=payloads, friction=friction))
 
     async def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
                                external_forces: Sequence[Mapping[str, Any]] | None = None,

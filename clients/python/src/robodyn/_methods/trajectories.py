@@ -16,7 +16,7 @@ class TrajectoryMethods(SyncSender):
     def trajectory_check(self, robot_id: str, t: ArrayLike, q: ArrayLike, *,
                          v: ArrayLike | None = None, a: ArrayLike | None = None,
                          effort_scale: float = 1.0, velocity_scale: float = 1.0,
-                         samples_per_interval: int = 4,
+                         samples_per_interval: int = 4, friction: bool = False,
                          payloads: PayloadsLike | None = None) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
@@ -28,12 +28,15 @@ class TrajectoryMethods(SyncSender):
         and `v` at the samples (N, nv), `joints` (`JointCheck`: limits, peaks, ratios),
         `violations` (`Violation`: joint, kind, t_start, t_end, worst, limit) and `work`
         (`Work`: positive and negative, J). Raises `ValidationError` for non-increasing
-        times, `DimensionMismatchError` for rows that do not match. `payloads`: rigid bodies
-        the robot holds (`Payload`s), added to its model for this call.
+        times, `DimensionMismatchError` for rows that do not match. `friction=True` adds the
+        joints' identified friction to τ (a robot stored by `identify`; any other robot is a
+        `ValidationError`). `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
         """
         return self._send(calls.trajectory_check(
             robot_id, t, q, v=v, a=a, effort_scale=effort_scale, velocity_scale=velocity_scale,
-            samples_per_interval=samples_per_interval, payloads=payloads))
+            samples_per_interval=samples_per_interval, friction=friction,
+            payloads=payloads))
 
     def retime(self, robot_id: str, waypoints: ArrayLike, *, velocity_scale: float = 1.0,
                effort_scale: float = 1.0, acceleration: ArrayLike | None = None,
@@ -62,7 +65,7 @@ class AsyncTrajectoryMethods(AsyncSender):
     async def trajectory_check(self, robot_id: str, t: ArrayLike, q: ArrayLike, *,
                                v: ArrayLike | None = None, a: ArrayLike | None = None,
                                effort_scale: float = 1.0, velocity_scale: float = 1.0,
-                               samples_per_interval: int = 4,
+                               samples_per_interval: int = 4, friction: bool = False,
                                payloads: PayloadsLike | None = None) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
@@ -74,12 +77,15 @@ class AsyncTrajectoryMethods(AsyncSender):
         and `v` at the samples (N, nv), `joints` (`JointCheck`: limits, peaks, ratios),
         `violations` (`Violation`: joint, kind, t_start, t_end, worst, limit) and `work`
         (`Work`: positive and negative, J). Raises `ValidationError` for non-increasing
-        times, `DimensionMismatchError` for rows that do not match. `payloads`: rigid bodies
-        the robot holds (`Payload`s), added to its model for this call.
+        times, `DimensionMismatchError` for rows that do not match. `friction=True` adds the
+        joints' identified friction to τ (a robot stored by `identify`; any other robot is a
+        `ValidationError`). `payloads`: rigid bodies the robot holds (`Payload`s), added to
+        its model for this call.
         """
         return await self._send(calls.trajectory_check(
             robot_id, t, q, v=v, a=a, effort_scale=effort_scale, velocity_scale=velocity_scale,
-            samples_per_interval=samples_per_interval, payloads=payloads))
+            samples_per_interval=samples_per_interval, friction=friction,
+            payloads=payloads))
 
     async def retime(self, robot_id: str, waypoints: ArrayLike, *,
                      velocity_scale: float = 1.0, effort_scale: float = 1.0,

@@ -1,0 +1,172 @@
+"""Fitting the parameters θ = [π; φ] (inertial, friction) to measured torques.
+
+The data are rows A β = b: A (n, nv, r) the regressor columns of the base parameters β = P θ
+(see `base_parameters`), b (n, nv) the measured torques minus what is known (the armature
+term, or a whole known robot for a payload).
+
+- **Weighted least squares** (ordinary with `weighted` False). An ordinary least-squares pass
+  gives each joint's residual standard deviation σ_j (its noise level); every row of joint j
+  is then divided by σ_j and solved again (QR of the weighted A: R β = Qᵀ b_w). The
+  covariance of β is s² (RᵀR)⁻¹ with s² the weighted residual variance; its diagonal's square
+  roots are the standard deviations. (No joint's noise level is taken below WEIGHT_RANGE × the
+  largest one.)
+  The condition number is that of the weighted A with its columns scaled to unit norm (so it
+  measures how well the motion separates the base parameters, not their units).
+- **Full parameters from β.** The torques fix only β; the full θ reported is the one closest
+  to the prior θ₀ (the model's own values) with P θ = β, distances scaled by `scale`:
+  θ = θ₀ + S² Pᵀ (P S² Pᵀ)⁻¹ (β − P θ₀), S = diag(scale).
+- **Physically consistent fit** (a semidefinite program, cvxpy with Clarabel, SCS if Clarabel
+  fails): minimize ‖R P θ − Qᵀ b_w‖² + ‖(θ − θ₀) / scale‖² subject to J(π_b) ⪰ 0 for every
+  body b (the pseudo-inertia of `parameters`). The first term is the weighted least-squares
+  objective up to a constant (residuals in units of each joint's noise); the second is a
+  Gaussian prior of standard deviation `scale` around the model's values, which fixes the
+  parameters the torques do not determine and hardly moves those they do. The standard
+  deviations reported are the posterior's, (RᵀR / s² + (P S² Pᵀ)⁻¹)^(-1/2) on the diagonal: the
+  data's where the log determines a base parameter, the prior's spread where it does not (a
+  joint that never moves).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from service.dynamics.identification.base_parameters import BaseParameters
+from service.dynamics.identification.parameters import PER_BODY
+from service.errors import InvalidInput
+
+POORLY_EXCITED = 1e8  # a condition number above this: the motion reveals too little
+WEIGHT_RANGE = 1e-3  # the smallest joint noise level used, relative to the largest
+CONSISTENCY_TOLERANCE = 1e-8  # pseudo-inertia eigenvalues ≥ −this count as ⪰ 0 (solver accuracy)
+MIN_MASS_SCALE = 0.1  # kg: the prior's mass scale of light bodies
+MIN_LENGTH_SCALE = 0.1  # m
+FRICTION_SCALE = 100.0  # the prior's scale of friction parameters (N·m, N·m·s/rad): uninformative
+
+
+@dataclass(frozen=True)
+class Fit:
+    theta: np.ndarray  # the full parameters θ (n,)
+    beta: np.ndarray  # the base parameters P θ (r,)
+    beta_std: np.ndarray  # their standard deviations (r,), from weighted least squares
+    condition_number: float  # inf when the log leaves a base parameter undetermined
+    joint_noise: np.ndarray  # σ_j (nv,), N·m or N: the ordinary fit's residual per joint
+
+
+def prior_scale(pi0: np.ndarray, friction_count: int) -> np.ndarray:
+    """The prior's standard deviation of each parameter: per body [m_s, m_s ℓ (×3),
+    m_s ℓ² (×6)] with m_s = max(m, MIN_MASS_SCALE) and ℓ = max(‖c‖, MIN_LENGTH_SCALE)
+    (a 100 % change of a body of that size), then FRICTION_SCALE for each friction parameter."""
+    out = []
+    for body in pi0.reshape(-1, PER_BODY):
+        mass = max(float(body[0]), MIN_MASS_SCALE)
+        length = max(float(np.linalg.norm(body[1:4])) / max(float(body[0]), 1e-12),
+                     MIN_LENGTH_SCALE)
+        out.append([mass] + [mass * length] * 3 + [mass * length ** 2] * 6)
+    return np.concatenate([np.ravel(out), np.full(friction_count, FRICTION_SCALE)])
+
+
+def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
+        scale: np.ndarray, bodies: int, consistent: bool, weighted: bool = True) -> Fit:
+    """Fit θ (see the module docstring): A (n, nv, r), b (n, nv); θ₀ and `scale` (len(θ),);
+    the first `bodies` blocks of 10 of θ are bodies (constrained when `consistent`).
+    `weighted` False: ordinary least squares (every joint's rows weighted by the one pooled
+    residual standard deviation, which changes no estimate, only the units of the SDP's data
+    term)."""
+    count, nv, r = A.shape
+    flat_a, flat_b = A.reshape(-1, r), b.reshape(-1)
+    ordinary = np.linalg.lstsq(flat_a, flat_b, rcond=None)[0]
+    residual = (flat_b - flat_a @ ordinary).reshape(count, nv)
+    dof = max(count - r / nv, 1.0)
+    noise = np.sqrt((residual ** 2).sum(axis=0) / dof)
+    if not weighted:
+        noise = np.full(nv, float(np.sqrt(np.mean(noise ** 2))))
+    top = float(noise.max())
+    if top > 1e-12 * max(float(np.abs(flat_b).max(initial=0.0)), 1.0):
+        noise = np.maximum(noise, WEIGHT_RANGE * top)  # no joint outweighs another 1000:1
+    else:
+        noise = np.ones(nv)  # noiseless data: equal weights
+    weighted_a = (A / noise[np.newaxis, :, np.newaxis]).reshape(-1, r)
+    weighted_b = (b / noise).reshape(-1)
+    q, rr = np.linalg.qr(weighted_a)
+    target = q.T @ weighted_b
+    norms = np.linalg.norm(rr, axis=0)
+    singular = np.linalg.svd(rr / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    condition = float(singular[0] / singular[-1]) if singular[-1] > 0 else float("inf")
+    if not consistent and condition > POORLY_EXCITED:
+        raise InvalidInput(
+            f"the logged motion does not excite every base parameter (condition number "
+            f"{condition:.3g}); log a richer motion (every joint moving, at varied speeds and "
+            "accelerations) or use method 'physically-consistent', which falls back on the "
+            "model's values where the log says nothing")
+    covariance_root = np.linalg.pinv(rr)
+    beta_wls = covariance_root @ target
+    rows = weighted_b.size
+    sigma2 = float(np.sum((weighted_b - weighted_a @ beta_wls) ** 2)) / max(rows - r, 1)
+    std = np.sqrt(sigma2 * np.sum(covariance_root ** 2, axis=1))
+    projection = base.projection()
+    if consistent:
+        # the posterior's: data and prior (where the log says little, the prior's spread)
+        prior = projection @ ((scale ** 2)[:, np.newaxis] * projection.T)
+        information = rr.T @ rr / max(sigma2, 1e-300) + np.linalg.inv(prior)
+        std = np.sqrt(np.diag(np.linalg.inv(information)))
+        theta = _consistent(rr @ projection, target, theta0, scale, bodies)
+    else:
+        theta = _closest(projection, beta_wls, theta0, scale)
+    return Fit(theta=theta, beta=projection @ theta, beta_std=std, condition_number=condition,
+               joint_noise=noise)
+
+
+def _closest(projection: np.ndarray, beta: np.ndarray, theta0: np.ndarray,
+             scale: np.ndarray) -> np.ndarray:
+    """θ closest to θ₀ (scaled) with P θ = β."""
+    s2p = (scale ** 2)[:, np.newaxis] * projection.T
+    step = scipy.linalg.lstsq(projection @ s2p, beta - projection @ theta0)[0]
+    return np.asarray(theta0 + s2p @ step)
+
+
+def pseudo_inertia_map() -> np.ndarray:
+    """L (16, 10): vec(J(π)) = L π, row-major 4×4 (see `parameters.pseudo_inertia`)."""
+    out = np.zeros((16, PER_BODY))
+    trace = {4: 1.0, 6: 1.0, 9: 1.0}  # Ixx, Iyy, Izz
+    inertia_index = {(0, 0): 4, (0, 1): 5, (1, 1): 6, (0, 2): 7, (1, 2): 8, (2, 2): 9}
+    for i in range(3):
+        for j in range(3):
+            k = inertia_index[(min(i, j), max(i, j))]
+            out[4 * i + j, k] -= 1.0
+            if i == j:
+                for t, c in trace.items():
+                    out[4 * i + j, t] += 0.5 * c
+        out[4 * i + 3, 1 + i] = out[12 + i, 1 + i] = 1.0
+    out[15, 0] = 1.0
+    return out
+
+
+def _consistent(data_map: np.ndarray, target: np.ndarray, theta0: np.ndarray,
+                scale: np.ndarray, bodies: int) -> np.ndarray:
+    """The semidefinite program of the module docstring, in the scaled step
+    δ = (θ − θ₀) / scale."""
+    import cvxpy as cp  # (seconds to import: only when a consistent fit is asked for)
+
+    step = cp.Variable(theta0.size)
+    theta = theta0 + cp.multiply(scale, step)
+    lmap = pseudo_inertia_map()
+    constraints = []
+    for body in range(bodies):
+        block = theta[PER_BODY * body:PER_BODY * (body + 1)]
+        pseudo = cp.Variable((4, 4), PSD=True)
+        constraints.append(cp.vec(pseudo, order="C") == lmap @ block)
+    residual = data_map @ theta - target
+    problem = cp.Problem(cp.Minimize(cp.sum_squares(residual) + cp.sum_squares(step)),
+                         constraints)
+    for solver in (cp.CLARABEL, cp.SCS):
+        try:
+            problem.solve(solver=solver)
+        except cp.SolverError:
+            continue
+        if problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and step.value is not None:
+            return np.asarray(theta0 + scale * step.value)
+    raise InvalidInput("the physically consistent fit did not converge for this log (the "
+                       f"solver ended with status '{problem.status}'); method "
+                       "'least-squares' gives the unconstrained fit")

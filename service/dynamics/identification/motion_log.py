@@ -1,0 +1,227 @@
+"""A logged motion, checked and split: (t, q, τ) and optional v, a → training and validation parts.
+
+- **Checks.** t (N,) in s, strictly increasing; q (N, nq); τ (N, nv) measured, N·m or N;
+  v, a (N, nv) optional; every number finite. Identification needs a fixed-base robot whose
+  joints are 1-DoF (revolute, prismatic or continuous): anything else is `UnsupportedModel`.
+- **Split.** The last `validation_fraction` of the log by time (default 0.2) is held out; the
+  two parts are filtered separately, so no sample of one leaks into the other.
+- **Filter.** When v or a is missing (or `filter_hz` is given), each part is resampled on a
+  uniform grid (the log's median interval; linear interpolation, so irregular sampling is
+  fine), q, τ and any given v, a are low-pass filtered forwards and backwards (zero phase:
+  a Butterworth filter of order FILTER_ORDER, scipy's `sosfiltfilt`, cut-off `filter_hz`,
+  default DEFAULT_FILTER_HZ or a fifth of the sample rate if that is lower), and the missing
+  derivatives are central differences of the filtered signals. The regressor and friction
+  columns computed from these are filtered by the same filter again ("parallel filtering":
+  filter(τ) = filter(Y) π holds exactly because the filter is linear), so τ and the columns
+  see the same filter.
+- **Edges.** Zero-phase filtering and differences are wrong near both ends of a signal; a margin
+  of MARGIN_PERIODS / filter_hz seconds is dropped at both ends of each part after filtering.
+- **Decimation.** Filtered samples are correlated; the fit keeps one every `decimation` of the
+  kept samples (spacing about 1 / (DECIMATION_RATE · filter_hz)), so least squares sees about
+  independent noise and its standard deviations are honest. Validation RMSEs use every kept
+  sample.
+
+Unfiltered logs (v and a given, no `filter_hz`) are used as they are, on their own time grid.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.signal
+
+from service.errors import DimensionMismatch, InvalidInput, UnsupportedModel
+from service.registry.robot import Robot
+from service.states import as_array, configurations
+
+DEFAULT_FILTER_HZ = 10.0
+FILTER_ORDER = 4
+MARGIN_PERIODS = 3.0  # edge margin, in periods of the cut-off frequency
+DECIMATION_RATE = 2.0  # fit samples per period of the cut-off: the filtered band's Nyquist rate
+DEFAULT_VALIDATION_FRACTION = 0.2
+RESAMPLING_GROWTH = 4  # a uniform grid of at most this many times a part's samples (+ 1000)
+ONE_DOF = ("revolute", "prismatic", "continuous")
+
+
+@dataclass(frozen=True)
+class LowPass:
+    """The zero-phase low-pass filter of a log (see the module docstring)."""
+
+    cutoff_hz: float
+    sample_rate: float  # Hz, of the uniform grid
+    sos: np.ndarray
+
+    @property
+    def margin(self) -> int:
+        """Samples dropped at both ends of each filtered part."""
+        return math.ceil(MARGIN_PERIODS * self.sample_rate / self.cutoff_hz)
+
+    @property
+    def decimation(self) -> int:
+        """Keep one fit sample in this many."""
+        return max(1, round(self.sample_rate / (DECIMATION_RATE * self.cutoff_hz)))
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """x filtered along its first (time) axis, forwards and backwards."""
+        return np.asarray(scipy.signal.sosfiltfilt(self.sos, x, axis=0))
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part of the log on its (uniform when filtered) grid: t (n,), q (n, nq) in
+    Pinocchio's order, v, a, τ (n, nv); τ already filtered. `keep` selects the samples outside
+    the edge margins."""
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    tau: np.ndarray
+    keep: slice
+
+
+@dataclass(frozen=True)
+class MotionLog:
+    train: Part
+    validation: Part
+    lowpass: LowPass | None  # None: used as given
+
+    @property
+    def decimation(self) -> int:
+        return 1 if self.lowpass is None else self.lowpass.decimation
+
+
+def check_robot(robot: Robot) -> None:
+    """`UnsupportedModel` unless every joint is 1-DoF (so the base is fixed)."""
+    for name, kind in robot.joint_types.items():
+        if kind not in ONE_DOF:
+            base = " (a floating base)" if kind in ("free_flyer", "planar") else ""
+            raise UnsupportedModel(
+                f"identification needs a fixed-base robot whose joints are revolute, prismatic "
+                f"or continuous; joint '{name}' of robot '{robot.id}' is {kind}{base}")
+
+
+def _coordinates(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """One coordinate per joint (N, nv): q itself, or for a continuous joint its angle
+    atan2(sin, cos), unwrapped along time so that it can be filtered and differentiated."""
+    out = np.empty((q.shape[0], robot.nv))
+    for jid in range(1, robot.model.njoints):
+        joint = robot.model.joints[jid]
+        if joint.nq == 2:
+            angle = np.arctan2(q[:, joint.idx_q + 1], q[:, joint.idx_q])
+            out[:, joint.idx_v] = np.unwrap(angle)
+        else:
+            out[:, joint.idx_v] = q[:, joint.idx_q]
+    return out
+
+
+def joint_configurations(robot: Robot, x: np.ndarray) -> np.ndarray:
+    """The inverse of `_coordinates`: q (N, nq) in Pinocchio's order."""
+    out = np.empty((x.shape[0], robot.nq))
+    for jid in range(1, robot.model.njoints):
+        joint = robot.model.joints[jid]
+        if joint.nq == 2:
+            out[:, joint.idx_q] = np.cos(x[:, joint.idx_v])
+            out[:, joint.idx_q + 1] = np.sin(x[:, joint.idx_v])
+        else:
+            out[:, joint.idx_q] = x[:, joint.idx_v]
+    return out
+
+
+def _signal(name: str, value: Any, rows: int, width: int, width_name: str, robot: Robot
+            ) -> np.ndarray:
+    arr = as_array(name, value, "(one entry per sample)" if width == 0 else
+                   f"(one row of {width_name} entries per sample)")
+    if width == 0:
+        if arr.ndim != 1:
+            raise InvalidInput(f"{name} must be 1-D (one time per sample)")
+        return arr
+    if arr.ndim != 2 or arr.shape[1] != width:
+        got = arr.shape[1] if arr.ndim == 2 else "1-D"
+        raise DimensionMismatch(f"each row of {name} must have {width} entries (robot "
+                                f"'{robot.id}' has {width_name} = {width}); it has {got}")
+    if arr.shape[0] != rows:
+        raise DimensionMismatch(f"{name} has {arr.shape[0]} rows; t has {rows} samples")
+    return arr
+
+
+def motion_log(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = None,
+               filter_hz: float | None = None,
+               validation_fraction: float = DEFAULT_VALIDATION_FRACTION) -> MotionLog:
+    """Check a log and prepare its training and validation parts (see the module docstring).
+    q in the API's order (a MuJoCo-qpos robot's quaternions are converted)."""
+    check_robot(robot)
+    times = _signal("t", t, 0, 0, "", robot)
+    if times.size < 4:
+        raise InvalidInput(f"t has {times.size} samples; identification needs a log of "
+                           "hundreds of samples at least")
+    steps = np.diff(times)
+    if not (steps > 0).all():
+        i = int(np.flatnonzero(steps <= 0)[0])
+        raise InvalidInput(f"t must be strictly increasing; t[{i + 1}] ≤ t[{i}]")
+    n = times.size
+    positions = configurations(robot, _signal("q", q, n, robot.nq, "nq", robot))
+    torques = _signal("tau", tau, n, robot.nv, "nv", robot)
+    given = {name: _signal(name, value, n, robot.nv, "nv", robot)
+             for name, value in (("v", v), ("a", a)) if value is not None}
+    if not 0.0 < validation_fraction <= 0.5:
+        raise InvalidInput("validation_fraction must be > 0 and ≤ 0.5 (the held-out end of "
+                           "the log, as a fraction of its duration)")
+    lowpass = None
+    if filter_hz is not None or len(given) < 2:
+        lowpass = _lowpass(steps, filter_hz)
+    split = times[0] + (1.0 - validation_fraction) * (times[-1] - times[0])
+    train = times < split
+    parts = [_part(robot, times[m], positions[m], torques[m],
+                   {k: x[m] for k, x in given.items()}, lowpass) for m in (train, ~train)]
+    return MotionLog(train=parts[0], validation=parts[1], lowpass=lowpass)
+
+
+def _lowpass(steps: np.ndarray, filter_hz: float | None) -> LowPass:
+    rate = 1.0 / float(np.median(steps))
+    nyquist = 0.5 * rate
+    if filter_hz is None:
+        cutoff = min(DEFAULT_FILTER_HZ, 0.2 * rate)
+    elif not (math.isfinite(filter_hz) and 0.0 < filter_hz < 0.9 * nyquist):
+        raise InvalidInput(f"filter_hz must be > 0 and below 0.9 × the log's Nyquist "
+                           f"frequency ({nyquist:.6g} Hz at its median sample rate)")
+    else:
+        cutoff = float(filter_hz)
+    sos = scipy.signal.butter(FILTER_ORDER, cutoff, btype="low", fs=rate, output="sos")
+    return LowPass(cutoff_hz=cutoff, sample_rate=rate, sos=np.asarray(sos))
+
+
+def _part(robot: Robot, t: np.ndarray, q: np.ndarray, tau: np.ndarray,
+          given: dict[str, np.ndarray], lowpass: LowPass | None) -> Part:
+    if lowpass is None:
+        return Part(t=t, q=q, v=given["v"], a=given["a"], tau=tau, keep=slice(None))
+    step = 1.0 / lowpass.sample_rate
+    count = math.floor((t[-1] - t[0]) / step + 1e-9) + 1 if t.size else 0
+    if count > RESAMPLING_GROWTH * t.size + 1000:
+        raise InvalidInput(
+            f"the log's sampling is too irregular to resample: at its median interval "
+            f"({step:.3g} s) its duration would take {count:.3g} samples, more than "
+            f"{RESAMPLING_GROWTH} times the {t.size} it has; send v and a (then it is used as "
+            "it is), or a log sampled more evenly")
+    grid = t[0] + step * np.arange(count) if t.size else t
+    padlen = 3 * (2 * len(lowpass.sos) + 1)
+    if grid.size <= max(padlen, 2 * lowpass.margin + 1):  # too short to filter: no samples
+        zero = np.zeros((0, tau.shape[1]))
+        return Part(t=grid[:0], q=np.zeros((0, q.shape[1])), v=zero, a=zero, tau=zero,
+                    keep=slice(None))
+
+    def resampled(x: np.ndarray) -> np.ndarray:
+        out = np.empty((grid.size, x.shape[1]))
+        for j in range(x.shape[1]):
+            out[:, j] = np.interp(grid, t, x[:, j])
+        return out
+
+    x = lowpass(resampled(_coordinates(robot, q)))
+    v = lowpass(resampled(given["v"])) if "v" in given else np.gradient(x, step, axis=0)
+    a = lowpass(resampled(given["a"])) if "a" in given else np.gradient(v, step, axis=0)
+    margin = lowpass.margin
+    return Part(t=grid, q=joint_configurations(robot, x), v=v, a=a,
+                tau=lowpass(resampled(tau)), keep=slice(margin, grid.size - margin))

@@ -1,0 +1,117 @@
+"""Bad input to identification: domain errors with the contract's codes and clear details."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from service.dynamics.identification import identify
+from service.errors import (
+    DimensionMismatch,
+    InvalidConfiguration,
+    InvalidInput,
+    UnknownFrame,
+    UnsupportedModel,
+)
+from service.registry.catalog import load_catalog
+from service.registry.robot import Robot
+from tests.service.dynamics.identification_logs import synthetic_log
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    return load_catalog(["ur5"])[0]["ur5"]
+
+
+@pytest.fixture(scope="module")
+def log(ur5):
+    return synthetic_log(ur5.model, seed=1, duration=4.0, rate=100.0, noise=0.01)
+
+
+def test_widths(ur5, log):
+    with pytest.raises(DimensionMismatch, match="each row of q must have 6 entries"):
+        identify(ur5, log.t, log.q[:, :5], log.tau)
+    with pytest.raises(DimensionMismatch, match="each row of tau must have 6 entries"):
+        identify(ur5, log.t, log.q, log.tau[:, :4])
+    with pytest.raises(DimensionMismatch, match="each row of v must have 6 entries"):
+        identify(ur5, log.t, log.q, log.tau, v=log.v[:, 1:])
+    with pytest.raises(DimensionMismatch, match="tau has 399 rows; t has 400 samples"):
+        identify(ur5, log.t, log.q, log.tau[:-1])
+    with pytest.raises(InvalidInput, match="t must be 1-D"):
+        identify(ur5, log.q, log.q, log.tau)
+
+
+def test_time_must_increase(ur5, log):
+    t = log.t.copy()
+    t[10] = t[9]
+    with pytest.raises(InvalidInput, match=r"strictly increasing; t\[10\] ≤ t\[9\]"):
+        identify(ur5, t, log.q, log.tau)
+
+
+@pytest.mark.parametrize("field", ["t", "q", "tau", "v"])
+def test_non_finite_numbers(ur5, log, field):
+    arrays = {"t": log.t.copy(), "q": log.q.copy(), "tau": log.tau.copy(), "v": log.v.copy()}
+    arrays[field].flat[7] = np.nan
+    with pytest.raises(InvalidInput, match=f"{field} contains a non-finite number"):
+        identify(ur5, arrays["t"], arrays["q"], arrays["tau"], v=arrays["v"], a=log.a)
+
+
+def test_too_few_samples_says_how_many(ur5, log):
+    with pytest.raises(InvalidInput) as raised:
+        identify(ur5, log.t[:60], log.q[:60], log.tau[:60])
+    detail = raised.value.detail
+    assert "the log has 60 samples" in detail and "needs at least" in detail
+    needed = int(detail.split("needs at least ")[1].split()[0])
+    # enough samples (at the same rate, same motion) then identify
+    longer = synthetic_log(ur5.model, seed=1, duration=(needed + 20) / 100.0, rate=100.0,
+                           noise=0.01)
+    assert longer.t.size > needed
+    identify(ur5, longer.t, longer.q, longer.tau, method="least-squares")
+    with pytest.raises(InvalidInput, match="needs at least"):
+        identify(ur5, log.t[:20], log.q[:20], log.tau[:20], v=log.v[:20], a=log.a[:20])
+
+
+def test_a_still_log_does_not_excite_the_parameters(ur5, log):
+    q = np.repeat(log.q[:1], log.t.size, axis=0)
+    zero = np.zeros_like(log.v)
+    with pytest.raises(InvalidInput, match="does not excite every base parameter"):
+        identify(ur5, log.t, q, log.tau, v=zero, a=zero, method="least-squares")
+
+
+def test_options(ur5, log):
+    with pytest.raises(InvalidInput, match="friction must be one of"):
+        identify(ur5, log.t, log.q, log.tau, friction="stribeck")
+    with pytest.raises(InvalidInput, match="method must be one of"):
+        identify(ur5, log.t, log.q, log.tau, method="magic")
+    with pytest.raises(InvalidInput, match="validation_fraction"):
+        identify(ur5, log.t, log.q, log.tau, validation_fraction=0.0)
+    with pytest.raises(InvalidInput, match="filter_hz must be > 0 and below"):
+        identify(ur5, log.t, log.q, log.tau, filter_hz=60.0)
+    with pytest.raises(UnknownFrame, match=r"'tool00' is not a frame .*did you mean 'tool0'"):
+        identify(ur5, log.t, log.q, log.tau, payload_frame="tool00")
+
+
+def test_free_flyer_robot_is_unsupported(log):
+    model = pin.buildSampleModelHumanoid()
+    robot = Robot(id="humanoid", name="humanoid", source="upload", root_joint="free-flyer",
+                  model=model)
+    with pytest.raises(UnsupportedModel, match=r"fixed-base robot.*free_flyer"):
+        identify(robot, log.t, np.zeros((log.t.size, model.nq)),
+                 np.zeros((log.t.size, model.nv)))
+    assert UnsupportedModel.code == "unsupported_model"
+
+
+def test_continuous_joint_needs_unit_cos_sin():
+    kinova = load_catalog(["kinova"])[0]["kinova"]
+    log = synthetic_log(kinova.model, seed=2, duration=4.0, rate=100.0)
+    log.q[3, 0] = 2.0
+    with pytest.raises(InvalidConfiguration, match="unit norm"):
+        identify(kinova, log.t, log.q, log.tau)
+
+
+def test_a_log_too_irregular_to_resample(ur5, log):
+    t = log.t + 100.0 * (np.arange(log.t.size) // 50)  # a 100 s gap every 50 samples
+    with pytest.raises(InvalidInput, match="too irregular to resample"):
+        identify(ur5, t, log.q, log.tau)
+    identify(ur5, t, log.q, log.tau, v=log.v, a=log.a, method="least-squares")  # as it is

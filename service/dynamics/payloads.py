@@ -60,10 +60,16 @@ def _numbers(index: int, field: str, value: Any, shape: tuple[int, ...]) -> np.n
     return arr
 
 
+MAX_INERTIA = 1e12  # kg·m²: no rigid body a robot holds comes near it
+
+
 def check_inertia(index: int, inertia: np.ndarray) -> np.ndarray:
     """I_c symmetrized, or `InvalidInput` if it is not symmetric, not positive semidefinite
     or breaks the triangle inequality (kg·m², see the module docstring)."""
     largest = float(np.max(np.abs(inertia)))
+    if largest > MAX_INERTIA:  # beyond any body, and past what an eigen-solve can square
+        raise _invalid(index, "inertia", f"has an entry of {largest:.3g} kg·m²: at most "
+                       f"{MAX_INERTIA:.0e} kg·m² in magnitude")
     if np.max(np.abs(inertia - inertia.T)) > SYMMETRY_TOL * largest:
         raise _invalid(index, "inertia", "must be symmetric (I[i][j] = I[j][i])")
     inertia = 0.5 * (inertia + inertia.T)

@@ -170,6 +170,9 @@ BAD = {  # payload -> (error, field named)
     "mass-text": ({"frame": "tool0", "mass": "3"}, InvalidInput, "mass"),
     "mass-bool": ({"frame": "tool0", "mass": True}, InvalidInput, "mass"),
     "mass-missing": ({"frame": "tool0"}, InvalidInput, "mass"),
+    "inertia-huge": ({"frame": "tool0", "mass": 1.0,  # eigvalsh cannot converge on it
+                      "inertia": [[1e308, 0, 0], [0, 1e308, 0], [0, 0, 1e308]]},
+                     InvalidInput, "inertia"),
     "frame-missing": ({"mass": 1.0}, InvalidInput, "frame"),
     "frame-unknown": ({"frame": "tool9", "mass": 1.0}, UnknownFrame, "frame"),
     "com-short": ({"frame": "tool0", "mass": 1.0, "center_of_mass": [0, 0]}, InvalidInput,

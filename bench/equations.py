@@ -1,8 +1,8 @@
 """How long the equations of motion in explicit form take to derive, cold.
 
-    .venv/bin/python bench/equations.py            # catalog arms and skewed arms up to 5 joints
-    .venv/bin/python bench/equations.py --worst    # also the skewed 6-joint arm (a 422)
-    .venv/bin/python bench/equations.py --http     # GET /v1/robots/ur5/equations on a server
+    PYTHONPATH=$PWD .venv/bin/python bench/equations.py            # catalog arms and skewed arms up to 5 joints
+    PYTHONPATH=$PWD .venv/bin/python bench/equations.py --worst    # also the skewed 6-joint arm (a 422)
+    PYTHONPATH=$PWD .venv/bin/python bench/equations.py --http     # GET /v1/robots/ur5/equations on a server
 
 For each robot: the derivation (M, U, then g, Christoffel symbols, C, T), the rendering of the
 answer (every entry as a SymPy expression, printed by `sp.sstr` and `sp.latex`), its JSON size,
@@ -25,7 +25,6 @@ import statistics
 import tempfile
 import time
 
-import numpy as np
 import orjson
 import pinocchio as pin
 
@@ -33,30 +32,14 @@ from service.dynamics.equations import derive_equations, equations_answer
 from service.dynamics.equations.isolated import derive_isolated
 from service.errors import Overloaded, UnsupportedModel
 from service.registry.catalog import load_catalog
+from tests.helpers import skewed_arm_urdf
 
 CATALOG = ["double_pendulum", "finger_edu", "ur3", "ur5", "ur10"]
 
 
 def skewed_arm(joints: int, seed: int = 1) -> object:
-    rng = np.random.default_rng(seed)
-    links, chain = ['<link name="l0"/>'], []
-    for i in range(1, joints + 1):
-        ii = rng.uniform(0.06, 0.1, 3)  # principal moments: triangle inequality
-        c, rpy = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1, 1, 3)
-        links.append(
-            f'<link name="l{i}"><inertial><origin xyz="{c[0]} {c[1]} {c[2]}" '
-            f'rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/><mass value="{rng.uniform(0.5, 3)}"/>'
-            f'<inertia ixx="{ii[0]}" ixy="0.001" ixz="0" iyy="{ii[1]}" iyz="0.002" '
-            f'izz="{ii[2]}"/></inertial></link>')
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        p, rpy = rng.uniform(-0.3, 0.3, 3), rng.uniform(-2, 2, 3)
-        chain.append(
-            f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
-            f'<origin xyz="{p[0]} {p[1]} {p[2]}" rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/>'
-            f'<axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
-            f'<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>')
-    return pin.buildModelFromXML(f'<robot name="skewed">{"".join(links + chain)}</robot>')
+    """The tests' skewed arm (no two axes parallel: the worst case) as a Pinocchio model."""
+    return pin.buildModelFromXML(skewed_arm_urdf(joints, seed))
 
 
 def measure(model: object, repeats: int, time_limit_s: float) -> dict[str, float | None]:

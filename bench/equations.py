@@ -1,8 +1,10 @@
 """How long the equations of motion in explicit form take to derive, cold.
 
-    PYTHONPATH=$PWD .venv/bin/python bench/equations.py            # catalog arms and skewed arms up to 5 joints
-    PYTHONPATH=$PWD .venv/bin/python bench/equations.py --worst    # also the skewed 6-joint arm (a 422)
-    PYTHONPATH=$PWD .venv/bin/python bench/equations.py --http     # GET /v1/robots/ur5/equations on a server
+    PYTHONPATH=$PWD .venv/bin/python bench/equations.py          # catalog, skewed arms to 5 joints
+    PYTHONPATH=$PWD .venv/bin/python bench/equations.py --worst  # also the skewed 6-joint arm
+    PYTHONPATH=$PWD .venv/bin/python bench/equations.py --http   # GET .../ur5/equations, a server
+
+(from the repository root: the skewed arms are the tests' `tests.helpers.skewed_arm_urdf`)
 
 For each robot: the derivation (M, U, then g, Christoffel symbols, C, T), the rendering of the
 answer (every entry as a SymPy expression, printed by `sp.sstr` and `sp.latex`), its JSON size,

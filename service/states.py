@@ -31,10 +31,13 @@ _UNIT_KIND = {"free_flyer": "quaternion (x, y, z, w)", "spherical": "quaternion 
 
 @dataclass(frozen=True)
 class States:
-    """Validated joint-space inputs, each of shape (N, n), and whether the request was a batch."""
+    """Validated joint-space inputs, each of shape (N, n), and whether the request was a batch;
+    `first`: the index in the request of the first state (a chunk of a large batch, where
+    errors name the request's state)."""
 
     arrays: dict[str, np.ndarray]
     batched: bool
+    first: int = 0
 
     @property
     def count(self) -> int:

@@ -13,6 +13,9 @@ states (`service.dynamics.run`). It stops the computation when
   `ComputationStopped` (503 `overloaded`, an answer nobody reads).
 
 `STOPPED` counts the stops by reason, exported as `robodyn_computations_stopped_total`.
+
+A request answered with progress (`service.api.progress`) has a progress channel in its scope;
+its `Cancellation` forwards what the computation reports (`report`) to it.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
+from service.api.progress import progress_channel
 from service.errors import ComputationStopped, DeadlineExceeded
 
 STOPPED: dict[str, int] = {"deadline": 0, "disconnect": 0}
@@ -31,12 +35,18 @@ STOPPED: dict[str, int] = {"deadline": 0, "disconnect": 0}
 class Cancellation:
     """`should_stop` of one request: raises `ComputationStopped` naming why, else False."""
 
-    __slots__ = ("deadline", "deadline_s", "disconnected", "quantity")
+    __slots__ = ("deadline", "deadline_s", "disconnected", "progress", "quantity")
 
-    def __init__(self, quantity: str, deadline_s: float) -> None:
+    def __init__(self, quantity: str, deadline_s: float, progress: Any = None) -> None:
         self.quantity, self.deadline_s = quantity, deadline_s
         self.deadline = 0.0  # from the first question: when the computation started
         self.disconnected = False  # set on the event loop, read by the worker thread
+        self.progress = progress  # the request's `ProgressChannel`, or None
+
+    def report(self, done: int, total: int, unit: str, stage: str | None = None) -> None:
+        """How far the computation got (`service.dynamics.stopping.report_progress`)."""
+        if self.progress is not None:
+            self.progress.report(done, total, unit, stage)
 
     def __call__(self) -> bool:
         if not self.deadline:
@@ -69,7 +79,8 @@ async def cancellable(connection: Any, quantity: str) -> AsyncIterator[Cancellat
     """A `Cancellation` for the computation run inside, with its deadline from the settings,
     watching for the client's disconnect on HTTP requests (WebSocket messages: the deadline
     only)."""
-    cancellation = Cancellation(quantity, connection.app.state.settings.request_deadline_s)
+    cancellation = Cancellation(quantity, connection.app.state.settings.request_deadline_s,
+                                progress_channel(connection.scope))
     receive = getattr(connection, "_receive", None)
     watcher = None
     if connection.scope.get("type") == "http" and receive is not None:

@@ -108,7 +108,7 @@ def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
     model, models = robot.model, cs.models
     with robot.data() as data:
         datas = cs.workspace(robot, data).datas
-        stop = Stopper(should_stop, "contact-dynamics", "state")
+        stop = Stopper(should_stop, "contact-dynamics", "state", total=n)
         for i in range(n):
             stop.poll(i)
             a[i] = pin.constraintDynamics(model, data, q[i], v[i], tau[i], models, datas,
@@ -142,7 +142,7 @@ def contact_inverse_dynamics(robot: Robot, s: States, *, contacts: Contacts,
     zero = np.zeros(robot.nv)
     with robot.data() as data:
         work = cs.workspace(robot, data)
-        stop = Stopper(should_stop, "contact-inverse-dynamics", "state")
+        stop = Stopper(should_stop, "contact-inverse-dynamics", "state", total=n)
         for i in range(n):
             stop.poll(i)
             rhs = np.array(pin.rnea(model, data, q[i], v[i], a[i]))
@@ -176,7 +176,7 @@ def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution
     settings = proximal_settings(mu)
     with robot.data() as data:
         work = cs.workspace(robot, data)
-        stop = Stopper(should_stop, "impulse-dynamics", "state")
+        stop = Stopper(should_stop, "impulse-dynamics", "state", total=n)
         for i in range(n):
             stop.poll(i)
             after[i] = pin.impulseDynamics(robot.model, data, q[i], v[i], cs.models,

@@ -112,8 +112,8 @@ def operational_space(robot: Robot, s: States, *, frame: str,
             A = 0.5 * (A + A.T) + damping2 * np.eye(k)
             sigma, vectors = np.linalg.eigh(A)
             if not sigma[0] > SINGULAR_RCOND * sigma[-1]:
-                raise _singular(i if s.batched else None, frame, task, reference_frame, sigma,
-                                damping)
+                raise _singular(s.first + i if s.batched else None, frame, task,
+                                reference_frame, sigma, damping)
             Lambda = _task_inertia(sigma, vectors)
             Jbar = MinvJt @ Lambda
             g = np.array(pin.computeGeneralizedGravity(model, data, q[i]))

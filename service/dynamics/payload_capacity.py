@@ -229,6 +229,6 @@ PAYLOADS = (
              "Payload capacity: the heaviest point mass a frame can hold within the effort "
              "limits, and the joint that limits it", optional=("v", "a"),
              joint_answers=("tau",), named_options=(("effort_limits", "nv"),),
-             work=lambda r, s, o: 2 * s.count * r.nv,
+             work=lambda r, s, o: 2 * s.count * r.nv, whole_batch=True,
              answer_size=lambda r, o, v: 1 + 2 * r.nv),
 )

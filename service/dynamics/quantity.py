@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from service.dynamics.stopping import ShouldStop
+from service.dynamics.stopping import ShouldStop, report_progress
 from service.errors import ComputationStopped, NonFiniteResult, SingularConfiguration
 from service.registry.robot import Robot
 from service.states import States, all_finite
@@ -73,6 +73,9 @@ class Quantity:
     settings: tuple[str, ...] = ()
     work: Work | None = None
     smaller_request: SmallerRequest | None = None
+    whole_batch: bool = False
+    """True: the batch's answer is more than its states' answers side by side (e.g. a minimum
+    over the states), so it is never computed in chunks (`run`)."""
 
     @functools.cached_property
     def stoppable(self) -> bool:
@@ -131,8 +134,11 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any],
     if should_stop is not None:
         if quantity.stoppable:
             options = {**options, "should_stop": should_stop}
-        elif s.count > _chunk_states(robot, quantity):
+        elif s.count > _chunk_states(robot, quantity) and not quantity.whole_batch \
+                and not _per_state_options(options):
             return _run_in_chunks(robot, quantity, s, options, should_stop)
+        elif should_stop():  # computed whole: stopped only before it starts
+            raise ComputationStopped(f"{quantity.name}: stopped before computing")
     try:
         if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
             results = finite(quantity.name, **quantity.parallel(robot, s))
@@ -151,6 +157,12 @@ CHUNK_WORK = 50_000
 """States × nv of one chunk of a stoppable batch: a few to a few tens of milliseconds."""
 
 
+def _per_state_options(options: dict[str, Any]) -> bool:
+    """Whether an option has one row per state (external wrenches given per state): such a
+    batch is computed whole, its options are not split."""
+    return any(np.ndim(force.get("wrench")) == 2 for force in options.get("external_forces") or ())
+
+
 def _chunk_states(robot: Robot, quantity: Quantity) -> int:
     return max(quantity.parallel_from, CHUNK_WORK // max(robot.nv, 1))
 
@@ -167,7 +179,9 @@ def _run_in_chunks(robot: Robot, quantity: Quantity, s: States, options: dict[st
             raise ComputationStopped(f"{quantity.name}: stopped at state {start} of {n} "
                                      "(the client went away or the request's deadline "
                                      "passed)")
-        part = States({name: a[start:start + size] for name, a in s.arrays.items()}, True)
+        report_progress(should_stop, start, n, "state")
+        part = States({name: a[start:start + size] for name, a in s.arrays.items()}, True,
+                      first=start)
         for name, value in run(robot, quantity, part, options).items():
             if not isinstance(value, np.ndarray):
                 out.setdefault(name, value)

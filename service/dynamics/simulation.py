@@ -161,7 +161,7 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
                    f"states × steps × stages × one constrained evaluation = {s.count} × "
                    f"{steps} × {STAGES[integrator]} × {each:,.0f}",
                    s.count * STAGES[integrator] * each, "steps")
-    stop = Stopper(should_stop, "simulate", "step")
+    stop = Stopper(should_stop, "simulate", "step", total=s.count * steps)
     # contacts: the PD's gravity compensation is replaced by a contact-consistent one
     contact = (ContactRollout(robot, contacts, dt, damping) if contacts is not None else None)
     plain_controller = (controller if contact is None or controller is None
@@ -183,7 +183,7 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
             where = f"state {i}: " if s.batched else ""
             if contact is not None:
                 contact.start(data, s["q"][i], i if s.batched else None)
-            stop.where = where
+            stop.where, stop.offset = where, i * steps
             rollout(robot, data, torque, dt, s["q"][i], s["v"][i], qs[i], vs[i], energy[i],
                     where, accel, stop)
             if contact is not None and drift is not None:

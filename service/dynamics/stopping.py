@@ -5,12 +5,18 @@ A rollout (`simulate`) or a batch loop over states (the contact quantities) call
 POLL_S seconds of computing (a clock read otherwise, about 50 ns), and a true answer raises
 `ComputationStopped`. The caller decides why: the client went away, or the request's
 deadline passed. Without `should_stop` nothing is asked.
+
+Progress: a `should_stop` that also has a `report(done, total, unit, stage)` method (the API's
+`Cancellation`, which forwards to a request's progress stream) hears how far the computation
+got, at the same moments it is asked, when the stopper knows the `total`; `report_progress`
+does the same for loops without a stopper.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 from service.errors import ComputationStopped
 
@@ -19,17 +25,31 @@ POLL_S = 0.002  # how often `should_stop` is asked, in seconds of computing
 ShouldStop = Callable[[], bool]
 
 
+def report_progress(should_stop: Any, done: int, total: int, unit: str,
+                    stage: str | None = None) -> None:
+    """Tell `should_stop` (when it listens: a `report` method) that `done` of `total` units
+    of work are done."""
+    report = getattr(should_stop, "report", None)
+    if report is not None:
+        report(done, total, unit, stage)
+
+
 class Stopper:
     """Ask `should_stop` at most every POLL_S seconds; raise `ComputationStopped` naming
-    `what` was computed and how far it got (`where` and the `unit` number k)."""
+    `what` was computed and how far it got (`where` and the `unit` number k). With `total`
+    (the units of the whole computation), also report progress: `offset` + k of `total`."""
 
-    __slots__ = ("next", "should_stop", "unit", "what", "where")
+    __slots__ = ("next", "offset", "report", "should_stop", "stage", "total", "unit", "what",
+                 "where")
 
-    def __init__(self, should_stop: ShouldStop | None, what: str, unit: str) -> None:
+    def __init__(self, should_stop: ShouldStop | None, what: str, unit: str,
+                 total: int | None = None, stage: str | None = None) -> None:
         self.should_stop = should_stop
         self.what, self.unit = what, unit
         self.where = ""  # e.g. "state 3: " in a batch of rollouts
         self.next = time.monotonic() + POLL_S
+        self.total, self.stage, self.offset = total, stage, 0
+        self.report = getattr(should_stop, "report", None) if total else None
 
     def poll(self, k: int) -> None:
         """Called at step (or state) k."""
@@ -43,3 +63,5 @@ class Stopper:
             raise ComputationStopped(
                 f"{self.what}: {self.where}stopped at {self.unit} {k} before the end (the "
                 "client went away or the request's deadline passed)")
+        if self.report is not None:
+            self.report(self.offset + k, self.total, self.unit, self.stage)

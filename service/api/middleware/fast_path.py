@@ -17,6 +17,8 @@ from starlette.types import Message, Receive, Scope, Send
 
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.encoding.in_flight import release_answer_bytes
+from service.api.problems.handlers import handler_for
+from service.api.progress import ProgressAnswer, wants_progress
 from service.api.routes.dynamics import ENDPOINTS, PREFIX
 from service.errors import InvalidInput
 
@@ -50,12 +52,17 @@ class DynamicsFastPath:
 
 
 async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> None:
-    """Answer one dynamics request: the endpoint's content, or the app's problem answer."""
+    """Answer one dynamics request: the endpoint's content (as a progress stream when asked
+    for, `service.api.progress`), or the app's problem answer."""
     try:
-        content, media_type = await endpoint.handle(Request(scope, receive),
-                                                    await _body(scope, receive))
+        body = await _body(scope, receive)
+        if wants_progress(scope):
+            await ProgressAnswer(endpoint.json_content(Request(scope, receive), body))(
+                scope, receive, send)
+            return
+        content, media_type = await endpoint.handle(Request(scope, receive), body)
     except Exception as exc:
-        handler = _handler(scope["app"].exception_handlers, exc)
+        handler = handler_for(scope["app"], exc)
         if handler is None:
             raise  # the server-error middleware answers 500, as for any route
         response = await handler(Request(scope, receive), exc)
@@ -127,15 +134,4 @@ def _content_length(scope: Scope) -> int | None:
     for name, value in scope["headers"]:
         if name == b"content-length":
             return int(value) if value.isdigit() else None
-    return None
-
-
-def _handler(handlers: dict[Any, Any], exc: Exception) -> Any:
-    """The app's handler for `exc` by its class hierarchy; None for the catch-all (`Exception`,
-    500), which belongs to the server-error middleware as in Starlette's own routing."""
-    for cls in type(exc).__mro__:
-        if cls is Exception:
-            return None
-        if cls in handlers:
-            return handlers[cls]
     return None

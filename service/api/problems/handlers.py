@@ -160,6 +160,18 @@ async def _on_unexpected(request: Request, exc: Exception) -> Response:
                    "the service failed to answer this request; the failure was logged")
 
 
+def handler_for(app: Any, exc: Exception) -> Any:
+    """The app's handler for `exc` by its class hierarchy; None for the catch-all (`Exception`,
+    500), which belongs to the server-error middleware as in Starlette's own routing."""
+    handlers = app.exception_handlers
+    for cls in type(exc).__mro__:
+        if cls is Exception:
+            return None
+        if cls in handlers:
+            return handlers[cls]
+    return None
+
+
 def install_problem_handlers(app: FastAPI) -> None:
     app.add_exception_handler(RobodynError, _on_domain_error)
     app.add_exception_handler(RequestValidationError, _on_validation_error)

@@ -30,6 +30,7 @@ from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
 from service.api.problems.validation_errors import json_prefix, prefix_errors, pydantic_errors
+from service.api.progress import Produce, ProgressAnswer, wants_progress
 from service.api.quantities import SPECS, Spec
 from service.api.schemas.common import Problem, StrictRequest, many_unknown_members
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
@@ -291,9 +292,19 @@ class Endpoint:
             request.app.state.answers_in_flight.resize(request.scope, ANSWER_BYTES, sent)
         return content, media_type
 
-    async def answer(self, request: Request) -> Response:
+    def json_content(self, request: HTTPConnection, body: bytes | bytearray) -> Produce:
+        """The JSON answer to `body` as the progress stream computes it
+        (`service.api.progress`: the `Accept` header asks for the stream, not the binary form)."""
+        async def produce() -> bytes | list[bytes]:
+            content, _ = await self.handle(request, body)
+            return content
+        return produce
+
+    async def answer(self, request: Request) -> Response | ProgressAnswer:
         """The Starlette endpoint (`service.api.middleware.fast_path` calls `handle` directly)."""
         request.scope["route"] = self.route  # FastAPI's router records only its own routes
+        if wants_progress(request.scope):
+            return ProgressAnswer(self.json_content(request, await request.body()))
         try:
             content, media_type = await self.handle(request, await request.body())
         finally:

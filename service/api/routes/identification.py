@@ -20,7 +20,8 @@ from starlette.concurrency import run_in_threadpool
 from starlette.routing import Route
 
 from service.api.deps import RegistryDep, require_api_key
-from service.api.encoding.answers import JSONAnswer
+from service.api.encoding.answers import JSONAnswer, json_bytes
+from service.api.progress import ProgressAnswer, progress_channel, wants_progress
 from service.api.routes.dynamics import PREFIX, off_loop
 from service.api.schemas.common import Problem
 from service.api.schemas.identification import (
@@ -139,18 +140,33 @@ def _store(registry: Registry, robot: Robot, result: Any
     return stored.info(), None
 
 
-async def identify(request: Request) -> Response:
-    """POST /v1/robots/{id}/identify (see `describe_identify` for the documentation)."""
+async def identify(request: Request) -> Response | ProgressAnswer:
+    """POST /v1/robots/{id}/identify (see `describe_identify` for the documentation); as a
+    progress stream of the fit's stages when the `Accept` header asks for it
+    (`service.api.progress`)."""
     await require_api_key(request)  # it stores a model (by default), like an upload
     registry: Registry = request.app.state.registry
     robot = registry.get(request.path_params["robot_id"])
     body = await request.body()
+    if wants_progress(request.scope):
+        async def produce() -> bytes:
+            return json_bytes(await _identification(request, registry, robot, body))
+        return ProgressAnswer(produce)
+    return JSONAnswer(await _identification(request, registry, robot, body))
+
+
+async def _identification(request: Request, registry: Registry, robot: Robot, body: bytes
+                          ) -> dict[str, Any]:
+    """The IdentifyAnswer document of `body`: parsed off the loop, fitted in the worker
+    process (its stages reported to the request's progress channel, if any), stored."""
     parsed = await off_loop(request, _parse, body, request.app.state.settings.max_identify_samples)
-    fit = functools.partial(worker_of(request).identify, robot, **_inputs(parsed))
+    channel = progress_channel(request.scope)
+    fit = functools.partial(worker_of(request).identify, robot,
+                            None if channel is None else channel.report, **_inputs(parsed))
     result = await off_loop(request, fit)
     info, not_stored = (await run_in_threadpool(_store, registry, robot, result)
                         if parsed.store else (None, None))
-    return JSONAnswer(identification_answer(result, info, parsed.include_series, not_stored))
+    return identification_answer(result, info, parsed.include_series, not_stored)
 
 
 def routes() -> list[Route]:

@@ -20,6 +20,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,6 +52,10 @@ from service.errors import InvalidInput, NonFiniteResult
 from service.registry.robot import Robot
 
 METHODS = ("least-squares", "physically-consistent")
+STAGES = ("log", "base parameters", "regressor", "fit", "validation")
+"""The steps of `identify`, in order, as its progress names them."""
+Progress = Callable[[int, int, str, str], object]
+"""`progress(done, total, unit, stage)`: `done` of `total` stages are done, `stage` runs."""
 DEFAULT_METHOD = "physically-consistent"
 PAYLOAD_SCALE = np.array([10.0, 1.0, 1.0, 1.0] + [0.1] * 6)  # kg, kg·m, kg·m²: a weak prior
 FILTER_COLUMNS = 256  # columns filtered at a time (bounds the filter's temporary memory)
@@ -127,20 +132,33 @@ def _required_samples(log: MotionLog, needed_fit: int, fraction: float) -> int:
     return math.ceil(max(train / (1.0 - fraction), (2 * margin + 1) / fraction))
 
 
+def _stages(progress: Progress | None) -> Callable[[str], None]:
+    """`stage(name)`: tell `progress` that the stages before `name` are done."""
+    def stage(name: str) -> None:
+        if progress is not None:
+            progress(STAGES.index(name), len(STAGES), "stage", name)
+    return stage
+
+
 def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = None,
              friction: str = DEFAULT_FRICTION, method: str = DEFAULT_METHOD,
              validation_fraction: float = DEFAULT_VALIDATION_FRACTION,
              filter_hz: float | None = None, payload_frame: str | None = None,
-             weighted: bool = True) -> Identification:
+             weighted: bool = True, progress: Progress | None = None) -> Identification:
     """Identify the robot (or a payload at `payload_frame`) from a log: see the module
-    docstring; t (N,) s, q (N, nq), tau (N, nv) measured, v, a (N, nv) optional."""
+    docstring; t (N,) s, q (N, nq), tau (N, nv) measured, v, a (N, nv) optional.
+    `progress(done, total, "stage", name)` (optional) is told as each of the STAGES after the
+    first starts (the log is checked first: a log refused says so before any progress)."""
+    stage = _stages(progress)
     terms = friction_terms(friction)
     if method not in METHODS:
         raise InvalidInput(f"method must be one of {', '.join(repr(m) for m in METHODS)}")
     log = motion_log(robot, t, q, tau, v, a, filter_hz, validation_fraction)
     columns = Columns(robot, friction, payload_frame)
+    stage("base parameters")
     base = base_parameters(random_rows(robot, columns), columns.names,
                            random_states_count(len(columns.names), robot.nv))
+    stage("regressor")
     A, known, measured = _rows(log.train, columns, base, log.lowpass)
     needed = math.ceil(2 * base.count / robot.nv) + 1
     fit_rows = slice(None, None, log.decimation)
@@ -160,8 +178,10 @@ def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = Non
                          - columns.inertial_count) if payload_frame is None else
              np.concatenate([PAYLOAD_SCALE, prior_scale(np.zeros(0), len(columns.names)
                                                         - PER_BODY)]))
+    stage("fit")
     result = fit(A[fit_rows], (measured - known)[fit_rows], base, columns.theta0, scale,
                  columns.bodies, method == "physically-consistent", weighted)
+    stage("validation")
     answer = _answer(robot, columns, base, result, log, terms,
                      (A, known, measured), (val_A, val_known, val_measured))
     numbers = [answer.parameters, result.beta, result.beta_std, *answer.rmse.values()]

@@ -26,7 +26,7 @@ import time
 from typing import Any
 
 from service import errors
-from service.dynamics.identification.pipeline import Identification
+from service.dynamics.identification.pipeline import Identification, Progress
 from service.registry.build_process import model_from_binary, model_to_binary
 from service.registry.robot import Robot
 
@@ -50,7 +50,10 @@ def _serve(conn: Any, memory_mb: int) -> None:
             return
         try:
             robot = Robot(model=model_from_binary(raw), **meta)
-            conn.send(("ok", identify(robot, **arrays, **options)))
+
+            def progress(*event: Any) -> None:
+                conn.send(("progress", *event))
+            conn.send(("ok", identify(robot, **arrays, **options, progress=progress)))
         except errors.RobodynError as exc:
             conn.send(("error", type(exc).__name__, exc.detail))
         except MemoryError:
@@ -115,9 +118,11 @@ class IdentificationWorker:
         with self._lock:
             self._stop()
 
-    def identify(self, robot: Robot, **inputs: Any) -> Identification:
+    def identify(self, robot: Robot, progress: Progress | None = None, **inputs: Any
+                 ) -> Identification:
         """`identify(robot, **inputs)` in the worker (t, q, tau, v, a as arrays; the other
-        options as `identify` takes them)."""
+        options as `identify` takes them); `progress` (optional) hears its stages, from this
+        thread."""
         with self._count_lock:
             if self._queued > self.max_waiting:
                 raise errors.Overloaded("identifications are already running and waiting; "
@@ -125,12 +130,13 @@ class IdentificationWorker:
             self._queued += 1
         try:
             with self._lock:
-                return self._run(robot, inputs)
+                return self._run(robot, inputs, progress)
         finally:
             with self._count_lock:
                 self._queued -= 1
 
-    def _run(self, robot: Robot, inputs: dict[str, Any]) -> Identification:
+    def _run(self, robot: Robot, inputs: dict[str, Any], progress: Progress | None
+             ) -> Identification:
         if self._proc is None or not self._proc.is_alive():
             self._stop()
             self._start()
@@ -141,9 +147,15 @@ class IdentificationWorker:
         start = time.monotonic()
         try:
             self._conn.send((model_to_binary(robot.model), meta, arrays, inputs))
-            if not self._conn.poll(self.timeout_s):
-                raise self._timed_out(started_cpu, time.monotonic() - start)
-            answer = self._conn.recv()
+            while True:
+                remaining = start + self.timeout_s - time.monotonic()
+                if remaining <= 0 or not self._conn.poll(remaining):
+                    raise self._timed_out(started_cpu, time.monotonic() - start)
+                answer = self._conn.recv()
+                if answer[0] != "progress":
+                    break
+                if progress is not None:
+                    progress(*answer[1:])
         except (EOFError, OSError, BrokenPipeError):
             self._stop()
             raise errors.InvalidInput(

@@ -124,7 +124,8 @@ def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarra
     else:
         t_eval, q_eval, v_eval, a_eval = times, qs, vs, acc
         at_samples = slice(None)
-    stop = Stopper(should_stop, "the trajectory check", "evaluated point")
+    stop = Stopper(should_stop, "the trajectory check", "evaluated point",
+                   total=q_eval.shape[0], stage="inverse dynamics")
     tau_eval = np.empty((q_eval.shape[0], robot.nv))
     for start in range(0, q_eval.shape[0], RNEA_BATCH):
         stop.poll(start)

@@ -126,9 +126,10 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     path = WaypointPath(waypoints, robot.nq)
     limits = joint_limits(robot, effort_scale, velocity_scale)
     grid = gridpoints(path, intervals)
-    stop = Stopper(should_stop, "retime", "step")
+    stop = Stopper(should_stop, "retime", "step", total=3, stage="path")
     stop.poll(0)
     dense = sample_path(robot, path, grid, VERIFY_POINTS)
+    stop.stage = "TOPP-RA and correction"
     stop.poll(1)
     _require_followable(robot, path, dense, limits)
     fams = families(dense, limits, accel)
@@ -140,6 +141,7 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     worst = max(float(ratios(f, profile, dense.theta).max()) for f in fams)
     if worst > 1.0:
         profile, factor, worst = _slow_down(path, profile, dense, fams, limits)
+    stop.stage = "samples and their check"
     stop.poll(2)
     t, q, v, a, tau = _samples(robot, path, profile, sample_dt, max_samples)
     check = check_trajectory(robot, t, q, v, a, effort_scale=effort_scale,

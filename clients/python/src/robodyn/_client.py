@@ -11,7 +11,7 @@ them.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
 import httpx
@@ -22,6 +22,8 @@ from robodyn.core import Call
 from robodyn.request_options import Fill
 
 T = TypeVar("T")
+Listener = Callable[[Mapping[str, Any]], object] | None
+"""Hears the lines of a server's progress stream (`progress.StreamReporter`), or None."""
 
 
 class BaseClient:
@@ -45,14 +47,17 @@ class BaseClient:
         """The server's base URL, e.g. `http://127.0.0.1:8000`."""
         return self._settings.base_url
 
-    def _chunks(self, call: Call[T], progress: _progress.Progress
-                ) -> tuple[_progress.Chunks[T], _progress.Progress] | None:
-        """The chunks to send `call` in, and where to report: only when progress is asked for
-        (`progress` of this call, else the client's) and there is more than one chunk."""
-        report = _progress.check(progress) if progress is not None else self._progress
+    def _report(self, progress: _progress.Progress) -> _progress.Progress:
+        """Where to report progress: `progress` of this call, else the client's (None)."""
+        return _progress.check(progress) if progress is not None else self._progress
+
+    def _chunks(self, call: Call[T], report: _progress.Progress
+                ) -> _progress.Chunks[T] | None:
+        """The chunks to send `call` in: only when progress is asked for and there is more
+        than one chunk."""
         if report is None or call.chunks is None or not call.chunks.worth_it:
             return None
-        return call.chunks, report
+        return call.chunks
 
     def _answer(self, result: T) -> T:
         return outputs.convert(result, self._array_type)
@@ -67,12 +72,17 @@ class SyncSender(BaseClient):
     _http: httpx.Client
 
     def _send(self, call: Call[T], progress: _progress.Progress = None) -> T:
-        """Send `call` (in chunks with progress, retried as `retry` says); its answer in the
-        client's array type."""
-        chunked = self._chunks(call, progress)
-        if chunked is None:
+        """Send `call` (in chunks with progress, or asking for the server's progress stream;
+        retried as `retry` says); its answer in the client's array type."""
+        report = self._report(progress)
+        if report is not None and call.progress_stream:
+            with _progress.StreamReporter(report) as listener:
+                answer = self._fetch(call, listener)
+                listener.finish()
+            return self._answer(answer)
+        chunks = self._chunks(call, report)
+        if chunks is None:
             return self._answer(self._fetch(call))
-        chunks, report = chunked
         with _progress.Reporter(report, chunks.total, chunks.unit) as reporter:
             plan = chunks.plan()
             part, done = next(plan)
@@ -85,9 +95,9 @@ class SyncSender(BaseClient):
                     joined: T = end.value
                     return self._answer(joined)
 
-    def _fetch(self, call: Call[T]) -> T:
+    def _fetch(self, call: Call[T], listener: Listener = None) -> T:
         try:  # the first attempt outside stamina: ~30 µs less per call that succeeds
-            return self._fetch_once(call)
+            return self._fetch_once(call, listener)
         except transport.RETRIED as exc:
             failure: Exception | None = exc
             if self._retry is None:
@@ -97,14 +107,19 @@ class SyncSender(BaseClient):
                 if failure is not None:  # stamina decides on the first failure, and waits
                     first, failure = failure, None
                     raise first
-                return self._fetch_once(call)
+                return self._fetch_once(call, listener)
         raise AssertionError("unreachable: the last attempt returns or raises")
 
-    def _fetch_once(self, call: Call[T]) -> T:
-        url, headers, body = self._settings.prepare(call)
+    def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
+        url, headers, body = self._settings.prepare(call, listener is not None)
         content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
         with transport.wrapped(call.method, url), self._http.stream(
                 call.method, url, content=content, headers=headers) as response:
+            if listener is not None and core.is_progress_stream(response):
+                lines = core.ProgressLines(call, listener)
+                for line in response.iter_lines():
+                    lines.feed(line)
+                return lines.result()
             length = core.binary_length(response)
             if length is None:
                 response.read()
@@ -128,12 +143,17 @@ class AsyncSender(BaseClient):
     _http: httpx.AsyncClient
 
     async def _send(self, call: Call[T], progress: _progress.Progress = None) -> T:
-        """Send `call` (in chunks with progress, retried as `retry` says); its answer in the
-        client's array type."""
-        chunked = self._chunks(call, progress)
-        if chunked is None:
+        """Send `call` (in chunks with progress, or asking for the server's progress stream;
+        retried as `retry` says); its answer in the client's array type."""
+        report = self._report(progress)
+        if report is not None and call.progress_stream:
+            with _progress.StreamReporter(report) as listener:
+                answer = await self._fetch(call, listener)
+                listener.finish()
+            return self._answer(answer)
+        chunks = self._chunks(call, report)
+        if chunks is None:
             return self._answer(await self._fetch(call))
-        chunks, report = chunked
         with _progress.Reporter(report, chunks.total, chunks.unit) as reporter:
             plan = chunks.plan()
             part, done = next(plan)
@@ -146,9 +166,9 @@ class AsyncSender(BaseClient):
                     joined: T = end.value
                     return self._answer(joined)
 
-    async def _fetch(self, call: Call[T]) -> T:
+    async def _fetch(self, call: Call[T], listener: Listener = None) -> T:
         try:  # the first attempt outside stamina: ~30 µs less per call that succeeds
-            return await self._fetch_once(call)
+            return await self._fetch_once(call, listener)
         except transport.RETRIED as exc:
             failure: Exception | None = exc
             if self._retry is None:
@@ -158,15 +178,20 @@ class AsyncSender(BaseClient):
                 if failure is not None:  # stamina decides on the first failure, and waits
                     first, failure = failure, None
                     raise first
-                return await self._fetch_once(call)
+                return await self._fetch_once(call, listener)
         raise AssertionError("unreachable: the last attempt returns or raises")
 
-    async def _fetch_once(self, call: Call[T]) -> T:
-        url, headers, body = self._settings.prepare(call)
+    async def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
+        url, headers, body = self._settings.prepare(call, listener is not None)
         content: Any = transport.parts_async(body) if isinstance(body, list) else body
         with transport.wrapped(call.method, url):
             async with self._http.stream(call.method, url, content=content,
                                          headers=headers) as response:
+                if listener is not None and core.is_progress_stream(response):
+                    lines = core.ProgressLines(call, listener)
+                    async for line in response.aiter_lines():
+                        lines.feed(line)
+                    return lines.result()
                 length = core.binary_length(response)
                 if length is None:
                     await response.aread()

@@ -27,6 +27,9 @@ BINARY_FROM = 4096
 (a safetensors file of raw float64 instead of JSON text: see docs/binary-format.md), unless
 the client says otherwise (`Client(binary=...)`)."""
 MAX_BINARY_ANSWER = 1 << 32  # bytes; a larger Content-Length is not preallocated
+PROGRESS_MEDIA_TYPE = "application/x-ndjson"
+"""The media type of the server's progress stream (docs/progress.md): lines of JSON, each
+{"progress": {...}}, then {"answer": ...} or {"problem": ...}."""
 Body = bytes | list[bytes | memoryview]  # a request body: whole, or in parts
 
 
@@ -47,6 +50,7 @@ class Call(Generic[T]):
     idempotent: bool = True  # may be sent again after a failure that may follow its sending
     binary_form: bool = True  # False: always JSON (e.g. simulate: its torque schedule is a field)
     chunks: Chunks[T] | None = None  # the same work as consecutive calls (with progress)
+    progress_stream: bool = False  # one computation: its progress comes from the server
 
     @property
     def quantity(self) -> str:
@@ -151,6 +155,10 @@ def read_response(call: Call[T], response: httpx.Response,
             raise ResponseFormatError(f"{call.method} {call.path} answered {status} with a body "
                                       f"that is not {form}", status=status,
                                       body=start) from None
+    return _read(call, status, body)
+
+
+def _read(call: Call[T], status: int, body: Any) -> T:
     try:
         return call.read(status, body)
     except (KeyError, ValueError, TypeError, IndexError) as exc:
@@ -158,23 +166,72 @@ def read_response(call: Call[T], response: httpx.Response,
                                   f"unexpected body: {exc!s}", status=status, body=body) from exc
 
 
+def is_progress_stream(response: httpx.Response) -> bool:
+    """Whether a response is the server's progress stream (a success, lines of JSON)."""
+    return (200 <= response.status_code <= 299 and response.headers.get(
+        "content-type", "").startswith(PROGRESS_MEDIA_TYPE))
+
+
+class ProgressLines(Generic[T]):
+    """Reads the lines of a progress stream: `feed(line)` reports progress lines to `report`
+    (called with each {"done", "total", "unit", "stage"} object), keeps the answer, and raises
+    the `APIError` of a problem line; `result()` is the answer read by the call."""
+
+    def __init__(self, call: Call[T], report: Callable[[Mapping[str, Any]], object]) -> None:
+        self.call, self.report = call, report
+        self._answer: Any = None
+        self._done = False
+
+    def feed(self, line: str) -> None:
+        if not line.strip():
+            return
+        try:
+            message = json.loads(line)
+            key = next(iter(message))
+        except (ValueError, TypeError, StopIteration):
+            raise ResponseFormatError(f"{self.call.method} {self.call.path}: a line of its "
+                                      "progress stream is not a JSON object", status=200,
+                                      body=line[:1000]) from None
+        if key == "progress":
+            self.report(message["progress"])
+        elif key == "answer":
+            self._answer, self._done = message["answer"], True
+        elif key == "problem":
+            raise problem_error(message["problem"], None, None)
+
+    def result(self) -> T:
+        if not self._done:
+            raise ResponseFormatError(f"{self.call.method} {self.call.path}: its progress "
+                                      "stream ended before the answer", status=200)
+        return _read(self.call, 200, self._answer)
+
+
 def api_error(response: httpx.Response) -> APIError:
     """The exception for an error answer (problem+json, or any other body)."""
-    status = response.status_code
     body: Any
     try:
         body = response.json()
     except ValueError:
         body = response.text[:1000]
-    problem = body if isinstance(body, dict) else {}
-    code = problem.get("code") if isinstance(problem.get("code"), str) else None
-    title = str(problem.get("title") or response.reason_phrase or f"HTTP {status}")
-    detail = str(problem.get("detail") or (body if isinstance(body, str) and body else title))
     retry_after: float | None
     try:
         retry_after = float(response.headers["retry-after"])
     except (KeyError, ValueError):
         retry_after = None
+    return problem_error(body, response, retry_after)
+
+
+def problem_error(body: Any, response: httpx.Response | None, retry_after: float | None
+                  ) -> APIError:
+    """The exception for a problem (problem+json, or any other body) of an error answer (its
+    status from `response`, else from the problem's `status`)."""
+    problem = body if isinstance(body, dict) else {}
+    status = (response.status_code if response is not None else
+              int(problem["status"]) if isinstance(problem.get("status"), int) else 500)
+    reason = response.reason_phrase if response is not None else None
+    code = problem.get("code") if isinstance(problem.get("code"), str) else None
+    title = str(problem.get("title") or reason or f"HTTP {status}")
+    detail = str(problem.get("detail") or (body if isinstance(body, str) and body else title))
     return error_class(status, code)(status, code, title, detail, body, retry_after)
 
 

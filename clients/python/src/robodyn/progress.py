@@ -1,14 +1,21 @@
-"""Progress of long work: batches sent in chunks of states, simulations in chunks of steps.
+"""Progress of long work: batches sent in chunks of states, simulations in chunks of steps,
+and single computations that report their own progress.
 
-`progress` is a callable `(done, total)`, called after each chunk with the states (or steps)
-done so far — in order, the last call with done == total — or True for a `tqdm` bar
-(`pip install tqdm`). Long work is only split into chunks when progress is asked for, and the
-answer is the same, bit for bit, as in one request.
+`progress` is a callable `(done, total)` or True for a `tqdm` bar (`pip install tqdm`).
+
+- A batch or a simulation is split into chunks only when progress is asked for; the callable
+  is called after each chunk with the states (or steps) done so far — in order, the last call
+  with done == total — and the answer is the same, bit for bit, as in one request.
+- A computation that is one request (a trajectory check, a retiming, an identification: its
+  rows are one motion, path or log) is sent once, asking the server for its progress stream;
+  the callable is called with the server's counts as they come (evaluated points of a check,
+  stages of an identification; a tqdm bar also shows the stage) and a last time with
+  done == total once the answer is in. A computation too short to report reports nothing.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Generator
+from collections.abc import Callable, Generator, Mapping
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar, Union
 
@@ -82,6 +89,41 @@ class Reporter:
         self._done = done
 
     def __enter__(self) -> Reporter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+class StreamReporter:
+    """Reports the progress lines of a server's stream — {"done", "total", "unit", "stage"} —
+    to a callback or a tqdm bar (made at the first line); a context manager."""
+
+    def __init__(self, progress: Progress) -> None:
+        self._progress = progress
+        self._callback = progress if callable(progress) else None
+        self._bar: Any = None
+        self._done, self._total = 0, 0
+
+    def __call__(self, event: Mapping[str, Any]) -> None:
+        done, total = int(event["done"]), int(event["total"])
+        if self._progress is True:
+            if self._bar is None:
+                self._bar = _tqdm()(total=total, unit=str(event.get("unit") or "it"))
+            if event.get("stage"):
+                self._bar.set_description(str(event["stage"]), refresh=False)
+            self._bar.update(done - self._done)
+        if self._callback is not None:
+            self._callback(done, total)
+        self._done, self._total = done, total
+
+    def finish(self) -> None:
+        """The answer is in: report done == total (when anything was reported)."""
+        if self._total and self._done < self._total:
+            self({"done": self._total, "total": self._total})
+
+    def __enter__(self) -> StreamReporter:
         return self
 
     def __exit__(self, *exc: object) -> None:

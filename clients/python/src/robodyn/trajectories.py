@@ -107,5 +107,7 @@ class Retimed(NamedTuple):
     @classmethod
     def from_json(cls, body: Mapping[str, Any], batched: bool = True, rows: int | None = None
                   ) -> Retimed:
-        arrays = [np.asarray(body[k], dtype=np.float64) for k in ("t", "q", "v", "a", "tau")]
-        return cls(float(body["duration"]), *arrays, TrajectoryCheck.from_json(body["check"]))
+        t, q, v, a, tau = (np.asarray(body[k], dtype=np.float64)
+                           for k in ("t", "q", "v", "a", "tau"))
+        return cls(float(body["duration"]), t, q, v, a, tau,
+                   TrajectoryCheck.from_json(body["check"]))

@@ -14,7 +14,7 @@ import httpx
 import stamina
 
 from robodyn import __version__, binary
-from robodyn.core import Body, Call
+from robodyn.core import PROGRESS_MEDIA_TYPE, Body, Call
 from robodyn.errors import ServiceUnavailableError, TimeoutError, TransportError
 
 DEFAULT_URL = "http://127.0.0.1:8000"
@@ -92,9 +92,11 @@ class Settings:
     use_binary: bool | None = None  # None: the binary form for large batches only
     fill: str | None = None  # sent with inputs keyed by joint name
 
-    def prepare(self, call: Call[Any]) -> tuple[str, dict[str, str], Body | None]:
+    def prepare(self, call: Call[Any], with_progress: bool = False
+                ) -> tuple[str, dict[str, str], Body | None]:
         """The absolute URL, headers and body of `call` (bytes, or a list of parts sent one
-        after the other under one Content-Length)."""
+        after the other under one Content-Length); `with_progress`: the answer asked for as the
+        server's progress stream (its last line the JSON answer)."""
         headers = dict(self.headers)
         content, media_type = call.body(self.use_binary, self.fill)
         if isinstance(content, list):
@@ -103,6 +105,8 @@ class Settings:
             headers["Content-Type"] = media_type
             if media_type == binary.MEDIA_TYPE:
                 headers["Accept"] = f"{binary.MEDIA_TYPE}, application/problem+json"
+        if with_progress:
+            headers["Accept"] = f"{PROGRESS_MEDIA_TYPE}, application/problem+json"
         return self.base_url + call.path, headers, content
 
 

@@ -52,7 +52,8 @@ def request(robot_id: str, quantity: str, read: Read[T],
     `optional` are not sent when None), the other body members `options` (checked by the
     caller) and `payloads`; the answer read by `read`. `binary_form=False` keeps the request
     JSON however large. `independent_rows=False`: the rows of 2-D inputs are one trajectory,
-    path or log rather than a batch of states, and are never sent in chunks."""
+    path or log rather than a batch of states, and are never sent in chunks (with progress,
+    the server's progress stream is asked for instead)."""
     fields = {**(options or {}), **payloads_body(payloads)}
     return _request(robot_id, quantity, read, fields, binary_form, independent_rows,
                     {k: x for k, x in inputs.items() if x is not None or k not in optional})
@@ -65,7 +66,9 @@ def _request(robot_id: str, quantity: str, read: Read[T], fields: Mapping[str, A
     call = route_call("POST", f"{ROBOT}/{quantity}",
                       lambda status, body: read(body, batched, rows), robot_id,
                       body=dict(fields) or None)
-    call = replace(call, arrays=arrays, binary_form=binary_form)
+    # one motion, path or log: one computation, whose progress the server streams
+    call = replace(call, arrays=arrays, binary_form=binary_form,
+                   progress_stream=not independent_rows)
     if rows is not None and independent_rows and _splittable(arrays, fields):
         def plan() -> progress.Plan[T]:
             parts: list[T] = []

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from robodyn import progress as _progress
 from robodyn._calls import identification as calls
 from robodyn._calls.identification import Friction, Method
 from robodyn._client import AsyncSender, SyncSender
@@ -38,7 +39,8 @@ class IdentificationMethods(SyncSender):
                  method: Method = "physically-consistent", weighted: bool = True,
                  validation_fraction: float = 0.2, filter_hz: float | None = None,
                  store: bool = True, payload_frame: str | None = None,
-                 include_series: bool = False) -> Identification:
+                 include_series: bool = False,
+                 progress: _progress.Progress = None) -> Identification:
         """Identify a fixed-base robot's inertial parameters and friction from a logged motion,
         and (with `store`, the default) store the identified robot as a variant.
 
@@ -64,11 +66,14 @@ class IdentificationMethods(SyncSender):
         `UnsupportedModelError` for a free-flyer or planar base, `ValidationError` for a log it
         cannot identify from (non-increasing t, too few samples — the detail says how many are
         needed —, a motion that reveals too little), `DimensionMismatchError` for wrong widths.
+        `progress`: a callable (done, total) or True for a tqdm bar (the client's by default):
+        the server streams the fit's stages as they start, once the log is checked (base
+        parameters, regressor, fit, validation: done 1 to 4 of 5; `robodyn.progress`).
         """
         return self._send(calls.identify(
             robot_id, t, q, tau, v=v, a=a, friction=friction, method=method, weighted=weighted,
             validation_fraction=validation_fraction, filter_hz=filter_hz, store=store,
-            payload_frame=payload_frame, include_series=include_series))
+            payload_frame=payload_frame, include_series=include_series), progress)
 
 
 class AsyncIdentificationMethods(AsyncSender):
@@ -98,7 +103,8 @@ class AsyncIdentificationMethods(AsyncSender):
                        method: Method = "physically-consistent", weighted: bool = True,
                        validation_fraction: float = 0.2, filter_hz: float | None = None,
                        store: bool = True, payload_frame: str | None = None,
-                       include_series: bool = False) -> Identification:
+                       include_series: bool = False,
+                 progress: _progress.Progress = None) -> Identification:
         """Identify a fixed-base robot's inertial parameters and friction from a logged motion,
         and (with `store`, the default) store the identified robot as a variant.
 
@@ -124,8 +130,11 @@ class AsyncIdentificationMethods(AsyncSender):
         `UnsupportedModelError` for a free-flyer or planar base, `ValidationError` for a log it
         cannot identify from (non-increasing t, too few samples — the detail says how many are
         needed —, a motion that reveals too little), `DimensionMismatchError` for wrong widths.
+        `progress`: a callable (done, total) or True for a tqdm bar (the client's by default):
+        the server streams the fit's stages as they start, once the log is checked (base
+        parameters, regressor, fit, validation: done 1 to 4 of 5; `robodyn.progress`).
         """
         return await self._send(calls.identify(
             robot_id, t, q, tau, v=v, a=a, friction=friction, method=method, weighted=weighted,
             validation_fraction=validation_fraction, filter_hz=filter_hz, store=store,
-            payload_frame=payload_frame, include_series=include_series))
+            payload_frame=payload_frame, include_series=include_series), progress)

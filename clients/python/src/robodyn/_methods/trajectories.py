@@ -3,6 +3,7 @@ time a path through waypoints optimally (`Client` and `AsyncClient` inherit them
 
 from __future__ import annotations
 
+from robodyn import progress as _progress
 from robodyn._calls import trajectories as calls
 from robodyn._client import AsyncSender, SyncSender
 from robodyn.arrays import ArrayLike
@@ -17,7 +18,8 @@ class TrajectoryMethods(SyncSender):
                          v: ArrayLike | None = None, a: ArrayLike | None = None,
                          effort_scale: float = 1.0, velocity_scale: float = 1.0,
                          samples_per_interval: int = 4, friction: bool = False,
-                         payloads: PayloadsLike | None = None) -> TrajectoryCheck:
+                         payloads: PayloadsLike | None = None,
+                         progress: _progress.Progress = None) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
         and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
@@ -31,16 +33,19 @@ class TrajectoryMethods(SyncSender):
         times, `DimensionMismatchError` for rows that do not match. `friction=True` adds the
         joints' identified friction to τ (a robot stored by `identify`; any other robot is a
         `ValidationError`). `payloads`: rigid bodies the robot holds (`Payload`s), added to
-        its model for this call.
+        its model for this call. `progress`: a callable (done, total) or True for a tqdm bar
+        (the client's by default): the server streams the count of evaluated points as it
+        checks (`robodyn.progress`).
         """
         return self._send(calls.trajectory_check(
             robot_id, t, q, v=v, a=a, effort_scale=effort_scale, velocity_scale=velocity_scale,
             samples_per_interval=samples_per_interval, friction=friction,
-            payloads=payloads))
+            payloads=payloads), progress)
 
     def retime(self, robot_id: str, waypoints: ArrayLike, *, velocity_scale: float = 1.0,
                effort_scale: float = 1.0, acceleration: ArrayLike | None = None,
-               sample_dt: float = 0.01, payloads: PayloadsLike | None = None) -> Retimed:
+               sample_dt: float = 0.01, payloads: PayloadsLike | None = None,
+               progress: _progress.Progress = None) -> Retimed:
         """`Retimed`: the time-optimal motion, from rest to rest, along the clamped cubic
         spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
         distance),
@@ -52,11 +57,13 @@ class TrajectoryMethods(SyncSender):
         `InfeasiblePathError` for a path no timing can follow (its `body` names the joint,
         the waypoint and the path fraction) and `UnsupportedModelError` for a robot with
         joints other than revolute or prismatic. `payloads`: rigid bodies the robot holds
-        (`Payload`s), added to its model for this call.
+        (`Payload`s), added to its model for this call. `progress`: a callable (done, total)
+        or True for a tqdm bar (the client's by default): the server streams its steps (path,
+        TOPP-RA and correction, samples and their check; `robodyn.progress`).
         """
         return self._send(calls.retime(robot_id, waypoints, velocity_scale=velocity_scale,
                                        effort_scale=effort_scale, acceleration=acceleration,
-                                       sample_dt=sample_dt, payloads=payloads))
+                                       sample_dt=sample_dt, payloads=payloads), progress)
 
 
 class AsyncTrajectoryMethods(AsyncSender):
@@ -66,7 +73,8 @@ class AsyncTrajectoryMethods(AsyncSender):
                                v: ArrayLike | None = None, a: ArrayLike | None = None,
                                effort_scale: float = 1.0, velocity_scale: float = 1.0,
                                samples_per_interval: int = 4, friction: bool = False,
-                               payloads: PayloadsLike | None = None) -> TrajectoryCheck:
+                               payloads: PayloadsLike | None = None,
+                               progress: _progress.Progress = None) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
         and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
@@ -80,17 +88,20 @@ class AsyncTrajectoryMethods(AsyncSender):
         times, `DimensionMismatchError` for rows that do not match. `friction=True` adds the
         joints' identified friction to τ (a robot stored by `identify`; any other robot is a
         `ValidationError`). `payloads`: rigid bodies the robot holds (`Payload`s), added to
-        its model for this call.
+        its model for this call. `progress`: a callable (done, total) or True for a tqdm bar
+        (the client's by default): the server streams the count of evaluated points as it
+        checks (`robodyn.progress`).
         """
         return await self._send(calls.trajectory_check(
             robot_id, t, q, v=v, a=a, effort_scale=effort_scale, velocity_scale=velocity_scale,
             samples_per_interval=samples_per_interval, friction=friction,
-            payloads=payloads))
+            payloads=payloads), progress)
 
     async def retime(self, robot_id: str, waypoints: ArrayLike, *,
                      velocity_scale: float = 1.0, effort_scale: float = 1.0,
                      acceleration: ArrayLike | None = None, sample_dt: float = 0.01,
-                     payloads: PayloadsLike | None = None) -> Retimed:
+                     payloads: PayloadsLike | None = None,
+                     progress: _progress.Progress = None) -> Retimed:
         """`Retimed`: the time-optimal motion, from rest to rest, along the clamped cubic
         spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
         distance),
@@ -102,9 +113,11 @@ class AsyncTrajectoryMethods(AsyncSender):
         `InfeasiblePathError` for a path no timing can follow (its `body` names the joint,
         the waypoint and the path fraction) and `UnsupportedModelError` for a robot with
         joints other than revolute or prismatic. `payloads`: rigid bodies the robot holds
-        (`Payload`s), added to its model for this call.
+        (`Payload`s), added to its model for this call. `progress`: a callable (done, total)
+        or True for a tqdm bar (the client's by default): the server streams its steps (path,
+        TOPP-RA and correction, samples and their check; `robodyn.progress`).
         """
         return await self._send(calls.retime(robot_id, waypoints, velocity_scale=velocity_scale,
                                              effort_scale=effort_scale,
                                              acceleration=acceleration, sample_dt=sample_dt,
-                                             payloads=payloads))
+                                             payloads=payloads), progress)

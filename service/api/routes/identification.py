@@ -80,10 +80,11 @@ def worker_of(request: Request) -> IdentificationWorker:
 
 LOG_ARRAYS = ("t", "q", "tau", "v", "a")  # the log's arrays: tensors in the binary form
 _REQUIRED_ARRAYS = ("t", "q", "tau")
+_OPTION_FIELDS: dict[str, Any] = {
+    name: (info.annotation, info) for name, info in IdentifyRequest.model_fields.items()
+    if name not in LOG_ARRAYS}
 _Options = create_model(  # the other members of IdentifyRequest: `__metadata__` in binary
-    "IdentifyOptions", __base__=StrictRequest,
-    **{name: (info.annotation, info) for name, info in IdentifyRequest.model_fields.items()
-       if name not in LOG_ARRAYS})
+    "IdentifyOptions", __base__=StrictRequest, **_OPTION_FIELDS)
 
 
 def _invalid(exc: ValidationError) -> RequestValidationError:
@@ -130,10 +131,10 @@ def _parse_binary(body: bytes) -> IdentifyRequest:
         options = _Options.model_validate(fields)
     except ValidationError as exc:
         raise _invalid(exc) from None
+    values: dict[str, Any] = {name: getattr(options, name) for name in _Options.model_fields}
+    values.update(_log_arrays(arrays))
     # Not validated again: the arrays were checked above, the options by the same fields.
-    return IdentifyRequest.model_construct(
-        _fields_set={*options.model_fields_set, *arrays}, **_log_arrays(arrays),
-        **{name: getattr(options, name) for name in _Options.model_fields})
+    return IdentifyRequest.model_construct({*options.model_fields_set, *arrays}, **values)
 
 
 def _parse(body: bytes, max_samples: int, content_type: str = "") -> IdentifyRequest:

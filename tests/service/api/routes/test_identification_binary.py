@@ -5,6 +5,9 @@ move is a clear 422 in either form."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from types import SimpleNamespace
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -221,3 +224,20 @@ def test_a_robot_that_does_not_move_is_a_clear_422(client, registry, log, form):
     assert detail.startswith("the log shows too little motion to identify robot 'ur5'")
     assert "every joint barely moves" in detail and "excite every joint" in detail
     assert all(f"{name} 0 rad" in detail for name in list(model.names)[1:])
+
+
+def test_the_identify_example_of_the_binary_format_doc_runs(client, log):
+    doc = (Path(__file__).parents[4] / "docs" / "binary-format.md").read_text()
+    section = doc.split("## identify: a log in the binary form", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+
+    def post(url, **options):
+        options.pop("timeout", None)
+        return client.post(url.removeprefix("http://127.0.0.1:8000"), **options)
+
+    scope = {"t": log.t, "q": log.q, "tau": log.tau, "httpx": SimpleNamespace(post=post)}
+    exec(code.replace("import httpx\n", ""), scope)
+    answer = scope["r"].json()
+    assert scope["r"].status_code == 200, answer
+    assert answer["robot"] is None and all(f["coulomb"] == 0.0 for f in answer["friction"])
+    assert len(answer["rmse"]["validation"]) == 6

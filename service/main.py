@@ -95,7 +95,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
-    # JSON-only twins: identify, and the upload (which reads its body itself)
+    # Twins of other lean routes: identify (JSON or the binary form in, JSON out), and the
+    # upload (which reads its body itself)
     twins = [*identification.openapi_routes().routes, *robots.openapi_routes().routes]
     app.openapi = lambda: problem_openapi(app, described, twins)  # type: ignore[method-assign]
     app.include_router(health.router)

@@ -4,6 +4,7 @@ input checks."""
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 import httpx
@@ -97,3 +98,70 @@ async def test_async_identify(app: Any, registry: Any, log: Any) -> None:
     assert parameters.layout[0] == "m"
 
 
+
+
+def _recording_client(app: Any, seen: list[httpx.Request], **options: Any) -> Any:
+    """A TestClient on the app whose requests are recorded, bodies read (`request.read()`
+    keeps them sendable), and a robodyn Client over it."""
+    def record(request: httpx.Request) -> None:
+        request.read()
+        seen.append(request)
+
+    http = TestClient(app)
+    http.event_hooks = {"request": [record], "response": []}
+    return http, Client(http_client=http, **options)
+
+
+def test_identify_sends_a_large_log_in_the_binary_form(app: Any, registry: Any,
+                                                       log: Any) -> None:
+    """800 samples × (t, 6 q, 6 τ) are over `BINARY_FROM` numbers: a safetensors body with t,
+    q, tau as F64 tensors, bit for bit, the options in its metadata; the answer is the
+    in-process fit, and the same as the JSON form's (`binary=False`)."""
+    seen: list[httpx.Request] = []
+    http, client = _recording_client(app, seen)
+    with http, client:
+        result = client.identify("ur5", log.t, log.q, log.tau, store=False, friction="viscous")
+    (sent,) = seen
+    assert sent.headers["content-type"] == robodyn.binary.MEDIA_TYPE
+    assert log.t.size * 13 >= robodyn.core.BINARY_FROM
+    body = robodyn.binary.decode(sent.content)
+    for name in ("t", "q", "tau"):
+        np.testing.assert_array_equal(body[name], getattr(log, name))
+    assert body["t"].shape == (log.t.size,)
+    assert body["friction"] == "viscous" and body["store"] is False
+    here = identify(registry.get("ur5"), log.t, log.q, log.tau, friction="viscous")
+    np.testing.assert_allclose(result.parameters, here.parameters, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(result.rmse.validation, here.rmse["validation"], rtol=1e-9)
+    # forced JSON: the same log as lists (t a list too), the same answer
+    seen.clear()
+    http, client = _recording_client(app, seen, binary=False)
+    with http, client:
+        again = client.identify("ur5", log.t, log.q, log.tau, store=False, friction="viscous")
+    assert seen[0].headers["content-type"] == "application/json"
+    sent_json = json.loads(seen[0].content)
+    assert sent_json["t"] == log.t.tolist() and sent_json["q"] == log.q.tolist()
+    np.testing.assert_allclose(again.parameters, result.parameters, rtol=1e-9, atol=1e-12)
+
+
+def test_identify_sends_a_small_log_as_json(app: Any, log: Any) -> None:
+    """A log under `BINARY_FROM` numbers stays JSON (here too short to identify: the server's
+    422 comes back as a ValidationError)."""
+    seen: list[httpx.Request] = []
+    http, client = _recording_client(app, seen)
+    with http, client, pytest.raises(robodyn.ValidationError, match="needs at least"):
+        client.identify("ur5", log.t[:40], log.q[:40], log.tau[:40], store=False)
+    assert seen[0].headers["content-type"] == "application/json"
+    assert json.loads(seen[0].content)["t"] == log.t[:40].tolist()
+
+
+def test_identify_a_still_robot_is_a_validation_error(client: Client, registry: Any,
+                                                      log: Any) -> None:
+    import pinocchio as pin
+
+    model = registry.get("ur5").model
+    q = np.repeat(log.q[:1], log.t.size, axis=0)
+    tau = np.tile(pin.computeGeneralizedGravity(model, model.createData(), q[0]),
+                  (log.t.size, 1))
+    with pytest.raises(robodyn.ValidationError, match="too little motion") as raised:
+        client.identify("ur5", log.t, q, tau, store=False)
+    assert "shoulder_pan_joint 0 rad" in str(raised.value)

@@ -93,7 +93,8 @@ def problem_openapi(app: FastAPI, described: Sequence[BaseRoute] = (),
     """The app's OpenAPI document, rewritten as the module docstring says (computed once).
     `described`: routes documented but served by other (lean) routes of the app; they are
     the dynamics routes, which also speak the binary form. `twins`: other lean routes'
-    documentation (JSON only, e.g. identify)."""
+    documentation, which declare their own media types (identify: a binary request body
+    through its `openapi_extra`, a JSON answer; the upload: JSON)."""
     if app.openapi_schema:
         return app.openapi_schema
     doc = get_openapi(title=app.title, version=app.version, description=app.description,

@@ -1,7 +1,9 @@
 """Routes of identification: GET /v1/robots/{id}/inertial-parameters and
 POST /v1/robots/{id}/identify (the regressor is a dynamics quantity, `service.api.quantities`).
 
-identify is a lean route (like the dynamics routes): its body, a whole log, is parsed and
+identify is a lean route (like the dynamics routes): its body, a whole log, JSON or the binary
+form (a safetensors file: t, q, tau, v, a as F64 tensors, the options as JSON texts in
+`__metadata__`, see docs/binary-format.md; the answer is JSON either way), is parsed and
 validated in a worker thread, and the fit runs in the identification worker process
 (`service.dynamics.identification.worker`, one fit at a time with a time limit), so the event
 loop and /health/live never wait for it. Its OpenAPI description is a twin route
@@ -15,15 +17,16 @@ from typing import Any
 import numpy as np
 from fastapi import APIRouter, Request, Response
 from fastapi.exceptions import RequestValidationError
-from pydantic import ValidationError
+from pydantic import ValidationError, create_model
 from starlette.concurrency import run_in_threadpool
 from starlette.routing import Route
 
 from service.api.deps import RegistryDep, require_api_key
+from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes
 from service.api.progress import ProgressAnswer, progress_channel, wants_progress
 from service.api.routes.dynamics import PREFIX, off_loop
-from service.api.schemas.common import Problem
+from service.api.schemas.common import Problem, StrictRequest, many_unknown_members
 from service.api.schemas.identification import (
     IdentifyAnswer,
     IdentifyRequest,
@@ -32,7 +35,7 @@ from service.api.schemas.identification import (
 from service.dynamics.identification.regressor import inertial_parameters_answer
 from service.dynamics.identification.worker import IdentificationWorker
 from service.dynamics.payloads import check_payloads
-from service.errors import DimensionMismatch, InvalidInput
+from service.errors import DimensionMismatch, InvalidInput, UnsupportedMediaType
 from service.registry import Registry
 from service.registry.robot import Robot
 from service.registry.variants import Fitted
@@ -44,6 +47,8 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
           "a key where keys are set, like an upload)"},
     404: {"model": Problem, "description": "robot_not_found"},
     413: {"model": Problem, "description": "payload_too_large"},
+    415: {"model": Problem, "description": "unsupported_media_type (neither JSON nor the "
+          "binary form)"},
     422: {"model": Problem, "description": "validation_error (NaN, non-increasing t, too few "
           "samples, a motion that reveals too little, over the time limit), "
           "dimension_mismatch, invalid_configuration, unknown_frame (payload), "
@@ -74,12 +79,79 @@ def worker_of(request: Request) -> IdentificationWorker:
     return worker
 
 
-def _parse(body: bytes, max_samples: int) -> IdentifyRequest:
+LOG_ARRAYS = ("t", "q", "tau", "v", "a")  # the log's arrays: tensors in the binary form
+_REQUIRED_ARRAYS = ("t", "q", "tau")
+_OPTION_FIELDS: dict[str, Any] = {
+    name: (info.annotation, info) for name, info in IdentifyRequest.model_fields.items()
+    if name not in LOG_ARRAYS}
+_Options = create_model(  # the other members of IdentifyRequest: `__metadata__` in binary
+    "IdentifyOptions", __base__=StrictRequest, **_OPTION_FIELDS)
+
+
+def _invalid(exc: ValidationError) -> RequestValidationError:
+    return RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in exc.errors()])
+
+
+def _log_arrays(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The tensors of a binary body checked as the JSON form's fields are: t 1-D, the others
+    2-D (one row per sample), every number finite. Widths and row counts are checked against
+    the robot with the log (`motion_log`), as for JSON."""
+    for name, array in arrays.items():
+        ndim, shape = (1, "[N]") if name == "t" else (2, "[N, nq]" if name == "q" else "[N, nv]")
+        if array.ndim != ndim:
+            raise InvalidInput(f"binary body: tensor {name} has shape {list(array.shape)}; it "
+                               f"must be {shape} (one {'time' if ndim == 1 else 'row'} per "
+                               "sample)")
+        bad = np.flatnonzero(~np.isfinite(array.reshape(-1)))
+        if bad.size:
+            where = np.unravel_index(int(bad[0]), array.shape)
+            raise InvalidInput(f"binary body: {name}[{', '.join(str(int(i)) for i in where)}] "
+                               f"is {array[where]}; every number must be finite")
+    return arrays
+
+
+def _parse_binary(body: bytes) -> IdentifyRequest:
+    """The request of a binary body: its tensors (`_log_arrays`) and its `__metadata__`
+    validated by the JSON form's model for the other members (strict, unknown names refused)."""
+    fields, arrays = binary.decode(body)
+    misplaced = [name for name in LOG_ARRAYS if name in fields]
+    unknown = sorted(set(arrays) - set(LOG_ARRAYS))
+    missing = [name for name in _REQUIRED_ARRAYS if name not in arrays]
+    takes = "identify takes the tensors t, q, tau and optional v, a (F64)"
+    if misplaced:
+        raise InvalidInput(f"binary body: {misplaced[0]} is in __metadata__; it goes as a "
+                           f"tensor ({takes})")
+    if unknown or missing:
+        wrong = f"unknown tensor {unknown[0]!r}" if unknown else f"missing tensor {missing[0]!r}"
+        raise InvalidInput(f"binary body: {wrong}; {takes}")
+    many = many_unknown_members(_Options.model_fields, fields)  # counted, not one error each
+    if many is not None:
+        raise InvalidInput(f"binary body: __metadata__ has {many[0]} names that are not fields "
+                           f"of identify (the first: {many[1]!r})")
     try:
-        parsed = IdentifyRequest.model_validate_json(body)
+        options = _Options.model_validate(fields)
     except ValidationError as exc:
-        raise RequestValidationError(
-            [{**e, "loc": ("body", *e["loc"])} for e in exc.errors()]) from None
+        raise _invalid(exc) from None
+    values: dict[str, Any] = {name: getattr(options, name) for name in _Options.model_fields}
+    values.update(_log_arrays(arrays))
+    # Not validated again: the arrays were checked above, the options by the same fields.
+    return IdentifyRequest.model_construct({*options.model_fields_set, *arrays}, **values)
+
+
+def _parse(body: bytes, max_samples: int, content_type: str = "") -> IdentifyRequest:
+    """The request of a body in JSON or (by `content_type`) the binary form."""
+    media_type = content_type.lower()
+    if media_type.startswith(binary.BINARY_MEDIA_TYPE):
+        parsed = _parse_binary(body)
+    elif media_type and "json" not in media_type.split(";")[0]:
+        raise UnsupportedMediaType(
+            "send the log as JSON ('Content-Type: application/json') or in the binary form "
+            f"('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+    else:
+        try:
+            parsed = IdentifyRequest.model_validate_json(body)
+        except ValidationError as exc:
+            raise _invalid(exc) from None
     if len(parsed.t) > max_samples:
         raise DimensionMismatch(f"the log has {len(parsed.t)} samples; the limit is "
                                 f"{max_samples} (ROBODYN_MAX_IDENTIFY_SAMPLES): send a "
@@ -159,7 +231,8 @@ async def _identification(request: Request, registry: Registry, robot: Robot, bo
                           ) -> dict[str, Any]:
     """The IdentifyAnswer document of `body`: parsed off the loop, fitted in the worker
     process (its stages reported to the request's progress channel, if any), stored."""
-    parsed = await off_loop(request, _parse, body, request.app.state.settings.max_identify_samples)
+    parsed = await off_loop(request, _parse, body, request.app.state.settings.max_identify_samples,
+                            request.headers.get("content-type", ""))
     channel = progress_channel(request.scope)
     fit = functools.partial(worker_of(request).identify, robot,
                             None if channel is None else channel.report, **_inputs(parsed))
@@ -183,10 +256,23 @@ def openapi_routes() -> APIRouter:
         """Fit a fixed-base robot's inertial parameters and friction (or a payload's) to a
         logged motion (t, q, measured τ; v and a optional), check the fit on the held-out
         end of the log, and store the identified robot as a variant. The fit runs in a worker
-        process with a time limit (ROBODYN_IDENTIFY_TIMEOUT_S). See docs/identification.md."""
+        process with a time limit (ROBODYN_IDENTIFY_TIMEOUT_S). See docs/identification.md.
+
+        The log may also be sent in the binary form ({media_type}: t, q, tau, v, a as F64
+        tensors, the other members as JSON texts in `__metadata__`; see
+        docs/binary-format.md); the answer is JSON either way."""
         raise NotImplementedError  # documentation only: `identify` serves the route
 
+    describe_identify.__doc__ = (describe_identify.__doc__ or "").replace(
+        "{media_type}", binary.BINARY_MEDIA_TYPE)
+    binary_body = {"schema": {
+        "type": "string", "format": "binary",
+        "description": "The same members as the JSON form: t, q, tau, v, a as float64 tensors, "
+                       "the others in __metadata__ (see docs/binary-format.md)."}}
     twin.add_api_route("/{robot_id}/identify", describe_identify, methods=["POST"],
                        response_model=IdentifyAnswer, responses=_PROBLEMS, name="identify",
-                       summary="Identify inertial parameters and friction from a logged motion")
+                       summary="Identify inertial parameters and friction from a logged motion",
+                       openapi_extra={"x-binary-media-type": binary.BINARY_MEDIA_TYPE,
+                                      "requestBody": {"content": {
+                                          binary.BINARY_MEDIA_TYPE: binary_body}}})
     return twin

@@ -68,12 +68,14 @@ def prior_scale(pi0: np.ndarray, friction_count: int) -> np.ndarray:
 
 
 def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
-        scale: np.ndarray, bodies: int, consistent: bool, weighted: bool = True) -> Fit:
+        scale: np.ndarray, bodies: int, consistent: bool, weighted: bool = True,
+        still: str = "") -> Fit:
     """Fit θ (see the module docstring): A (n, nv, r), b (n, nv); θ₀ and `scale` (len(θ),);
     the first `bodies` blocks of 10 of θ are bodies (constrained when `consistent`).
     `weighted` False: ordinary least squares (every joint's rows weighted by the one pooled
     residual standard deviation, which changes no estimate, only the units of the SDP's data
-    term)."""
+    term). `still`: the joints that barely move and their ranges, named when the motion
+    excites too little."""
     count, nv, r = A.shape
     flat_a, flat_b = A.reshape(-1, r), b.reshape(-1)
     ordinary = np.linalg.lstsq(flat_a, flat_b, rcond=None)[0]
@@ -95,11 +97,12 @@ def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
     singular = np.linalg.svd(rr / np.where(norms > 0, norms, 1.0), compute_uv=False)
     condition = float(singular[0] / singular[-1]) if singular[-1] > 0 else float("inf")
     if not consistent and condition > POORLY_EXCITED:
+        where = f"; barely moving: {still}" if still else ""
         raise InvalidInput(
             f"the logged motion does not excite every base parameter (condition number "
-            f"{condition:.3g}); log a richer motion (every joint moving, at varied speeds and "
-            "accelerations) or use method 'physically-consistent', which falls back on the "
-            "model's values where the log says nothing")
+            f"{condition:.3g}{where}); log a richer motion (every joint moving, at varied "
+            "speeds and accelerations) or use method 'physically-consistent', which falls back "
+            "on the model's values where the log says nothing")
     covariance_root = np.linalg.pinv(rr)
     beta_wls = covariance_root @ target
     rows = weighted_b.size
@@ -109,13 +112,27 @@ def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
     if consistent:
         # the posterior's: data and prior (where the log says little, the prior's spread)
         prior = projection @ ((scale ** 2)[:, np.newaxis] * projection.T)
-        information = rr.T @ rr / max(sigma2, 1e-300) + np.linalg.inv(prior)
-        std = np.sqrt(np.diag(np.linalg.inv(information)))
+        std = _posterior_std(rr, sigma2, prior)
         theta = _consistent(rr @ projection, target, theta0, scale, bodies)
     else:
         theta = _closest(projection, beta_wls, theta0, scale)
     return Fit(theta=theta, beta=projection @ theta, beta_std=std, condition_number=condition,
                joint_noise=noise)
+
+
+def _posterior_std(rr: np.ndarray, sigma2: float, prior: np.ndarray) -> np.ndarray:
+    """The square roots of the diagonal of C = (RᵀR / s² + Π⁻¹)⁻¹ (Π the prior's covariance
+    of β), computed without inverting the information matrix, which loses all precision (or
+    is singular) when the residual s² is tiny and some directions are not excited: with
+    Π = L Lᵀ and R L = U Σ Vᵀ, C = L V diag(s² / (s² + σ_k²)) Vᵀ Lᵀ, each weight in [0, 1]
+    (1: a direction the log does not see keeps the prior's spread; 0: a noiseless one)."""
+    eigenvalues, vectors = np.linalg.eigh(prior)
+    root = vectors * np.sqrt(np.clip(eigenvalues, 0.0, None))
+    _, singular, vt = np.linalg.svd(rr @ root)
+    singular = np.concatenate([singular, np.zeros(vt.shape[0] - singular.size)])
+    total = sigma2 + singular ** 2
+    weights = np.divide(sigma2, total, out=np.ones_like(total), where=total > 0)
+    return np.asarray(np.sqrt(((root @ vt.T) ** 2) @ weights))
 
 
 def _closest(projection: np.ndarray, beta: np.ndarray, theta0: np.ndarray,

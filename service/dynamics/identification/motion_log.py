@@ -14,6 +14,10 @@
   columns computed from these are filtered by the same filter again ("parallel filtering":
   filter(τ) = filter(Y) π holds exactly because the filter is linear), so τ and the columns
   see the same filter.
+- **Motion.** A log in which every joint barely moves (its coordinate's range over the kept
+  samples, filtered when the log is, below MIN_RANGE: MIN_RANGE_REVOLUTE rad or
+  MIN_RANGE_PRISMATIC m) reveals only gravity at one configuration, no inertia and no friction:
+  `check_motion` refuses it, naming each joint's range, before any fit.
 - **Edges.** Zero-phase filtering and differences are wrong near both ends of a signal; a margin
   of MARGIN_PERIODS / filter_hz seconds is dropped at both ends of each part after filtering.
 - **Decimation.** Filtered samples are correlated; the fit keeps one every `decimation` of the
@@ -44,6 +48,8 @@ DECIMATION_RATE = 2.0  # fit samples per period of the cut-off: the filtered ban
 DEFAULT_VALIDATION_FRACTION = 0.2
 RESAMPLING_GROWTH = 4  # a uniform grid of at most this many times a part's samples (+ 1000)
 ONE_DOF = ("revolute", "prismatic", "continuous")
+MIN_RANGE_REVOLUTE = 0.02  # rad (about 1.1°): below it a joint "barely moves"
+MIN_RANGE_PRISMATIC = 0.005  # m
 
 
 @dataclass(frozen=True)
@@ -225,3 +231,58 @@ def _part(robot: Robot, t: np.ndarray, q: np.ndarray, tau: np.ndarray,
     margin = lowpass.margin
     return Part(t=grid, q=joint_configurations(robot, x), v=v, a=a,
                 tau=lowpass(resampled(tau)), keep=slice(margin, grid.size - margin))
+
+
+def joint_ranges(robot: Robot, log: MotionLog) -> np.ndarray:
+    """Each joint's range of motion (nv,), rad or m: max − min of its coordinate over the kept
+    samples of both parts (filtered when the log is; a continuous joint's unwrapped angle).
+    Zeros when no sample is kept."""
+    kept = [_coordinates(robot, part.q[part.keep]) for part in (log.train, log.validation)]
+    x = np.concatenate([k for k in kept if k.size] or [np.zeros((1, robot.nv))])
+    return np.asarray(x.max(axis=0) - x.min(axis=0))
+
+
+def _min_range(kind: str) -> float:
+    return MIN_RANGE_PRISMATIC if kind == "prismatic" else MIN_RANGE_REVOLUTE
+
+
+def barely_moving(robot: Robot, log: MotionLog) -> dict[str, float]:
+    """The joints whose range of motion over the log is below their MIN_RANGE: {name: range
+    (rad or m)}, in joint order."""
+    ranges = joint_ranges(robot, log)
+    out = {}
+    for jid in range(1, robot.model.njoints):
+        name = str(robot.model.names[jid])
+        extent = float(ranges[robot.model.joints[jid].idx_v])
+        if extent < _min_range(robot.joint_types[name]):
+            out[name] = extent
+    return out
+
+
+def describe_ranges(robot: Robot, ranges: dict[str, float]) -> str:
+    """"shoulder_pan_joint 0.0013 rad, slider 0.0002 m" for `barely_moving`'s answer."""
+    def unit(name: str) -> str:
+        return "m" if robot.joint_types[name] == "prismatic" else "rad"
+
+    return ", ".join(f"{name} {extent if extent > 1e-12 else 0.0:.2g} {unit(name)}"
+                     for name, extent in ranges.items())  # (filtering leaves ~1e-17 of 0)
+
+
+def check_motion(robot: Robot, log: MotionLog) -> None:
+    """`InvalidInput` when every joint barely moves (see the module docstring): such a log
+    has nothing to identify, and its fit is ill-posed (without noise, not even finite). A log
+    in which only some joints barely move is fitted (the physically consistent fit keeps the
+    model's values where it says nothing)."""
+    if log.train.t[log.train.keep].size == 0:
+        return  # too short: the sample count check says how many are needed
+    still = barely_moving(robot, log)
+    if len(still) < robot.nv:
+        return
+    raise InvalidInput(
+        f"the log shows too little motion to identify robot '{robot.id}' (it does not excite "
+        f"every base parameter): every joint barely moves (range over the log: "
+        f"{describe_ranges(robot, still)}; a joint needs at least {MIN_RANGE_REVOLUTE:g} rad, "
+        f"or {MIN_RANGE_PRISMATIC:g} m if prismatic, and much more to be identified well). "
+        "A still robot's torques show only gravity at one configuration: excite every joint, "
+        "moving each through a good part of its range at varied speeds and accelerations "
+        "(e.g. a sum of sine waves)")

@@ -5,7 +5,8 @@
              payload_frame=None, weighted=True) → Identification
 
 1. The log is checked, split (the last `validation_fraction` by time is held out) and, when
-   v or a is missing, resampled, filtered and differentiated (`motion_log`).
+   v or a is missing, resampled, filtered and differentiated (`motion_log`); a log in which
+   every joint barely moves is refused (`check_motion`).
 2. The base parameters of the columns (`columns`: the robot, or a payload at a frame) come
    from random states (`base_parameters`); only their columns are evaluated on the log.
 3. The columns and the known torques are filtered like τ (parallel filtering), the edge
@@ -38,6 +39,9 @@ from service.dynamics.identification.motion_log import (
     LowPass,
     MotionLog,
     Part,
+    barely_moving,
+    check_motion,
+    describe_ranges,
     joint_configurations,
     motion_log,
 )
@@ -154,6 +158,7 @@ def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = Non
     if method not in METHODS:
         raise InvalidInput(f"method must be one of {', '.join(repr(m) for m in METHODS)}")
     log = motion_log(robot, t, q, tau, v, a, filter_hz, validation_fraction)
+    check_motion(robot, log)
     columns = Columns(robot, friction, payload_frame)
     stage("base parameters")
     base = base_parameters(random_rows(robot, columns), columns.names,
@@ -178,9 +183,11 @@ def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = Non
                          - columns.inertial_count) if payload_frame is None else
              np.concatenate([PAYLOAD_SCALE, prior_scale(np.zeros(0), len(columns.names)
                                                         - PER_BODY)]))
+    still = barely_moving(robot, log)
     stage("fit")
     result = fit(A[fit_rows], (measured - known)[fit_rows], base, columns.theta0, scale,
-                 columns.bodies, method == "physically-consistent", weighted)
+                 columns.bodies, method == "physically-consistent", weighted,
+                 still=describe_ranges(robot, still))
     stage("validation")
     answer = _answer(robot, columns, base, result, log, terms,
                      (A, known, measured), (val_A, val_known, val_measured))

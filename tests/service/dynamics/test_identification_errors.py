@@ -115,3 +115,54 @@ def test_a_log_too_irregular_to_resample(ur5, log):
     with pytest.raises(InvalidInput, match="too irregular to resample"):
         identify(ur5, t, log.q, log.tau)
     identify(ur5, t, log.q, log.tau, v=log.v, a=log.a, method="least-squares")  # as it is
+
+
+def _gravity_torques(robot, q, noise, seed=0):
+    data = robot.model.createData()
+    tau = np.array([pin.computeGeneralizedGravity(robot.model, data, qi) for qi in q])
+    return tau + np.random.default_rng(seed).normal(0.0, noise, tau.shape) if noise else tau
+
+
+@pytest.mark.parametrize(("noise", "given"), [(0.05, False), (0.0, False), (0.0, True)])
+def test_a_robot_that_does_not_move_is_refused_before_the_fit(ur5, log, noise, given):
+    """Constant q, τ = g(q) (+ noise): nothing but gravity at one configuration. Without noise
+    the fit used to be not finite (non_finite_result); now a clear validation error naming
+    every joint and its range, whatever the method."""
+    q = np.repeat(log.q[:1], log.t.size, axis=0)
+    q[:, 0] += 0.004 * np.sin(2 * np.pi * log.t)  # a 1 Hz tremor of 0.008 rad: "still"
+    tau = _gravity_torques(ur5, q, noise)
+    zero = np.zeros_like(log.v)
+    derivatives = {"v": zero, "a": zero} if given else {}
+    for method in ("physically-consistent", "least-squares"):
+        with pytest.raises(InvalidInput) as raised:
+            identify(ur5, log.t, q, tau, method=method, **derivatives)
+        detail = raised.value.detail
+        assert detail.startswith("the log shows too little motion to identify robot 'ur5'")
+        assert "every joint barely moves" in detail and "excite every joint" in detail
+        for name in ur5.model.names[1:]:
+            assert f"{name} " in detail
+        shown = float(detail.split("shoulder_pan_joint ")[1].split()[0])
+        assert shown == pytest.approx(0.008, rel=0.1)  # the tremor's range, filtered or not
+
+
+def test_a_log_where_some_joints_stay_still_is_fitted(ur5, log):
+    """Two joints move, four stay still, torques without noise: the physically consistent fit
+    is finite (it was not: the posterior's standard deviations lost all precision), predicts
+    the held-out torques exactly, and keeps the prior's spread for what the log cannot see;
+    least squares names the joints that barely move."""
+    moving = [1, 2]
+    q = np.repeat(log.q[:1], log.t.size, axis=0)
+    v, a = np.zeros_like(log.v), np.zeros_like(log.a)
+    q[:, moving], v[:, moving], a[:, moving] = (x[:, moving] for x in (log.q, log.v, log.a))
+    model, data = ur5.model, ur5.model.createData()
+    tau = np.array([pin.rnea(model, data, q[i], v[i], a[i]) for i in range(log.t.size)])
+    result = identify(ur5, log.t, q, tau, v=v, a=a, friction="none")
+    std = result.base_parameters["standard_deviation"]
+    assert np.isfinite(std).all() and np.isfinite(result.parameters).all()
+    assert result.rmse["validation"].max() < 1e-6 * np.abs(tau).max()
+    assert std.max() > 1e3 * std.min()  # seen (noiseless: ~0) and unseen (the prior's)
+    with pytest.raises(InvalidInput, match=r"does not excite every base parameter") as raised:
+        identify(ur5, log.t, q, tau, v=v, a=a, friction="none", method="least-squares")
+    still = raised.value.detail.split("barely moving: ")[1]
+    assert [n for n in ur5.model.names[1:] if f"{n} " in still] == [
+        "shoulder_pan_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]

@@ -1,9 +1,12 @@
 """Request builders of identification: the inertial parameters, the regressor and identify.
-(The clients' docstrings describe them.)"""
+(The clients' docstrings describe them.) identify's log — t, q, tau and optional v, a — goes
+in the binary form when it holds `core.BINARY_FROM` numbers or more (t a tensor like the
+others; the options in the metadata), else as JSON; its answer is JSON either way."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -34,14 +37,14 @@ def regressor(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> Call[n
     return request(robot_id, "regressor", _regressor, q=q, v=v, a=a)
 
 
-def _times(t: Any) -> list[float]:
+def _times(t: Any) -> np.ndarray:
     try:
         arr = np.asarray(t, dtype=np.float64)
     except (TypeError, ValueError):
         raise InputError("t must be a 1-D array of sample times (s)") from None
     if arr.ndim != 1 or not np.isfinite(arr).all():
         raise InputError("t must be a 1-D array of finite sample times (s)")
-    return [float(x) for x in arr]
+    return arr
 
 
 def _positive(name: str, value: Any) -> float:
@@ -62,8 +65,9 @@ def identify(robot_id: str, t: ArrayLike, q: ArrayLike, tau: ArrayLike, *,
              validation_fraction: float = 0.2, filter_hz: float | None = None,
              store: bool = True, payload_frame: str | None = None,
              include_series: bool = False) -> Call[Identification]:
+    times = _times(t)
     options: dict[str, Any] = {
-        "t": _times(t), "friction": choice("friction", friction, FRICTIONS),
+        "friction": choice("friction", friction, FRICTIONS),
         "method": choice("method", method, METHODS), "weighted": bool(weighted),
         "validation_fraction": _positive("validation_fraction", validation_fraction),
         "store": bool(store), "include_series": bool(include_series)}
@@ -74,5 +78,8 @@ def identify(robot_id: str, t: ArrayLike, q: ArrayLike, tau: ArrayLike, *,
     q_rows, tau_rows = np.asarray(q, dtype=object), np.asarray(tau, dtype=object)
     if q_rows.ndim != 2 or tau_rows.ndim != 2:
         raise InputError("q and tau must be 2-D: one row per sample (N × nq, N × nv)")
-    return request(robot_id, "identify", _read, options, optional=("v", "a"),
-                   binary_form=False, independent_rows=False, q=q, tau=tau, v=v, a=a)
+    call = request(robot_id, "identify", _read, options, optional=("v", "a"),
+                   independent_rows=False, q=q, tau=tau, v=v, a=a)
+    # t is one of the log's arrays, not a state's: added after the joint-space inputs are
+    # checked together (a list in JSON, a tensor in the binary form)
+    return replace(call, arrays={"t": times, **(call.arrays or {})})

@@ -23,6 +23,21 @@ def client(app: Any) -> Iterator[Client]:
         yield c
 
 
+def test_a_long_check_goes_in_the_binary_form_with_its_times(app: Any, registry) -> None:
+    n = 60_000  # irregular times: as text they would overflow the binary form's header
+    t = np.cumsum(np.random.default_rng(4).uniform(0.9e-3, 1.1e-3, n))
+    q = np.stack([0.4 * np.sin((j + 1) * 0.3 * t) for j in range(6)], axis=1)
+    sent: list[str] = []
+    with TestClient(app) as http:
+        http.event_hooks["request"].append(lambda r: sent.append(r.headers["content-type"]))
+        with Client(http_client=http) as client:
+            result = client.trajectory_check("ur5", t, q, samples_per_interval=1)
+    assert sent == [robodyn.binary.MEDIA_TYPE]
+    expected = check_trajectory(registry.get("ur5"), t, q, samples_per_interval=1)
+    np.testing.assert_array_equal(result.tau, expected.tau)
+    assert result.feasible == expected.feasible
+
+
 def test_trajectory_check_has_named_results(client: Client, registry) -> None:
     t = np.linspace(0.0, 1.0, 21)
     q = np.outer(np.sin(3.0 * t), [0.5, -1.0, 1.2, 0.4, -0.6, 0.9])

@@ -168,7 +168,16 @@ class Endpoint:
 
     def parse_binary(self, fields: dict[str, Any], arrays: dict[str, Any]
                      ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """(joint-space arrays, options) of a decoded binary body (`binary.decode`)."""
+        """(joint-space arrays, options) of a decoded binary body (`binary.decode`). An option
+        of one number per sample (`Quantity.tensor_options`) may come as a 1-D tensor."""
+        for name in self.quantity.tensor_options:
+            if name in arrays:
+                tensor = arrays.pop(name)  # (`binary.decode` refuses it in both places)
+                if tensor.ndim != 1:
+                    raise InvalidInput(f"binary body: tensor {name} has shape "
+                                       f"{list(tensor.shape)}; it must be 1-D, one number per "
+                                       "sample")
+                fields = {**fields, name: tensor.tolist()}
         unknown = sorted(set(arrays) - set(self.joint_inputs))
         missing = [n for n in self.quantity.inputs if n not in arrays]
         if unknown or missing:

@@ -123,6 +123,7 @@ TRAJECTORIES = (
     Quantity("trajectory-check", ("q",), trajectory_check,
              "Check a sampled motion against the robot's effort, velocity and position limits",
              optional=("v", "a"), joint_answers=("tau", "v"), work=check_work,
+             tensor_options=("t",),
              answer_size=check_size),
     Quantity("retime", ("waypoints",), retime,
              "Time a path through waypoints optimally under velocity, acceleration and torque "

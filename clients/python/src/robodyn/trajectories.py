@@ -24,14 +24,14 @@ def positive(name: str, value: Any) -> float:
     return number
 
 
-def times(value: ArrayLike) -> list[float]:
+def times(value: ArrayLike) -> np.ndarray:
     """Sample times t (s): 1-D, finite, at least 2, strictly increasing."""
     t = joint_array("t", value)
     if t.ndim != 1:
         raise InputError(f"t must be 1-D (one time per sample), not {t.ndim}-D")
     if t.shape[0] < 2 or not (np.diff(t) > 0).all():
         raise InputError("t must hold at least 2 strictly increasing times")
-    return [float(x) for x in t]
+    return np.ascontiguousarray(t, dtype=np.float64)
 
 
 class JointCheck(NamedTuple):

@@ -190,6 +190,43 @@ def test_both_routes_speak_the_binary_form(api) -> None:
                                      else as_json)["feasible"]
 
 
+def test_a_long_checks_times_may_come_as_a_tensor(tmp_path: Path) -> None:
+    """60,000 irregular sample times do not fit in a safetensors header (1 MiB): `t` may be a
+    1-D tensor like q; the answer is the one of the JSON form. Twice given, or 2-D: a 422."""
+    from robodyn import binary
+
+    settings = Settings(data_dir=tmp_path, catalog="ur5")  # the default batch limit
+    registry = Registry(tmp_path, settings.catalog_names())
+    registry.load()
+    api = TestClient(create_app(settings, registry=registry), raise_server_exceptions=False)
+
+    headers = {"content-type": binary.MEDIA_TYPE}
+    n = 60_000
+    t = np.cumsum(np.random.default_rng(3).uniform(0.9e-3, 1.1e-3, n))
+    q = np.stack([0.4 * np.sin((j + 1) * 0.3 * t) for j in range(6)], axis=1)
+    in_header = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
+        {"q": q}, {"t": t.tolist()}), headers=headers)
+    assert in_header.status_code == 422 and "header" in in_header.json()["detail"]
+    as_tensor = api.post("/v1/robots/ur5/trajectory-check",
+                         content=binary.encode({"t": t, "q": q}, {"samples_per_interval": 2}),
+                         headers=headers)
+    assert as_tensor.status_code == 200, as_tensor.text[:300]
+    as_json = api.post("/v1/robots/ur5/trajectory-check", json={
+        "t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2})
+    assert as_tensor.json() == as_json.json()
+    twice = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
+        {"t": t[:10], "q": q[:10]}, {"t": t[:10].tolist()}), headers=headers)
+    assert twice.status_code == 422 and "both" in twice.json()["detail"]
+    flat = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
+        {"t": t[:10].reshape(5, 2), "q": q[:10]}), headers=headers)
+    assert flat.status_code == 422 and "tensor t has shape [5, 2]" in flat.json()["detail"]
+    nan = t[:10].copy()
+    nan[3] = np.nan
+    refused = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
+        {"t": nan, "q": q[:10]}), headers=headers)
+    assert refused.status_code == 422 and refused.json()["code"] == "validation_error"
+
+
 def test_payloads_apply_to_both_routes(api, setup) -> None:
     """With a 5 kg payload at the flange the routes answer for the robot carrying it: equal
     to the in-process computation on that robot, and a heavier load than without it."""

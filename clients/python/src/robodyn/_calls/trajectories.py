@@ -5,6 +5,7 @@ chunks."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 from robodyn._calls.request import request
@@ -23,14 +24,18 @@ def trajectory_check(robot_id: str, t: ArrayLike, q: ArrayLike, *, v: ArrayLike 
     if isinstance(samples_per_interval, bool) or not isinstance(samples_per_interval, int) \
             or not 1 <= samples_per_interval <= 64:
         raise InputError("samples_per_interval must be an integer from 1 to 64")
-    options = {"t": times(t), "effort_scale": positive("effort_scale", effort_scale),
+    sample_times = times(t)
+    options = {"effort_scale": positive("effort_scale", effort_scale),
                "velocity_scale": positive("velocity_scale", velocity_scale),
                "samples_per_interval": samples_per_interval}
     if friction:
         options["friction"] = True
-    return request(robot_id, "trajectory-check", TrajectoryCheck.from_json, options,
+    call = request(robot_id, "trajectory-check", TrajectoryCheck.from_json, options,
                    payloads=payloads, optional=("v", "a"), independent_rows=False, q=q, v=v,
                    a=a)
+    # t is one number per sample, not a joint-space input: added after those are checked (a
+    # list in JSON, a tensor in the binary form, where a header of 60,000 times would not fit)
+    return replace(call, arrays={"t": sample_times, **(call.arrays or {})})
 
 
 def retime(robot_id: str, waypoints: ArrayLike, *, velocity_scale: float = 1.0,

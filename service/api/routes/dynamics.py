@@ -29,6 +29,7 @@ from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
+from service.api.json_bodies import ISOLATED_JSON_BYTES, parse_isolated
 from service.api.problems.validation_errors import json_prefix, prefix_errors, pydantic_errors
 from service.api.progress import Produce, ProgressAnswer, wants_progress
 from service.api.quantities import SPECS, Spec
@@ -281,6 +282,8 @@ class Endpoint:
             raise UnsupportedMediaType(
                 "send the body as JSON ('Content-Type: application/json') or in the binary "
                 f"form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+        elif len(body) > ISOLATED_JSON_BYTES:  # parsing holds the GIL: in another process
+            arrays, options = await off_loop(request, parse_isolated, self.quantity.name, body)
         elif len(body) > INLINE_BODY_BYTES:
             arrays, options = await off_loop(request, self.parse_json, body)
         else:

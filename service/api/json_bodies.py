@@ -1,0 +1,110 @@
+"""Large JSON bodies of the dynamics routes, parsed in a helper process.
+
+Parsing and validating JSON (pydantic's `model_validate_json`) is one C call that holds the GIL
+for its whole duration: about 0.14 s for the 15 MB body of a 100,000-sample trajectory check,
+during which the event loop (and /health/live) waits, whichever thread runs it. A body of more
+than `ISOLATED_JSON_BYTES` is therefore parsed by `Endpoint.parse_json` — the very same
+validation — in a long-lived helper process (`ProcessPoolExecutor` on the builders'
+forkserver, `JSON_WORKERS` of them, at a lower CPU priority); the serving process only sends
+the bytes and gets back the joint-space inputs as float64 arrays (a copy of memory, no Python
+floats to build) and the options. Validation and domain errors come back as the same errors.
+A helper that dies (e.g. killed for memory) is replaced; that body is parsed in process
+instead, so the answer never depends on the helper.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+import numpy as np
+import orjson
+from fastapi.exceptions import RequestValidationError
+
+from service import errors
+from service.registry.build_process import BUILDER_NICENESS, forkserver_context
+
+ISOLATED_JSON_BYTES = 2 * 1024 * 1024
+"""JSON bodies larger than this are parsed in the helper process (~20 ms and more inline)."""
+JSON_WORKERS = 1
+
+_lock = threading.Lock()
+_pool: ProcessPoolExecutor | None = None
+
+
+def parse_isolated(quantity: str, body: bytes | bytearray) -> tuple[dict[str, Any],
+                                                                    dict[str, Any]]:
+    """(joint-space arrays, options) of the JSON `body` of `quantity`'s route, parsed in the
+    helper process; blocking (call it off the event loop). Raises what `parse_json` raises."""
+    pool = _the_pool()
+    try:
+        kind, value = pool.submit(_parse, quantity, bytes(body)).result()
+    except BrokenProcessPool:
+        _replace(pool)
+        from service.api.routes.dynamics import ENDPOINTS
+        return ENDPOINTS[quantity].parse_json(body)
+    if kind == "ok":
+        arrays, options = value
+        return arrays, options
+    if kind == "invalid":
+        raise RequestValidationError(value)
+    name, detail, extra = value
+    raise getattr(errors, name, errors.InvalidInput)(detail, **extra)
+
+
+def warm() -> None:
+    """Start the helper and import the routes there (about a second), so that the first large
+    body does not wait for it; blocking (the app's lifespan runs it in a thread)."""
+    _the_pool().submit(_ready).result()
+
+
+def _ready() -> bool:
+    from service.api.routes import dynamics  # noqa: F401 (imported for the next bodies)
+    return True
+
+
+def _the_pool() -> ProcessPoolExecutor:
+    global _pool
+    with _lock:
+        if _pool is None:
+            _pool = ProcessPoolExecutor(JSON_WORKERS, mp_context=forkserver_context(),
+                                        initializer=os.nice, initargs=(BUILDER_NICENESS,))
+        return _pool
+
+
+def _replace(broken: ProcessPoolExecutor) -> None:
+    global _pool
+    with _lock:
+        if _pool is broken:
+            _pool = None
+    broken.shutdown(wait=False, cancel_futures=True)
+
+
+def _parse(quantity: str, body: bytes) -> tuple[str, Any]:
+    """In the helper: ("ok", (arrays, options)), ("invalid", error objects) or ("error",
+    (class name, detail, extra)); everything picklable."""
+    from service.api.routes.dynamics import ENDPOINTS
+
+    try:
+        arrays, options = ENDPOINTS[quantity].parse_json(body)
+    except RequestValidationError as exc:
+        return "invalid", orjson.loads(orjson.dumps(list(exc.errors()), default=str))
+    except errors.RobodynError as exc:
+        return "error", (type(exc).__name__, exc.detail, orjson.loads(
+            orjson.dumps(exc.extra, default=str)))
+    return "ok", ({name: _compact(value) for name, value in arrays.items()}, options)
+
+
+def _compact(value: Any) -> Any:
+    """A list of numbers (or of equal rows of numbers) as a float64 array; anything else
+    (inputs keyed by joint name) as it is."""
+    if isinstance(value, list) and value:
+        try:
+            array = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            return value
+        return array if array.ndim in (1, 2) else value
+    return value

@@ -1,0 +1,98 @@
+"""Large JSON bodies of the dynamics routes are parsed in a helper process: the answers, the
+validation errors and the domain errors are the ones of the same body parsed in process; a
+helper that died is replaced and the body parsed in process."""
+
+from __future__ import annotations
+
+import os
+import signal
+from typing import Any
+
+import numpy as np
+import orjson
+import pytest
+
+from service.api import json_bodies
+from service.api.routes import dynamics as dynamics_routes
+
+JSON = {"content-type": "application/json"}
+
+
+def _check_body(n: int = 30_000, **extra: Any) -> dict[str, Any]:
+    t = np.linspace(0.0, 20.0, n)
+    q = np.stack([0.4 * np.sin((j + 1) * 0.3 * t) for j in range(6)], axis=1)
+    return {"t": t.tolist(), "q": q.tolist(), **extra}
+
+
+def _both(api, monkeypatch, route: str, body: bytes) -> tuple[Any, Any]:
+    """The answer to `body` parsed in the helper, and parsed in process."""
+    assert len(body) > json_bodies.ISOLATED_JSON_BYTES
+    calls: list[str] = []
+    real = json_bodies.parse_isolated
+
+    def spy(quantity: str, raw: bytes) -> Any:
+        calls.append(quantity)
+        return real(quantity, raw)
+
+    monkeypatch.setattr(dynamics_routes, "parse_isolated", spy)
+    isolated = api.post(route, content=body, headers=JSON)
+    assert calls == [route.rsplit("/", 1)[-1]]
+    monkeypatch.setattr(dynamics_routes, "ISOLATED_JSON_BYTES", len(body) + 1)
+    inline = api.post(route, content=body, headers=JSON)
+    assert calls == [route.rsplit("/", 1)[-1]]  # not the helper this time
+    return isolated, inline
+
+
+def test_a_large_body_parsed_in_the_helper_answers_the_same(api, monkeypatch) -> None:
+    body = orjson.dumps(_check_body(samples_per_interval=2))
+    isolated, inline = _both(api, monkeypatch, "/v1/robots/ur5/trajectory-check", body)
+    assert isolated.status_code == 200, isolated.text[:300]
+    assert isolated.json() == inline.json()
+
+
+def test_validation_errors_of_a_large_body_are_the_same(api, monkeypatch) -> None:
+    body = _check_body()
+    body["q"][20_000][3] = "x"
+    body["velocity_scale"] = -1
+    isolated, inline = _both(api, monkeypatch, "/v1/robots/ur5/trajectory-check",
+                             orjson.dumps(body))
+    assert isolated.status_code == 422 and isolated.json()["code"] == "validation_error"
+    assert isolated.json() == inline.json()
+    assert "q[20000][3]" in isolated.json()["detail"] or any(
+        "q[20000][3]" in e["loc"] for e in isolated.json()["errors"])
+
+
+def test_domain_errors_of_a_large_body_are_the_same(api, monkeypatch) -> None:
+    names = [j["name"] for j in api.get("/v1/robots/ur5").json()["joints"]]
+    row = ", ".join(f'"{name}": 0.1' for name in names)
+    twice = f'{{{row}, "{names[0]}": 0.2}}'  # the first joint named twice
+    rows = ", ".join([f"{{{row}}}"] * 30_000 + [twice])
+    body = f'{{"q": [{rows}]}}'.encode()
+    isolated, inline = _both(api, monkeypatch, "/v1/robots/ur5/gravity", body)
+    assert isolated.status_code == 422, isolated.text[:300]
+    assert isolated.json() == inline.json()
+    assert names[0] in isolated.json()["detail"]
+
+
+def test_a_dead_helper_is_replaced_and_the_body_parsed_in_process(api) -> None:
+    body = orjson.dumps(_check_body())
+    json_bodies.warm()
+    pool = json_bodies._the_pool()
+    for pid in list(pool._processes):  # (the executor's own table of its processes)
+        os.kill(pid, signal.SIGKILL)
+    for pid in list(pool._processes):
+        try:
+            os.waitpid(pid, 0)
+        except ChildProcessError:
+            pass
+    answer = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
+    assert answer.status_code == 200, answer.text[:300]
+    assert json_bodies._the_pool() is not pool
+    again = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
+    assert again.json() == answer.json()
+
+
+@pytest.mark.parametrize("value", [[[0.1] * 6, [0.2] * 5], [], [{"a": 1.0}]])
+def test_inputs_that_are_not_rows_of_numbers_stay_as_they_are(value: Any) -> None:
+    compact = json_bodies._compact(value)
+    assert compact is value

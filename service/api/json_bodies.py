@@ -1,24 +1,25 @@
-"""Large JSON bodies of the dynamics routes, parsed in a helper process.
+"""Large JSON bodies of the dynamics routes and of identify, parsed in a helper process.
 
 Parsing and validating JSON (pydantic's `model_validate_json`) is one C call that holds the GIL
 for its whole duration: about 0.14 s for the 15 MB body of a 100,000-sample trajectory check,
 during which the event loop (and /health/live) waits, whichever thread runs it. A body of more
-than `ISOLATED_JSON_BYTES` is therefore parsed by `Endpoint.parse_json` — the very same
-validation — in a long-lived helper process (`ProcessPoolExecutor` on the builders'
-forkserver, `JSON_WORKERS` of them, at a lower CPU priority); the serving process only sends
-the bytes and gets back the joint-space inputs as float64 arrays (a copy of memory, no Python
-floats to build) and the options. Validation and domain errors come back as the same errors.
-A helper that dies (e.g. killed for memory) is replaced; that body is parsed in process
-instead, so the answer never depends on the helper.
+than `ISOLATED_JSON_BYTES` is therefore parsed by the very same validation (a dynamics route's
+`Endpoint.parse_json`, identify's model) in a long-lived helper process (a
+`ProcessPoolExecutor` on the builders' forkserver, `JSON_WORKERS` of them, at a lower CPU
+priority); the serving process only sends the bytes and gets back the arrays as float64 arrays
+(a copy of memory, no Python floats to build) and the options. Validation and domain errors
+come back as the same errors. A helper that dies (e.g. killed for memory) is replaced; that body
+is parsed in process instead, so the answer never depends on the helper.
 """
 
 from __future__ import annotations
 
 import os
 import threading
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import orjson
@@ -27,6 +28,7 @@ from fastapi.exceptions import RequestValidationError
 from service import errors
 from service.registry.build_process import BUILDER_NICENESS, forkserver_context
 
+T = TypeVar("T")
 ISOLATED_JSON_BYTES = 2 * 1024 * 1024
 """JSON bodies larger than this are parsed in the helper process (~20 ms and more inline)."""
 JSON_WORKERS = 1
@@ -35,20 +37,19 @@ _lock = threading.Lock()
 _pool: ProcessPoolExecutor | None = None
 
 
-def parse_isolated(quantity: str, body: bytes | bytearray) -> tuple[dict[str, Any],
-                                                                    dict[str, Any]]:
-    """(joint-space arrays, options) of the JSON `body` of `quantity`'s route, parsed in the
-    helper process; blocking (call it off the event loop). Raises what `parse_json` raises."""
+def parse_isolated(parse: Callable[..., T], *args: Any) -> T:
+    """`parse(*args)` — a module-level function parsing a JSON body — in the helper process;
+    blocking (call it off the event loop). Raises what `parse` raises (validation errors and
+    domain errors); a dead helper is replaced and `parse` runs in this process instead."""
     pool = _the_pool()
     try:
-        kind, value = pool.submit(_parse, quantity, bytes(body)).result()
+        kind, value = pool.submit(_call, parse, *args).result()
     except BrokenProcessPool:
         _replace(pool)
-        from service.api.routes.dynamics import ENDPOINTS
-        return ENDPOINTS[quantity].parse_json(body)
+        return parse(*args)
     if kind == "ok":
-        arrays, options = value
-        return arrays, options
+        result: T = value
+        return result
     if kind == "invalid":
         raise RequestValidationError(value)
     name, detail, extra = value
@@ -83,22 +84,19 @@ def _replace(broken: ProcessPoolExecutor) -> None:
     broken.shutdown(wait=False, cancel_futures=True)
 
 
-def _parse(quantity: str, body: bytes) -> tuple[str, Any]:
-    """In the helper: ("ok", (arrays, options)), ("invalid", error objects) or ("error",
+def _call(parse: Callable[..., Any], *args: Any) -> tuple[str, Any]:
+    """In the helper: ("ok", what `parse` returns), ("invalid", error objects) or ("error",
     (class name, detail, extra)); everything picklable."""
-    from service.api.routes.dynamics import ENDPOINTS
-
     try:
-        arrays, options = ENDPOINTS[quantity].parse_json(body)
+        return "ok", parse(*args)
     except RequestValidationError as exc:
         return "invalid", orjson.loads(orjson.dumps(list(exc.errors()), default=str))
     except errors.RobodynError as exc:
         return "error", (type(exc).__name__, exc.detail, orjson.loads(
             orjson.dumps(exc.extra, default=str)))
-    return "ok", ({name: _compact(value) for name, value in arrays.items()}, options)
 
 
-def _compact(value: Any) -> Any:
+def compact(value: Any) -> Any:
     """A list of numbers (or of equal rows of numbers) as a float64 array; anything else
     (inputs keyed by joint name) as it is."""
     if isinstance(value, list) and value:

@@ -29,7 +29,7 @@ from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
-from service.api.json_bodies import ISOLATED_JSON_BYTES, parse_isolated
+from service.api.json_bodies import ISOLATED_JSON_BYTES, compact, parse_isolated
 from service.api.problems.validation_errors import json_prefix, prefix_errors, pydantic_errors
 from service.api.progress import Produce, ProgressAnswer, wants_progress
 from service.api.quantities import SPECS, Spec
@@ -283,7 +283,8 @@ class Endpoint:
                 "send the body as JSON ('Content-Type: application/json') or in the binary "
                 f"form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
         elif len(body) > ISOLATED_JSON_BYTES:  # parsing holds the GIL: in another process
-            arrays, options = await off_loop(request, parse_isolated, self.quantity.name, body)
+            arrays, options = await off_loop(request, parse_isolated, parse_json_compact,
+                                             self.quantity.name, body)
         elif len(body) > INLINE_BODY_BYTES:
             arrays, options = await off_loop(request, self.parse_json, body)
         else:
@@ -327,6 +328,14 @@ class Endpoint:
 
 # Built once: an endpoint holds no per-app state (it reads the app from each request).
 ENDPOINTS: dict[str, Endpoint] = {name: Endpoint(spec) for name, spec in SPECS.items()}
+
+
+def parse_json_compact(quantity: str, body: bytes | bytearray
+                       ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """`parse_json` of `quantity`'s endpoint with its joint-space inputs as float64 arrays (as
+    the helper process of large bodies sends them back, `service.api.json_bodies`)."""
+    arrays, options = ENDPOINTS[quantity].parse_json(body)
+    return {name: compact(value) for name, value in arrays.items()}, options
 
 
 def routes() -> list[Route]:

@@ -24,6 +24,7 @@ from starlette.routing import Route
 from service.api.deps import RegistryDep, require_api_key
 from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes
+from service.api.json_bodies import ISOLATED_JSON_BYTES, parse_isolated
 from service.api.progress import ProgressAnswer, progress_channel, wants_progress
 from service.api.routes.dynamics import PREFIX, off_loop
 from service.api.schemas.common import Problem, StrictRequest, many_unknown_members
@@ -138,6 +139,23 @@ def _parse_binary(body: bytes) -> IdentifyRequest:
     return IdentifyRequest.model_construct({*options.model_fields_set, *arrays}, **values)
 
 
+def _parse_json(body: bytes) -> IdentifyRequest:
+    try:
+        return IdentifyRequest.model_validate_json(body)
+    except ValidationError as exc:
+        raise _invalid(exc) from None
+
+
+def _parse_json_log(body: bytes) -> IdentifyRequest:
+    """`_parse_json` with the log's arrays as float64 arrays (as the helper process of large
+    bodies sends them back, `service.api.json_bodies`)."""
+    parsed = _parse_json(body)
+    values = {name: getattr(parsed, name) for name in IdentifyRequest.model_fields}
+    values.update({name: np.asarray(values[name], dtype=np.float64) for name in LOG_ARRAYS
+                   if values[name] is not None})
+    return IdentifyRequest.model_construct(parsed.model_fields_set, **values)
+
+
 def _parse(body: bytes, max_samples: int, content_type: str = "") -> IdentifyRequest:
     """The request of a body in JSON or (by `content_type`) the binary form."""
     media_type = content_type.lower()
@@ -147,11 +165,10 @@ def _parse(body: bytes, max_samples: int, content_type: str = "") -> IdentifyReq
         raise UnsupportedMediaType(
             "send the log as JSON ('Content-Type: application/json') or in the binary form "
             f"('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+    elif len(body) > ISOLATED_JSON_BYTES:  # parsing holds the GIL: in another process
+        parsed = parse_isolated(_parse_json_log, body)
     else:
-        try:
-            parsed = IdentifyRequest.model_validate_json(body)
-        except ValidationError as exc:
-            raise _invalid(exc) from None
+        parsed = _parse_json(body)
     if len(parsed.t) > max_samples:
         raise DimensionMismatch(f"the log has {len(parsed.t)} samples; the limit is "
                                 f"{max_samples} (ROBODYN_MAX_IDENTIFY_SAMPLES): send a "

@@ -4,6 +4,7 @@ helper that died is replaced and the body parsed in process."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 from typing import Any
@@ -30,9 +31,9 @@ def _both(api, monkeypatch, route: str, body: bytes) -> tuple[Any, Any]:
     calls: list[str] = []
     real = json_bodies.parse_isolated
 
-    def spy(quantity: str, raw: bytes) -> Any:
+    def spy(parse: Any, quantity: str, raw: bytes) -> Any:
         calls.append(quantity)
-        return real(quantity, raw)
+        return real(parse, quantity, raw)
 
     monkeypatch.setattr(dynamics_routes, "parse_isolated", spy)
     isolated = api.post(route, content=body, headers=JSON)
@@ -81,10 +82,8 @@ def test_a_dead_helper_is_replaced_and_the_body_parsed_in_process(api) -> None:
     for pid in list(pool._processes):  # (the executor's own table of its processes)
         os.kill(pid, signal.SIGKILL)
     for pid in list(pool._processes):
-        try:
+        with contextlib.suppress(ChildProcessError):
             os.waitpid(pid, 0)
-        except ChildProcessError:
-            pass
     answer = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
     assert answer.status_code == 200, answer.text[:300]
     assert json_bodies._the_pool() is not pool
@@ -94,5 +93,35 @@ def test_a_dead_helper_is_replaced_and_the_body_parsed_in_process(api) -> None:
 
 @pytest.mark.parametrize("value", [[[0.1] * 6, [0.2] * 5], [], [{"a": 1.0}]])
 def test_inputs_that_are_not_rows_of_numbers_stay_as_they_are(value: Any) -> None:
-    compact = json_bodies._compact(value)
+    compact = json_bodies.compact(value)
     assert compact is value
+
+
+def test_a_large_identify_log_parsed_in_the_helper_fits_the_same(small_app_factory,
+                                                                  monkeypatch) -> None:
+    from service.api.routes import identification as identification_routes
+    from tests.service.dynamics.identification_logs import synthetic_log
+
+    api = small_app_factory(catalog="ur5")
+    model = api.app.state.registry.get("ur5").model
+    log = synthetic_log(model, seed=2, duration=16.0, rate=1000.0, noise=0.05)
+    body = {"t": log.t.tolist(), "q": log.q.tolist(), "tau": log.tau.tolist(),
+            "method": "least-squares", "store": False}
+    raw = orjson.dumps(body)
+    assert len(raw) > json_bodies.ISOLATED_JSON_BYTES
+    calls: list[Any] = []
+    real = json_bodies.parse_isolated
+    monkeypatch.setattr(identification_routes, "parse_isolated",
+                        lambda *args: calls.append(args[0]) or real(*args))
+    isolated = api.post("/v1/robots/ur5/identify", content=raw, headers=JSON)
+    body["tau"][5000][2] = "NaN"
+    refused = api.post("/v1/robots/ur5/identify", content=orjson.dumps(body), headers=JSON)
+    assert len(calls) == 2
+    monkeypatch.setattr(identification_routes, "ISOLATED_JSON_BYTES", 1 << 40)
+    inline = api.post("/v1/robots/ur5/identify", content=raw, headers=JSON)
+    refused_inline = api.post("/v1/robots/ur5/identify", content=orjson.dumps(body),
+                              headers=JSON)
+    assert len(calls) == 2
+    assert isolated.status_code == 200, isolated.text[:300]
+    assert isolated.json() == inline.json()
+    assert refused.status_code == 422 and refused.json() == refused_inline.json()

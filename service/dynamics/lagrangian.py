@@ -43,6 +43,15 @@ def mass_matrix_inverse(robot: Robot, s: States) -> Results:
     return finite("mass-matrix-inverse", mass_matrix_inverse=out)
 
 
+def kinetic_energy(robot: Robot, data: object, q: np.ndarray, v: np.ndarray) -> float:
+    """T = ½ vᵀ M(q) v in J, armature included as in M. Pinocchio's computeKineticEnergy
+    (4.x) leaves out the armature of some joints (a revolute joint about an axis that is not
+    x, y or z: 0.5 · armature · v² missing), so T is the bodies' energy, from the model
+    without armature, plus ½ Σ armature ∘ v². Fills `data`'s kinematics at (q, v)."""
+    bodies = pin.computeKineticEnergy(robot.model_without_armature, data, q, v)
+    return float(bodies + 0.5 * float(np.dot(robot.model.armature, v * v)))
+
+
 def energy(robot: Robot, s: States) -> Results:
     """Kinetic energy T = ½ vᵀ M v, potential energy U (zero at the world origin) and the
     mechanical energy T + U, each (N,) in J. Along any motion d(T + U)/dt = vᵀ τ, with τ the
@@ -52,7 +61,7 @@ def energy(robot: Robot, s: States) -> Results:
     T, U = np.empty(n), np.empty(n)
     with robot.data() as data:
         for i in range(n):
-            T[i] = pin.computeKineticEnergy(robot.model, data, q[i], v[i])
+            T[i] = kinetic_energy(robot, data, q[i], v[i])
             U[i] = pin.computePotentialEnergy(robot.model, data, q[i])
     return finite("energy", kinetic_energy=T, potential_energy=U, mechanical_energy=T + U)
 

@@ -7,6 +7,7 @@ silently wrong answers).
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import weakref
@@ -155,6 +156,16 @@ class Robot:
         # a robot that is gone (deleted upload) gives its idle Datas back to the budget
         weakref.finalize(self, self._pool.close)
 
+
+    @functools.cached_property
+    def model_without_armature(self) -> Any:
+        """The model with every armature zero (the model itself when it has none): the bodies
+        alone, for the energies (`service.dynamics.lagrangian.kinetic_energy`)."""
+        if not np.any(self.model.armature):
+            return self.model
+        bodies = self.model.copy()
+        bodies.armature = np.zeros(self.nv)
+        return bodies
 
     def pinocchio_q(self, q: np.ndarray) -> np.ndarray:
         """Configurations q (last axis nq) as the API gives them → Pinocchio's order: for a

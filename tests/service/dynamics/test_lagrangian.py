@@ -110,3 +110,53 @@ def test_center_of_mass(api, catalog_registry, name):
     close(got["position"], weighted / sum(b["mass"] for b in bodies), 1e-12)
     without_v = post(api, name, "center-of-mass", q=q)
     assert set(without_v) == {"position", "jacobian"}
+
+
+def _unaligned_arm_with_armature():
+    """Two bodies: a revolute joint about the unaligned axis (1, 1, 0)/√2 (Pinocchio's
+    RevoluteUnaligned), then one about z; both with armature (a motor's rotor)."""
+    from service.registry.robot import Robot
+
+    model = pin.Model()
+    axis = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+    j1 = model.addJoint(0, pin.JointModelRevoluteUnaligned(axis), pin.SE3.Identity(), "j1")
+    model.appendBodyToJoint(j1, pin.Inertia.FromBox(2.0, 0.1, 0.2, 0.3),
+                            pin.SE3(np.eye(3), np.array([0.1, 0.0, 0.2])))
+    j2 = model.addJoint(j1, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0.5, 0.0, 0.0])),
+                        "j2")
+    model.appendBodyToJoint(j2, pin.Inertia.FromBox(1.0, 0.1, 0.2, 0.3), pin.SE3.Identity())
+    model.armature[:] = [0.3, 0.2]
+    return Robot(id="unaligned", name="unaligned", source="upload", root_joint="fixed",
+                 model=model)
+
+
+def test_kinetic_energy_includes_the_armature_of_an_unaligned_revolute_joint():
+    """T = ½ vᵀ M v with M's armature: Pinocchio's computeKineticEnergy alone leaves out the
+    unaligned joint's ½ · 0.3 · v₁²."""
+    from service.api.quantities import SPECS
+    from service.dynamics import run
+    from service.states import States
+
+    robot = _unaligned_arm_with_armature()
+    rng = np.random.default_rng(7)
+    q, v = rng.uniform(-1.0, 1.0, (2, 5, 2))
+    T = run(robot, SPECS["energy"].quantity, States({"q": q, "v": v}, True), {})[
+        "kinetic_energy"]
+    expected = [0.5 * v[i] @ mass_matrix(robot.model, q[i]) @ v[i] for i in range(5)]
+    np.testing.assert_allclose(T, expected, rtol=1e-14, atol=1e-14)
+
+
+def test_a_free_motion_keeps_its_mechanical_energy_with_armature():
+    """With no torque the mechanical energy T + U is conserved (RK4, small steps): it is not
+    when T leaves out part of the armature that the dynamics (ABA) has."""
+    from service.api.quantities import SPECS
+    from service.dynamics import run
+    from service.states import States
+
+    robot = _unaligned_arm_with_armature()
+    s = States({"q": np.array([[0.3, -0.4]]), "v": np.array([[1.2, -0.7]])}, False)
+    out = run(robot, SPECS["simulate"].quantity, s, {
+        "dt": 1e-3, "steps": 2000, "integrator": "rk4", "max_simulation_steps": 10_000,
+        "max_simulation_work": 10**9})
+    energy = out["mechanical_energy"]
+    assert np.ptp(energy) < 1e-9 * max(1.0, abs(energy[0]))

@@ -29,3 +29,45 @@ export async function api(path, body, headers = {}) {
 
 export const robotPath = (id, quantity) =>
   `v1/robots/${encodeURIComponent(id)}${quantity ? "/" + quantity : ""}`;
+
+// The same request answered as the service's progress stream (Accept: application/x-ndjson):
+// `onProgress({done, total, unit, stage})` for each progress line, then the answer line's
+// answer is returned; a problem line (a failure once the stream began) is thrown as a Problem.
+// An error before the stream (a refused request) is an ordinary problem+json answer.
+export async function apiWithProgress(path, body, onProgress, headers = {}) {
+  const res = await fetch(path, {
+    method: "POST", body: JSON.stringify(body),
+    headers: { Accept: "application/x-ndjson, application/problem+json",
+               "Content-Type": "application/json", ...headers } });
+  if (!res.ok || !(res.headers.get("content-type") || "").startsWith("application/x-ndjson")) {
+    const text = await res.text();
+    let json = null;
+    try { json = text ? JSON.parse(text) : null; } catch { json = null; }
+    if (!res.ok) throw new Problem(res.status, json || { title: res.statusText });
+    return json;
+  }
+  const reader = res.body.pipeThrough(new TextDecoderStream()).getReader();
+  let buffered = "";
+  for (;;) {
+    const { value, done } = await reader.read();
+    if (value) buffered += value;
+    let end;
+    while ((end = buffered.indexOf("\n")) >= 0) {
+      const line = buffered.slice(0, end).trim();
+      buffered = buffered.slice(end + 1);
+      if (!line) continue;
+      const message = JSON.parse(line);
+      if (message.progress) onProgress(message.progress);
+      else if ("answer" in message) return message.answer;
+      else if (message.problem) throw new Problem(message.problem.status, message.problem);
+    }
+    if (done) throw new Error("the service's answer ended before its result");
+  }
+}
+
+// "stage 2 of 5 (regressor)" or "120000 of 320001 evaluated points": a progress line in words.
+export function progressText({ done, total, unit, stage }) {
+  return unit === "stage" ? `stage ${done + 1} of ${total} (${stage})`
+    : `${done.toLocaleString("en")} of ${total.toLocaleString("en")} ${unit}s` +
+      (stage ? ` (${stage})` : "");
+}

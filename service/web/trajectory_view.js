@@ -3,6 +3,7 @@
 // it, see per-joint plots of τ ÷ limit and v ÷ limit over time with the violations shaded, and
 // play the motion in a 3-D view. Every number shown comes from the service
 // (POST .../trajectory-check and .../retime); plots are drawn by the vendored uPlot.
+import { apiWithProgress, progressText } from "./http.js";
 import uPlot from "./vendor/uplot/uPlot.esm.js";
 import { RobotView } from "./view3d.js";
 
@@ -160,9 +161,10 @@ export class TrajectoryView {
       let answer, t, q;
       if (kind === "check") {
         const k = Number(el("samples-per-interval").value);
-        answer = await api(robotPath(info.id, "trajectory-check"),
-                           { t: motion.t, q: motion.q, ...this.scales(),
-                             samples_per_interval: k });
+        answer = await apiWithProgress(robotPath(info.id, "trajectory-check"),
+                                       { t: motion.t, q: motion.q, ...this.scales(),
+                                         samples_per_interval: k },
+                                       (p) => this.status(`Checking: ${progressText(p)}…`));
         [t, q] = [motion.t, motion.q];
       } else {
         answer = await api(robotPath(info.id, "retime"),

@@ -4,6 +4,8 @@
 // the held-out end of the log, before (the model's own parameters) and after. Every number it
 // shows comes from the service's answer.
 
+import { apiWithProgress, progressText } from "./http.js";
+
 const SVG = "http://www.w3.org/2000/svg";
 const COLOURS = { measured: "#1b1b1b", predicted: "#0b5cad", before: "#a40e26" };
 const PLOT = { width: 520, height: 150, left: 52, right: 8, top: 8, bottom: 22 };
@@ -165,7 +167,10 @@ export class IdentificationView {
       // identify is a write where the server has API keys: the upload form's key is sent
       const key = (document.querySelector("#api-key")?.value || "").trim();
       const headers = key ? { Authorization: `Bearer ${key}` } : {};
-      const answer = await this.api(this.robotPath(info.id, "identify"), body, headers);
+      const answer = await apiWithProgress(
+        this.robotPath(info.id, "identify"), body, (p) => {
+          if (this.info === info) this.say(`Identifying ${info.name}: ${progressText(p)}…`);
+        }, headers);
       if (this.info !== info) return;
       this.say(`Identified: condition number ${answer.condition_number.toPrecision(3)}, ` +
                (answer.physically_consistent ? "every body physically consistent."

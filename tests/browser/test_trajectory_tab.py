@@ -76,3 +76,30 @@ def test_waypoints_are_retimed_and_played(page, server, api) -> None:
                         ".dataset.q)")
     np.testing.assert_allclose(end, answer["q"][-1], atol=1e-12)
     assert page.log.console_errors == [] and page.log.page_errors == []
+
+
+def test_a_long_check_shows_the_services_progress(page, server) -> None:
+    """20,000 samples × 16 points per interval: the service streams its progress, and the
+    status line counts the evaluated points before the verdict."""
+    _trajectory_tab(page, server)
+    t = np.linspace(0.0, 20.0, 20_000)
+    lines = ["t,shoulder_pan_joint,shoulder_lift_joint"] + [
+        f"{x:.17g},{0.4 * np.sin(0.3 * x):.17g},{-1.2 + 0.3 * np.sin(0.6 * x):.17g}" for x in t]
+    page.evaluate("text => { const area = document.querySelector('#trajectory-csv'); "
+                  "area.value = text; area.dispatchEvent(new Event('input')); }",
+                  "\n".join(lines))
+    page.fill("#samples-per-interval", "16")
+    page.evaluate("""() => {
+        window.statuses = [];
+        new MutationObserver(() => window.statuses.push(
+            document.querySelector('#trajectory-status').textContent)).observe(
+            document.querySelector('#trajectory-status'),
+            {childList: true, characterData: true, subtree: true});
+    }""")
+    page.click("#trajectory-check")
+    page.locator("#trajectory-verdict").wait_for(timeout=60_000)
+    statuses = page.evaluate("() => window.statuses")
+    counted = [s for s in statuses if "evaluated points" in s]
+    assert counted and counted[0].startswith("Checking: "), statuses[:5]
+    assert "of 319,985 evaluated points (inverse dynamics)" in counted[0]
+    assert page.log.console_errors == [] and page.log.page_errors == []

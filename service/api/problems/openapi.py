@@ -16,7 +16,8 @@ treatment:
   `examples`, because generators such as openapi-typescript (default settings) type every
   property that has a `default` as always present, which is true of answers but not of requests.
 - **The binary form** (`BINARY_MEDIA_TYPE`) is a content type of every dynamics request body and
-  answer, beside JSON.
+  answer, beside JSON; the progress stream (`PROGRESS_MEDIA_TYPE`) one of the answers of the
+  dynamics routes and identify.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from starlette.routing import BaseRoute
 
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.problems.handlers import STATUS_BY_CODE
+from service.api.progress import PROGRESS_MEDIA_TYPE
 
 PROBLEM_MEDIA_TYPE = "application/problem+json"
 PROBLEM_REF = {"$ref": "#/components/schemas/Problem"}
@@ -109,6 +111,8 @@ def problem_openapi(app: FastAPI, described: Sequence[BaseRoute] = (),
         for operation in _operations(operations):
             _problem_responses(operation)
     _binary_content(paths, described)
+    _progress_content(paths, [*described, *(r for r in twins
+                                            if getattr(r, "name", "") == "identify")])
     _optional_defaults(doc)
     app.openapi_schema = doc
     return doc
@@ -163,6 +167,25 @@ def _binary_content(paths: dict[str, Any], described: Sequence[BaseRoute]) -> No
             for status, response in operation.get("responses", {}).items():
                 if status.startswith("2") and "content" in response:
                     response["content"].update(binary)
+
+
+def _progress_content(paths: dict[str, Any], routes: Sequence[BaseRoute]) -> None:
+    """Declare the progress stream beside JSON on the answers of the dynamics routes and
+    identify (asked for with `Accept: application/x-ndjson`)."""
+    stream = {PROGRESS_MEDIA_TYPE: {"schema": {
+        "type": "string",
+        "description": "Newline-delimited JSON: {\"progress\": {\"done\", \"total\", \"unit\", "
+                       "\"stage\"}} lines, then {\"answer\": <the JSON answer>} or "
+                       "{\"problem\": <a problem object>} (see docs/http-api.md, \"Progress "
+                       "of long requests\")."}}}
+    for route in routes:
+        if not isinstance(route, APIRoute):
+            continue
+        for method in route.methods or ():
+            operation = paths.get(route.path_format, {}).get(method.lower())
+            for status, response in (operation or {}).get("responses", {}).items():
+                if status.startswith("2") and "content" in response:
+                    response["content"].update(stream)
 
 
 def _refs(node: Any) -> Iterator[str]:

@@ -75,9 +75,14 @@ def test_dynamics_bodies_and_answers_declare_the_binary_form(api):
     assert len(dynamics) >= 15
     for op in dynamics:
         assert set(op["requestBody"]["content"]) == {"application/json", BINARY_MEDIA_TYPE}
-        assert set(op["responses"]["200"]["content"]) == {"application/json", BINARY_MEDIA_TYPE}
+        assert set(op["responses"]["200"]["content"]) == {
+            "application/json", BINARY_MEDIA_TYPE, "application/x-ndjson"}  # + progress
     upload = ops["post", "/v1/robots"]
     assert BINARY_MEDIA_TYPE not in upload["requestBody"]["content"]
+    assert set(upload["responses"]["201"]["content"]) == {"application/json"}
+    identify = ops["post", "/v1/robots/{robot_id}/identify"]
+    assert set(identify["responses"]["200"]["content"]) == {"application/json",
+                                                            "application/x-ndjson"}
 
 
 def test_health_and_metrics_are_described(api):

@@ -158,10 +158,17 @@ class Robot:
 
 
     @functools.cached_property
+    def armature(self) -> np.ndarray | None:
+        """The armature of each velocity coordinate (nv,), kg·m² or kg; None when it is all
+        zero."""
+        armature = np.array(self.model.armature, dtype=np.float64)
+        return armature if armature.any() else None
+
+    @functools.cached_property
     def model_without_armature(self) -> Any:
         """The model with every armature zero (the model itself when it has none): the bodies
         alone, for the energies (`service.dynamics.lagrangian.kinetic_energy`)."""
-        if not np.any(self.model.armature):
+        if self.armature is None:
             return self.model
         bodies = self.model.copy()
         bodies.armature = np.zeros(self.nv)

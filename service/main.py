@@ -14,7 +14,6 @@ from typing import Any
 from fastapi import Depends, FastAPI
 
 from service import __version__, heap, unpin_this_thread
-from service.api import json_bodies
 from service.api.deps import require_api_key_for_all
 from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.middleware.api_keys import KeyBeforeBody
@@ -59,8 +58,6 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if not injected and not registry.ready:
             threading.Thread(target=registry.load, name="catalog-loader", daemon=True).start()
-        if not injected:  # the helper process of large JSON bodies, started in the background
-            threading.Thread(target=json_bodies.warm, name="json-helper", daemon=True).start()
         # The OpenAPI document (~0.5 s to build) is read by the first validation error, for
         # close-match suggestions: built now, not on the event loop under that request.
         app.openapi()

@@ -5,15 +5,17 @@ for its whole duration: about 0.14 s for the 15 MB body of a 100,000-sample traj
 during which the event loop (and /health/live) waits, whichever thread runs it. A body of more
 than `ISOLATED_JSON_BYTES` is therefore parsed by the very same validation (a dynamics route's
 `Endpoint.parse_json`, identify's model) in a long-lived helper process (a
-`ProcessPoolExecutor` on the builders' forkserver, `JSON_WORKERS` of them, at a lower CPU
-priority); the serving process only sends the bytes and gets back the arrays as float64 arrays
-(a copy of memory, no Python floats to build) and the options. Validation and domain errors
+`ProcessPoolExecutor` of `JSON_WORKERS` spawned processes, at a lower CPU priority; started by
+the first such body, which waits about two seconds more for its imports); the serving process
+only sends the bytes and gets back the arrays as float64 arrays (a copy of memory, no Python
+floats to build) and the options. Validation and domain errors
 come back as the same errors. A helper that dies (e.g. killed for memory) is replaced; that body
 is parsed in process instead, so the answer never depends on the helper.
 """
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
 import threading
 from collections.abc import Callable
@@ -26,12 +28,12 @@ import orjson
 from fastapi.exceptions import RequestValidationError
 
 from service import errors
-from service.registry.build_process import BUILDER_NICENESS, forkserver_context
 
 T = TypeVar("T")
 ISOLATED_JSON_BYTES = 2 * 1024 * 1024
 """JSON bodies larger than this are parsed in the helper process (~20 ms and more inline)."""
 JSON_WORKERS = 1
+HELPER_NICENESS = 10  # like the builders: the serving process keeps its share of the CPU
 
 _lock = threading.Lock()
 _pool: ProcessPoolExecutor | None = None
@@ -56,23 +58,14 @@ def parse_isolated(parse: Callable[..., T], *args: Any) -> T:
     raise getattr(errors, name, errors.InvalidInput)(detail, **extra)
 
 
-def warm() -> None:
-    """Start the helper and import the routes there (about a second), so that the first large
-    body does not wait for it; blocking (the app's lifespan runs it in a thread)."""
-    _the_pool().submit(_ready).result()
-
-
-def _ready() -> bool:
-    from service.api.routes import dynamics  # noqa: F401 (imported for the next bodies)
-    return True
-
-
 def _the_pool() -> ProcessPoolExecutor:
     global _pool
     with _lock:
         if _pool is None:
-            _pool = ProcessPoolExecutor(JSON_WORKERS, mp_context=forkserver_context(),
-                                        initializer=os.nice, initargs=(BUILDER_NICENESS,))
+            # spawned, not forked from the builders' forkserver: not a builder (their count
+            # and their CPU are bounded on their own), and started only when first needed
+            _pool = ProcessPoolExecutor(JSON_WORKERS, mp_context=mp.get_context("spawn"),
+                                        initializer=os.nice, initargs=(HELPER_NICENESS,))
         return _pool
 
 

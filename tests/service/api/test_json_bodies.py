@@ -77,8 +77,8 @@ def test_domain_errors_of_a_large_body_are_the_same(api, monkeypatch) -> None:
 
 def test_a_dead_helper_is_replaced_and_the_body_parsed_in_process(api) -> None:
     body = orjson.dumps(_check_body())
-    json_bodies.warm()
     pool = json_bodies._the_pool()
+    pool.submit(int).result()  # started
     for pid in list(pool._processes):  # (the executor's own table of its processes)
         os.kill(pid, signal.SIGKILL)
     for pid in list(pool._processes):

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from service.dynamics.stopping import ShouldStop, report_progress
+from service.dynamics.stopping import ShouldStop, hand_over, report_progress
 from service.errors import ComputationStopped, NonFiniteResult, SingularConfiguration
 from service.registry.robot import Robot
 from service.states import States, all_finite
@@ -178,6 +178,7 @@ def _run_in_chunks(robot: Robot, quantity: Quantity, s: States, options: dict[st
     n, size = s.count, _chunk_states(robot, quantity)
     out: dict[str, Any] = {}
     for start in range(0, n, size):
+        hand_over()
         if should_stop():
             raise ComputationStopped(f"{quantity.name}: stopped at state {start} of {n} "
                                      "(the client went away or the request's deadline "

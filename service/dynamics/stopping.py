@@ -6,6 +6,12 @@ POLL_S seconds of computing (a clock read otherwise, about 50 ns), and a true an
 `ComputationStopped`. The caller decides why: the client went away, or the request's
 deadline passed. Without `should_stop` nothing is asked.
 
+Each time `should_stop` is asked, the computing thread also hands the GIL over (`hand_over`):
+a loop whose steps call into NumPy's BLAS or LAPACK (a least-squares solve per state) releases
+the GIL and takes it back hundreds of times a millisecond, and CPython's GIL then starves a
+waiting thread — the event loop — for as long as the loop runs (the convoy effect: /health/live
+waited 0.7 s beside a 20,000-state contact batch). `time.sleep(0)` every POLL_S lets it in.
+
 Progress: a `should_stop` that also has a `report(done, total, unit, stage)` method (the API's
 `Cancellation`, which forwards to a request's progress stream) hears how far the computation
 got, at the same moments it is asked, when the stopper knows the `total`; `report_progress`
@@ -23,6 +29,11 @@ from service.errors import ComputationStopped
 POLL_S = 0.002  # how often `should_stop` is asked, in seconds of computing
 
 ShouldStop = Callable[[], bool]
+
+
+def hand_over() -> None:
+    """Let a thread waiting for the GIL (the event loop) take it (see the module docstring)."""
+    time.sleep(0)
 
 
 def report_progress(should_stop: Any, done: int, total: int, unit: str,
@@ -59,6 +70,7 @@ class Stopper:
         if now < self.next:
             return
         self.next = now + POLL_S
+        hand_over()
         if self.should_stop():
             raise ComputationStopped(
                 f"{self.what}: {self.where}stopped at {self.unit} {k} before the end (the "

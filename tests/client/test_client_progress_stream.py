@@ -5,6 +5,8 @@ same result as without progress; errors in the stream raise the error of their c
 from __future__ import annotations
 
 import asyncio
+import re
+import time
 from typing import Any
 
 import httpx
@@ -102,3 +104,27 @@ def test_progress_true_shows_the_stage_in_a_tqdm_bar(server: str,
     evaluated = (t.size - 1) * 16 + 1
     err = capsys.readouterr().err
     assert "inverse dynamics" in err and f"{evaluated}/{evaluated}" in err
+
+
+def _stopped_by_disconnect(server: str) -> float:
+    text = httpx.get(server + "/metrics", timeout=10).text
+    found = re.search(r'robodyn_computations_stopped_total\{reason="disconnect"\} (\S+)', text)
+    return float(found.group(1)) if found else 0.0
+
+
+def test_leaving_a_stream_stops_its_computation(server: str) -> None:
+    """A client that reads the first progress line and closes the connection: the check stops
+    (counted as stopped by a disconnect) and the server keeps answering."""
+    t, q = _motion(30_000, seconds=100.0)
+    body = {"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 32}
+    before = _stopped_by_disconnect(server)
+    with httpx.Client(timeout=60) as http, http.stream(
+            "POST", server + "/v1/robots/ur5/trajectory-check", json=body,
+            headers={"accept": "application/x-ndjson"}) as response:
+        first = next(response.iter_lines())
+    assert first.startswith('{"progress":'), first[:200]
+    deadline = time.monotonic() + 20
+    while _stopped_by_disconnect(server) == before and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _stopped_by_disconnect(server) == before + 1
+    assert httpx.get(server + "/health/live", timeout=10).status_code == 200

@@ -53,7 +53,12 @@ def wants_progress(scope: Scope) -> bool:
     """Whether the request's `Accept` header asks for the progress stream."""
     for name, value in scope["headers"]:
         if name == b"accept":
-            return PROGRESS_MEDIA_TYPE.encode() in value.lower()
+            for media_range in value.decode("latin-1").lower().split(","):
+                media_type, *parameters = (part.strip() for part in media_range.split(";"))
+                if media_type == PROGRESS_MEDIA_TYPE:
+                    return not any(p.replace(" ", "") in ("q=0", "q=0.0", "q=0.00", "q=0.000")
+                                   for p in parameters)
+            return False
     return False
 
 

@@ -268,11 +268,11 @@ class Endpoint:
                 in_flight = sizing.connection.app.state.answers_in_flight
                 scope[ANSWER_BYTES] = in_flight.reserve(size)
 
-    async def handle(self, request: HTTPConnection, body: bytes | bytearray
-                     ) -> tuple[bytes | list[bytes], str]:
-        """The answer to `body` (JSON or binary) as (content, media type), content in pieces
-        for a large JSON answer; domain errors and validation errors are raised for the app's
-        exception handlers."""
+    async def handle(self, request: HTTPConnection, body: bytes | bytearray,
+                     json_only: bool = False) -> tuple[bytes | list[bytes], str]:
+        """The answer to `body` (JSON or binary, as `Accept` asks; JSON whatever it asks with
+        `json_only`) as (content, media type), content in pieces for a large JSON answer;
+        domain errors and validation errors are raised for the app's exception handlers."""
         check_api_key_for_all(request)
         robot = request.app.state.registry.get(request.path_params["robot_id"])
         content_type, accept = _media_types(request.scope["headers"])
@@ -289,7 +289,7 @@ class Endpoint:
             arrays, options = await off_loop(request, self.parse_json, body)
         else:
             arrays, options = self.parse_json(body)
-        as_binary = binary.BINARY_MEDIA_TYPE in accept
+        as_binary = binary.BINARY_MEDIA_TYPE in accept and not json_only
         result = await self.compute(request, robot, arrays, options, as_binary)
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
         if request.scope["robodyn"]["large"]:
@@ -309,7 +309,7 @@ class Endpoint:
         """The JSON answer to `body` as the progress stream computes it
         (`service.api.progress`: the `Accept` header asks for the stream, not the binary form)."""
         async def produce() -> bytes | list[bytes]:
-            content, _ = await self.handle(request, body)
+            content, _ = await self.handle(request, body, json_only=True)
             return content
         return produce
 

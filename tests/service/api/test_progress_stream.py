@@ -125,3 +125,22 @@ def test_identify_streams_its_stages_then_the_same_answer(small, catalog_registr
                           headers=STREAM)
     assert refused.status_code == 422 and refused.json()["code"] == "dimension_mismatch"
     assert refused.headers["content-type"] == "application/problem+json"
+
+
+@pytest.mark.parametrize("accept", [f"{PROGRESS_MEDIA_TYPE}, application/vnd.robodyn.safetensors",
+                                    "application/vnd.robodyn.safetensors, " + PROGRESS_MEDIA_TYPE])
+def test_a_stream_asked_beside_the_binary_form_carries_json(api, accept) -> None:
+    """The stream is lines of JSON: asked for with the binary form too, its answer is JSON."""
+    plain = api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6})
+    lines = _lines(api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6},
+                            headers={"Accept": accept}))
+    assert lines == [{"answer": plain.json()}]
+
+
+@pytest.mark.parametrize("accept", [f"{PROGRESS_MEDIA_TYPE};q=0, application/json",
+                                    "application/json", "application/x-ndjsonx"])
+def test_a_stream_not_asked_for_is_not_sent(api, accept) -> None:
+    response = api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6},
+                        headers={"Accept": accept})
+    assert response.status_code == 200
+    assert response.headers["content-type"] == "application/json"

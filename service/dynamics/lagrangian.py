@@ -43,19 +43,22 @@ def mass_matrix_inverse(robot: Robot, s: States) -> Results:
     return finite("mass-matrix-inverse", mass_matrix_inverse=out)
 
 
-def kinetic_energy(robot: Robot, data: object, q: np.ndarray, v: np.ndarray) -> float:
-    """T = ½ vᵀ M(q) v in J, armature included as in M. Pinocchio's computeKineticEnergy
-    (4.x) leaves out the armature of some joints (a revolute joint about an axis that is not
-    x, y or z: 0.5 · armature · v² missing), so T is the bodies' energy, from the model
-    without armature, plus ½ Σ armature ∘ v². Fills `data`'s kinematics at (q, v)."""
-    bodies = float(pin.computeKineticEnergy(robot.model_without_armature, data, q, v))
+def mechanical_energy(robot: Robot, data: object, q: np.ndarray, v: np.ndarray
+                      ) -> tuple[float, float]:
+    """(T, U) in J: the kinetic energy T = ½ vᵀ M(q) v, armature included as in M, and the
+    potential energy U of gravity (zero at the world origin), in one pass over the joints.
+    Pinocchio's energies (4.x) leave out the armature of some joints (a revolute joint about an
+    axis that is not x, y or z: 0.5 · armature · v² missing), so they are computed on the model
+    without armature and ½ Σ armature ∘ v² is added. Fills `data`'s kinematics at (q, v)."""
+    pin.computeMechanicalEnergy(robot.model_without_armature, data, q, v)
+    kinetic = float(data.kinetic_energy)  # type: ignore[attr-defined]
+    potential = float(data.potential_energy)  # type: ignore[attr-defined]
     armature = robot.armature
-    if armature is None:
-        return bodies
-    # Elementwise, not np.dot: a BLAS call releases the GIL, and released and taken back at
-    # every step of a rollout it starves the event loop of it (the convoy effect: /health/live
-    # waited 0.7 s beside a contact simulation)
-    return bodies + 0.5 * float((armature * v * v).sum())
+    if armature is not None:
+        # Elementwise, not np.dot: a BLAS call releases the GIL, and released and taken back
+        # at every step of a rollout it starves the event loop (see dynamics.stopping)
+        kinetic += 0.5 * float((armature * v * v).sum())
+    return kinetic, potential
 
 
 def energy(robot: Robot, s: States) -> Results:
@@ -67,8 +70,7 @@ def energy(robot: Robot, s: States) -> Results:
     T, U = np.empty(n), np.empty(n)
     with robot.data() as data:
         for i in range(n):
-            T[i] = kinetic_energy(robot, data, q[i], v[i])
-            U[i] = pin.computePotentialEnergy(robot.model, data, q[i])
+            T[i], U[i] = mechanical_energy(robot, data, q[i], v[i])
     return finite("energy", kinetic_energy=T, potential_energy=U, mechanical_energy=T + U)
 
 

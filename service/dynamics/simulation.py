@@ -48,7 +48,7 @@ from service.dynamics.contacts_simulation import (
     rollout_evaluation_work,
 )
 from service.dynamics.contacts_solve import check_work
-from service.dynamics.lagrangian import kinetic_energy
+from service.dynamics.lagrangian import mechanical_energy
 from service.dynamics.quantity import Quantity, Results, finite
 from service.dynamics.stopping import ShouldStop, Stopper
 from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
@@ -203,10 +203,9 @@ def _aba(robot: Robot, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: Any
 
 
 def _mechanical_energy(robot: Robot, data: Any, q: np.ndarray, v: np.ndarray) -> float:
-    """T + U with T = ½ vᵀ M v (armature included, as in M: `lagrangian.kinetic_energy`) and
+    """T + U with T = ½ vᵀ M v (armature included, as in M: `lagrangian.mechanical_energy`) and
     U the potential energy of gravity."""
-    return kinetic_energy(robot, data, q, v) + float(
-        pin.computePotentialEnergy(robot.model, data, q))
+    return sum(mechanical_energy(robot, data, q, v))
 
 
 def _diverged(where: str, k: int, dt: float) -> NonFiniteResult:

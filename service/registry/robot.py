@@ -167,7 +167,7 @@ class Robot:
     @functools.cached_property
     def model_without_armature(self) -> Any:
         """The model with every armature zero (the model itself when it has none): the bodies
-        alone, for the energies (`service.dynamics.lagrangian.kinetic_energy`)."""
+        alone, for the energies (`service.dynamics.lagrangian.mechanical_energy`)."""
         if self.armature is None:
             return self.model
         bodies = self.model.copy()

@@ -19,7 +19,11 @@ export async function api(path, body, headers = {}) {
     init.headers["Content-Type"] = "application/json";
     init.body = JSON.stringify(body);
   }
-  const res = await fetch(path, init);
+  return jsonOf(await fetch(path, init));
+}
+
+// A whole answer's JSON, or its problem thrown as a `Problem`.
+async function jsonOf(res) {
   const text = await res.text();
   let json = null;
   try { json = text ? JSON.parse(text) : null; } catch { json = null; }
@@ -40,11 +44,7 @@ export async function apiWithProgress(path, body, onProgress, headers = {}) {
     headers: { Accept: "application/x-ndjson, application/problem+json",
                "Content-Type": "application/json", ...headers } });
   if (!res.ok || !(res.headers.get("content-type") || "").startsWith("application/x-ndjson")) {
-    const text = await res.text();
-    let json = null;
-    try { json = text ? JSON.parse(text) : null; } catch { json = null; }
-    if (!res.ok) throw new Problem(res.status, json || { title: res.statusText });
-    return json;
+    return jsonOf(res);
   }
   const reader = res.body.pipeThrough(new TextDecoderStream()).getReader();
   let buffered = "";

@@ -27,11 +27,15 @@ from typing import Any
 
 from service import errors
 from service.dynamics.identification.pipeline import Identification, Progress
-from service.registry.build_process import model_from_binary, model_to_binary
+from service.registry.build_process import (
+    STARVED_CPU_FRACTION,
+    cpu_seconds,
+    model_from_binary,
+    model_to_binary,
+)
 from service.registry.robot import Robot
 
 WORKER_NICENESS = 10
-STARVED_CPU_FRACTION = 0.5
 
 
 def _serve(conn: Any, memory_mb: int) -> None:
@@ -61,15 +65,6 @@ def _serve(conn: Any, memory_mb: int) -> None:
                        f"memory limit of {memory_mb} MB: send a shorter log"))
         except Exception as exc:  # a bug: reported as such, without a traceback
             conn.send(("failed", type(exc).__name__))
-
-
-def _cpu_seconds(pid: int) -> float | None:
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as fh:
-            fields = fh.read().rsplit(b")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-    except (OSError, IndexError, ValueError):
-        return None
 
 
 class IdentificationWorker:
@@ -143,7 +138,7 @@ class IdentificationWorker:
         arrays = {k: inputs.pop(k) for k in ("t", "q", "tau", "v", "a") if k in inputs}
         meta = {"id": robot.id, "name": robot.name, "source": robot.source,
                 "root_joint": robot.root_joint, "mujoco_qpos": robot.mujoco_qpos}
-        started_cpu = _cpu_seconds(self._proc.pid)
+        started_cpu = cpu_seconds(self._proc.pid)
         start = time.monotonic()
         try:
             self._conn.send((model_to_binary(robot.model), meta, arrays, inputs))
@@ -169,7 +164,7 @@ class IdentificationWorker:
         raise RuntimeError(f"identification failed in its worker ({answer[1]})")
 
     def _timed_out(self, started_cpu: float | None, elapsed: float) -> errors.RobodynError:
-        cpu = _cpu_seconds(self._proc.pid) if self._proc is not None else None
+        cpu = cpu_seconds(self._proc.pid) if self._proc is not None else None
         self._stop()
         if cpu is not None and started_cpu is not None and \
                 cpu - started_cpu < STARVED_CPU_FRACTION * elapsed:

@@ -57,16 +57,25 @@ def measure(model: object, repeats: int, time_limit_s: float) -> dict[str, float
             derive_isolated(model, time_limit_s=time_limit_s)
         except (UnsupportedModel, Overloaded) as exc:  # 422 past the limit, 503 if starved
             status = 422 if isinstance(exc, UnsupportedModel) else 503
-            return {"derive": t1 - t0, "render": None, "isolated": None, "kB": None,
-                    "status": status}
+            return {
+                "derive": t1 - t0,
+                "render": None,
+                "isolated": None,
+                "kB": None,
+                "status": status,
+            }
         t2 = time.perf_counter()
         size = len(orjson.dumps(equations_answer(eq)))
         t3 = time.perf_counter()
         derive.append(t1 - t0)
         isolated.append(t2 - t1)
         render.append(t3 - t2)
-    return {"derive": statistics.median(derive), "render": statistics.median(render),
-            "isolated": statistics.median(isolated), "kB": size / 1e3}
+    return {
+        "derive": statistics.median(derive),
+        "render": statistics.median(render),
+        "isolated": statistics.median(isolated),
+        "kB": size / 1e3,
+    }
 
 
 def http_figures(robots: list[str]) -> None:
@@ -74,10 +83,13 @@ def http_figures(robots: list[str]) -> None:
 
     from bench.run import server
 
-    with tempfile.TemporaryDirectory() as data, server(
-            ["-m", "service"], env={"ROBODYN_CATALOG": ",".join(robots),
-                                    "ROBODYN_DATA_DIR": data}) as url, \
-            httpx.Client(base_url=url, timeout=120) as http:
+    with (
+        tempfile.TemporaryDirectory() as data,
+        server(
+            ["-m", "service"], env={"ROBODYN_CATALOG": ",".join(robots), "ROBODYN_DATA_DIR": data}
+        ) as url,
+        httpx.Client(base_url=url, timeout=120) as http,
+    ):
         print(f"{'GET …/equations':<22} {'cold s':>9} {'cached ms':>10} {'JSON kB':>9}")
         for robot in robots:
             t0 = time.perf_counter()
@@ -89,25 +101,35 @@ def http_figures(robots: list[str]) -> None:
                 t0 = time.perf_counter()
                 http.get(f"/v1/robots/{robot}/equations").raise_for_status()
                 cached.append(time.perf_counter() - t0)
-            print(f"{robot:<22} {cold:>9.3f} {1e3 * statistics.median(cached):>10.2f} "
-                  f"{len(first.content) / 1e3:>9.0f}")
+            print(
+                f"{robot:<22} {cold:>9.3f} {1e3 * statistics.median(cached):>10.2f} "
+                f"{len(first.content) / 1e3:>9.0f}"
+            )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--worst", action="store_true", help="include the skewed 6-joint arm")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--time-limit", type=float, default=60,
-                        help="the child's time limit, s (the service's default: 60)")
-    parser.add_argument("--http", action="store_true",
-                        help="time the route on a real server (cold and cached) instead")
+    parser.add_argument(
+        "--time-limit",
+        type=float,
+        default=60,
+        help="the child's time limit, s (the service's default: 60)",
+    )
+    parser.add_argument(
+        "--http",
+        action="store_true",
+        help="time the route on a real server (cold and cached) instead",
+    )
     args = parser.parse_args()
     if args.http:
         http_figures(["ur5", "planar_arm", "ur10"])
         return
     robots, _ = load_catalog(CATALOG)
     cases: list[tuple[str, object, int]] = [
-        (name, robots[name].model, args.repeats) for name in CATALOG]
+        (name, robots[name].model, args.repeats) for name in CATALOG
+    ]
     cases += [(f"skewed {n}-joint arm", skewed_arm(n), 1) for n in (3, 4, 5)]
     if args.worst:
         cases.append(("skewed 6-joint arm", skewed_arm(6), 1))
@@ -117,11 +139,16 @@ def main() -> None:
     for name, model, repeats in cases:
         m = measure(model, repeats, args.time_limit)
         if m["isolated"] is None:
-            print(f"{name:<22} {model.nv:>3} {m['derive']:>9.3f} {'—':>9} "
-                  f"{'> ' + format(args.time_limit, 'g'):>8} {m['status']:>9}")
+            print(
+                f"{name:<22} {model.nv:>3} {m['derive']:>9.3f} {'—':>9} "
+                f"{'> ' + format(args.time_limit, 'g'):>8} {m['status']:>9}"
+            )
             continue
-        print(f"{name:<22} {model.nv:>3} {m['derive']:>9.3f} {m['render']:>9.3f} "
-              f"{m['isolated']:>8.3f} {m['kB']:>9.0f}")
+        print(
+            f"{name:<22} {model.nv:>3} {m['derive']:>9.3f} {m['render']:>9.3f} "
+            f"{m['isolated']:>8.3f} {m['kB']:>9.0f}"
+        )
+
 
 if __name__ == "__main__":
     main()

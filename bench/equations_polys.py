@@ -78,8 +78,9 @@ def ring_series(n: int, domain: Any) -> tuple[type, Any]:
 
         def without_terms_below(self, bound: Decimal) -> RingSeries:
             b = number(bound)
-            return RingSeries(self.n, poly_ring({m: c for m, c in self.terms.items()
-                                                 if abs(c) > b}))
+            return RingSeries(
+                self.n, poly_ring({m: c for m, c in self.terms.items() if abs(c) > b})
+            )
 
     return RingSeries, poly_ring
 
@@ -103,9 +104,11 @@ def measure(name: str, model: Any, domain: Any) -> None:
     t0 = time.perf_counter()
     reduced = [p.rem(pythagoras) for p in upper]
     rem_s = time.perf_counter() - t0
-    print(f"{name:<20} {domain!s:<10} {series_s:>9.3f} {ring_s:>8.2f} "
-          f"{sum(len(p) for p in upper):>7} {rem_s:>7.2f} {sum(len(p) for p in reduced):>8}",
-          flush=True)
+    print(
+        f"{name:<20} {domain!s:<10} {series_s:>9.3f} {ring_s:>8.2f} "
+        f"{sum(len(p) for p in upper):>7} {rem_s:>7.2f} {sum(len(p) for p in reduced):>8}",
+        flush=True,
+    )
 
 
 def main() -> None:
@@ -116,8 +119,10 @@ def main() -> None:
     cases = [("ur5", robots["ur5"].model), ("skewed 4-joint arm", skewed_arm(4))]
     if args.five:
         cases.append(("skewed 5-joint arm", skewed_arm(5)))
-    print(f"{'robot':<20} {'domain':<10} {'series s':>9} {'ring s':>8} {'terms':>7} "
-          f"{'rem s':>7} {'reduced':>8}")
+    print(
+        f"{'robot':<20} {'domain':<10} {'series s':>9} {'ring s':>8} {'terms':>7} "
+        f"{'rem s':>7} {'reduced':>8}"
+    )
     for name, model in cases:
         for domain in (QQ, RealField(prec=200)):
             if name.startswith("skewed 5") and domain is not QQ:

@@ -23,8 +23,9 @@ def panda_arm():
     """The catalog's panda with both finger joints locked at 0.02 m: 7 revolute joints."""
     panda = load_catalog(["panda"])[0]["panda"]
     locked = {"panda_finger_joint1": [0.02], "panda_finger_joint2": [0.02]}
-    return reduced_robot(panda, locked, "panda_arm", "panda_arm",
-                         {"robot": "panda", "locked_joints": locked})
+    return reduced_robot(
+        panda, locked, "panda_arm", "panda_arm", {"robot": "panda", "locked_joints": locked}
+    )
 
 
 def main() -> None:
@@ -35,11 +36,13 @@ def main() -> None:
         start = time.perf_counter()
         result = identify(robot, log.t, log.q, log.tau, method=method)
         elapsed = time.perf_counter() - start
-        print(f"{method:>22}: {elapsed:6.2f} s; validation RMSE max "
-              f"{np.max(result.rmse['validation']):.4f} N·m (before "
-              f"{np.max(result.rmse['validation_before']):.3f}); condition number "
-              f"{result.condition_number:.4g}; physically consistent "
-              f"{result.physically_consistent}")
+        print(
+            f"{method:>22}: {elapsed:6.2f} s; validation RMSE max "
+            f"{np.max(result.rmse['validation']):.4f} N·m (before "
+            f"{np.max(result.rmse['validation_before']):.3f}); condition number "
+            f"{result.condition_number:.4g}; physically consistent "
+            f"{result.physically_consistent}"
+        )
 
 
 if __name__ == "__main__":

@@ -28,8 +28,11 @@ def ur5_states(n: int, seed: int = 3) -> tuple[object, dict[str, np.ndarray]]:
     model = registry.get("ur5").model
     rng = np.random.default_rng(seed)
     q = np.array([pin.randomConfiguration(model) for _ in range(n)])
-    return model, {"q": q, "v": rng.normal(0, 1, (n, model.nv)),
-                   "a": rng.normal(0, 1, (n, model.nv))}
+    return model, {
+        "q": q,
+        "v": rng.normal(0, 1, (n, model.nv)),
+        "a": rng.normal(0, 1, (n, model.nv)),
+    }
 
 
 def python_loop(model: object, s: dict[str, np.ndarray]) -> Callable[[], float]:
@@ -40,7 +43,8 @@ def python_loop(model: object, s: dict[str, np.ndarray]) -> Callable[[], float]:
     heavier = pin.Model(model)
     frame = heavier.frames[heavier.getFrameId(FRAME)]
     heavier.inertias[frame.parentJoint] += frame.placement.act(
-        pin.Inertia(1.0, np.array(COM), np.zeros((3, 3))))
+        pin.Inertia(1.0, np.array(COM), np.zeros((3, 3)))
+    )
     heavier_data = heavier.createData()
     limit = np.array(model.effortLimit)  # type: ignore[attr-defined]
     q, v, a = s["q"], s["v"], s["a"]
@@ -62,8 +66,12 @@ def python_loop(model: object, s: dict[str, np.ndarray]) -> Callable[[], float]:
     return loop
 
 
-def payload_capacity(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]], float],
-                     row: Callable[..., None]) -> None:
+def payload_capacity(
+    url: str,
+    rounds: int,
+    median_of: Callable[[int, Callable[[], float]], float],
+    row: Callable[..., None],
+) -> None:
     import robodyn
 
     print("7. payload-capacity batch (UR5, a point mass at tool0, moving)", flush=True)
@@ -71,13 +79,18 @@ def payload_capacity(url: str, rounds: int, median_of: Callable[[int, Callable[[
     model, s = ur5_states(n)
     loop_seconds = median_of(rounds, python_loop(model, s))
     with robodyn.Client(url, timeout=300) as client:
+
         def served() -> float:
             t = time.perf_counter()
-            client.payload_capacity("ur5", s["q"], FRAME, center_of_mass=COM, v=s["v"],
-                                    a=s["a"])
+            client.payload_capacity("ur5", s["q"], FRAME, center_of_mass=COM, v=s["v"], a=s["a"])
             return time.perf_counter() - t
 
         served()  # the first request builds the unit-mass model: not what is measured
-        row(f"payload-capacity batch of {n} (UR5, moving) via client vs in-process Python loop "
-            "(two RNEA per state)", n / median_of(rounds, served), n / loop_seconds, "states/s",
-            "≥ 1.0")
+        row(
+            f"payload-capacity batch of {n} (UR5, moving) via client vs in-process Python loop "
+            "(two RNEA per state)",
+            n / median_of(rounds, served),
+            n / loop_seconds,
+            "states/s",
+            "≥ 1.0",
+        )

@@ -47,9 +47,13 @@ def free_port() -> int:
 @contextmanager
 def server(args: list[str], env: dict[str, str] | None = None) -> Iterator[str]:
     port = free_port()
-    proc = subprocess.Popen([sys.executable, *args, "--port", str(port)], cwd=ROOT,
-                            env={**os.environ, **(env or {})}, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, *args, "--port", str(port)],
+        cwd=ROOT,
+        env={**os.environ, **(env or {})},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     url = f"http://127.0.0.1:{port}"
     import httpx
 
@@ -73,8 +77,10 @@ def wrk(url: str, seconds: int, body: str | None = None) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         if body is not None:
             script = Path(tmp) / "post.lua"
-            script.write_text(f'wrk.method = "POST"\nwrk.body = \'{body}\'\n'
-                              'wrk.headers["Content-Type"] = "application/json"\n')
+            script.write_text(
+                f"wrk.method = \"POST\"\nwrk.body = '{body}'\n"
+                'wrk.headers["Content-Type"] = "application/json"\n'
+            )
             cmd[1:1] = ["-s", str(script)]
         out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
     errors = re.search(r"Non-2xx or 3xx responses: (\d+)", out)
@@ -91,10 +97,8 @@ ROWS: list[tuple[str, str, str, str]] = []
 
 
 def row(what: str, ours: float, base: float, unit: str, target: str) -> None:
-    ROWS.append((what, f"{ours:,.1f} {unit} vs {base:,.1f} {unit}", f"{ours / base:.2f}",
-                 target))
-    print(f"  {what}: {ours:,.1f} vs {base:,.1f} {unit} → {ours / base:.2f} ({target})",
-          flush=True)
+    ROWS.append((what, f"{ours:,.1f} {unit} vs {base:,.1f} {unit}", f"{ours / base:.2f}", target))
+    print(f"  {what}: {ours:,.1f} vs {base:,.1f} {unit} → {ours / base:.2f} ({target})", flush=True)
 
 
 def single_state(url: str, naive: str, seconds: int, rounds: int) -> None:
@@ -104,10 +108,20 @@ def single_state(url: str, naive: str, seconds: int, rounds: int) -> None:
         live.append(wrk(url + "/health/live", seconds))
         mm.append(wrk(url + "/v1/robots/ur5/mass-matrix", seconds, f'{{"q": {UR5_Q}}}'))
         nv.append(wrk(naive + "/v1/robots/ur5/mass-matrix", seconds, f'{{"q": {UR5_Q}}}'))
-    row("UR5 mass-matrix vs same server /health/live", statistics.median(mm),
-        statistics.median(live), "req/s", "≥ 0.9")
-    row("UR5 mass-matrix vs naive endpoint", statistics.median(mm), statistics.median(nv),
-        "req/s", "≥ 2.5")
+    row(
+        "UR5 mass-matrix vs same server /health/live",
+        statistics.median(mm),
+        statistics.median(live),
+        "req/s",
+        "≥ 0.9",
+    )
+    row(
+        "UR5 mass-matrix vs naive endpoint",
+        statistics.median(mm),
+        statistics.median(nv),
+        "req/s",
+        "≥ 2.5",
+    )
 
 
 def talos_states(n: int, seed: int = 0) -> tuple[object, dict[str, np.ndarray]]:
@@ -119,10 +133,15 @@ def talos_states(n: int, seed: int = 0) -> tuple[object, dict[str, np.ndarray]]:
     registry.load()
     model = registry.get("talos").model
     rng = np.random.default_rng(seed)
-    q = np.array([pin.integrate(model, pin.neutral(model), rng.normal(0, 0.4, model.nv))
-                  for _ in range(n)])
-    return model, {"q": q, "v": rng.normal(0, 1, (n, model.nv)),
-                   "a": rng.normal(0, 1, (n, model.nv)), "tau": rng.normal(0, 5, (n, model.nv))}
+    q = np.array(
+        [pin.integrate(model, pin.neutral(model), rng.normal(0, 0.4, model.nv)) for _ in range(n)]
+    )
+    return model, {
+        "q": q,
+        "v": rng.normal(0, 1, (n, model.nv)),
+        "a": rng.normal(0, 1, (n, model.nv)),
+        "tau": rng.normal(0, 5, (n, model.nv)),
+    }
 
 
 def batches(url: str, rounds: int) -> None:
@@ -140,8 +159,11 @@ def batches(url: str, rounds: int) -> None:
         pin.rneaInParallel(threads, pool, qT, vT, aT)
         return time.perf_counter() - t
 
-    with robodyn.Client(url, timeout=300) as client, \
-            robodyn.Client(url, timeout=300, binary=False) as json_client:
+    with (
+        robodyn.Client(url, timeout=300) as client,
+        robodyn.Client(url, timeout=300, binary=False) as json_client,
+    ):
+
         def through_client() -> float:
             t = time.perf_counter()
             client.inverse_dynamics("talos", s["q"], s["v"], s["a"])
@@ -154,23 +176,39 @@ def batches(url: str, rounds: int) -> None:
         for _ in range(rounds):
             ours.append(through_client())
             base.append(in_process_rnea())
-        row("inverse dynamics, client end to end (binary) vs in-process rneaInParallel",
-            1e4 / statistics.median(ours), 1e4 / statistics.median(base), "states/s", "≥ 0.75")
+        row(
+            "inverse dynamics, client end to end (binary) vs in-process rneaInParallel",
+            1e4 / statistics.median(ours),
+            1e4 / statistics.median(base),
+            "states/s",
+            "≥ 0.75",
+        )
         t = time.perf_counter()
         json_client.inverse_dynamics("talos", s["q"], s["v"], s["a"])
-        row("same through JSON (for reference) vs in-process rneaInParallel",
-            1e4 / (time.perf_counter() - t), 1e4 / statistics.median(base), "states/s", "info")
+        row(
+            "same through JSON (for reference) vs in-process rneaInParallel",
+            1e4 / (time.perf_counter() - t),
+            1e4 / statistics.median(base),
+            "states/s",
+            "info",
+        )
 
         data = model.createData()
         loops = {
             "mass_matrix": (lambda i: pin.crba(model, data, s["q"][i]), ("q",)),
             "gravity": (lambda i: pin.computeGeneralizedGravity(model, data, s["q"][i]), ("q",)),
-            "coriolis": (lambda i: pin.computeCoriolisMatrix(model, data, s["q"][i],
-                                                             s["v"][i]), ("q", "v")),
-            "nonlinear_effects": (lambda i: pin.nonLinearEffects(model, data, s["q"][i],
-                                                                 s["v"][i]), ("q", "v")),
-            "forward_dynamics": (lambda i: pin.aba(model, data, s["q"][i], s["v"][i],
-                                                   s["tau"][i]), ("q", "v", "tau")),
+            "coriolis": (
+                lambda i: pin.computeCoriolisMatrix(model, data, s["q"][i], s["v"][i]),
+                ("q", "v"),
+            ),
+            "nonlinear_effects": (
+                lambda i: pin.nonLinearEffects(model, data, s["q"][i], s["v"][i]),
+                ("q", "v"),
+            ),
+            "forward_dynamics": (
+                lambda i: pin.aba(model, data, s["q"][i], s["v"][i], s["tau"][i]),
+                ("q", "v", "tau"),
+            ),
         }
         n = 2000
         computed: list[tuple[str, float, float]] = []
@@ -190,15 +228,33 @@ def batches(url: str, rounds: int) -> None:
                 return time.perf_counter() - t
 
             loop_seconds = median_of(rounds, loop)
-            row(f"{name} batch of {n} via client vs in-process Python loop",
-                n / median_of(rounds, served), n / loop_seconds, "states/s", "≥ 1.0")
+            row(
+                f"{name} batch of {n} via client vs in-process Python loop",
+                n / median_of(rounds, served),
+                n / loop_seconds,
+                "states/s",
+                "≥ 1.0",
+            )
             body = dict(zip(inputs, args, strict=True))
-            computed.append((name, n / median_of(rounds, lambda name=name, body=body:
-                                                 server_compute(url, name, body)),
-                             n / loop_seconds))
+            computed.append(
+                (
+                    name,
+                    n
+                    / median_of(
+                        rounds, lambda name=name, body=body: server_compute(url, name, body)
+                    ),
+                    n / loop_seconds,
+                )
+            )
         for name, ours, base in computed:  # after the end-to-end rows: one table section
-            row(f"{name} batch of {n}: the service's compute (Server-Timing) vs in-process "
-                "Python loop", ours, base, "states/s", "info: per-state cost of the batch")
+            row(
+                f"{name} batch of {n}: the service's compute (Server-Timing) vs in-process "
+                "Python loop",
+                ours,
+                base,
+                "states/s",
+                "info: per-state cost of the batch",
+            )
 
 
 def server_compute(url: str, name: str, inputs: dict[str, np.ndarray]) -> float:
@@ -207,10 +263,12 @@ def server_compute(url: str, name: str, inputs: dict[str, np.ndarray]) -> float:
     import httpx
     from robodyn import binary
 
-    response = httpx.post(f"{url}/v1/robots/talos/{name.replace('_', '-')}",
-                          content=binary.encode(inputs), timeout=300,
-                          headers={"content-type": binary.MEDIA_TYPE,
-                                   "accept": binary.MEDIA_TYPE})
+    response = httpx.post(
+        f"{url}/v1/robots/talos/{name.replace('_', '-')}",
+        content=binary.encode(inputs),
+        timeout=300,
+        headers={"content-type": binary.MEDIA_TYPE, "accept": binary.MEDIA_TYPE},
+    )
     response.raise_for_status()
     timing = re.search(r"compute;dur=([\d.]+)", response.headers["server-timing"])
     return float(timing.group(1)) / 1e3  # type: ignore[union-attr]
@@ -227,8 +285,11 @@ def latency_under_load(url: str, seconds: float) -> None:
             end = time.monotonic() + duration
             while time.monotonic() < end:
                 t = time.perf_counter()
-                r = http.post(url + "/v1/robots/ur5/mass-matrix", content=f'{{"q": {UR5_Q}}}',
-                              headers={"content-type": "application/json"})
+                r = http.post(
+                    url + "/v1/robots/ur5/mass-matrix",
+                    content=f'{{"q": {UR5_Q}}}',
+                    headers={"content-type": "application/json"},
+                )
                 times.append(time.perf_counter() - t)
                 assert r.status_code == 200
         return float(np.percentile(times, 99)) * 1e3
@@ -288,14 +349,25 @@ def workers(seconds: int, rounds: int, env: dict[str, str]) -> None:
     for n in (1, 2):
         with server(["-m", "service", "--workers", str(n)], env) as url:
             time.sleep(2)
-            rates[n] = median_of(rounds, lambda url=url: wrk(
-                url + "/v1/robots/ur5/mass-matrix", seconds, f'{{"q": {UR5_Q}}}'))
-    row("UR5 mass-matrix, 2 workers vs 1 worker", rates[2], rates[1], "req/s",
-        "≥ 1.5 with the load generator elsewhere")
+            rates[n] = median_of(
+                rounds,
+                lambda url=url: wrk(
+                    url + "/v1/robots/ur5/mass-matrix", seconds, f'{{"q": {UR5_Q}}}'
+                ),
+            )
+    row(
+        "UR5 mass-matrix, 2 workers vs 1 worker",
+        rates[2],
+        rates[1],
+        "req/s",
+        "≥ 1.5 with the load generator elsewhere",
+    )
 
 
-TALOS_SOLES = [{"frame": "left_sole_link", "type": "6d"},
-               {"frame": "right_sole_link", "type": "6d"}]
+TALOS_SOLES = [
+    {"frame": "left_sole_link", "type": "6d"},
+    {"frame": "right_sole_link", "type": "6d"},
+]
 
 
 def contacts(url: str, rounds: int) -> None:
@@ -314,8 +386,13 @@ def contacts(url: str, rounds: int) -> None:
     models, datas = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
     for c in TALOS_SOLES:
         f = model.frames[model.getFrameId(c["frame"])]
-        cm = pin.RigidConstraintModel(pin.ContactType.CONTACT_6D, model, f.parentJoint,
-                                      f.placement, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        cm = pin.RigidConstraintModel(
+            pin.ContactType.CONTACT_6D,
+            model,
+            f.parentJoint,
+            f.placement,
+            pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
+        )
         models.append(cm)
         datas.append(cm.createData())
     pin.initConstraintDynamics(model, data, models, datas)
@@ -326,37 +403,53 @@ def contacts(url: str, rounds: int) -> None:
         t = time.perf_counter()
         a, lam = np.empty((n, model.nv)), np.empty((n, 12))
         for i in range(n):
-            a[i] = pin.constraintDynamics(model, data, args["q"][i], args["v"][i],
-                                          args["tau"][i], models, datas, settings)
+            a[i] = pin.constraintDynamics(
+                model, data, args["q"][i], args["v"][i], args["tau"][i], models, datas, settings
+            )
             lam[i] = data.lambda_c
         return time.perf_counter() - t
 
     with robodyn.Client(url, timeout=300) as client:
+
         def served() -> float:
             t = time.perf_counter()
             client.contact_dynamics("talos", args["q"], args["v"], args["tau"], TALOS_SOLES)
             return time.perf_counter() - t
 
         def compute() -> float:
-            response = httpx.post(f"{url}/v1/robots/talos/contact-dynamics",
-                                  content=binary.encode(args, {"contacts": TALOS_SOLES}),
-                                  timeout=300, headers={"content-type": binary.MEDIA_TYPE,
-                                                        "accept": binary.MEDIA_TYPE})
+            response = httpx.post(
+                f"{url}/v1/robots/talos/contact-dynamics",
+                content=binary.encode(args, {"contacts": TALOS_SOLES}),
+                timeout=300,
+                headers={"content-type": binary.MEDIA_TYPE, "accept": binary.MEDIA_TYPE},
+            )
             response.raise_for_status()
             timing = re.search(r"compute;dur=([\d.]+)", response.headers["server-timing"])
             return float(timing.group(1)) / 1e3  # type: ignore[union-attr]
 
         loop_seconds = median_of(rounds, loop)
-        row(f"contact-dynamics batch of {n} (Talos, 2 soles 6d) via client vs in-process "
-            "Python loop over constraintDynamics", n / median_of(rounds, served),
-            n / loop_seconds, "states/s", "info")
-        row(f"contact-dynamics batch of {n}: the service's compute (Server-Timing) vs the same "
-            "loop", n / median_of(rounds, compute), n / loop_seconds, "states/s", "info")
+        row(
+            f"contact-dynamics batch of {n} (Talos, 2 soles 6d) via client vs in-process "
+            "Python loop over constraintDynamics",
+            n / median_of(rounds, served),
+            n / loop_seconds,
+            "states/s",
+            "info",
+        )
+        row(
+            f"contact-dynamics batch of {n}: the service's compute (Server-Timing) vs the same "
+            "loop",
+            n / median_of(rounds, compute),
+            n / loop_seconds,
+            "states/s",
+            "info",
+        )
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="shorter runs")
     parser.add_argument("--only", default="12345678", help="which comparisons, e.g. 13")
     opts = parser.parse_args()
@@ -365,13 +458,22 @@ def main() -> None:
     seconds, rounds = (2, 3) if opts.quick else (5, 5)
     # The JSON reference row of comparison 2 sends 10,000 Talos states as JSON (~23 MB), over
     # the default ROBODYN_MAX_JSON_BODY_BYTES: admitted here so the row stays comparable.
-    env = {"ROBODYN_CATALOG": "ur5,talos,xarm7", "ROBODYN_DATA_DIR": tempfile.mkdtemp(),
-           "ROBODYN_LOG_LEVEL": "warning", "ROBODYN_MAX_JSON_BODY_BYTES": str(64 << 20)}
+    env = {
+        "ROBODYN_CATALOG": "ur5,talos,xarm7",
+        "ROBODYN_DATA_DIR": tempfile.mkdtemp(),
+        "ROBODYN_LOG_LEVEL": "warning",
+        "ROBODYN_MAX_JSON_BODY_BYTES": str(64 << 20),
+    }
     sys.path.insert(0, str(ROOT))
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, "
-          f"{platform.python_implementation()} {platform.python_version()}", flush=True)
-    with server(["-m", "service"], env) as url, \
-            server(["-m", "uvicorn", "bench.naive_app:app", "--log-level", "warning"]) as naive:
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores, "
+        f"{platform.python_implementation()} {platform.python_version()}",
+        flush=True,
+    )
+    with (
+        server(["-m", "service"], env) as url,
+        server(["-m", "uvicorn", "bench.naive_app:app", "--log-level", "warning"]) as naive,
+    ):
         if "1" in opts.only:
             single_state(url, naive, seconds, rounds)
         if "2" in opts.only:

@@ -46,8 +46,12 @@ def ur5_waypoints() -> np.ndarray:
     return np.random.default_rng(2).uniform(-2.0, 2.0, size=(6, 6))
 
 
-def check(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]], float],
-          row: Callable[..., None]) -> None:
+def check(
+    url: str,
+    rounds: int,
+    median_of: Callable[[int, Callable[[], float]], float],
+    row: Callable[..., None],
+) -> None:
     import pinocchio as pin
     import robodyn
 
@@ -63,23 +67,32 @@ def check(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]],
             out[i] = pin.rnea(model, data, motion["q"][i], motion["v"][i], motion["a"][i])
         return time.perf_counter() - start
 
-    variants = {"with v and a": {"v": motion["v"], "a": motion["a"]},
-                "spline, 4 points per interval": {}}
+    variants = {
+        "with v and a": {"v": motion["v"], "a": motion["a"]},
+        "spline, 4 points per interval": {},
+    }
     with robodyn.Client(url, timeout=300) as client:
+
         def served(arrays: dict[str, Any]) -> Callable[[], float]:
             def once() -> float:
                 start = time.perf_counter()
                 client.trajectory_check(ARM, motion["t"], motion["q"], **arrays)
                 return time.perf_counter() - start
+
             return once
 
         base = SAMPLES / median_of(rounds, loop)
         for what, arrays in variants.items():
             served(arrays)()  # warm-up: the robot's model pool, the first batch
             target = "≥ 0.8" if what == "with v and a" else "info"
-            row(f"trajectory-check of {SAMPLES:,} xArm7 samples ({what}) via client vs "
-                "in-process loop over pin.rnea", SAMPLES / median_of(rounds, served(arrays)),
-                base, "states/s", target)
+            row(
+                f"trajectory-check of {SAMPLES:,} xArm7 samples ({what}) via client vs "
+                "in-process loop over pin.rnea",
+                SAMPLES / median_of(rounds, served(arrays)),
+                base,
+                "states/s",
+                target,
+            )
 
 
 def plain_toppra(model: Any, waypoints: np.ndarray) -> float:
@@ -90,25 +103,32 @@ def plain_toppra(model: Any, waypoints: np.ndarray) -> float:
     import toppra.constraint
 
     data = model.createData()
-    knots = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0),
-                                                            axis=1))])
+    knots = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))])
     path = toppra.SplineInterpolator(knots, waypoints, bc_type="clamped")
     effort = model.effortLimit
     constraints = [
         toppra.constraint.JointVelocityConstraint(model.velocityLimit),
         toppra.constraint.JointTorqueConstraint(
-            lambda q, v, a: pin.rnea(model, data, q, v, a), np.stack([-effort, effort], 1),
+            lambda q, v, a: pin.rnea(model, data, q, v, a),
+            np.stack([-effort, effort], 1),
             np.zeros(model.nv),
-            discretization_scheme=toppra.constraint.DiscretizationType.Interpolation)]
-    trajectory = toppra.algorithm.TOPPRA(constraints, path, solver_wrapper="seidel"
-                                         ).compute_trajectory(0, 0)
+            discretization_scheme=toppra.constraint.DiscretizationType.Interpolation,
+        ),
+    ]
+    trajectory = toppra.algorithm.TOPPRA(
+        constraints, path, solver_wrapper="seidel"
+    ).compute_trajectory(0, 0)
     t = np.arange(0.0, trajectory.duration, 0.01)
     trajectory(t), trajectory(t, 1), trajectory(t, 2)
     return float(trajectory.duration)
 
 
-def retime(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]], float],
-           row: Callable[..., None]) -> None:
+def retime(
+    url: str,
+    rounds: int,
+    median_of: Callable[[int, Callable[[], float]], float],
+    row: Callable[..., None],
+) -> None:
     import httpx
 
     print("8b. retime (UR5, 6 waypoints)", flush=True)
@@ -121,15 +141,20 @@ def retime(url: str, rounds: int, median_of: Callable[[int, Callable[[], float]]
         return time.perf_counter() - start
 
     with httpx.Client(base_url=url, timeout=300) as client:
+
         def served() -> float:
             start = time.perf_counter()
-            response = client.post("/v1/robots/ur5/retime",
-                                   json={"waypoints": waypoints.tolist()})
+            response = client.post("/v1/robots/ur5/retime", json={"waypoints": waypoints.tolist()})
             response.raise_for_status()
             return time.perf_counter() - start
 
         served(), baseline()  # warm-up of both sides (imports, the model pool)
 
-        row("retime of a 6-waypoint UR5 path (with the correction and check) vs plain toppra "
-            "in-process", 1e3 * median_of(rounds, served), 1e3 * median_of(rounds, baseline),
-            "ms", "≤ 2")
+        row(
+            "retime of a 6-waypoint UR5 path (with the correction and check) vs plain toppra "
+            "in-process",
+            1e3 * median_of(rounds, served),
+            1e3 * median_of(rounds, baseline),
+            "ms",
+            "≤ 2",
+        )

@@ -11,7 +11,8 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 # The CPUs this process may use, noted before libgomp can bind the thread that loads it (the
 # server binds its OpenMP teams: see `python -m service`, service/__main__.py).
 CPUS: frozenset[int] = frozenset(
-    os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else range(os.cpu_count() or 1))
+    os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else range(os.cpu_count() or 1)
+)
 
 
 def unpin_this_thread() -> None:

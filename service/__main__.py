@@ -16,8 +16,9 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m service", description=__doc__)
     parser.add_argument("--host", default=settings.host, help="interface (ROBODYN_HOST)")
     parser.add_argument("--port", type=int, default=settings.port, help="port (ROBODYN_PORT)")
-    parser.add_argument("--workers", type=int, default=settings.workers,
-                        help="server processes (ROBODYN_WORKERS)")
+    parser.add_argument(
+        "--workers", type=int, default=settings.workers, help="server processes (ROBODYN_WORKERS)"
+    )
     args = parser.parse_args(argv)
     # Passive OpenMP threads are woken for each chunk of a batch, and the scheduler came to put
     # the woken worker on its master's core: both shared one core and batches took twice as
@@ -38,11 +39,19 @@ def main(argv: list[str] | None = None) -> None:
     # protocol is uvicorn's httptools one with read timeouts, a connection cap and each answer
     # sent in one system call (service/server/protocol.py; its limits are read from the
     # ROBODYN_* settings).
-    uvicorn.run("service.main:app_from_environment", factory=True, host=args.host,
-                port=args.port, workers=args.workers, log_level=settings.log_level.lower(),
-                log_config=None, access_log=False, timeout_graceful_shutdown=30,
-                timeout_keep_alive=settings.keep_alive_timeout_s,  # type: ignore[arg-type]
-                http="service.server.protocol:HardenedHttpToolsProtocol")
+    uvicorn.run(
+        "service.main:app_from_environment",
+        factory=True,
+        host=args.host,
+        port=args.port,
+        workers=args.workers,
+        log_level=settings.log_level.lower(),
+        log_config=None,
+        access_log=False,
+        timeout_graceful_shutdown=30,
+        timeout_keep_alive=settings.keep_alive_timeout_s,  # type: ignore[arg-type]
+        http="service.server.protocol:HardenedHttpToolsProtocol",
+    )
 
 
 if __name__ == "__main__":

@@ -39,7 +39,7 @@ _SUGGESTED_NAME_CHARS = 64  # a name longer than this (or unprintable) gets no s
 
 
 def did_you_mean(name: str, valid: Iterable[str], most: int = 3) -> str:
-    """" (did you mean 'tool0'?)" when `valid` has names close to the unknown `name` (by
+    """ " (did you mean 'tool0'?)" when `valid` has names close to the unknown `name` (by
     difflib's similarity ratio ≥ 0.6, best first, at most `most`), else "". Meant to follow the
     quoted unknown name in an error's detail."""
     if not name or len(name) > _SUGGESTED_NAME_CHARS or not name.isprintable():
@@ -52,15 +52,22 @@ def did_you_mean(name: str, valid: Iterable[str], most: int = 3) -> str:
     return f" (did you mean {shown}?)"
 
 
-def problem_document(code: str, title: str, status: int, detail: str, **extra: Any
-                     ) -> dict[str, Any]:
+def problem_document(
+    code: str, title: str, status: int, detail: str, **extra: Any
+) -> dict[str, Any]:
     """The RFC 9457 problem details object of an error answer, with its stable `code` (and
     `extra` members, e.g. `errors` or `largest_batch`). A `detail` longer than
     `MAX_DETAIL_CHARS` is cut (its names are shortened where it is written; this is the net)."""
     if len(detail) > MAX_DETAIL_CHARS:
         detail = detail[:MAX_DETAIL_CHARS] + "…"
-    return {"type": "about:blank", "title": title, "status": status, "detail": detail,
-            "code": code, **extra}
+    return {
+        "type": "about:blank",
+        "title": title,
+        "status": status,
+        "detail": detail,
+        "code": code,
+        **extra,
+    }
 
 
 class RobodynError(Exception):

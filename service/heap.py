@@ -40,6 +40,10 @@ def retain_freed_memory(retain_mb: int) -> bool:
         return False
     mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
     mb = 1024 * 1024
-    return all([mallopt(_M_MMAP_THRESHOLD, min(retain_mb, MMAP_THRESHOLD_MAX_MB) * mb),
-                mallopt(_M_TRIM_THRESHOLD, retain_mb * mb),
-                mallopt(_M_TOP_PAD, min(retain_mb, TOP_PAD_MB) * mb)])
+    return all(
+        [
+            mallopt(_M_MMAP_THRESHOLD, min(retain_mb, MMAP_THRESHOLD_MAX_MB) * mb),
+            mallopt(_M_TRIM_THRESHOLD, retain_mb * mb),
+            mallopt(_M_TOP_PAD, min(retain_mb, TOP_PAD_MB) * mb),
+        ]
+    )

@@ -41,9 +41,12 @@ class JSONFormatter(logging.Formatter):
     """Formats a record as one line of JSON (orjson), merging `record.fields` when present."""
 
     def format(self, record: logging.LogRecord) -> str:
-        out: dict[str, Any] = {"ts": utc_timestamp(record.created),
-                               "level": record.levelname.lower(), "logger": record.name,
-                               "message": record.getMessage()}
+        out: dict[str, Any] = {
+            "ts": utc_timestamp(record.created),
+            "level": record.levelname.lower(),
+            "logger": record.name,
+            "message": record.getMessage(),
+        }
         fields = getattr(record, "fields", None)
         if fields:
             out.update(fields)
@@ -63,14 +66,22 @@ class JSONLineHandler(logging.StreamHandler):  # type: ignore[type-arg]
     logged with `extra={"fields": fields}`, without building a LogRecord (a third of the cost)."""
 
     def write_fields(self, level: str, logger: str, message: str, fields: dict[str, Any]) -> None:
-        line = orjson.dumps({"ts": utc_timestamp(time.time()), "level": level, "logger": logger,
-                             "message": message, **fields}, default=str).decode()
+        line = orjson.dumps(
+            {
+                "ts": utc_timestamp(time.time()),
+                "level": level,
+                "logger": logger,
+                "message": message,
+                **fields,
+            },
+            default=str,
+        ).decode()
         with self.lock:  # type: ignore[union-attr]  # created by Handler.__init__
             try:
                 self.stream.write(line + "\n")
                 self.stream.flush()
             except (OSError, ValueError):  # a closed or broken stream loses the line, as
-                pass                        # Handler.handleError does by default
+                pass  # Handler.handleError does by default
 
 
 def sole_json_handler(logger: logging.Logger) -> JSONLineHandler | None:
@@ -149,8 +160,9 @@ def capture_native_stderr() -> None:
     for handler in root.handlers:
         if isinstance(handler, JSONLineHandler):
             handler.setStream(stream)
-    threading.Thread(target=_forward_native_lines, args=(read_end, stream),
-                     name="native-stderr", daemon=True).start()
+    threading.Thread(
+        target=_forward_native_lines, args=(read_end, stream), name="native-stderr", daemon=True
+    ).start()
     _capturing = True
 
 

@@ -46,13 +46,16 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     injected = registry is not None
     data_pool.BUDGET.limit_bytes = settings.data_pool_mb * 1024 * 1024
     heap.retain_freed_memory(settings.heap_retain_mb)  # process-wide, like the Data budget
-    registry = registry or Registry(settings.data_dir, settings.catalog_names(),
-                                    settings.build_timeout_s,
-                                    limits=Limits(**settings.model_limits()),
-                                    build_limits=settings.build_limits(),
-                                    build_slots=BuildSlots(
-                                        build_slot_count(settings.max_concurrent_builds),
-                                        settings.build_queue_timeout_s))
+    registry = registry or Registry(
+        settings.data_dir,
+        settings.catalog_names(),
+        settings.build_timeout_s,
+        limits=Limits(**settings.model_limits()),
+        build_limits=settings.build_limits(),
+        build_slots=BuildSlots(
+            build_slot_count(settings.max_concurrent_builds), settings.build_queue_timeout_s
+        ),
+    )
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -77,9 +80,16 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         options["telemetry"] = {"tracing": False, "metrics": False, "logs": False}
     # /docs is served by service.api.routes.pages from local assets (FastAPI's default loads a CDN);
     # ReDoc is off, as its page would load its script and fonts from the internet.
-    app = FastAPI(title="robodyn", version=__version__, description=DESCRIPTION,
-                  lifespan=lifespan, docs_url=None, redoc_url=None,
-                  generate_unique_id_function=operation_id, **options)
+    app = FastAPI(
+        title="robodyn",
+        version=__version__,
+        description=DESCRIPTION,
+        lifespan=lifespan,
+        docs_url=None,
+        redoc_url=None,
+        generate_unique_id_function=operation_id,
+        **options,
+    )
     app.state.settings = settings
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
@@ -88,9 +98,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     # Each robot's equations in explicit form, derived once in a child process (sharing the
     # builders' slots: both are CPU-bound child processes) and kept in memory and on disk.
     app.state.equations = EquationsCache(
-        settings.data_dir, settings.equations_timeout_s, registry.build_slots,
+        settings.data_dir,
+        settings.equations_timeout_s,
+        registry.build_slots,
         max_bytes=settings.equations_cache_mb * 1024 * 1024,
-        memory_mb=settings.equations_memory_mb)
+        memory_mb=settings.equations_memory_mb,
+    )
     app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     install_problem_handlers(app)
@@ -108,17 +121,20 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.include_router(equations.router, dependencies=private)
     app.include_router(identification.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.
-    app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes(),
-                              *identification.routes()]
+    app.router.routes[0:0] = [*dynamics_routes.routes(), *stream.routes(), *identification.routes()]
     app.include_router(pages.router)
     app.add_middleware(DynamicsFastPath)  # innermost: after the body limit and observability
     app.add_middleware(HeadAsGet)  # HEAD on every GET route
     app.add_middleware(KeyBeforeBody)  # 401 before a body is read
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
-                       upload_limit=settings.max_upload_bytes,
-                       json_limit=settings.max_json_body_bytes)
-    app.add_middleware(ObservabilityMiddleware, metrics=app.state.metrics,
-                       catalog_ids=lambda: registry.catalog)  # outermost: sees every answer
+    app.add_middleware(
+        BodyLimitMiddleware,
+        limit=settings.max_body_bytes,
+        upload_limit=settings.max_upload_bytes,
+        json_limit=settings.max_json_body_bytes,
+    )
+    app.add_middleware(
+        ObservabilityMiddleware, metrics=app.state.metrics, catalog_ids=lambda: registry.catalog
+    )  # outermost: sees every answer
     return app
 
 

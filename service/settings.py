@@ -39,46 +39,74 @@ class Settings(BaseSettings):
         64 * 1024 * 1024, ge=1024, description="Largest request body accepted, in bytes."
     )
     max_json_body_bytes: int = Field(
-        16 * 1024 * 1024, ge=1024, description="Largest JSON request body other than an upload, "
+        16 * 1024 * 1024,
+        ge=1024,
+        description="Largest JSON request body other than an upload, "
         "in bytes: parsing JSON numbers holds the event loop (about 80 ms for 16 MiB), so "
-        "larger batches are sent in the binary form (up to max_body_bytes).")
+        "larger batches are sent in the binary form (up to max_body_bytes).",
+    )
     max_batch: int = Field(100_000, ge=1, description="Largest batch (states per request).")
     max_pending_batches: int = Field(
-        16, ge=1, description="Large batches computed or queued at once per process; more are "
-        "answered 503 overloaded with Retry-After.")
+        16,
+        ge=1,
+        description="Large batches computed or queued at once per process; more are "
+        "answered 503 overloaded with Retry-After.",
+    )
     max_simulation_steps: int = Field(
-        100_000, ge=1, description="Largest number of steps of one simulate request, summed "
-        "over the initial states of a batch (this bounds the answer's size).")
+        100_000,
+        ge=1,
+        description="Largest number of steps of one simulate request, summed "
+        "over the initial states of a batch (this bounds the answer's size).",
+    )
     max_simulation_work: int = Field(
-        20_000_000, ge=1, description="Largest work of one simulate request: states × steps × "
-        "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1–2 µs each.")
+        20_000_000,
+        ge=1,
+        description="Largest work of one simulate request: states × steps × "
+        "nv × stages (1 for semi-implicit Euler, 4 for RK4); about 1–2 µs each.",
+    )
     max_work: int = Field(
-        25_000_000, ge=1, description="Largest estimated work of one contact request "
+        25_000_000,
+        ge=1,
+        description="Largest estimated work of one contact request "
         "(contact-dynamics, contact-inverse-dynamics, impulse-dynamics, simulate with "
         "contacts), in units of about 0.3–0.4 µs on one core: states (× steps × stages) × "
         "the work of one constrained evaluation, which grows with the contacts (m³ for m "
         "constraint rows) and, with damping, the worst case of its iterations. The default "
-        "admits about 10 s of computing on one core.")
+        "admits about 10 s of computing on one core.",
+    )
     request_deadline_s: float = Field(
-        60.0, gt=0, description="Longest time a dynamics request computed off the event loop "
+        60.0,
+        gt=0,
+        description="Longest time a dynamics request computed off the event loop "
         "(a large batch, a simulation, a contact batch) may compute, in seconds from the "
         "start of its computation; past it the computation stops between chunks or steps and "
-        "the answer is 503 overloaded (it also stops at once when the client disconnects).")
+        "the answer is 503 overloaded (it also stops at once when the client disconnects).",
+    )
     max_answer_bytes_in_flight: int = Field(
-        1024 * 1024 * 1024, ge=1024, description="Largest total of the large HTTP answers (1 "
+        1024 * 1024 * 1024,
+        ge=1024,
+        description="Largest total of the large HTTP answers (1 "
         "MiB or more, by their size estimate, then their encoded size) held by one process "
         "from admission until their clients have read them, in bytes; a request whose answer "
         "would pass it is answered 503 overloaded with Retry-After before computing (one "
-        "answer alone always passes). It bounds the memory held for clients that do not read.")
+        "answer alone always passes). It bounds the memory held for clients that do not read.",
+    )
     data_pool_mb: int = Field(
-        1024, ge=0, description="Memory kept for idle Pinocchio Data between computations, "
+        1024,
+        ge=0,
+        description="Memory kept for idle Pinocchio Data between computations, "
         "over all robots, in MB (a Data takes about 80·nv³ bytes; the whole catalog needs "
-        "about 220 MB). Beyond it, the least recently used robots create theirs anew.")
+        "about 220 MB). Beyond it, the least recently used robots create theirs anew.",
+    )
     heap_retain_mb: int = Field(
-        64, ge=0, le=4096, description="Freed memory each process keeps in its C heap for the "
+        64,
+        ge=0,
+        le=4096,
+        description="Freed memory each process keeps in its C heap for the "
         "next large request, in MB (glibc only): large batches then skip re-faulting fresh "
         "pages (10,000 Talos states about 10% faster end to end). 0 keeps the C library's "
-        "defaults (memory handed back sooner).")
+        "defaults (memory handed back sooner).",
+    )
     build_timeout_s: float = Field(
         30.0, gt=0, description="Wall-clock limit for building an uploaded model, in seconds."
     )
@@ -86,97 +114,150 @@ class Settings(BaseSettings):
 
     # -- hardening: API keys for reads and compute, upload limits (docs/security.md) --
     api_keys_scope: Literal["writes", "all"] = Field(
-        "writes", description="With API keys set: `writes` guards uploads, reductions and "
+        "writes",
+        description="With API keys set: `writes` guards uploads, reductions and "
         "deletions; `all` guards every /v1 route (reads and compute too). Health, metrics and "
-        "docs stay open.")
+        "docs stay open.",
+    )
     max_upload_bytes: int = Field(
-        64 * 1024 * 1024, ge=1024, description="Largest body of POST /v1/robots, in bytes, "
+        64 * 1024 * 1024,
+        ge=1024,
+        description="Largest body of POST /v1/robots, in bytes, "
         "assets (base64) included: 64 MiB admits a robot arm with its meshes (the largest "
-        "catalog URDF is 211 kB).")
+        "catalog URDF is 211 kB).",
+    )
     max_links: int = Field(1000, ge=1, description="Most <link> elements in an uploaded model.")
     max_nv: int = Field(
-        128, ge=1, description="Largest nv (velocity coordinates, root joint included) of an "
-        "uploaded model; a Pinocchio Data takes about 80·nv³ bytes.")
+        128,
+        ge=1,
+        description="Largest nv (velocity coordinates, root joint included) of an "
+        "uploaded model; a Pinocchio Data takes about 80·nv³ bytes.",
+    )
     max_depth: int = Field(128, ge=1, description="Deepest kinematic chain, in links.")
     max_xml_elements: int = Field(50_000, ge=10, description="Most XML elements in an upload.")
     max_xml_depth: int = Field(32, ge=4, description="Deepest XML element nesting.")
     max_name_length: int = Field(
-        256, ge=16, le=256, description="Longest name in an uploaded description, in "
+        256,
+        ge=16,
+        le=256,
+        description="Longest name in an uploaded description, in "
         "characters: <robot name>, link, joint, frame, MJCF body/joint/site names and <mujoco "
         "model> (names are echoed in answers). At most 256, the longest frame or joint name a "
-        "request may give.")
+        "request may give.",
+    )
     build_memory_mb: int = Field(
-        1024, ge=256, description="Address-space limit of the process that builds an upload, "
-        "in MB.")
+        1024, ge=256, description="Address-space limit of the process that builds an upload, in MB."
+    )
     build_cpu_s: int = Field(
-        20, ge=1, description="CPU-time limit of the process that builds an upload, in seconds.")
+        20, ge=1, description="CPU-time limit of the process that builds an upload, in seconds."
+    )
     max_concurrent_builds: int = Field(
-        0, ge=0, description="Uploads validated and built at once per server process (each in "
+        0,
+        ge=0,
+        description="Uploads validated and built at once per server process (each in "
         "its own builder process); 0 means the CPU count, and more than the CPU count is "
-        "capped to it. Further uploads wait for a free builder (see build_queue_timeout_s).")
+        "capped to it. Further uploads wait for a free builder (see build_queue_timeout_s).",
+    )
     build_queue_timeout_s: float = Field(
-        30.0, gt=0, description="How long an upload may wait for a free builder, in seconds; "
+        30.0,
+        gt=0,
+        description="How long an upload may wait for a free builder, in seconds; "
         "beyond it (or with more than 4 uploads per builder waiting) the answer is 503 "
-        "overloaded with Retry-After. The build timeout starts when the build does.")
+        "overloaded with Retry-After. The build timeout starts when the build does.",
+    )
     equations_timeout_s: float = Field(
-        60.0, gt=0, description="Time limit of deriving one robot's equations of motion in "
+        60.0,
+        gt=0,
+        description="Time limit of deriving one robot's equations of motion in "
         "explicit form (GET /v1/robots/{id}/equations), in seconds of wall clock and of CPU "
         "time, in a child process; past it the answer is 422 unsupported_model. A UR5 takes "
-        "about 0.3 s.")
+        "about 0.3 s.",
+    )
     equations_memory_mb: int = Field(
-        2048, ge=256, description="Address-space limit of the process deriving a robot's "
-        "equations, in MB.")
+        2048,
+        ge=256,
+        description="Address-space limit of the process deriving a robot's equations, in MB.",
+    )
     equations_cache_mb: int = Field(
-        256, ge=1, description="Memory kept for derived equations (JSON answers), per server "
+        256,
+        ge=1,
+        description="Memory kept for derived equations (JSON answers), per server "
         "process, in MB; the least recently used are dropped beyond it (stored models keep "
-        "theirs on disk in the data directory).")
+        "theirs on disk in the data directory).",
+    )
 
     # -- identification (service/dynamics/identification/worker.py; docs/identification.md) --
     identify_timeout_s: float = Field(
-        120.0, gt=0, description="Wall-clock limit of one identification in its worker process, "
+        120.0,
+        gt=0,
+        description="Wall-clock limit of one identification in its worker process, "
         "in seconds; beyond it the fit is stopped (422, or 503 overloaded when the machine "
-        "starved it).")
+        "starved it).",
+    )
     identify_memory_mb: int = Field(
-        4096, ge=1024, description="Address-space limit of the identification worker process, "
-        "in MB.")
+        4096,
+        ge=1024,
+        description="Address-space limit of the identification worker process, in MB.",
+    )
     max_identify_samples: int = Field(
-        200_000, ge=100, description="Most samples in one identification log.")
+        200_000, ge=100, description="Most samples in one identification log."
+    )
 
     # -- connections and answers (service/server/protocol.py; see docs/security.md) --
     max_answer_bytes: int = Field(
-        256 * 1024 * 1024, ge=1024, description="Largest answer of a dynamics request, in "
+        256 * 1024 * 1024,
+        ge=1024,
+        description="Largest answer of a dynamics request, in "
         "bytes, estimated before computing from the answer's shape (25 bytes a number in "
         "JSON, 8 in the binary form); larger ones are answered 413 payload_too_large naming "
-        "the batch size that fits.")
+        "the batch size that fits.",
+    )
     header_timeout_s: float = Field(
-        10.0, gt=0, description="Time a client has to send a request's line and headers, from "
-        "its first byte (or from connecting), in seconds; then the connection is closed.")
+        10.0,
+        gt=0,
+        description="Time a client has to send a request's line and headers, from "
+        "its first byte (or from connecting), in seconds; then the connection is closed.",
+    )
     body_timeout_s: float = Field(
-        30.0, gt=0, description="Longest pause between two reads of a request body, in "
-        "seconds; then the connection is closed.")
+        30.0,
+        gt=0,
+        description="Longest pause between two reads of a request body, in "
+        "seconds; then the connection is closed.",
+    )
     send_timeout_s: float = Field(
-        60.0, gt=0, description="Longest time a client may leave its answer unread (the "
-        "server's send buffer full), in seconds; then the connection is dropped.")
+        60.0,
+        gt=0,
+        description="Longest time a client may leave its answer unread (the "
+        "server's send buffer full), in seconds; then the connection is dropped.",
+    )
     keep_alive_timeout_s: float = Field(
-        5.0, gt=0, description="How long an idle kept-alive connection stays open, in seconds.")
+        5.0, gt=0, description="How long an idle kept-alive connection stays open, in seconds."
+    )
     max_connections: int = Field(
-        1024, ge=1, description="Open connections per process (at most the process's "
+        1024,
+        ge=1,
+        description="Open connections per process (at most the process's "
         "file-descriptor limit less 64); beyond, a new connection evicts the one idle "
-        "longest, or is answered 503 overloaded when all are busy.")
+        "longest, or is answered 503 overloaded when all are busy.",
+    )
 
     def api_key_list(self) -> list[str]:
         return [k.strip() for k in self.api_keys.split(",") if k.strip()]
 
     def model_limits(self) -> dict[str, int]:
         """The caps of upload validation: keyword arguments of `urdf_check.Limits`."""
-        return {"max_links": self.max_links, "max_nv": self.max_nv,
-                "max_depth": self.max_depth, "max_elements": self.max_xml_elements,
-                "max_xml_depth": self.max_xml_depth, "max_name_length": self.max_name_length}
+        return {
+            "max_links": self.max_links,
+            "max_nv": self.max_nv,
+            "max_depth": self.max_depth,
+            "max_elements": self.max_xml_elements,
+            "max_xml_depth": self.max_xml_depth,
+            "max_name_length": self.max_name_length,
+        }
 
     def build_limits(self) -> dict[str, int]:
         """Keyword arguments of `build_isolated` besides the timeout."""
-        return {"memory_mb": self.build_memory_mb, "cpu_s": self.build_cpu_s,
-                "max_nv": self.max_nv}
+        return {"memory_mb": self.build_memory_mb, "cpu_s": self.build_cpu_s, "max_nv": self.max_nv}
 
     def catalog_names(self) -> list[str] | None:
         names = [n.strip() for n in self.catalog.split(",") if n.strip()]

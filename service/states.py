@@ -25,8 +25,12 @@ UNIT_NORM_TOL = 1e-6  # |‖quaternion‖ − 1| and |‖(cos, sin)‖ − 1| al
 SPACES = {"q": "nq", "v": "nv", "a": "nv", "tau": "nv", "waypoints": "nq"}
 
 _WXYZ = "quaternion (w, x, y, z)"  # a MuJoCo-qpos robot's (MJCF): `Robot.mujoco_qpos`
-_UNIT_KIND = {"free_flyer": "quaternion (x, y, z, w)", "spherical": "quaternion (x, y, z, w)",
-              "planar": "(cos θ, sin θ)", "continuous": "(cos θ, sin θ)"}
+_UNIT_KIND = {
+    "free_flyer": "quaternion (x, y, z, w)",
+    "spherical": "quaternion (x, y, z, w)",
+    "planar": "(cos θ, sin θ)",
+    "continuous": "(cos θ, sin θ)",
+}
 
 
 @dataclass(frozen=True)
@@ -53,8 +57,9 @@ class States:
 
 _SMALL = 4096
 # A NaN from all_finite's dot product is its answer, not a mishap worth a warning.
-warnings.filterwarnings("ignore", "invalid value encountered in dot", RuntimeWarning,
-                        module=__name__)
+warnings.filterwarnings(
+    "ignore", "invalid value encountered in dot", RuntimeWarning, module=__name__
+)
 _ZEROS = np.zeros(_SMALL)
 _ZEROS.flags.writeable = False
 
@@ -67,20 +72,20 @@ def all_finite(values: np.ndarray) -> bool:
     one call of about 0.5 µs instead of `np.isfinite(values).all()`'s 1.8 µs."""
     if values.size <= _SMALL:
         flat = values.reshape(-1)
-        return math.isfinite(flat.dot(_ZEROS[:flat.size]))
+        return math.isfinite(flat.dot(_ZEROS[: flat.size]))
     return bool(np.isfinite(values).all())
 
 
-def as_array(name: str, value: Any, what: str = "(one state) or 2-D (a batch)"
-             ) -> np.ndarray:
+def as_array(name: str, value: Any, what: str = "(one state) or 2-D (a batch)") -> np.ndarray:
     """`value` as a finite float64 array of 1 or 2 dimensions (`what` says what each means),
     or `InvalidInput` naming `name`: ragged lists, non-numbers, other ranks and NaN/inf are
     refused here, before any computation sees them."""
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (ValueError, TypeError):
-        raise InvalidInput(f"{name} must be an array of numbers or an array of equal-length "
-                           "arrays of numbers") from None
+        raise InvalidInput(
+            f"{name} must be an array of numbers or an array of equal-length arrays of numbers"
+        ) from None
     if arr.ndim not in (1, 2):
         raise InvalidInput(f"{name} must be 1-D {what}, not {arr.ndim}-D")
     if not all_finite(arr):
@@ -94,22 +99,25 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
     ndims = {arr.ndim for arr in arrays.values()}
     if len(ndims) > 1:
         shapes = ", ".join(f"{n} is {a.ndim}-D" for n, a in arrays.items())
-        raise DimensionMismatch(f"inputs mix single states and batches ({shapes}); "
-                                "give all as 1-D or all as 2-D arrays")
+        raise DimensionMismatch(
+            f"inputs mix single states and batches ({shapes}); give all as 1-D or all as 2-D arrays"
+        )
     batched = ndims == {2}
     if batched:
         sizes = {n: a.shape[0] for n, a in arrays.items()}
         if len(set(sizes.values())) > 1:
             shown = ", ".join(f"{n} has {s}" for n, s in sizes.items())
-            raise DimensionMismatch(f"batch sizes differ ({shown} states); "
-                                    "every input needs the same number of states")
+            raise DimensionMismatch(
+                f"batch sizes differ ({shown} states); every input needs the same number of states"
+            )
         count = next(iter(sizes.values()))
         if count == 0:
             raise DimensionMismatch("the batch is empty; send at least one state")
         if count > max_batch:
             first = next(iter(sizes))
-            raise DimensionMismatch(f"{first} has {count} rows (states); the limit is "
-                                    f"{max_batch} (ROBODYN_MAX_BATCH)")
+            raise DimensionMismatch(
+                f"{first} has {count} rows (states); the limit is {max_batch} (ROBODYN_MAX_BATCH)"
+            )
     else:
         arrays = {n: a[np.newaxis, :] for n, a in arrays.items()}
     for name, arr in arrays.items():
@@ -117,8 +125,9 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
         expected = getattr(robot, dim_name)
         if arr.shape[1] != expected:
             what = "each state of " + name if batched else name
-            raise DimensionMismatch(f"{what} has {arr.shape[1]} entries; robot '{robot.id}' "
-                                    f"has {dim_name} = {expected}")
+            raise DimensionMismatch(
+                f"{what} has {arr.shape[1]} entries; robot '{robot.id}' has {dim_name} = {expected}"
+            )
     if "q" in arrays:
         arrays["q"] = configurations(robot, arrays["q"])
     return States(arrays=arrays, batched=batched)
@@ -147,4 +156,5 @@ def check_configuration(robot: Robot, q: np.ndarray) -> None:
                 kind = _WXYZ
             raise InvalidConfiguration(
                 f"{where}q[{start}:{end}] is the {kind} of joint '{joint}' and must have unit "
-                f"norm; its norm is {norms[i]:.9g}")
+                f"norm; its norm is {norms[i]:.9g}"
+            )

@@ -23,8 +23,9 @@ def catalog_registry(tmp_path_factory: pytest.TempPathFactory) -> Registry:
 @pytest.fixture(scope="session")
 def api(catalog_registry: Registry) -> Iterator[TestClient]:
     """An HTTP client over the app with the full catalog (uploads go to a session store)."""
-    app = create_app(Settings(data_dir=catalog_registry.store.dir.parent),
-                     registry=catalog_registry)
+    app = create_app(
+        Settings(data_dir=catalog_registry.store.dir.parent), registry=catalog_registry
+    )
     with TestClient(app, raise_server_exceptions=False) as client:
         yield client
 
@@ -34,13 +35,13 @@ def small_app_factory(tmp_path: Path):
     """Build (settings, registry, TestClient) over a small catalog and a fresh store."""
     clients: list[TestClient] = []
 
-    def build(data_dir: Path | None = None, catalog: str = "ur5,planar_arm,talos",
-              **settings_kw) -> TestClient:
+    def build(
+        data_dir: Path | None = None, catalog: str = "ur5,planar_arm,talos", **settings_kw
+    ) -> TestClient:
         settings = Settings(data_dir=data_dir or tmp_path, catalog=catalog, **settings_kw)
         registry = Registry(settings.data_dir, settings.catalog_names(), settings.build_timeout_s)
         registry.load()
-        client = TestClient(create_app(settings, registry=registry),
-                            raise_server_exceptions=False)
+        client = TestClient(create_app(settings, registry=registry), raise_server_exceptions=False)
         clients.append(client)
         return client
 

@@ -30,17 +30,17 @@ def random_configuration(model, rng: np.random.Generator) -> np.ndarray:
             q[i] = rng.uniform(lo, hi)
         elif kind == "continuous":
             t = rng.uniform(-np.pi, np.pi)
-            q[i:i + 2] = np.cos(t), np.sin(t)
+            q[i : i + 2] = np.cos(t), np.sin(t)
         elif kind == "free_flyer":
-            q[i:i + 3] = rng.uniform(-1, 1, 3)
+            q[i : i + 3] = rng.uniform(-1, 1, 3)
             quat = rng.normal(size=4)
-            q[i + 3:i + 7] = quat / np.linalg.norm(quat)
+            q[i + 3 : i + 7] = quat / np.linalg.norm(quat)
         elif kind == "planar":
             t = rng.uniform(-np.pi, np.pi)
-            q[i:i + 4] = *rng.uniform(-1, 1, 2), np.cos(t), np.sin(t)
+            q[i : i + 4] = *rng.uniform(-1, 1, 2), np.cos(t), np.sin(t)
         elif kind == "spherical":
             quat = rng.normal(size=4)
-            q[i:i + 4] = quat / np.linalg.norm(quat)
+            q[i : i + 4] = quat / np.linalg.norm(quat)
     return q
 
 
@@ -80,10 +80,12 @@ def planar_arm_closed_form(l1, l2, m1, m2, q, v, g0=9.81):
     """
     c1, c2, c12 = np.cos(q[0]), np.cos(q[1]), np.cos(q[0] + q[1])
     s2 = np.sin(q[1])
-    M = np.array([
-        [m1 * l1**2 + m2 * (l1**2 + 2 * l1 * l2 * c2 + l2**2), m2 * (l1 * l2 * c2 + l2**2)],
-        [m2 * (l1 * l2 * c2 + l2**2), m2 * l2**2],
-    ])
+    M = np.array(
+        [
+            [m1 * l1**2 + m2 * (l1**2 + 2 * l1 * l2 * c2 + l2**2), m2 * (l1 * l2 * c2 + l2**2)],
+            [m2 * (l1 * l2 * c2 + l2**2), m2 * l2**2],
+        ]
+    )
     h = -m2 * l1 * l2 * s2
     C = np.array([[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0]])
     g = np.array([(m1 + m2) * g0 * l1 * c1 + m2 * g0 * l2 * c12, m2 * g0 * l2 * c12])
@@ -126,7 +128,8 @@ def skewed_arm_urdf(joints: int, seed: int = 1) -> str:
             f'<link name="l{i}"><inertial><origin xyz="{c[0]} {c[1]} {c[2]}" '
             f'rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/><mass value="{rng.uniform(0.5, 3)}"/>'
             f'<inertia ixx="{ii[0]}" ixy="0.001" ixz="0" iyy="{ii[1]}" iyz="0.002" '
-            f'izz="{ii[2]}"/></inertial></link>')
+            f'izz="{ii[2]}"/></inertial></link>'
+        )
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         p, rpy = rng.uniform(-0.3, 0.3, 3), rng.uniform(-2, 2, 3)
@@ -134,5 +137,6 @@ def skewed_arm_urdf(joints: int, seed: int = 1) -> str:
             f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
             f'<origin xyz="{p[0]} {p[1]} {p[2]}" rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/>'
             f'<axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
-            f'<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>')
+            f'<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>'
+        )
     return f'<robot name="skewed">{"".join(links + chain)}</robot>'

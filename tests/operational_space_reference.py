@@ -13,8 +13,11 @@ import pinocchio as pin
 
 from tests.helpers import mass_matrix
 
-RF = {"world": pin.ReferenceFrame.WORLD, "local": pin.ReferenceFrame.LOCAL,
-      "local_world_aligned": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED}
+RF = {
+    "world": pin.ReferenceFrame.WORLD,
+    "local": pin.ReferenceFrame.LOCAL,
+    "local_world_aligned": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
+}
 ROWS = {"full": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}
 SINGULAR_RCOND = 1e-8  # the documented threshold (README, OpenAPI `damping`)
 
@@ -30,25 +33,40 @@ def singular_ratio(M: np.ndarray, J: np.ndarray) -> float:
     return float(sigma[0] / sigma[-1]) if sigma[-1] > 0 else 0.0
 
 
-def khatib_formulas(M: np.ndarray, J: np.ndarray, dJ: np.ndarray | None, C: np.ndarray | None,
-                    g: np.ndarray, v: np.ndarray | None, damping: float = 0.0
-                    ) -> dict[str, np.ndarray]:
+def khatib_formulas(
+    M: np.ndarray,
+    J: np.ndarray,
+    dJ: np.ndarray | None,
+    C: np.ndarray | None,
+    g: np.ndarray,
+    v: np.ndarray | None,
+    damping: float = 0.0,
+) -> dict[str, np.ndarray]:
     """Λ, J̄, p (and μ) straight from the formulas, with numpy, from M, J, J̇, C, g."""
     Minv = np.linalg.inv(M)
     A = J @ Minv @ J.T + damping**2 * np.eye(J.shape[0])
     Lambda = np.linalg.inv(A)
     Jbar = Minv @ J.T @ Lambda
-    out = {"inertia": Lambda, "jacobian": J, "dynamically_consistent_inverse": Jbar,
-           "gravity": Jbar.T @ g}
+    out = {
+        "inertia": Lambda,
+        "jacobian": J,
+        "dynamically_consistent_inverse": Jbar,
+        "gravity": Jbar.T @ g,
+    }
     if v is not None and C is not None and dJ is not None:
         out["coriolis"] = Jbar.T @ C @ v - Lambda @ dJ @ v
     return out
 
 
-def pinocchio_operational_space(model: Any, q: np.ndarray, v: np.ndarray | None, frame: str,
-                                reference_frame: str = "local_world_aligned",
-                                task: str = "full", damping: float = 0.0
-                                ) -> dict[str, np.ndarray]:
+def pinocchio_operational_space(
+    model: Any,
+    q: np.ndarray,
+    v: np.ndarray | None,
+    frame: str,
+    reference_frame: str = "local_world_aligned",
+    task: str = "full",
+    damping: float = 0.0,
+) -> dict[str, np.ndarray]:
     """The same quantities from in-process Pinocchio building blocks (CRBA, frame Jacobian and
     its time variation, Coriolis matrix, generalized gravity)."""
     data = model.createData()

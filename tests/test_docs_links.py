@@ -78,15 +78,27 @@ def test_the_readme_is_an_entry_page() -> None:
     readme = (ROOT / "README.md").read_text()
     assert len(readme.splitlines()) <= 320  # an entry page: one short section per job
     linked = {target.partition("#")[0] for target in LINK.findall(readme)}
-    for doc in ("http-api.md", "performance.md", "deployment.md", "architecture.md",
-                "security.md", "uploads.md", "explorer.md", "contacts.md", "binary-format.md",
-                "python-client.md"):
+    for doc in (
+        "http-api.md",
+        "performance.md",
+        "deployment.md",
+        "architecture.md",
+        "security.md",
+        "uploads.md",
+        "explorer.md",
+        "contacts.md",
+        "binary-format.md",
+        "python-client.md",
+    ):
         assert f"docs/{doc}" in linked, doc
 
 
 def test_the_readme_test_command_is_the_one_ci_runs() -> None:
     readme = (ROOT / "README.md").read_text()
     ci = (ROOT / ".ci" / "run").read_text()
-    command = next(line.strip() for line in ci.splitlines()
-                   if line.strip().endswith("-m pytest") and "pip install" in line)
+    command = next(
+        line.strip()
+        for line in ci.splitlines()
+        if line.strip().endswith("-m pytest") and "pip install" in line
+    )
     assert command in readme

@@ -31,8 +31,7 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
 
 
 def _run(args: list[str]) -> str:
-    done = subprocess.run(args, capture_output=True, text=True, timeout=120, cwd=ROOT,
-                          check=False)
+    done = subprocess.run(args, capture_output=True, text=True, timeout=120, cwd=ROOT, check=False)
     assert done.returncode == 0, f"{args[0]}:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
     return done.stdout
 
@@ -84,8 +83,9 @@ def test_the_curl_examples_run(server: str) -> None:
     commands = _curl_commands()
     assert len(commands) == 8
     host = server.removeprefix("http://")
-    answers = [json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)]))
-               for c in commands]
+    answers = [
+        json.loads(_run(["bash", "-c", c.replace("localhost:8000", host)])) for c in commands
+    ]
     assert len(answers[0]["mass_matrix"]) == 6
     check, retimed = answers[4], answers[5]  # a violation between samples; a timed path
     assert not check["feasible"] and len(check["violations"]) == 1
@@ -98,18 +98,24 @@ def test_the_curl_examples_run(server: str) -> None:
     assert standing["tau"][:6] == [0.0] * 6 and standing["residual"] < 1e-9
     readme = (ROOT / "README.md").read_text()
     shown = float(re.search(r'"residual": ([0-9.e+-]+)\}', readme).group(1))  # type: ignore[union-attr]
-    assert (shown == standing["residual"] == 0.0
-            or 1e-3 < shown / max(standing["residual"], 1e-300) < 1e3), (
-        shown, standing["residual"])  # the README shows what the server answers, roughly
+    assert (
+        shown == standing["residual"] == 0.0
+        or 1e-3 < shown / max(standing["residual"], 1e-300) < 1e3
+    ), (shown, standing["residual"])  # the README shows what the server answers, roughly
     mass = json.loads(_run(["curl", "-s", f"{server}/v1/robots/solo12"]))["total_mass"]
     assert abs(sum(standing["contact_forces"][2::3]) - mass * 9.81) < 1e-9 * mass * 9.81
     _check_payload_examples(server, answers[2], answers[3])
     equations = answers[6]  # the planar arm's M(q) as the README shows it
     assert equations["mass_matrix"]["expressions"] == [
-        ["2.1*cos(q2) + 4.235", "1.05*cos(q2) + 0.735"], ["1.05*cos(q2) + 0.735", "0.735"]]
+        ["2.1*cos(q2) + 4.235", "1.05*cos(q2) + 0.735"],
+        ["1.05*cos(q2) + 0.735", "0.735"],
+    ]
     assert equations["gravity"]["expressions"] == [
-        "34.335*cos(q1) + 10.3005*cos(q1 + q2)", "10.3005*cos(q1 + q2)"]
+        "34.335*cos(q1) + 10.3005*cos(q1 + q2)",
+        "10.3005*cos(q1 + q2)",
+    ]
     assert answers[7]["id"].startswith("u-") and answers[7]["name"] == "my arm"
+
 
 def _check_payload_examples(server: str, holding: dict, capacity: dict) -> None:
     """The UR5 holding 3 kg needs more shoulder and elbow torque than without it (about 3 kg ×
@@ -123,6 +129,8 @@ def _check_payload_examples(server: str, holding: dict, capacity: dict) -> None:
     assert per_kg[1] < -3.0 and per_kg[2] < -3.0  # N·m/kg: a lever of over 0.3 m
     assert capacity["limiting_joint"] == "shoulder_lift_joint" and capacity["tau"][1] == -150.0
     assert abs(capacity["mass"] - (-150.0 - bare[1]) / per_kg[1]) < 1e-9 * capacity["mass"]
-    at = httpx.post(f"{server}/v1/robots/ur5/gravity", json={
-        "q": q, "payloads": [{"frame": "tool0", "mass": capacity["mass"]}]}).json()["gravity"]
+    at = httpx.post(
+        f"{server}/v1/robots/ur5/gravity",
+        json={"q": q, "payloads": [{"frame": "tool0", "mass": capacity["mass"]}]},
+    ).json()["gravity"]
     assert abs(at[1] + 150.0) < 1e-9 and abs(at[2]) <= 150.0

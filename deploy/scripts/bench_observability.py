@@ -28,10 +28,19 @@ class _Route:
 
 async def _route(scope: dict[str, Any], receive: Any, send: Any) -> None:
     scope["route"], scope["path_params"] = _Route, {"robot_id": "ur5"}
-    scope["robodyn"] = {"robot": "ur5", "quantity": "gravity", "batch_size": 1,
-                        "compute_seconds": 1e-5}
-    await send({"type": "http.response.start", "status": 200,
-                "headers": [(b"content-type", b"application/json")]})
+    scope["robodyn"] = {
+        "robot": "ur5",
+        "quantity": "gravity",
+        "batch_size": 1,
+        "compute_seconds": 1e-5,
+    }
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 200,
+            "headers": [(b"content-type", b"application/json")],
+        }
+    )
     await send({"type": "http.response.body", "body": b"{}"})
 
 
@@ -46,8 +55,11 @@ async def _send(message: Any) -> None:
 async def _per_request(app: Any, n: int) -> float:
     started = time.perf_counter()
     for _ in range(n):
-        scope = {"type": "http", "method": "POST",
-                 "headers": [(b"host", b"x"), (b"content-type", b"application/json")]}
+        scope = {
+            "type": "http",
+            "method": "POST",
+            "headers": [(b"host", b"x"), (b"content-type", b"application/json")],
+        }
         await app(scope, _receive, _send)
     return (time.perf_counter() - started) / n * 1e6
 
@@ -67,10 +79,13 @@ async def _main(n: int, rounds: int) -> dict[str, float]:
             root.setLevel(logging.INFO)
             log_on.append(await _per_request(wrapped, n))
     bare, log_off, log_on = min(bare), min(log_off), min(log_on)  # type: ignore[assignment]
-    return {"bare_us": round(bare, 2), "middleware_log_off_us": round(log_off, 2),
-            "middleware_log_on_us": round(log_on, 2),
-            "added_log_off_us": round(log_off - bare, 2),
-            "added_log_on_us": round(log_on - bare, 2)}
+    return {
+        "bare_us": round(bare, 2),
+        "middleware_log_off_us": round(log_off, 2),
+        "middleware_log_on_us": round(log_on, 2),
+        "added_log_off_us": round(log_off - bare, 2),
+        "added_log_on_us": round(log_on - bare, 2),
+    }
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -72,9 +72,20 @@ def ensure_base_image() -> None:
 def build(tag: str) -> float:
     """`buildah bud` the Dockerfile (docker format, so HEALTHCHECK is kept); seconds taken."""
     started = time.monotonic()
-    cmd = ["buildah", "bud", "--format", "docker", "--layers", "--isolation", "chroot",
-           "--pull-never",
-           "--ulimit", "nofile=20000:20000", "-t", tag]
+    cmd = [
+        "buildah",
+        "bud",
+        "--format",
+        "docker",
+        "--layers",
+        "--isolation",
+        "chroot",
+        "--pull-never",
+        "--ulimit",
+        "nofile=20000:20000",
+        "-t",
+        tag,
+    ]
     certs = Path("/etc/ssl/certs/ca-certificates.crt")
     if certs.exists():  # lets pip in the build reach the package index through this machine
         cmd += ["-v", f"{certs}:{certs}:ro"]
@@ -87,13 +98,17 @@ def build(tag: str) -> float:
 def image_config(tag: str) -> dict[str, Any]:
     info = json.loads(sh("buildah", "inspect", "--type", "image", tag).stdout)
     config = info["Docker"]["config"]
-    return {"cmd": config.get("Cmd") or [], "entrypoint": config.get("Entrypoint") or [],
-            "user": config.get("User", ""), "env": config.get("Env") or [],
-            "workdir": config.get("WorkingDir") or "/",
-            "ports": sorted(config.get("ExposedPorts") or {}),
-            "volumes": sorted(config.get("Volumes") or {}),
-            "healthcheck": (config.get("Healthcheck") or {}).get("Test") or [],
-            "size": json.loads(sh("buildah", "images", "--json", tag).stdout)[0]["size"]}
+    return {
+        "cmd": config.get("Cmd") or [],
+        "entrypoint": config.get("Entrypoint") or [],
+        "user": config.get("User", ""),
+        "env": config.get("Env") or [],
+        "workdir": config.get("WorkingDir") or "/",
+        "ports": sorted(config.get("ExposedPorts") or {}),
+        "volumes": sorted(config.get("Volumes") or {}),
+        "healthcheck": (config.get("Healthcheck") or {}).get("Test") or [],
+        "size": json.loads(sh("buildah", "images", "--json", tag).stdout)[0]["size"],
+    }
 
 
 def check_config(config: dict[str, Any]) -> None:
@@ -111,25 +126,36 @@ def check_config(config: dict[str, Any]) -> None:
 def run_args(ctr: str, config: dict[str, Any], user: str | None = None) -> list[str]:
     """`buildah run` as a container engine would run the image: its USER (or `user`), ENV and
     WORKDIR, given explicitly."""
-    args = ["buildah", "run", "--isolation", "chroot", "--workingdir", config["workdir"],
-            "--user", user or config["user"]]
+    args = [
+        "buildah",
+        "run",
+        "--isolation",
+        "chroot",
+        "--workingdir",
+        config["workdir"],
+        "--user",
+        user or config["user"],
+    ]
     for item in config["env"]:
         args += ["--env", item]
     return [*args, ctr, "--"]
 
 
 def check_contents(ctr: str, config: dict[str, Any]) -> None:
-    probe = ("id -u; "
-             "for c in gcc cc g++ c++ clang make; do command -v $c || true; done; "
-             "ls /root/.cache /nonexistent/.cache 2>/dev/null || true; "
-             "ls /var/cache/apt/archives/*.deb 2>/dev/null | head -3 || true; "
-             "ls /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial || true")
+    probe = (
+        "id -u; "
+        "for c in gcc cc g++ c++ clang make; do command -v $c || true; done; "
+        "ls /root/.cache /nonexistent/.cache 2>/dev/null || true; "
+        "ls /var/cache/apt/archives/*.deb 2>/dev/null | head -3 || true; "
+        "ls /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial || true"
+    )
     out = sh(*run_args(ctr, config, user="root"), "sh", "-c", probe).stdout.split()
     assert out[:1] == ["0"] and len(out) == 1, f"compiler, cache or package list left: {out[1:]}"
     uid = sh(*run_args(ctr, config), "id", "-u").stdout.strip()
     assert uid == config["user"].split(":")[0], uid
-    version = sh(*run_args(ctr, config), "python", "-c",
-                 "import pinocchio; print(pinocchio.__version__)").stdout.strip()
+    version = sh(
+        *run_args(ctr, config), "python", "-c", "import pinocchio; print(pinocchio.__version__)"
+    ).stdout.strip()
     assert version, "import pinocchio failed in the image"
 
 
@@ -150,12 +176,14 @@ def check_server(base: str, log_path: Path) -> dict[str, Any]:
             for quantity in ("mass-matrix", "inverse-dynamics", "forward-dynamics"):
                 for _ in range(3):
                     q, v, a = random_state(model, rng)
-                    r = http.post(f"/v1/robots/{name}/{quantity}",
-                                  json=request_body(quantity, q, v, a))
+                    r = http.post(
+                        f"/v1/robots/{name}/{quantity}", json=request_body(quantity, q, v, a)
+                    )
                     assert r.status_code == 200, r.text
                     assert "compute;dur=" in r.headers["server-timing"]
-                    worst = max(worst, max_relative_error(r.json(),
-                                                          expected(model, quantity, q, v, a)))
+                    worst = max(
+                        worst, max_relative_error(r.json(), expected(model, quantity, q, v, a))
+                    )
         summary["max_relative_error"] = worst
         assert worst < 1e-10, f"answers differ from in-process Pinocchio by {worst}"
 
@@ -183,8 +211,11 @@ BUILDAH_LINES = ("subprocess exited", "Error: exit status")
 
 
 def check_log(log_path: Path) -> int:
-    lines = [line for line in log_path.read_text().splitlines()
-             if line.strip() and not line.startswith(BUILDAH_LINES)]
+    lines = [
+        line
+        for line in log_path.read_text().splitlines()
+        if line.strip() and not line.startswith(BUILDAH_LINES)
+    ]
     records = [json.loads(line) for line in lines]  # every line of the server is JSON
     access = [r for r in records if r.get("logger") == "robodyn.access"]
     assert any(r.get("route") == "/v1/robots/{robot_id}/mass-matrix" for r in access), access[:3]
@@ -220,8 +251,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             cmd += ["--port", str(port)]
         summary["run"] = shlex.join(cmd)
         with open(log_path, "wb") as log:
-            server = subprocess.Popen([*run_args(ctr, config), *cmd], stdout=log,
-                                      stderr=subprocess.STDOUT, start_new_session=True)
+            server = subprocess.Popen(
+                [*run_args(ctr, config), *cmd],
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+            )
         base = f"http://127.0.0.1:{port}"
         summary["ready_seconds"] = round(wait_ready(base, timeout=180, proc=server), 1)
         health = [part.replace(str(IMAGE_PORT), str(port)) for part in config["healthcheck"][1:]]
@@ -232,8 +267,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         # What `docker stop` does: SIGTERM to the container's main process (the CMD itself, in
         # exec form), which must shut down gracefully by itself well within the grace period.
         # (uvicorn re-raises the signal once it is done, so the exit status says "terminated".)
-        main_pid = next(pid for pid, f in descendants(server.pid).items()
-                        if "-m service" in f["cmdline"] and "buildah" not in f["cmdline"])
+        main_pid = next(
+            pid
+            for pid, f in descendants(server.pid).items()
+            if "-m service" in f["cmdline"] and "buildah" not in f["cmdline"]
+        )
         stopping = time.monotonic()
         os.kill(main_pid, signal.SIGTERM)
         server.wait(timeout=40)
@@ -241,9 +279,20 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         assert "Finished server process" in log_path.read_text(), "no graceful shutdown"
         # The server wrote only to /data and /tmp, so a read-only root file system (as in
         # deploy/k8s and docker-compose.yml) does not get in its way.
-        written = sh(*run_args(ctr, config, user="root"), "find", "/", "-xdev", "(",
-                     *" -o ".join(f"-path {p}" for p in WRITABLE).split(), ")", "-prune",
-                     "-o", "-newer", "/tmp/.before-server", "-print").stdout.split()
+        written = sh(
+            *run_args(ctr, config, user="root"),
+            "find",
+            "/",
+            "-xdev",
+            "(",
+            *" -o ".join(f"-path {p}" for p in WRITABLE).split(),
+            ")",
+            "-prune",
+            "-o",
+            "-newer",
+            "/tmp/.before-server",
+            "-print",
+        ).stdout.split()
         assert not [w for w in written if w not in BUILDAH_FILES], written
     except BaseException:
         print(f"failed; the server's log is {log_path}", file=sys.stderr)

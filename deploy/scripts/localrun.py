@@ -115,8 +115,9 @@ def load_models(names: list[str]) -> dict[str, Any]:
         return {name: registry.catalog[name].model for name in names}
 
 
-def expected(model: Any, quantity: str, q: np.ndarray, v: np.ndarray,
-             a: np.ndarray) -> dict[str, np.ndarray]:
+def expected(
+    model: Any, quantity: str, q: np.ndarray, v: np.ndarray, a: np.ndarray
+) -> dict[str, np.ndarray]:
     """What the service must answer for one state, from Pinocchio called directly."""
     import pinocchio as pin
 
@@ -135,8 +136,13 @@ def expected(model: Any, quantity: str, q: np.ndarray, v: np.ndarray,
     raise ValueError(quantity)
 
 
-INPUTS = {"mass-matrix": ("q",), "gravity": ("q",), "nonlinear-effects": ("q", "v"),
-          "inverse-dynamics": ("q", "v", "a"), "forward-dynamics": ("q", "v", "tau")}
+INPUTS = {
+    "mass-matrix": ("q",),
+    "gravity": ("q",),
+    "nonlinear-effects": ("q", "v"),
+    "inverse-dynamics": ("q", "v", "a"),
+    "forward-dynamics": ("q", "v", "tau"),
+}
 
 
 def random_state(model: Any, rng: np.random.Generator) -> tuple[np.ndarray, ...]:

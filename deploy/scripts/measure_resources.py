@@ -48,8 +48,7 @@ from localrun import (
 )
 
 ROBOTS = ["ur5", "panda", "talos", "solo12", "anymal"]
-QUANTITIES = ["mass-matrix", "gravity", "nonlinear-effects", "inverse-dynamics",
-              "forward-dynamics"]
+QUANTITIES = ["mass-matrix", "gravity", "nonlinear-effects", "inverse-dynamics", "forward-dynamics"]
 
 
 def cpu_seconds(pid: int) -> float:
@@ -80,8 +79,9 @@ class Sampler:
         self._thread.join()
 
 
-def load_phase(base: str, pid: int, bodies: list[tuple[str, dict[str, Any]]], clients: int,
-               seconds: float) -> dict[str, Any]:
+def load_phase(
+    base: str, pid: int, bodies: list[tuple[str, dict[str, Any]]], clients: int, seconds: float
+) -> dict[str, Any]:
     """`clients` threads cycle through `bodies` for `seconds`; RSS peak, CPU, throughput."""
     deadline = time.monotonic() + seconds
     counts = [0] * clients
@@ -102,10 +102,14 @@ def load_phase(base: str, pid: int, bodies: list[tuple[str, dict[str, Any]]], cl
     with Sampler(pid) as sampler, ThreadPoolExecutor(clients) as pool:
         list(pool.map(client, range(clients)))
     wall = time.monotonic() - wall0
-    return {"rss_peak_mib": round(sampler.peak_kib / 1024), "requests": sum(counts),
-            "requests_per_s": round(sum(counts) / wall, 1),
-            "cpu_cores": round((cpu_seconds(pid) - cpu0) / wall, 2),
-            "errors": len(errors), "first_error": errors[0] if errors else None}
+    return {
+        "rss_peak_mib": round(sampler.peak_kib / 1024),
+        "requests": sum(counts),
+        "requests_per_s": round(sum(counts) / wall, 1),
+        "cpu_cores": round((cpu_seconds(pid) - cpu0) / wall, 2),
+        "errors": len(errors),
+        "first_error": errors[0] if errors else None,
+    }
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
@@ -119,11 +123,21 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     port = free_port()
     data = Path(tempfile.mkdtemp(prefix="robodyn-measure-"))
-    env = {**os.environ, "ROBODYN_DATA_DIR": str(data), "ROBODYN_LOG_LEVEL": "warning",
-           "ROBODYN_CATALOG": "", "ROBODYN_WORKERS": "1"}
-    proc = subprocess.Popen([sys.executable, "-m", "service", "--port", str(port)], env=env,
-                            cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    env = {
+        **os.environ,
+        "ROBODYN_DATA_DIR": str(data),
+        "ROBODYN_LOG_LEVEL": "warning",
+        "ROBODYN_CATALOG": "",
+        "ROBODYN_WORKERS": "1",
+    }
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "service", "--port", str(port)],
+        env=env,
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     base = f"http://127.0.0.1:{port}"
     out: dict[str, Any] = {"python": sys.version.split()[0]}
     try:
@@ -141,14 +155,19 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         talos = models["talos"]
         states = [random_state(talos, rng) for _ in range(2000)]
         qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
-        batches = [("/v1/robots/talos/mass-matrix", {"q": qs.tolist()}),
-                   ("/v1/robots/talos/inverse-dynamics",
-                    {"q": qs.tolist(), "v": vs.tolist(), "a": as_.tolist()})]
+        batches = [
+            ("/v1/robots/talos/mass-matrix", {"q": qs.tolist()}),
+            (
+                "/v1/robots/talos/inverse-dynamics",
+                {"q": qs.tolist(), "v": vs.tolist(), "a": as_.tolist()},
+            ),
+        ]
         out["batch"] = load_phase(base, proc.pid, batches, args.clients, args.seconds)
         largest = 7435  # 256 MiB // (38² numbers × 25 bytes): the default answer budget's
         big = {"q": np.resize(qs, (largest, qs.shape[1])).tolist()}
         out["largest_answer"] = {"states": largest}
         for at_once in (1, 2):
+
             def one(_: int) -> httpx.Response:
                 with httpx.Client(timeout=300) as http:
                     return http.post(f"{base}/v1/robots/talos/mass-matrix", json=big)
@@ -158,7 +177,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             assert all(r.status_code == 200 for r in answers), answers[0].text[:300]
             out["largest_answer"]["answer_mb"] = round(len(answers[0].content) / 1e6)
             out["largest_answer"][f"rss_peak_mib_{at_once}_at_once"] = round(
-                sampler.peak_kib / 1024)
+                sampler.peak_kib / 1024
+            )
         time.sleep(1)
         out["rss_after_mib"] = round(process_tree_rss_kib(proc.pid) / 1024)
     finally:

@@ -57,12 +57,21 @@ TEMPLATE = ROOT / "deploy" / "nginx" / "scale-out.conf.template"
 
 def start_replica(data_dir: Path, work: Path, name: str) -> tuple[subprocess.Popen, int]:
     port = free_port()
-    env = {**os.environ, "ROBODYN_DATA_DIR": str(data_dir), "ROBODYN_CATALOG": ",".join(ROBOTS),
-           "ROBODYN_LOG_LEVEL": "info"}
+    env = {
+        **os.environ,
+        "ROBODYN_DATA_DIR": str(data_dir),
+        "ROBODYN_CATALOG": ",".join(ROBOTS),
+        "ROBODYN_LOG_LEVEL": "info",
+    }
     with open(work / f"replica-{name}.log", "ab") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "service", "--port", str(port)], env=env,
-                                cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "service", "--port", str(port)],
+            env=env,
+            cwd=ROOT,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
     return proc, port
 
 
@@ -79,26 +88,35 @@ def start_nginx(work: Path, port_a: int, port_b: int) -> tuple[subprocess.Popen,
     work.chmod(0o755)
     prefix.chmod(0o755)
     conf = TEMPLATE.read_text()
-    for key, value in {"@PREFIX@": str(prefix), "@PORT_A@": str(port_a),
-                       "@PORT_B@": str(port_b), "@PORT_LB@": str(port)}.items():
+    for key, value in {
+        "@PREFIX@": str(prefix),
+        "@PORT_A@": str(port_a),
+        "@PORT_B@": str(port_b),
+        "@PORT_LB@": str(port),
+    }.items():
         conf = conf.replace(key, value)
     (prefix / "nginx.conf").write_text(conf)
-    check = subprocess.run([nginx, "-t", "-p", str(prefix), "-c", "nginx.conf"],
-                           capture_output=True, text=True)
+    check = subprocess.run(
+        [nginx, "-t", "-p", str(prefix), "-c", "nginx.conf"], capture_output=True, text=True
+    )
     if check.returncode != 0:
         raise SystemExit(f"nginx -t failed:\n{check.stderr}")
     with open(prefix / "stderr.log", "wb") as stderr:
-        proc = subprocess.Popen([nginx, "-p", str(prefix), "-c", "nginx.conf", "-g",
-                                 "daemon off;"], stdout=subprocess.DEVNULL, stderr=stderr,
-                                start_new_session=True)
+        proc = subprocess.Popen(
+            [nginx, "-p", str(prefix), "-c", "nginx.conf", "-g", "daemon off;"],
+            stdout=subprocess.DEVNULL,
+            stderr=stderr,
+            start_new_session=True,
+        )
     return proc, port
 
 
 class Workload:
     """Mixed requests with their expected answers (dynamics checked against Pinocchio)."""
 
-    def __init__(self, models: dict[str, Any], upload_id: str, upload_model: Any,
-                 urdf: str, seed: int) -> None:
+    def __init__(
+        self, models: dict[str, Any], upload_id: str, upload_model: Any, urdf: str, seed: int
+    ) -> None:
         self.models = {**models, upload_id: upload_model}
         self.upload_id, self.urdf = upload_id, urdf
         self.rng = np.random.default_rng(seed)
@@ -108,8 +126,13 @@ class Workload:
         if kind == 8:
             return {"method": "GET", "path": "/v1/robots", "expect": 200}
         if kind == 9:  # repeated upload: idempotent, 200 with the same id
-            return {"method": "POST", "path": "/v1/robots", "expect": 200,
-                    "json": {"urdf": self.urdf, "name": "scale-out arm"}, "id": self.upload_id}
+            return {
+                "method": "POST",
+                "path": "/v1/robots",
+                "expect": 200,
+                "json": {"urdf": self.urdf, "name": "scale-out arm"},
+                "id": self.upload_id,
+            }
         robot = list(self.models)[int(self.rng.integers(len(self.models)))]
         quantity = list(INPUTS)[int(self.rng.integers(len(INPUTS)))]
         batch = 16 if kind == 3 else 1
@@ -119,12 +142,20 @@ class Workload:
         else:
             stacked = [np.stack(x) for x in zip(*states, strict=True)]
             body = request_body(quantity, *stacked)
-        return {"method": "POST", "path": f"/v1/robots/{robot}/{quantity}", "expect": 200,
-                "json": body, "robot": robot, "quantity": quantity, "states": states}
+        return {
+            "method": "POST",
+            "path": f"/v1/robots/{robot}/{quantity}",
+            "expect": 200,
+            "json": body,
+            "robot": robot,
+            "quantity": quantity,
+            "states": states,
+        }
 
     def check(self, job: dict[str, Any], response: httpx.Response) -> float:
         assert response.status_code == job["expect"], (
-            f"{job['method']} {job['path']}: {response.status_code} {response.text[:300]}")
+            f"{job['method']} {job['path']}: {response.status_code} {response.text[:300]}"
+        )
         if "id" in job:
             assert response.json()["id"] == job["id"]
         if "quantity" not in job:
@@ -137,8 +168,9 @@ class Workload:
         return worst
 
 
-def send_all(base: str, jobs: list[dict[str, Any]], workload: Workload, tag: str,
-             on_progress: Any = None) -> dict[str, Any]:
+def send_all(
+    base: str, jobs: list[dict[str, Any]], workload: Workload, tag: str, on_progress: Any = None
+) -> dict[str, Any]:
     """Send `jobs` from 8 threads; every one must succeed. Which replicas answered."""
     done = [0]
     lock = threading.Lock()
@@ -149,8 +181,12 @@ def send_all(base: str, jobs: list[dict[str, Any]], workload: Workload, tag: str
     def run(item: tuple[int, dict[str, Any]]) -> None:
         i, job = item
         with httpx.Client(base_url=base, timeout=120) as http:
-            r = http.request(job["method"], job["path"], json=job.get("json"),
-                             headers={"X-Request-ID": f"{tag}-{i}"})
+            r = http.request(
+                job["method"],
+                job["path"],
+                json=job.get("json"),
+                headers={"X-Request-ID": f"{tag}-{i}"},
+            )
         error = workload.check(job, r)
         upstream = r.headers.get("x-upstream", "")
         with lock:
@@ -164,8 +200,12 @@ def send_all(base: str, jobs: list[dict[str, Any]], workload: Workload, tag: str
 
     with ThreadPoolExecutor(8) as pool:
         list(pool.map(run, enumerate(jobs), timeout=600))
-    return {"requests": len(jobs), "answered_by": upstreams, "retried_on_next": len(retried),
-            "max_relative_error": worst[0]}
+    return {
+        "requests": len(jobs),
+        "answered_by": upstreams,
+        "retried_on_next": len(retried),
+        "max_relative_error": worst[0],
+    }
 
 
 def access_log_ids(path: Path) -> dict[str, int]:
@@ -180,10 +220,17 @@ def access_log_ids(path: Path) -> dict[str, int]:
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--requests", type=int, default=200)
-    parser.add_argument("--stop", choices=["term", "kill"], default="term",
-                        help="how to stop one replica mid-run: SIGTERM (graceful) or SIGKILL")
-    parser.add_argument("--keep", action="store_true",
-                        help="keep the work directory (logs, nginx config) after a success")
+    parser.add_argument(
+        "--stop",
+        choices=["term", "kill"],
+        default="term",
+        help="how to stop one replica mid-run: SIGTERM (graceful) or SIGKILL",
+    )
+    parser.add_argument(
+        "--keep",
+        action="store_true",
+        help="keep the work directory (logs, nginx config) after a success",
+    )
     args = parser.parse_args(argv)
 
     work = Path(tempfile.mkdtemp(prefix="robodyn-scale-out-"))
@@ -205,15 +252,17 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         import pinocchio as pin
 
         urdf = (ROOT / "robots" / "textbook" / "planar_arm.urdf").read_text()
-        up = httpx.post(f"{base}/v1/robots", json={"urdf": urdf, "name": "scale-out arm"},
-                        timeout=120)
+        up = httpx.post(
+            f"{base}/v1/robots", json={"urdf": urdf, "name": "scale-out arm"}, timeout=120
+        )
         assert up.status_code == 201, up.text
         upload_id = up.json()["id"]
         for p in (port_a, port_b):  # the shared data directory: each replica serves it
             r = httpx.get(f"http://127.0.0.1:{p}/v1/robots/{upload_id}", timeout=30)
             assert r.status_code == 200, f"replica on {p}: {r.status_code} {r.text}"
-        workload = Workload(load_models(ROBOTS), upload_id, pin.buildModelFromXML(urdf), urdf,
-                            seed=7)
+        workload = Workload(
+            load_models(ROBOTS), upload_id, pin.buildModelFromXML(urdf), urdf, seed=7
+        )
 
         jobs = [workload.make(i) for i in range(args.requests)]
         summary["both_up"] = send_all(base, jobs, workload, "both")
@@ -235,8 +284,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         summary["replica_b_exit"] = replica_b.returncode
 
         # Correlation: every request id the client sent reached a replica's access log.
-        logged = {**access_log_ids(work / "replica-b.log"),
-                  **access_log_ids(work / "replica-a.log")}
+        logged = {
+            **access_log_ids(work / "replica-b.log"),
+            **access_log_ids(work / "replica-a.log"),
+        }
         sent = [f"{tag}-{i}" for tag in ("both", "stop") for i in range(args.requests)]
         missing = [i for i in sent if logged.get(i) not in (200, 201)]
         assert not missing, f"not in any replica's access log with 200/201: {missing[:5]}"

@@ -53,14 +53,15 @@ class Cancellation:
             self.deadline = time.monotonic() + self.deadline_s
         if self.disconnected:
             STOPPED["disconnect"] += 1
-            raise ComputationStopped(f"{self.quantity}: stopped, the client closed the "
-                                     "connection")
+            raise ComputationStopped(f"{self.quantity}: stopped, the client closed the connection")
         if time.monotonic() > self.deadline:
             STOPPED["deadline"] += 1
             raise DeadlineExceeded(
                 f"{self.quantity}: stopped after {self.deadline_s:g} s of computing, the "
                 "request deadline (ROBODYN_REQUEST_DEADLINE_S); send fewer states or steps "
-                "per request", deadline_s=self.deadline_s)
+                "per request",
+                deadline_s=self.deadline_s,
+            )
         return False
 
 
@@ -79,8 +80,11 @@ async def cancellable(connection: Any, quantity: str) -> AsyncIterator[Cancellat
     """A `Cancellation` for the computation run inside, with its deadline from the settings,
     watching for the client's disconnect on HTTP requests (WebSocket messages: the deadline
     only)."""
-    cancellation = Cancellation(quantity, connection.app.state.settings.request_deadline_s,
-                                progress_channel(connection.scope))
+    cancellation = Cancellation(
+        quantity,
+        connection.app.state.settings.request_deadline_s,
+        progress_channel(connection.scope),
+    )
     receive = getattr(connection, "_receive", None)
     watcher = None
     if connection.scope.get("type") == "http" and receive is not None:

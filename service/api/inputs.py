@@ -57,8 +57,7 @@ def is_named(value: Any) -> bool:
 
 
 # Which of a JointState's vectors a joint-space input (by its field's last name) takes.
-_JOINT_STATE_VECTORS = {"q": "position", "q_target": "position", "v": "velocity",
-                        "tau": "effort"}
+_JOINT_STATE_VECTORS = {"q": "position", "q_target": "position", "v": "velocity", "tau": "effort"}
 _JOINT_STATE_KEYS = frozenset(("name", "position", "velocity", "effort", "header"))
 
 
@@ -66,8 +65,11 @@ def _joint_state(value: Any) -> JointState | None:
     """`value` as a JointState: the model itself, or its dump (an option's `model_dump`)."""
     if type(value) is JointState:
         return value
-    if (type(value) is dict and type(value.get("name")) is list
-            and value.keys() <= _JOINT_STATE_KEYS):
+    if (
+        type(value) is dict
+        and type(value.get("name")) is list
+        and value.keys() <= _JOINT_STATE_KEYS
+    ):
         try:
             return JointState.model_validate(value)
         except ValidationError:  # e.g. joints called "name" and "position": keyed by name
@@ -80,20 +82,25 @@ def _from_joint_state(state: JointState, field: str) -> dict[str, Any]:
     leaf = field.split("[")[0].rsplit(".", 1)[-1]
     vector = _JOINT_STATE_VECTORS.get(leaf)
     if vector is None:
-        raise InvalidInput(f"{field} cannot be given as a JointState (it has positions for q, "
-                           "velocities for v and efforts for τ); give an object keyed by joint "
-                           "name or an array")
+        raise InvalidInput(
+            f"{field} cannot be given as a JointState (it has positions for q, "
+            "velocities for v and efforts for τ); give an object keyed by joint "
+            "name or an array"
+        )
     values = getattr(state, vector)
     if len(values) != len(state.name):
-        raise DimensionMismatch(f"{field} as a JointState takes its `{vector}`, one number per "
-                                f"name: it has {len(values)} for {len(state.name)} names")
+        raise DimensionMismatch(
+            f"{field} as a JointState takes its `{vector}`, one number per "
+            f"name: it has {len(values)} for {len(state.name)} names"
+        )
     by_name = dict(zip(state.name, values, strict=True))
     if len(by_name) != len(state.name):
         seen: set[str] = set()
         for name in state.name:
             if name in seen:
-                raise InvalidInput(f"{field} names joint '{_names([name])[0]}' twice; name "
-                                   "each joint once")
+                raise InvalidInput(
+                    f"{field} names joint '{_names([name])[0]}' twice; name each joint once"
+                )
             seen.add(name)
     return by_name
 
@@ -105,8 +112,7 @@ def any_named(arrays: Mapping[str, Any]) -> bool:
 def _layout(robot: Robot, dim: str) -> dict[str, tuple[int, int, str]]:
     """Joint name → (start, size, type) in the space of dimension `dim` ("nq" or "nv")."""
     start = "idx_q" if dim == "nq" else "idx_v"
-    return {j["name"]: (j[start], j[dim], j["type"]) for j in robot.info()["joints"]
-            if j[dim] > 0}
+    return {j["name"]: (j[start], j[dim], j["type"]) for j in robot.info()["joints"] if j[dim] > 0}
 
 
 def _names(names: Iterable[str]) -> list[str]:
@@ -128,8 +134,10 @@ def fill_values(robot: Robot, fill: str | None, dim: str) -> np.ndarray | None:
         base = np.asarray(robot.info()["reference_configurations"][fill], dtype=np.float64)
     else:
         choices = [NEUTRAL, *robot.reference_configurations]
-        raise InvalidInput(f"fill {fill[:_NAME_CHARS]!r} is not a configuration of robot "
-                           f"'{robot.id}'; it takes one of {', '.join(_names(choices))}")
+        raise InvalidInput(
+            f"fill {fill[:_NAME_CHARS]!r} is not a configuration of robot "
+            f"'{robot.id}'; it takes one of {', '.join(_names(choices))}"
+        )
     return base if dim == "nq" else np.zeros(robot.nv)
 
 
@@ -146,9 +154,14 @@ def _entry(kind: str, size: int, value: Any, dim: str) -> np.ndarray:
     return entry
 
 
-def _state(robot: Robot, field: str, value: Mapping[str, Any], dim: str,
-           layout: dict[str, tuple[int, int, str]], fill: np.ndarray | None = None
-           ) -> np.ndarray:
+def _state(
+    robot: Robot,
+    field: str,
+    value: Mapping[str, Any],
+    dim: str,
+    layout: dict[str, tuple[int, int, str]],
+    fill: np.ndarray | None = None,
+) -> np.ndarray:
     missing = [name for name in layout if name not in value] if fill is None else []
     unknown = [name for name in value if name not in layout]
     if missing or unknown:
@@ -156,14 +169,18 @@ def _state(robot: Robot, field: str, value: Mapping[str, Any], dim: str,
         if missing:
             parts.append(f"missing joints: {', '.join(_names(missing))}")
         if unknown:
-            parts.append("unknown names: " + ", ".join(
-                name + did_you_mean(name, missing) for name in _names(unknown)))
+            parts.append(
+                "unknown names: "
+                + ", ".join(name + did_you_mean(name, missing) for name in _names(unknown))
+            )
         raise DimensionMismatch(
             f"{field} by joint name must name every joint of robot '{robot.id}' once "
             f"({'; '.join(parts)}), or the request must say how to fill the missing ones "
             '("fill": "neutral" or a reference configuration\'s name); the joints are listed '
-            f"under `joints` in GET /v1/robots/{robot.id}", missing=_names(missing),
-            unknown=_names(unknown))
+            f"under `joints` in GET /v1/robots/{robot.id}",
+            missing=_names(missing),
+            unknown=_names(unknown),
+        )
     out = np.empty(getattr(robot, dim)) if fill is None else fill.copy()
     for name, (start, size, kind) in layout.items():
         if name not in value:
@@ -176,14 +193,14 @@ def _state(robot: Robot, field: str, value: Mapping[str, Any], dim: str,
                 takes = "an angle or [cos θ, sin θ]"
             elif dim == "nq" and kind == "planar":
                 takes = "[x, y, θ] or [x, y, cos θ, sin θ]"
-            raise DimensionMismatch(f"{field}['{name}'] has {has}; joint '{name}' ({kind}) "
-                                    f"takes {takes} in {field}")
-        out[start:start + size] = entry
+            raise DimensionMismatch(
+                f"{field}['{name}'] has {has}; joint '{name}' ({kind}) takes {takes} in {field}"
+            )
+        out[start : start + size] = entry
     return out
 
 
-def from_names(robot: Robot, field: str, value: Any, dim: str, fill: str | None = None
-               ) -> Any:
+def from_names(robot: Robot, field: str, value: Any, dim: str, fill: str | None = None) -> Any:
     """The array form of `value` for the space of dimension `dim` ("nq" or "nv"): (n,) for an
     object, (N, n) for a list of objects; any other value is returned unchanged. `fill`: how
     missing joints are filled (see the module's docstring); None: every joint must be named."""
@@ -194,10 +211,16 @@ def from_names(robot: Robot, field: str, value: Any, dim: str, fill: str | None 
     if type(value) is not list:
         return _state(robot, field, _mapping(value, field), dim, layout, base)
     if not all(type(v) is dict or type(v) is JointState for v in value):
-        raise DimensionMismatch(f"{field} mixes joint-name objects and arrays; a batch is a "
-                                "list of objects or a list of arrays")
-    return np.stack([_state(robot, f"{field}[{i}]", _mapping(v, f"{field}[{i}]"), dim, layout,
-                            base) for i, v in enumerate(value)])
+        raise DimensionMismatch(
+            f"{field} mixes joint-name objects and arrays; a batch is a "
+            "list of objects or a list of arrays"
+        )
+    return np.stack(
+        [
+            _state(robot, f"{field}[{i}]", _mapping(v, f"{field}[{i}]"), dim, layout, base)
+            for i, v in enumerate(value)
+        ]
+    )
 
 
 def _mapping(value: Any, field: str) -> Mapping[str, Any]:
@@ -206,12 +229,14 @@ def _mapping(value: Any, field: str) -> Mapping[str, Any]:
     return value if state is None else _from_joint_state(state, field)
 
 
-def arrays_from_names(robot: Robot, arrays: Mapping[str, Any], fill: str | None = None
-                      ) -> dict[str, Any]:
+def arrays_from_names(
+    robot: Robot, arrays: Mapping[str, Any], fill: str | None = None
+) -> dict[str, Any]:
     """The joint-space inputs (keys of `service.states.SPACES`) with name-keyed ones as arrays;
     `fill` as for `from_names`."""
-    return {name: from_names(robot, name, value, SPACES[name], fill)
-            for name, value in arrays.items()}
+    return {
+        name: from_names(robot, name, value, SPACES[name], fill) for name, value in arrays.items()
+    }
 
 
 def by_name(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]) -> dict[str, Any]:
@@ -227,29 +252,35 @@ def by_name(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]) -> 
     return out
 
 
-def joint_layout(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]
-                 ) -> dict[str, Any]:
+def joint_layout(robot: Robot, results: Mapping[str, Any], fields: Iterable[str]) -> dict[str, Any]:
     """`results` as they are (the joint-space vectors stay arrays), with `joint_names`: for
     each of `fields` present, its joints as `[name, start, size]` over the last axis (nq
     for "q", else nv). The binary form's answer with `"joint_names": true`: the names once,
     not per row (a 40,000-step trajectory keyed per row made a header of 100 MB)."""
     out = dict(results)
     out["joint_names"] = {
-        field: [[name, start, size] for name, (start, size, _) in
-                _layout(robot, "nq" if field == "q" else "nv").items()]
-        for field in fields if field in out}
+        field: [
+            [name, start, size]
+            for name, (start, size, _) in _layout(robot, "nq" if field == "q" else "nv").items()
+        ]
+        for field in fields
+        if field in out
+    }
     return out
 
 
 def _keyed(values: np.ndarray, parts: list[tuple[str, int, int]]) -> Any:
     if values.ndim > 1:
         return [_keyed(row, parts) for row in values]
-    return {name: float(values[start]) if size == 1 else values[start:start + size].tolist()
-            for name, start, size in parts}
+    return {
+        name: float(values[start]) if size == 1 else values[start : start + size].tolist()
+        for name, start, size in parts
+    }
 
 
-def prepare_states(robot: Robot, arrays: dict[str, Any], max_batch: int,
-                   fill: str | None = None) -> States:
+def prepare_states(
+    robot: Robot, arrays: dict[str, Any], max_batch: int, fill: str | None = None
+) -> States:
     """The validated `States` of a request's joint-space inputs; name-keyed ones become arrays
     first (missing joints filled from the configuration named `fill`, if given)."""
     if any_named(arrays):  # a type check: plain arrays pay nothing measurable
@@ -259,8 +290,7 @@ def prepare_states(robot: Robot, arrays: dict[str, Any], max_batch: int,
     return prepare(robot, arrays, max_batch)
 
 
-def options_from_names(robot: Robot, quantity: Quantity, options: dict[str, Any]
-                       ) -> dict[str, Any]:
+def options_from_names(robot: Robot, quantity: Quantity, options: dict[str, Any]) -> dict[str, Any]:
     """`options` with the quantity's `named_options` given keyed by joint name as arrays
     (every joint named: `fill` applies to the joint-space inputs only)."""
     for path, dim in quantity.named_options:
@@ -295,14 +325,15 @@ def refuse_repeated_names(body: bytes | bytearray | str) -> None:
         json.loads(body, object_pairs_hook=_unique_pairs)
     except _RepeatedName as repeated:
         name = _names([repeated.name])[0]
-        raise InvalidInput(f"'{name}' is given twice in one object of the body (a joint named "
-                           "twice?); JSON keeps only the last one: name each joint once") from None
+        raise InvalidInput(
+            f"'{name}' is given twice in one object of the body (a joint named "
+            "twice?); JSON keeps only the last one: name each joint once"
+        ) from None
     except (ValueError, RecursionError):  # the body was read as JSON already: not ours to judge
         pass
 
 
-def names_keyed(quantity: Quantity, arrays: Mapping[str, Any], options: Mapping[str, Any]
-                ) -> bool:
+def names_keyed(quantity: Quantity, arrays: Mapping[str, Any], options: Mapping[str, Any]) -> bool:
     """True when a request's inputs or named options are keyed by joint name."""
     if any_named(arrays):
         return True

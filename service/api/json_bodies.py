@@ -64,8 +64,12 @@ def _the_pool() -> ProcessPoolExecutor:
         if _pool is None:
             # spawned, not forked from the builders' forkserver: not a builder (their count
             # and their CPU are bounded on their own), and started only when first needed
-            _pool = ProcessPoolExecutor(JSON_WORKERS, mp_context=mp.get_context("spawn"),
-                                        initializer=os.nice, initargs=(HELPER_NICENESS,))
+            _pool = ProcessPoolExecutor(
+                JSON_WORKERS,
+                mp_context=mp.get_context("spawn"),
+                initializer=os.nice,
+                initargs=(HELPER_NICENESS,),
+            )
         return _pool
 
 
@@ -85,8 +89,11 @@ def _call(parse: Callable[..., Any], *args: Any) -> tuple[str, Any]:
     except RequestValidationError as exc:
         return "invalid", orjson.loads(orjson.dumps(list(exc.errors()), default=str))
     except errors.RobodynError as exc:
-        return "error", (type(exc).__name__, exc.detail, orjson.loads(
-            orjson.dumps(exc.extra, default=str)))
+        return "error", (
+            type(exc).__name__,
+            exc.detail,
+            orjson.loads(orjson.dumps(exc.extra, default=str)),
+        )
 
 
 def compact(value: Any) -> Any:

@@ -56,8 +56,10 @@ def wants_progress(scope: Scope) -> bool:
             for media_range in value.decode("latin-1").lower().split(","):
                 media_type, *parameters = (part.strip() for part in media_range.split(";"))
                 if media_type == PROGRESS_MEDIA_TYPE:
-                    return not any(p.replace(" ", "") in ("q=0", "q=0.0", "q=0.00", "q=0.000")
-                                   for p in parameters)
+                    return not any(
+                        p.replace(" ", "") in ("q=0", "q=0.0", "q=0.00", "q=0.000")
+                        for p in parameters
+                    )
             return False
     return False
 
@@ -104,9 +106,17 @@ class ProgressAnswer:
             event = await _next_event(channel, task, None)
             if event is None:
                 task.result()  # a failure before any progress: answered as usual
-            await send({"type": "http.response.start", "status": 200, "headers": [
-                (b"content-type", PROGRESS_MEDIA_TYPE.encode()),
-                (b"cache-control", b"no-store"), (b"x-accel-buffering", b"no")]})
+            await send(
+                {
+                    "type": "http.response.start",
+                    "status": 200,
+                    "headers": [
+                        (b"content-type", PROGRESS_MEDIA_TYPE.encode()),
+                        (b"cache-control", b"no-store"),
+                        (b"x-accel-buffering", b"no"),
+                    ],
+                }
+            )
             last = event
             while event is not None:
                 last = event if event is not _HEARTBEAT else last
@@ -122,8 +132,9 @@ class ProgressAnswer:
 _HEARTBEAT: dict[str, Any] = {}
 
 
-async def _next_event(channel: ProgressChannel, task: asyncio.Future[Any],
-                      timeout: float | None) -> dict[str, Any] | None:
+async def _next_event(
+    channel: ProgressChannel, task: asyncio.Future[Any], timeout: float | None
+) -> dict[str, Any] | None:
     """The latest progress report not yet sent; `_HEARTBEAT` after `timeout` seconds without
     one; None once the computation is done."""
     if not task.done() and not channel.changed.is_set():
@@ -138,8 +149,7 @@ async def _next_event(channel: ProgressChannel, task: asyncio.Future[Any],
     return channel.latest
 
 
-async def _last_line(scope: Scope, receive: Receive, task: asyncio.Future[Content]
-                     ) -> list[bytes]:
+async def _last_line(scope: Scope, receive: Receive, task: asyncio.Future[Content]) -> list[bytes]:
     """The answer line, or the problem line of the computation's failure."""
     try:
         content = task.result()
@@ -160,9 +170,14 @@ async def _problem_json(scope: Scope, receive: Receive, exc: Exception) -> bytes
         except Exception:  # e.g. the client left: the line is not read anyway
             pass
     log.error("unexpected error on %s %s", scope["method"], scope["path"], exc_info=exc)
-    return orjson.dumps(problem_document(
-        "internal_error", "Internal error", 500,
-        "the service failed to answer this request; the failure was logged"))
+    return orjson.dumps(
+        problem_document(
+            "internal_error",
+            "Internal error",
+            500,
+            "the service failed to answer this request; the failure was logged",
+        )
+    )
 
 
 async def _send_line(send: Send, line: bytes) -> None:
@@ -172,6 +187,5 @@ async def _send_line(send: Send, line: bytes) -> None:
 async def _send_last(send: Send, pieces: list[bytes]) -> None:
     """The last line, piece by piece (the event loop runs in between)."""
     for i, piece in enumerate(pieces):
-        await send({"type": "http.response.body", "body": piece,
-                    "more_body": i < len(pieces) - 1})
+        await send({"type": "http.response.body", "body": piece, "more_body": i < len(pieces) - 1})
         await asyncio.sleep(0)

@@ -114,7 +114,8 @@ def _check(spec: Spec) -> Spec:
         field = spec.answer.model_fields.get(answer)
         assert field is not None and field.annotation == JointVector, (
             f"{name}: the answer {answer!r} is keyed by joint name on request; type it "
-            "JointVector in the answer model")
+            "JointVector in the answer model"
+        )
     return spec
 
 
@@ -123,5 +124,6 @@ assert not _missing, f"quantities and schemas differ: {sorted(_missing)}"
 
 SPECS: dict[str, Spec] = {
     name: _check(Spec(quantity, with_common_options(_SCHEMAS[name][0]), _SCHEMAS[name][1]))
-    for name, quantity in dynamics.QUANTITIES.items()}
+    for name, quantity in dynamics.QUANTITIES.items()
+}
 """Every quantity by name, in the order of `service.dynamics.QUANTITIES`."""

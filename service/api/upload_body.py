@@ -40,8 +40,10 @@ from service.registry.build_slots import BuildSlots
 INLINE_UPLOAD_BYTES = 1024 * 1024
 """Upload bodies up to this size are decoded and validated in the serving process (~10 ms)."""
 MEMORY_MB = 2048  # address space of the child: 5 M members in 64 MB decode to ~800 MB
-_UNPARSABLE = {RecursionError: "the JSON body is nested too deeply to be read",
-               UnicodeDecodeError: "the JSON body is not UTF-8 text"}
+_UNPARSABLE = {
+    RecursionError: "the JSON body is nested too deeply to be read",
+    UnicodeDecodeError: "the JSON body is not UTF-8 text",
+}
 
 Outcome = tuple[str, Any]
 """("ok", UploadRequest), ("invalid", pydantic error dicts located under "body") or
@@ -57,11 +59,11 @@ def is_json(content_type: str | None) -> bool:
     message["content-type"] = content_type
     subtype = message.get_content_subtype()
     return message.get_content_maintype() == "application" and (
-        subtype == "json" or subtype.endswith("+json"))
+        subtype == "json" or subtype.endswith("+json")
+    )
 
 
-def read_upload(body: bytes, content_type: str | None, keep: list[Any] | None = None
-                ) -> Outcome:
+def read_upload(body: bytes, content_type: str | None, keep: list[Any] | None = None) -> Outcome:
     """The upload `body` decoded and validated as FastAPI does for a body parameter (the same
     error objects, bounded by `pydantic_errors`): work proportional to the body's size. With
     `keep`, the decoded body is decoded by orjson (2-3 times faster than `json`; a body it
@@ -70,24 +72,38 @@ def read_upload(body: bytes, content_type: str | None, keep: list[Any] | None = 
     if not body:
         return "invalid", [{"type": "missing", "loc": ("body",), "msg": "Field required"}]
     if not is_json(content_type):  # validated as bytes: refused (415 by the handler)
-        return "invalid", [{"type": "model_attributes_type", "loc": ("body",),
-                            "msg": "Input should be a valid dictionary or object to extract "
-                            "fields from"}]
+        return "invalid", [
+            {
+                "type": "model_attributes_type",
+                "loc": ("body",),
+                "msg": "Input should be a valid dictionary or object to extract fields from",
+            }
+        ]
     try:
         data = _decode(body, keep is not None)
     except json.JSONDecodeError as exc:
-        return "invalid", [{"type": "json_invalid", "loc": ("body", exc.pos),
-                            "msg": "JSON decode error", "ctx": {"error": exc.msg}}]
+        return "invalid", [
+            {
+                "type": "json_invalid",
+                "loc": ("body", exc.pos),
+                "msg": "JSON decode error",
+                "ctx": {"error": exc.msg},
+            }
+        ]
     except Exception as exc:
-        return "unparsable", next((text for kind, text in _UNPARSABLE.items()
-                                   if isinstance(exc, kind)), "the body is not valid JSON")
+        return "unparsable", next(
+            (text for kind, text in _UNPARSABLE.items() if isinstance(exc, kind)),
+            "the body is not valid JSON",
+        )
     if keep is not None:
         keep.append(data)
     try:
         return "ok", UploadRequest.model_validate(data)
     except ValidationError as exc:
-        return "invalid", [{**e, "loc": ("body", *e["loc"])}
-                           for e in pydantic_errors(exc, UploadRequest, lambda: data)]
+        return "invalid", [
+            {**e, "loc": ("body", *e["loc"])}
+            for e in pydantic_errors(exc, UploadRequest, lambda: data)
+        ]
 
 
 def _decode(body: bytes, fast: bool) -> Any:
@@ -132,22 +148,28 @@ def _child_read(conn: Any, content_type: str | None, cpu_s: int, memory_mb: int)
     os._exit(0)  # what was decoded is not freed piece by piece (~1 s for 5 M members)
 
 
-def read_upload_isolated(body: bytes, content_type: str | None, slots: BuildSlots,
-                         timeout_s: float, cpu_s: int, memory_mb: int = MEMORY_MB) -> Outcome:
+def read_upload_isolated(
+    body: bytes,
+    content_type: str | None,
+    slots: BuildSlots,
+    timeout_s: float,
+    cpu_s: int,
+    memory_mb: int = MEMORY_MB,
+) -> Outcome:
     """`read_upload` in a resource-limited child holding a build slot; blocking (call it off
     the event loop). `Overloaded` when no slot or process is free, or when the child timed out
     having been starved of CPU; a child past its limits is `InvalidInput` naming them."""
     with slots.slot():
         ctx = forkserver_context()
         parent, child = ctx.Pipe()
-        proc = ctx.Process(target=_child_read, daemon=True,
-                           args=(child, content_type, cpu_s, memory_mb))
+        proc = ctx.Process(
+            target=_child_read, daemon=True, args=(child, content_type, cpu_s, memory_mb)
+        )
         try:
             proc.start()
         except OSError:
             parent.close()
-            raise Overloaded("could not start a process to read the body; retry shortly"
-                             ) from None
+            raise Overloaded("could not start a process to read the body; retry shortly") from None
         finally:
             child.close()
         try:
@@ -155,14 +177,18 @@ def read_upload_isolated(body: bytes, content_type: str | None, slots: BuildSlot
             if not parent.poll(timeout_s):
                 cpu = cpu_seconds(proc.pid)
                 if cpu is not None and cpu < STARVED_CPU_FRACTION * timeout_s:
-                    raise Overloaded("reading the body got too little CPU time: the server is "
-                                     "too busy right now; retry shortly")
+                    raise Overloaded(
+                        "reading the body got too little CPU time: the server is "
+                        "too busy right now; retry shortly"
+                    )
                 raise InvalidInput(f"body: reading it took longer than {timeout_s:g} s")
             outcome: Outcome = parent.recv()
         except (EOFError, OSError):
             proc.join(5)
-            raise InvalidInput(f"body: the process reading it ended without an answer (its "
-                               f"limits: {cpu_s} s of CPU, {memory_mb} MB)") from None
+            raise InvalidInput(
+                f"body: the process reading it ended without an answer (its "
+                f"limits: {cpu_s} s of CPU, {memory_mb} MB)"
+            ) from None
         finally:
             parent.close()
             if proc.is_alive():

@@ -18,8 +18,22 @@ from service.dynamics.quantity import Quantity, Results, finite, run
 from service.dynamics.simulation import SIMULATION
 from service.dynamics.trajectories.quantities import TRAJECTORIES
 
-QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
-    *EQUATION_OF_MOTION, *LAGRANGIAN, *FRAMES, *OPERATIONAL_SPACE, *DERIVATIVES, *CENTROIDAL,
-    *SIMULATION, *CONTACTS, *PLACEMENTS, *PAYLOADS, *TRAJECTORIES, *REGRESSOR)}
+QUANTITIES: dict[str, Quantity] = {
+    q.name: q
+    for q in (
+        *EQUATION_OF_MOTION,
+        *LAGRANGIAN,
+        *FRAMES,
+        *OPERATIONAL_SPACE,
+        *DERIVATIVES,
+        *CENTROIDAL,
+        *SIMULATION,
+        *CONTACTS,
+        *PLACEMENTS,
+        *PAYLOADS,
+        *TRAJECTORIES,
+        *REGRESSOR,
+    )
+}
 
 __all__ = ["QUANTITIES", "Quantity", "Results", "finite", "run"]

@@ -55,15 +55,17 @@ def body_inertias(robot: Robot) -> dict[str, Any]:
         at_com = 0.5 * (at_com + at_com.T)
         moments, axes = principal(at_com)
         carried = links.get(jid, [])
-        bodies.append({
-            "name": carried[0] if carried else model.names[jid],
-            "joint": model.names[jid],
-            "links": carried,
-            "mass": mass,
-            "center_of_mass": com,
-            "inertia_at_center_of_mass": at_com,
-            "inertia_at_joint": parallel_axis(at_com, mass, com),
-            "principal_moments": moments,
-            "principal_axes": axes,
-        })
+        bodies.append(
+            {
+                "name": carried[0] if carried else model.names[jid],
+                "joint": model.names[jid],
+                "links": carried,
+                "mass": mass,
+                "center_of_mass": com,
+                "inertia_at_center_of_mass": at_com,
+                "inertia_at_joint": parallel_axis(at_com, mass, com),
+                "principal_moments": moments,
+                "principal_axes": axes,
+            }
+        )
     return {"total_mass": float(sum(b["mass"] for b in bodies)), "bodies": bodies}

@@ -33,12 +33,17 @@ def centroidal(robot: Robot, s: States) -> Results:
             momentum_matrix[i] = matrix(pin.ccrba(robot.model, data, q[i], v[i]), 6, robot.nv)
             momentum[i] = data.hg.vector
             com[i] = data.com[0]
-    return finite("centroidal", momentum=momentum, momentum_matrix=momentum_matrix,
-                  center_of_mass=com)
+    return finite(
+        "centroidal", momentum=momentum, momentum_matrix=momentum_matrix, center_of_mass=com
+    )
 
 
 CENTROIDAL = (
-    Quantity("centroidal", ("q", "v"), centroidal,
-             "Centroidal momentum, centroidal momentum matrix and centre of mass",
-             answer_size=lambda r, o, v: 6 + 6 * r.nv + 3),
+    Quantity(
+        "centroidal",
+        ("q", "v"),
+        centroidal,
+        "Centroidal momentum, centroidal momentum matrix and centre of mass",
+        answer_size=lambda r, o, v: 6 + 6 * r.nv + 3,
+    ),
 )

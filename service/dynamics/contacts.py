@@ -68,32 +68,49 @@ def root_rows(robot: Robot) -> int:
 def contact_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
     """The work of a contact request: states × one constrained evaluation of its contacts
     (`contacts_solve.evaluation_work`; contact-inverse-dynamics adds an RNEA, nv)."""
-    return int(s.count * _state_work(robot, options.get("contacts") or (),
-                                     float(options.get("damping") or 0.0)))
+    return int(
+        s.count
+        * _state_work(robot, options.get("contacts") or (), float(options.get("damping") or 0.0))
+    )
 
 
 def _state_work(robot: Robot, contacts: Contacts, damping: float) -> float:
     """One state of a contact quantity: a constrained evaluation (impacts iterate in Python,
     counted for all three) and an RNEA."""
-    return evaluation_work(robot.nv, constraint_rows(contacts), damping,
-                           python_iterations=True) + robot.nv
+    return (
+        evaluation_work(robot.nv, constraint_rows(contacts), damping, python_iterations=True)
+        + robot.nv
+    )
 
 
-def _admit(name: str, robot: Robot, s: States, contacts: Contacts, damping: float,
-           max_work: int | None) -> float:
+def _admit(
+    name: str, robot: Robot, s: States, contacts: Contacts, damping: float, max_work: int | None
+) -> float:
     """Validate the options (contacts, damping) and the work; answers μ."""
     mu = check_damping(damping)
     m = constraint_rows(contacts)
     each = _state_work(robot, contacts, mu)
-    check_work(name, s.count * each, max_work,
-               f"{s.count} states × {each:,.0f} (one evaluation of m = {m} constraint rows on "
-               f"nv = {robot.nv}{', damped' if mu else ''})", each, "states")
+    check_work(
+        name,
+        s.count * each,
+        max_work,
+        f"{s.count} states × {each:,.0f} (one evaluation of m = {m} constraint rows on "
+        f"nv = {robot.nv}{', damped' if mu else ''})",
+        each,
+        "states",
+    )
     return mu
 
 
-def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
-                     damping: float = 0.0, max_work: int | None = None,
-                     should_stop: ShouldStop | None = None) -> Results:
+def contact_dynamics(
+    robot: Robot,
+    s: States,
+    *,
+    contacts: Contacts,
+    damping: float = 0.0,
+    max_work: int | None = None,
+    should_stop: ShouldStop | None = None,
+) -> Results:
     """Constrained forward dynamics M a + h = τ + Jcᵀ λ, Jc a + γ = 0: a (N, nv) in rad/s²
     and m/s², contact_forces λ (N, m) in N and N·m (LOCAL_WORLD_ALIGNED at each frame's
     origin, in the order of `contacts`). `SingularConfiguration` for a rank-deficient Jc
@@ -111,23 +128,29 @@ def contact_dynamics(robot: Robot, s: States, *, contacts: Contacts,
         stop = Stopper(should_stop, "contact-dynamics", "state", total=n)
         for i in range(n):
             stop.poll(i)
-            a[i] = pin.constraintDynamics(model, data, q[i], v[i], tau[i], models, datas,
-                                          settings)
+            a[i] = pin.constraintDynamics(model, data, q[i], v[i], tau[i], models, datas, settings)
             forces[i] = data.lambda_c
             pivots[i] = data.constraint_chol.D[: cs.size]
             if mu:
                 violation, accepted = forward_violation(data, settings)
                 if not violation <= accepted and np.isfinite(a[i]).all():
-                    cs.check_all(robot, pivots[i:i + 1], s.batched, mu, i)
-                    raise not_converged("forces", violation, accepted, mu,
-                                        i if s.batched else None, cs.names)
+                    cs.check_all(robot, pivots[i : i + 1], s.batched, mu, i)
+                    raise not_converged(
+                        "forces", violation, accepted, mu, i if s.batched else None, cs.names
+                    )
     cs.check_all(robot, pivots, s.batched, mu)
     return finite("contact-dynamics", a=a, contact_forces=forces)
 
 
-def contact_inverse_dynamics(robot: Robot, s: States, *, contacts: Contacts,
-                             damping: float = 0.0, max_work: int | None = None,
-                             should_stop: ShouldStop | None = None) -> Results:
+def contact_inverse_dynamics(
+    robot: Robot,
+    s: States,
+    *,
+    contacts: Contacts,
+    damping: float = 0.0,
+    max_work: int | None = None,
+    should_stop: ShouldStop | None = None,
+) -> Results:
     """τ (N, nv), zero on a floating root's rows, contact_forces λ (N, m) and residual (N,)
     such that M a + h = τ + Jcᵀ λ on the actuated rows and, on the root rows, up to the
     residual wrench no λ can produce (see the module). λ is the minimum-norm solution."""
@@ -150,17 +173,22 @@ def contact_inverse_dynamics(robot: Robot, s: States, *, contacts: Contacts,
                 tau[i] = rhs
                 continue  # a fixed base: actuators give any τ, the contacts need not act
             # the KKT factorization gives the singularity test and Jc at q
-            pin.constraintDynamics(model, data, q[i], zero, zero, cs.models, work.datas,
-                                   settings)
+            pin.constraintDynamics(model, data, q[i], zero, zero, cs.models, work.datas, settings)
             cs.check(robot, data, i if s.batched else None, mu)
             tau[i], forces[i], residual[i] = root_balance(rhs, work.jacobian(), k)
-    return finite("contact-inverse-dynamics", tau=tau, contact_forces=forces,
-                  residual=residual)
+    return finite("contact-inverse-dynamics", tau=tau, contact_forces=forces, residual=residual)
 
 
-def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution: float = 0.0,
-                     damping: float = 0.0, max_work: int | None = None,
-                     should_stop: ShouldStop | None = None) -> Results:
+def impulse_dynamics(
+    robot: Robot,
+    s: States,
+    *,
+    contacts: Contacts,
+    restitution: float = 0.0,
+    damping: float = 0.0,
+    max_work: int | None = None,
+    should_stop: ShouldStop | None = None,
+) -> Results:
     """Rigid impact at the contacts: v (N, nv) just after, M (v⁺ − v⁻) = Jcᵀ Λ with
     Jc v⁺ = −e Jc v⁻, and contact_impulses Λ (N, m) in N·s and N·m·s, laid out like
     contact forces. With μ > 0, to the tolerance of `contacts_solve`."""
@@ -179,17 +207,20 @@ def impulse_dynamics(robot: Robot, s: States, *, contacts: Contacts, restitution
         stop = Stopper(should_stop, "impulse-dynamics", "state", total=n)
         for i in range(n):
             stop.poll(i)
-            after[i] = pin.impulseDynamics(robot.model, data, q[i], v[i], cs.models,
-                                           work.datas, e, settings)
+            after[i] = pin.impulseDynamics(
+                robot.model, data, q[i], v[i], cs.models, work.datas, e, settings
+            )
             impulses[i] = data.impulse_c
             pivots[i] = data.constraint_chol.D[: cs.size]
             if mu:
-                cs.check_all(robot, pivots[i:i + 1], s.batched, mu, i)
+                cs.check_all(robot, pivots[i : i + 1], s.batched, mu, i)
                 after[i], impulses[i], violation, accepted = converge_impulse(
-                    data, v[i], after[i], mu)
+                    data, v[i], after[i], mu
+                )
                 if not violation <= accepted:
-                    raise not_converged("impulses", violation, accepted, mu,
-                                        i if s.batched else None, cs.names)
+                    raise not_converged(
+                        "impulses", violation, accepted, mu, i if s.batched else None, cs.names
+                    )
     cs.check_all(robot, pivots, s.batched, mu)
     return finite("impulse-dynamics", v=after, contact_impulses=impulses)
 
@@ -200,16 +231,34 @@ def contact_size(options: dict[str, Any]) -> int:
 
 
 CONTACTS = (
-    Quantity("contact-dynamics", ("q", "v", "tau"), contact_dynamics,
-             "Constrained forward dynamics with rigid contacts: accelerations and contact "
-             "forces", joint_answers=("a",), settings=("max_work",), work=contact_work,
-             answer_size=lambda r, o, v: r.nv + contact_size(o)),
-    Quantity("contact-inverse-dynamics", ("q", "v", "a"), contact_inverse_dynamics,
-             "Contact-consistent inverse dynamics: actuated torques and minimum-norm contact "
-             "forces", joint_answers=("tau",), settings=("max_work",), work=contact_work,
-             answer_size=lambda r, o, v: r.nv + contact_size(o) + 1),
-    Quantity("impulse-dynamics", ("q", "v"), impulse_dynamics,
-             "Rigid impact at contacts: velocities just after and contact impulses",
-             joint_answers=("v",), settings=("max_work",), work=contact_work,
-             answer_size=lambda r, o, v: r.nv + contact_size(o)),
+    Quantity(
+        "contact-dynamics",
+        ("q", "v", "tau"),
+        contact_dynamics,
+        "Constrained forward dynamics with rigid contacts: accelerations and contact forces",
+        joint_answers=("a",),
+        settings=("max_work",),
+        work=contact_work,
+        answer_size=lambda r, o, v: r.nv + contact_size(o),
+    ),
+    Quantity(
+        "contact-inverse-dynamics",
+        ("q", "v", "a"),
+        contact_inverse_dynamics,
+        "Contact-consistent inverse dynamics: actuated torques and minimum-norm contact forces",
+        joint_answers=("tau",),
+        settings=("max_work",),
+        work=contact_work,
+        answer_size=lambda r, o, v: r.nv + contact_size(o) + 1,
+    ),
+    Quantity(
+        "impulse-dynamics",
+        ("q", "v"),
+        impulse_dynamics,
+        "Rigid impact at contacts: velocities just after and contact impulses",
+        joint_answers=("v",),
+        settings=("max_work",),
+        work=contact_work,
+        answer_size=lambda r, o, v: r.nv + contact_size(o),
+    ),
 )

@@ -65,19 +65,20 @@ def contact_key(contacts: Sequence[Mapping[str, Any]]) -> ContactKey:
     if isinstance(contacts, str | bytes) or not isinstance(contacts, Sequence) or not contacts:
         raise InvalidInput(f"contacts must name at least one contact: {usage}")
     if len(contacts) > MAX_CONTACTS:
-        raise InvalidInput(f"contacts has {len(contacts)} contacts; a contact set has at most "
-                           f"{MAX_CONTACTS}")
+        raise InvalidInput(
+            f"contacts has {len(contacts)} contacts; a contact set has at most {MAX_CONTACTS}"
+        )
     key = []
     for i, c in enumerate(contacts):
         if not isinstance(c, Mapping):
             raise InvalidInput(f"contacts[{i}] must be an object: {usage}")
         frame, kind = c.get("frame"), c.get("type", "point")
         if not isinstance(frame, str) or not 1 <= len(frame) <= MAX_FRAME_NAME:
-            raise InvalidInput(f"contacts[{i}].frame must be a frame name of 1 to "
-                               f"{MAX_FRAME_NAME} characters")
+            raise InvalidInput(
+                f"contacts[{i}].frame must be a frame name of 1 to {MAX_FRAME_NAME} characters"
+            )
         if not isinstance(kind, str) or kind not in KINDS:
-            raise InvalidInput(f"contacts[{i}].type is 'point' or '6d', not "
-                               f"{str(kind)[:20]!r}")
+            raise InvalidInput(f"contacts[{i}].type is 'point' or '6d', not {str(kind)[:20]!r}")
         key.append((frame, kind))
     return tuple(key)
 
@@ -111,11 +112,18 @@ class ContactSet:
                     f"contact {i} on frame '{frame}' cannot act: the frame is attached to the "
                     "world (no joint moves it), so its constraint is empty; choose a frame on "
                     "a moving body (the robot's suggested feet are `contact_frames` in "
-                    f"GET /v1/robots/{robot.id})", contacts=[frame for frame, _ in key],
-                    contact=i)
+                    f"GET /v1/robots/{robot.id})",
+                    contacts=[frame for frame, _ in key],
+                    contact=i,
+                )
             contact_type, size = KINDS[kind]
-            cm = pin.RigidConstraintModel(contact_type, model, f.parentJoint, f.placement,
-                                          pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+            cm = pin.RigidConstraintModel(
+                contact_type,
+                model,
+                f.parentJoint,
+                f.placement,
+                pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
+            )
             cm.name = f"{i}:{frame}"
             self.models.append(cm)
             self.rows.append(slice(start, start + size))
@@ -132,10 +140,14 @@ class ContactSet:
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-        return np.vstack([
-            np.asarray(pin.getFrameJacobian(model, data, fid, lwa)).reshape(6, robot.nv)[
-                : rows.stop - rows.start]
-            for fid, rows in zip(self.frames, self.rows, strict=True)])
+        return np.vstack(
+            [
+                np.asarray(pin.getFrameJacobian(model, data, fid, lwa)).reshape(6, robot.nv)[
+                    : rows.stop - rows.start
+                ]
+                for fid, rows in zip(self.frames, self.rows, strict=True)
+            ]
+        )
 
     @property
     def names(self) -> list[str]:
@@ -149,11 +161,17 @@ class ContactSet:
     def check(self, robot: Robot, data: Any, state: int | None, damping: float) -> None:
         """Raise `SingularConfiguration` if the factorization just computed in `data` shows a
         rank-deficient Jc (see the module)."""
-        self.check_all(robot, self.pivots(data)[np.newaxis], state is not None, damping,
-                       0 if state is None else state)
+        self.check_all(
+            robot,
+            self.pivots(data)[np.newaxis],
+            state is not None,
+            damping,
+            0 if state is None else state,
+        )
 
-    def check_all(self, robot: Robot, pivots: np.ndarray, batched: bool, damping: float,
-                  first: int = 0) -> None:
+    def check_all(
+        self, robot: Robot, pivots: np.ndarray, batched: bool, damping: float, first: int = 0
+    ) -> None:
         """The test of `check` for the pivots (N, m) of N states at once; the error names
         the first singular state (numbered from `first`) when `batched`."""
         p = np.abs(pivots)
@@ -165,15 +183,22 @@ class ContactSet:
         raise singular(self.key, robot, p[i], first + i if batched else None, damping)
 
 
-def singular(key: ContactKey, robot: Robot, pivots: np.ndarray, state: int | None,
-             damping: float) -> SingularConfiguration:
+def singular(
+    key: ContactKey, robot: Robot, pivots: np.ndarray, state: int | None, damping: float
+) -> SingularConfiguration:
     """The 422 for a rank-deficient contact Jacobian, naming the contacts."""
     where = f"state {state}: " if state is not None else ""
     finite_pivots = pivots[np.isfinite(pivots)]
-    ratio = (float(finite_pivots.min() / finite_pivots.max())
-             if finite_pivots.size == pivots.size and pivots.max() > 0 else 0.0)
-    fix = ('give "damping": μ > 0 to use the regularized (proximal) solution' if damping == 0
-           else f'"damping" {damping:g} is too small to regularize it; use a larger μ')
+    ratio = (
+        float(finite_pivots.min() / finite_pivots.max())
+        if finite_pivots.size == pivots.size and pivots.max() > 0
+        else 0.0
+    )
+    fix = (
+        'give "damping": μ > 0 to use the regularized (proximal) solution'
+        if damping == 0
+        else f'"damping" {damping:g} is too small to regularize it; use a larger μ'
+    )
     extra = {"state": state} if state is not None else {}
     return SingularConfiguration(
         f"{where}the contact Jacobian Jc of the contacts {describe(key)} is rank-deficient "
@@ -181,7 +206,9 @@ def singular(key: ContactKey, robot: Robot, pivots: np.ndarray, state: int | Non
         f"{SINGULAR_PIVOT:g} as singular): some contact adds no independent constraint (two "
         "contacts at one point, more 6d contacts than the joints can hold, or a direction "
         f"the joints cannot move the frame in); {fix}",
-        contacts=[frame for frame, _ in key], **extra)
+        contacts=[frame for frame, _ in key],
+        **extra,
+    )
 
 
 class ContactWorkspace:
@@ -204,8 +231,9 @@ class ContactWorkspace:
 
     def jacobian(self) -> np.ndarray:
         """Jc (m×nv) at the configuration of the last call (LOCAL_WORLD_ALIGNED rows)."""
-        return np.array(pin.getConstraintsJacobian(self.model, self.data, self.set.models,
-                                                   self.datas))
+        return np.array(
+            pin.getConstraintsJacobian(self.model, self.data, self.set.models, self.datas)
+        )
 
 
 _lock = threading.Lock()

@@ -59,8 +59,9 @@ class ContactRollout:
     """The contact side of one trajectory: build it at the initial q, then call
     `acceleration` (with the rollout's `data`) and `drift`."""
 
-    def __init__(self, robot: Robot, contacts: Sequence[Mapping[str, Any]], dt: float,
-                 damping: float) -> None:
+    def __init__(
+        self, robot: Robot, contacts: Sequence[Mapping[str, Any]], dt: float, damping: float
+    ) -> None:
         self.robot = robot
         self.damping = check_damping(damping)
         self.set: ContactSet = constraint_models(robot, contacts)
@@ -85,9 +86,15 @@ class ContactRollout:
         for cached, fid in zip(self.set.models, self.frames, strict=True):
             placement = data.oMf[fid].copy()
             self.anchors.append(np.array(placement.translation))
-            cm = pin.RigidConstraintModel(cached.type, model, cached.joint1_id,
-                                          cached.joint1_placement, 0, placement,
-                                          pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+            cm = pin.RigidConstraintModel(
+                cached.type,
+                model,
+                cached.joint1_id,
+                cached.joint1_placement,
+                0,
+                placement,
+                pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
+            )
             gains = cm.m_baumgarte_parameters
             gains.Kp, gains.Kd = self.rate * self.rate, 2.0 * self.rate
             cm.m_baumgarte_parameters = gains
@@ -97,25 +104,31 @@ class ContactRollout:
         self.state = state
         self.evaluations = 0
 
-    def acceleration(self, robot: Robot, q: np.ndarray, v: np.ndarray, tau: np.ndarray,
-                     data: Any) -> np.ndarray:
+    def acceleration(
+        self, robot: Robot, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: Any
+    ) -> np.ndarray:
         """The constrained acceleration a (nv) at (q, v) under τ; NaN when the numbers have
         overflowed after the first evaluation (the integrator then reports divergence)."""
         first = self.evaluations == 0
         self.evaluations += 1
-        if not first and not (np.isfinite(q).all() and np.isfinite(v).all()
-                              and np.isfinite(tau).all()):
+        if not first and not (
+            np.isfinite(q).all() and np.isfinite(v).all() and np.isfinite(tau).all()
+        ):
             return np.full(self.robot.nv, np.nan)
-        a = np.asarray(pin.constraintDynamics(self.robot.model, data, q, v, tau, self.models,
-                                              self.datas, self.settings))
+        a = np.asarray(
+            pin.constraintDynamics(
+                self.robot.model, data, q, v, tau, self.models, self.datas, self.settings
+            )
+        )
         if not first and not np.isfinite(self.set.pivots(data)).all():
             return np.full(self.robot.nv, np.nan)
         self.set.check(self.robot, data, self.state, self.damping)
         if self.damping:
             violation, accepted = forward_violation(data, self.settings, ROLLOUT_ACCURACY)
             if not violation <= accepted and np.isfinite(a).all():
-                raise not_converged("forces", violation, accepted, self.damping, self.state,
-                                    self.set.names)
+                raise not_converged(
+                    "forces", violation, accepted, self.damping, self.state, self.set.names
+                )
         return a
 
     def gravity_compensation(self, q: np.ndarray, data: Any) -> np.ndarray:
@@ -143,8 +156,10 @@ class ContactRollout:
         out = np.empty(qs.shape[0])
         for k, q in enumerate(qs):
             pin.framesForwardKinematics(model, data, q)
-            out[k] = max(float(np.linalg.norm(data.oMf[fid].translation - anchor))
-                         for fid, anchor in zip(self.frames, self.anchors, strict=True))
+            out[k] = max(
+                float(np.linalg.norm(data.oMf[fid].translation - anchor))
+                for fid, anchor in zip(self.frames, self.anchors, strict=True)
+            )
         return out
 
 
@@ -152,8 +167,9 @@ ROLLOUT_OVERHEAD = 100.0  # work units (≈ 30 µs) of Python per rollout evalua
 COMPENSATION_OVERHEAD = 150.0  # and of the compensation's least squares (measured)
 
 
-def rollout_evaluation_work(robot: Robot, contacts: Sequence[Mapping[str, Any]],
-                            damping: float, controller: bool) -> float:
+def rollout_evaluation_work(
+    robot: Robot, contacts: Sequence[Mapping[str, Any]], damping: float, controller: bool
+) -> float:
     """The work of one evaluation of a rollout with contacts (`contacts_solve`'s units): the
     constrained dynamics and the integrator's Python around it and, with a controller, the
     contact-consistent gravity compensation (an RNEA, the contacts' Jacobians and the root
@@ -165,13 +181,16 @@ def rollout_evaluation_work(robot: Robot, contacts: Sequence[Mapping[str, Any]],
     return work
 
 
-def pd_with_contacts(rollout: ContactRollout, pd: Callable[..., np.ndarray], compensate: bool
-                     ) -> Callable[[int, np.ndarray, np.ndarray, Any], np.ndarray]:
+def pd_with_contacts(
+    rollout: ContactRollout, pd: Callable[..., np.ndarray], compensate: bool
+) -> Callable[[int, np.ndarray, np.ndarray, Any], np.ndarray]:
     """The PD torque source with contacts: actuated rows only, contact-consistent gravity
     compensation."""
+
     def torque(k: int, q: np.ndarray, v: np.ndarray, data: Any) -> np.ndarray:
         out = rollout.actuated(pd(k, q, v, data))
         if compensate:
             out = out + rollout.gravity_compensation(q, data)
         return out
+
     return torque

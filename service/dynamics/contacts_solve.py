@@ -47,13 +47,13 @@ def check_damping(damping: Any) -> float:
     try:
         mu = float(damping)
     except (TypeError, ValueError):
-        raise InvalidInput("damping must be a number μ with 0 ≤ μ ≤ "
-                           f"{MAX_DAMPING:g}") from None
+        raise InvalidInput(f"damping must be a number μ with 0 ≤ μ ≤ {MAX_DAMPING:g}") from None
     if not 0.0 <= mu <= MAX_DAMPING:  # False for NaN
         raise InvalidInput(
             f"damping must be a number μ with 0 ≤ μ ≤ {MAX_DAMPING:g} (1/kg, the units of "
             "Jc M⁻¹ Jcᵀ): it regularizes a rank-deficient contact set and must stay small "
-            "against that matrix (1e-6 to 1e-8 is usual); see docs/contacts.md")
+            "against that matrix (1e-6 to 1e-8 is usual); see docs/contacts.md"
+        )
     return mu
 
 
@@ -63,8 +63,9 @@ def proximal_settings(damping: float) -> Any:
     one is disabled) or MAX_PROXIMAL_ITERATIONS."""
     if damping == 0.0:
         return pin.ProximalSettings(EXACT_ACCURACY, EXACT_ACCURACY, 0.0, 1)
-    return pin.ProximalSettings(0.0, CONSTRAINT_ACCURACY / damping, damping,
-                                MAX_PROXIMAL_ITERATIONS)
+    return pin.ProximalSettings(
+        0.0, CONSTRAINT_ACCURACY / damping, damping, MAX_PROXIMAL_ITERATIONS
+    )
 
 
 def tolerance(r: np.ndarray, accuracy: float = CONSTRAINT_ACCURACY) -> float:
@@ -72,8 +73,14 @@ def tolerance(r: np.ndarray, accuracy: float = CONSTRAINT_ACCURACY) -> float:
     return accuracy * (1.0 + float(np.abs(r).max(initial=0.0)))
 
 
-def not_converged(what: str, violation: float, accepted: float, damping: float,
-                  state: int | None, contacts: list[str]) -> SingularConfiguration:
+def not_converged(
+    what: str,
+    violation: float,
+    accepted: float,
+    damping: float,
+    state: int | None,
+    contacts: list[str],
+) -> SingularConfiguration:
     """The 422 for damped iterations that did not meet the constraint tolerance."""
     where = f"state {state}: " if state is not None else ""
     extra = {"state": state} if state is not None else {}
@@ -82,25 +89,32 @@ def not_converged(what: str, violation: float, accepted: float, damping: float,
         f"{MAX_PROXIMAL_ITERATIONS} proximal iterations the constraint is violated by "
         f"{violation:.3g}, over the tolerance {accepted:.3g}; use a smaller damping (it must "
         "be small against Jc M⁻¹ Jcᵀ), or check that the contacts can all hold at once",
-        contacts=contacts, residual=violation, **extra)
+        contacts=contacts,
+        residual=violation,
+        **extra,
+    )
 
 
-def forward_violation(data: Any, settings: Any, accuracy: float = CONSTRAINT_ACCURACY
-                      ) -> tuple[float, float]:
+def forward_violation(
+    data: Any, settings: Any, accuracy: float = CONSTRAINT_ACCURACY
+) -> tuple[float, float]:
     """(violation ‖Jc a − r‖∞, tolerance) of the constrained dynamics just computed in `data`
     with damped `settings` (Pinocchio's last ‖λₖ₊₁ − λₖ‖∞ times μ)."""
-    return (settings.mu * settings.relative_residual,
-            tolerance(np.asarray(data.primal_rhs_contact), accuracy))
+    return (
+        settings.mu * settings.relative_residual,
+        tolerance(np.asarray(data.primal_rhs_contact), accuracy),
+    )
 
 
-def converge_impulse(data: Any, v_before: np.ndarray, v_after: np.ndarray, damping: float
-                     ) -> tuple[np.ndarray, np.ndarray, float, float]:
+def converge_impulse(
+    data: Any, v_before: np.ndarray, v_after: np.ndarray, damping: float
+) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Continue the proximal iterations of an impact that `impulseDynamics` solved once in
     `data` (damped factorization K there): (v⁺, Λ, violation, tolerance)."""
     chol = data.constraint_chol
     m = len(data.impulse_c)
     first = np.concatenate([-np.asarray(data.impulse_c), v_after - v_before])
-    r = (np.asarray(chol.matrix())[:m] @ first)  # −(1 + e) Jc v⁻
+    r = np.asarray(chol.matrix())[:m] @ first  # −(1 + e) Jc v⁻
     accepted = tolerance(r)
     previous, impulses = np.zeros(m), -first[:m]
     solution, zeros = first, np.zeros(len(v_before))
@@ -129,15 +143,14 @@ def root_balance(tau: np.ndarray, Jc: np.ndarray, k: int) -> tuple[np.ndarray, n
     return out, lam, float(np.linalg.norm(B @ lam - r))
 
 
-def evaluation_work(nv: int, m: int, damping: float, python_iterations: bool = False
-                    ) -> float:
+def evaluation_work(nv: int, m: int, damping: float, python_iterations: bool = False) -> float:
     """The work of one constrained evaluation (constrained dynamics or an impact) of m
     constraint rows, in the service's work units (one unit ≈ one joint of ABA, about 0.3 µs;
     measured on Talos and Solo-12 with 1 to 64 contacts): the recursions (nv + m nv / 8), the
     factorization of the constraint rows (m³ / 4000) and, with damping, the worst case of
     MAX_PROXIMAL_ITERATIONS solves of size m + nv ((m + nv)² / 800 each, plus 10 for
     Python's loop when the iterations are done here: `python_iterations`)."""
-    work = nv + m * nv / 8.0 + m ** 3 / 4000.0
+    work = nv + m * nv / 8.0 + m**3 / 4000.0
     if damping > 0.0:
         each = (m + nv) ** 2 / 800.0 + (10.0 if python_iterations else 1.0)
         work += MAX_PROXIMAL_ITERATIONS * each
@@ -147,18 +160,30 @@ def evaluation_work(nv: int, m: int, damping: float, python_iterations: bool = F
 _LARGEST = {"states": "largest_batch", "steps": "largest_steps"}
 
 
-def check_work(quantity: str, work: float, max_work: float | None, factors: str,
-               each: float = 0.0, unit: str = "states") -> None:
+def check_work(
+    quantity: str,
+    work: float,
+    max_work: float | None,
+    factors: str,
+    each: float = 0.0,
+    unit: str = "states",
+) -> None:
     """`InvalidInput` naming the limit when the estimated `work` is over `max_work` (None:
     no limit, as for a script), and what fits: at most max_work // `each` `unit` (the work
     of one state or step), given as the member `largest_batch` (states) or `largest_steps`
     too."""
     if max_work is not None and work > max_work:
         fits = int(max_work // each) if each > 0 else 0
-        hint = (f"at most {fits:,} {unit} of this request fit; " if fits >= 1 else
-                f"not even one of its {unit} fits; ")
+        hint = (
+            f"at most {fits:,} {unit} of this request fit; "
+            if fits >= 1
+            else f"not even one of its {unit} fits; "
+        )
         raise InvalidInput(
             f"{quantity}: the estimated work of this request, {factors} = {work:,.0f} units, is "
             f"over the limit of {max_work:,} (ROBODYN_MAX_WORK; a unit is about 0.3–0.4 µs): "
-            f"{hint}send fewer {unit} or contacts, or no damping", work=int(work),
-            max_work=int(max_work), **{_LARGEST.get(unit, "largest"): fits})
+            f"{hint}send fewer {unit} or contacts, or no damping",
+            work=int(work),
+            max_work=int(max_work),
+            **{_LARGEST.get(unit, "largest"): fits},
+        )

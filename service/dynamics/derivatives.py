@@ -29,8 +29,10 @@ def inverse_dynamics_derivatives(robot: Robot, s: States) -> Results:
     dq, dv, da = np.empty((n, nv, nv)), np.empty((n, nv, nv)), np.empty((n, nv, nv))
     with robot.data() as data:
         for i in range(n):
-            dq[i], dv[i], da[i] = (matrix(d, nv, nv) for d in pin.computeRNEADerivatives(
-                robot.model, data, q[i], v[i], a[i]))
+            dq[i], dv[i], da[i] = (
+                matrix(d, nv, nv)
+                for d in pin.computeRNEADerivatives(robot.model, data, q[i], v[i], a[i])
+            )
     mirror_upper(da)
     return finite("inverse-dynamics-derivatives", dtau_dq=dq, dtau_dv=dv, dtau_da=da)
 
@@ -43,17 +45,27 @@ def forward_dynamics_derivatives(robot: Robot, s: States) -> Results:
     dq, dv, dtau = np.empty((n, nv, nv)), np.empty((n, nv, nv)), np.empty((n, nv, nv))
     with robot.data() as data:
         for i in range(n):
-            dq[i], dv[i], dtau[i] = (matrix(d, nv, nv) for d in pin.computeABADerivatives(
-                robot.model, data, q[i], v[i], tau[i]))
+            dq[i], dv[i], dtau[i] = (
+                matrix(d, nv, nv)
+                for d in pin.computeABADerivatives(robot.model, data, q[i], v[i], tau[i])
+            )
     mirror_upper(dtau)
     return finite("forward-dynamics-derivatives", da_dq=dq, da_dv=dv, da_dtau=dtau)
 
 
 DERIVATIVES = (
-    Quantity("inverse-dynamics-derivatives", ("q", "v", "a"), inverse_dynamics_derivatives,
-             "Derivatives of inverse dynamics ∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M",
-             answer_size=lambda r, o, v: 3 * r.nv * r.nv),
-    Quantity("forward-dynamics-derivatives", ("q", "v", "tau"), forward_dynamics_derivatives,
-             "Derivatives of forward dynamics ∂a/∂q, ∂a/∂v, ∂a/∂τ = M⁻¹",
-             answer_size=lambda r, o, v: 3 * r.nv * r.nv),
+    Quantity(
+        "inverse-dynamics-derivatives",
+        ("q", "v", "a"),
+        inverse_dynamics_derivatives,
+        "Derivatives of inverse dynamics ∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M",
+        answer_size=lambda r, o, v: 3 * r.nv * r.nv,
+    ),
+    Quantity(
+        "forward-dynamics-derivatives",
+        ("q", "v", "tau"),
+        forward_dynamics_derivatives,
+        "Derivatives of forward dynamics ∂a/∂q, ∂a/∂v, ∂a/∂τ = M⁻¹",
+        answer_size=lambda r, o, v: 3 * r.nv * r.nv,
+    ),
 )

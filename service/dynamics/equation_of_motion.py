@@ -64,8 +64,9 @@ def coriolis(robot: Robot, s: States) -> Results:
     C = np.empty((n, robot.nv, robot.nv))
     with robot.data() as data:
         for i in range(n):
-            C[i] = matrix(pin.computeCoriolisMatrix(robot.model, data, q[i], v[i]), robot.nv,
-                          robot.nv)
+            C[i] = matrix(
+                pin.computeCoriolisMatrix(robot.model, data, q[i], v[i]), robot.nv, robot.nv
+            )
     Cv = np.einsum("nij,nj->ni", C, v)
     return finite("coriolis", coriolis_matrix=C, coriolis_forces=Cv)
 
@@ -84,9 +85,13 @@ def nonlinear_effects(robot: Robot, s: States) -> Results:
     return finite("nonlinear-effects", nonlinear_effects=out)
 
 
-def inverse_dynamics(robot: Robot, s: States, *,
-                     external_forces: Sequence[Mapping[str, Any]] | None = None,
-                     friction: bool = False) -> Results:
+def inverse_dynamics(
+    robot: Robot,
+    s: States,
+    *,
+    external_forces: Sequence[Mapping[str, Any]] | None = None,
+    friction: bool = False,
+) -> Results:
     """τ = M(q) a + C(q, v) v + g(q) by the recursive Newton–Euler algorithm, (N, nv).
 
     With `external_forces` (wrenches at named frames, see `service.dynamics.external_forces`)
@@ -116,15 +121,18 @@ def joint_friction(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
     A robot without a friction model (its RobotInfo lists no `friction`) is an InvalidInput."""
     model = robot.friction
     if model is None:
-        raise InvalidInput(f"robot '{robot.id}' has no friction model: only a robot "
-                           "stored by identification has one (its RobotInfo lists "
-                           "'friction')")
+        raise InvalidInput(
+            f"robot '{robot.id}' has no friction model: only a robot "
+            "stored by identification has one (its RobotInfo lists "
+            "'friction')"
+        )
     offset, coulomb, viscous = model["offset"], model["coulomb"], model["viscous"]
     return lambda v: offset + coulomb * np.sign(v) + viscous * v
 
 
-def forward_dynamics(robot: Robot, s: States, *,
-                     external_forces: Sequence[Mapping[str, Any]] | None = None) -> Results:
+def forward_dynamics(
+    robot: Robot, s: States, *, external_forces: Sequence[Mapping[str, Any]] | None = None
+) -> Results:
     """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) by the articulated-body algorithm, (N, nv).
 
     ABA in Pinocchio's WORLD convention, the one `abaInParallel` uses, so that a batch gives
@@ -147,20 +155,51 @@ def forward_dynamics(robot: Robot, s: States, *,
 
 
 EQUATION_OF_MOTION = (
-    Quantity("mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)",
-             answer_size=nv_squared_numbers),
-    Quantity("gravity", ("q",), gravity, "Gravity vector g(q)", parallel=parallel.gravity,
-             joint_answers=("gravity",), answer_size=nv_numbers),
-    Quantity("coriolis", ("q", "v"), coriolis, "Coriolis matrix C(q, v) and forces C v",
-             joint_answers=("coriolis_forces",),
-             answer_size=lambda r, o, v: r.nv * r.nv + r.nv),
-    Quantity("nonlinear-effects", ("q", "v"), nonlinear_effects,
-             "Nonlinear effects C(q, v) v + g(q)", parallel=parallel.nonlinear_effects,
-             joint_answers=("nonlinear_effects",), answer_size=nv_numbers),
-    Quantity("inverse-dynamics", ("q", "v", "a"), inverse_dynamics,
-             "Inverse dynamics τ = M a + C v + g (RNEA)", parallel=parallel.inverse_dynamics,
-             joint_answers=("tau",), answer_size=nv_numbers),
-    Quantity("forward-dynamics", ("q", "v", "tau"), forward_dynamics,
-             "Forward dynamics a = M⁻¹ (τ − C v − g) (ABA)", parallel=parallel.forward_dynamics,
-             joint_answers=("a",), answer_size=nv_numbers),
+    Quantity(
+        "mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)", answer_size=nv_squared_numbers
+    ),
+    Quantity(
+        "gravity",
+        ("q",),
+        gravity,
+        "Gravity vector g(q)",
+        parallel=parallel.gravity,
+        joint_answers=("gravity",),
+        answer_size=nv_numbers,
+    ),
+    Quantity(
+        "coriolis",
+        ("q", "v"),
+        coriolis,
+        "Coriolis matrix C(q, v) and forces C v",
+        joint_answers=("coriolis_forces",),
+        answer_size=lambda r, o, v: r.nv * r.nv + r.nv,
+    ),
+    Quantity(
+        "nonlinear-effects",
+        ("q", "v"),
+        nonlinear_effects,
+        "Nonlinear effects C(q, v) v + g(q)",
+        parallel=parallel.nonlinear_effects,
+        joint_answers=("nonlinear_effects",),
+        answer_size=nv_numbers,
+    ),
+    Quantity(
+        "inverse-dynamics",
+        ("q", "v", "a"),
+        inverse_dynamics,
+        "Inverse dynamics τ = M a + C v + g (RNEA)",
+        parallel=parallel.inverse_dynamics,
+        joint_answers=("tau",),
+        answer_size=nv_numbers,
+    ),
+    Quantity(
+        "forward-dynamics",
+        ("q", "v", "tau"),
+        forward_dynamics,
+        "Forward dynamics a = M⁻¹ (τ − C v − g) (ABA)",
+        parallel=parallel.forward_dynamics,
+        joint_answers=("a",),
+        answer_size=nv_numbers,
+    ),
 )

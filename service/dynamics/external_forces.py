@@ -58,10 +58,16 @@ class ExternalForces:
                 raise DimensionMismatch(
                     f"external_forces[{k}].wrench has {values.shape[0]} rows but the request "
                     f"has {expected}; give 6 numbers (one wrench for every state) or one "
-                    "row per state")
-            self.wrenches.append(_Wrench(
-                int(frame.parentJoint), frame.placement, values,
-                force.get("reference_frame", DEFAULT_REFERENCE_FRAME)))
+                    "row per state"
+                )
+            self.wrenches.append(
+                _Wrench(
+                    int(frame.parentJoint),
+                    frame.placement,
+                    values,
+                    force.get("reference_frame", DEFAULT_REFERENCE_FRAME),
+                )
+            )
         self.needs_kinematics = any(w.reference_frame != "local" for w in self.wrenches)
         self._joints = sorted({w.joint for w in self.wrenches})
         self._fext = pin.StdVec_Force()  # reused from state to state (RNEA/ABA only read it)

@@ -47,17 +47,21 @@ def frame_id(robot: Robot, name: str, field: str = "frame") -> int:
     fid = robot.frame_ids.get(name)  # its body frame, else the first of that name
     if fid is not None:
         return fid
-    shown = (f"'{name}'" if len(name) <= _SHOWN_NAME_LENGTH and name.isprintable()
-             else "of that name")
+    shown = (
+        f"'{name}'" if len(name) <= _SHOWN_NAME_LENGTH and name.isprintable() else "of that name"
+    )
     where = "" if field == "frame" else f" (in {field})"
     close = did_you_mean(name, (frame.name for frame in robot.model.frames))
-    raise UnknownFrame(f"robot '{robot.id}' has no frame {shown}{close}{where}; the valid names "
-                       f"are listed under `frames` of GET /v1/robots/{robot.id} (links, joints and "
-                       "fixed frames)")
+    raise UnknownFrame(
+        f"robot '{robot.id}' has no frame {shown}{close}{where}; the valid names "
+        f"are listed under `frames` of GET /v1/robots/{robot.id} (links, joints and "
+        "fixed frames)"
+    )
 
 
-def frame_jacobian(robot: Robot, data: Any, q: np.ndarray, fid: int, reference: Any,
-                   v: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+def frame_jacobian(
+    robot: Robot, data: Any, q: np.ndarray, fid: int, reference: Any, v: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
     """J (6×nv) of frame `fid` at one configuration q, and with v also J̇ (6×nv), in the
     Pinocchio reference frame `reference`. Uses `data`; copies are returned."""
     model, nv = robot.model, robot.nv
@@ -70,8 +74,9 @@ def frame_jacobian(robot: Robot, data: Any, q: np.ndarray, fid: int, reference: 
     return J, dJ
 
 
-def jacobian(robot: Robot, s: States, *, frame: str,
-             reference_frame: ReferenceFrame = "local_world_aligned") -> Results:
+def jacobian(
+    robot: Robot, s: States, *, frame: str, reference_frame: ReferenceFrame = "local_world_aligned"
+) -> Results:
     """J(q) of `frame`, shape (N, 6, nv): rows [linear (m/s per unit of v); angular (rad/s per
     unit of v)] in `reference_frame`; with v also J̇(q, v), (N, 6, nv), 1/s times the units
     of J. The frame's velocity is J v and its acceleration J a + J̇ v."""
@@ -84,8 +89,9 @@ def jacobian(robot: Robot, s: States, *, frame: str,
     dJ = np.empty((n, 6, robot.nv)) if v is not None else None
     with robot.data() as data:
         for i in range(n):
-            J[i], dJ_i = frame_jacobian(robot, data, q[i], fid, reference,
-                                        None if v is None else v[i])
+            J[i], dJ_i = frame_jacobian(
+                robot, data, q[i], fid, reference, None if v is None else v[i]
+            )
             if dJ is not None:
                 dJ[i] = dJ_i
     if dJ is None:
@@ -94,7 +100,12 @@ def jacobian(robot: Robot, s: States, *, frame: str,
 
 
 FRAMES = (
-    Quantity("jacobian", ("q",), jacobian, "Frame Jacobian J(q) and, with v, its time "
-             "variation J̇(q, v)", optional=("v",),
-             answer_size=lambda r, o, v: 6 * r.nv * (2 if v else 1)),
+    Quantity(
+        "jacobian",
+        ("q",),
+        jacobian,
+        "Frame Jacobian J(q) and, with v, its time variation J̇(q, v)",
+        optional=("v",),
+        answer_size=lambda r, o, v: 6 * r.nv * (2 if v else 1),
+    ),
 )

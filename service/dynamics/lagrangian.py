@@ -43,8 +43,9 @@ def mass_matrix_inverse(robot: Robot, s: States) -> Results:
     return finite("mass-matrix-inverse", mass_matrix_inverse=out)
 
 
-def mechanical_energy(robot: Robot, data: object, q: np.ndarray, v: np.ndarray
-                      ) -> tuple[float, float]:
+def mechanical_energy(
+    robot: Robot, data: object, q: np.ndarray, v: np.ndarray
+) -> tuple[float, float]:
     """(T, U) in J: the kinetic energy T = ½ vᵀ M(q) v, armature included as in M, and the
     potential energy U of gravity (zero at the world origin), in one pass over the joints.
     Pinocchio's energies (4.x) leave out the armature of some joints (a revolute joint about an
@@ -98,12 +99,26 @@ def center_of_mass(robot: Robot, s: States) -> Results:
 
 
 LAGRANGIAN = (
-    Quantity("mass-matrix-inverse", ("q",), mass_matrix_inverse,
-             "Inverse mass matrix M(q)⁻¹ (computeMinverse, no numerical inversion)",
-             answer_size=nv_squared_numbers),
-    Quantity("energy", ("q", "v"), energy, "Kinetic, potential and mechanical energy",
-             answer_size=lambda r, o, v: 3),
-    Quantity("center-of-mass", ("q",), center_of_mass,
-             "Centre of mass position, Jacobian and (with v) velocity", optional=("v",),
-             answer_size=lambda r, o, v: 3 + 3 * r.nv + (3 if v else 0)),
+    Quantity(
+        "mass-matrix-inverse",
+        ("q",),
+        mass_matrix_inverse,
+        "Inverse mass matrix M(q)⁻¹ (computeMinverse, no numerical inversion)",
+        answer_size=nv_squared_numbers,
+    ),
+    Quantity(
+        "energy",
+        ("q", "v"),
+        energy,
+        "Kinetic, potential and mechanical energy",
+        answer_size=lambda r, o, v: 3,
+    ),
+    Quantity(
+        "center-of-mass",
+        ("q",),
+        center_of_mass,
+        "Centre of mass position, Jacobian and (with v) velocity",
+        optional=("v",),
+        answer_size=lambda r, o, v: 3 + 3 * r.nv + (3 if v else 0),
+    ),
 )

@@ -37,16 +37,21 @@ from service.states import States
 
 Task = Literal["full", "linear", "angular"]
 
-TASK_ROWS: dict[str, slice] = {"full": slice(0, 6), "linear": slice(0, 3),
-                               "angular": slice(3, 6)}
+TASK_ROWS: dict[str, slice] = {"full": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}
 
 SINGULAR_RCOND = 1e-8
 """A task matrix J M⁻¹ Jᵀ whose smallest singular value is at most this times its largest is
 singular (relative, so the test does not depend on the robot's size or mass)."""
 
 
-def _singular(state: int | None, frame: str, task: str, reference_frame: str,
-              sigma: np.ndarray, damping: float) -> SingularConfiguration:
+def _singular(
+    state: int | None,
+    frame: str,
+    task: str,
+    reference_frame: str,
+    sigma: np.ndarray,
+    damping: float,
+) -> SingularConfiguration:
     # A is positive semi-definite: a negative eigenvalue is rounding, i.e. a singular value 0.
     smallest, largest = max(float(sigma[0]), 0.0), max(float(sigma[-1]), 0.0)
     ratio = smallest / largest if largest > 0 else 0.0
@@ -55,22 +60,32 @@ def _singular(state: int | None, frame: str, task: str, reference_frame: str,
     if largest <= 0:
         why = f"the Jacobian of frame '{frame}' is zero here (no joint moves it)"
     elif smallest <= 0:
-        why = (f"it has lost rank: its smallest singular value is 0 to rounding, its largest "
-               f"{largest:.3g} (condition number infinite; robodyn treats a ratio of at most "
-               f"{SINGULAR_RCOND:g} as singular)")
+        why = (
+            f"it has lost rank: its smallest singular value is 0 to rounding, its largest "
+            f"{largest:.3g} (condition number infinite; robodyn treats a ratio of at most "
+            f"{SINGULAR_RCOND:g} as singular)"
+        )
     else:
-        why = (f"its smallest singular value {smallest:.3g} is {ratio:.3g} times its largest "
-               f"{largest:.3g} (condition number {shown}; robodyn treats a ratio of at most "
-               f"{SINGULAR_RCOND:g} as singular)")
-    fix = ('give "damping": λ > 0 to use (J M⁻¹ Jᵀ + λ² I)⁻¹ instead' if damping == 0 else
-           f'"damping" {damping:g} is too small to regularize it; use a larger λ')
+        why = (
+            f"its smallest singular value {smallest:.3g} is {ratio:.3g} times its largest "
+            f"{largest:.3g} (condition number {shown}; robodyn treats a ratio of at most "
+            f"{SINGULAR_RCOND:g} as singular)"
+        )
+    fix = (
+        'give "damping": λ > 0 to use (J M⁻¹ Jᵀ + λ² I)⁻¹ instead'
+        if damping == 0
+        else f'"damping" {damping:g} is too small to regularize it; use a larger λ'
+    )
     where = f"state {state}: " if state is not None else ""
     extra = {"state": state} if state is not None else {}
     return SingularConfiguration(
         f"{where}the task matrix J M⁻¹ Jᵀ of frame '{frame}' ({task} task, {reference_frame}) "
         f"is singular: {why}; {fix}",
-        smallest_singular_value=smallest, largest_singular_value=largest,
-        condition_number=condition, **extra)
+        smallest_singular_value=smallest,
+        largest_singular_value=largest,
+        condition_number=condition,
+        **extra,
+    )
 
 
 def _task_inertia(sigma: np.ndarray, vectors: np.ndarray) -> np.ndarray:
@@ -78,9 +93,15 @@ def _task_inertia(sigma: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     return (vectors / sigma) @ vectors.T
 
 
-def operational_space(robot: Robot, s: States, *, frame: str,
-                      reference_frame: ReferenceFrame = "local_world_aligned",
-                      task: Task = "full", damping: float = 0.0) -> Results:
+def operational_space(
+    robot: Robot,
+    s: States,
+    *,
+    frame: str,
+    reference_frame: ReferenceFrame = "local_world_aligned",
+    task: Task = "full",
+    damping: float = 0.0,
+) -> Results:
     """Operational-space dynamics of `frame` for `task` (k = 6 rows for "full", 3 otherwise):
     Λ (N, k, k), J (N, k, nv), J̄ (N, nv, k), p (N, k) and with v also μ (N, k).
     `SingularConfiguration` at a singular configuration unless `damping` λ > 0."""
@@ -92,8 +113,11 @@ def operational_space(robot: Robot, s: States, *, frame: str,
     n, nv = q.shape[0], robot.nv
     k = rows.stop - rows.start
     out: dict[str, np.ndarray] = {
-        "inertia": np.empty((n, k, k)), "jacobian": np.empty((n, k, nv)),
-        "dynamically_consistent_inverse": np.empty((n, nv, k)), "gravity": np.empty((n, k))}
+        "inertia": np.empty((n, k, k)),
+        "jacobian": np.empty((n, k, nv)),
+        "dynamically_consistent_inverse": np.empty((n, nv, k)),
+        "gravity": np.empty((n, k)),
+    }
     if v is not None:
         out["coriolis"] = np.empty((n, k))
     model = robot.model
@@ -102,8 +126,7 @@ def operational_space(robot: Robot, s: States, *, frame: str,
         raise InvalidInput(f"damping {damping:g} is too large: λ² is not a finite number")
     with robot.data() as data:
         for i in range(n):
-            J, dJ = frame_jacobian(robot, data, q[i], fid, reference,
-                                   None if v is None else v[i])
+            J, dJ = frame_jacobian(robot, data, q[i], fid, reference, None if v is None else v[i])
             J = J[rows]
             Minv = minverse(robot, data, q[i])
             finite("operational-space", mass_matrix_inverse=Minv)
@@ -112,8 +135,9 @@ def operational_space(robot: Robot, s: States, *, frame: str,
             A = 0.5 * (A + A.T) + damping2 * np.eye(k)
             sigma, vectors = np.linalg.eigh(A)
             if not sigma[0] > SINGULAR_RCOND * sigma[-1]:
-                raise _singular(s.first + i if s.batched else None, frame, task,
-                                reference_frame, sigma, damping)
+                raise _singular(
+                    s.first + i if s.batched else None, frame, task, reference_frame, sigma, damping
+                )
             Lambda = _task_inertia(sigma, vectors)
             Jbar = MinvJt @ Lambda
             g = np.array(pin.computeGeneralizedGravity(model, data, q[i]))
@@ -133,8 +157,13 @@ def operational_space_size(robot: Robot, options: dict[str, Any], with_v: bool) 
 
 
 OPERATIONAL_SPACE = (
-    Quantity("operational-space", ("q",), operational_space,
-             "Operational-space inertia Λ, dynamically consistent inverse J̄, gravity p and "
-             "(with v) Coriolis μ of a frame", optional=("v",),
-             answer_size=operational_space_size),
+    Quantity(
+        "operational-space",
+        ("q",),
+        operational_space,
+        "Operational-space inertia Λ, dynamically consistent inverse J̄, gravity p and "
+        "(with v) Coriolis μ of a frame",
+        optional=("v",),
+        answer_size=operational_space_size,
+    ),
 )

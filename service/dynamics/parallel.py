@@ -36,23 +36,26 @@ CHUNK_WORK = 10_000  # states × nv per GIL-holding native call: about 1 ms (Tal
 _MASTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="openmp-master")
 
 
-def _in_chunks(robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: np.ndarray,
-               y: np.ndarray) -> np.ndarray:
+def _in_chunks(
+    robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: np.ndarray, y: np.ndarray
+) -> np.ndarray:
     """Run `algorithm(threads, pool, q, x, y, out)` over the batch in GIL-friendly chunks, in
     the process's OpenMP master thread."""
     return _MASTER.submit(_run_chunks, robot, algorithm, q, x, y).result()
 
 
-def _run_chunks(robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: np.ndarray,
-                y: np.ndarray) -> np.ndarray:
+def _run_chunks(
+    robot: Robot, algorithm: Callable[..., None], q: np.ndarray, x: np.ndarray, y: np.ndarray
+) -> np.ndarray:
     n = q.shape[0]
     out = np.empty((n, robot.nv))
     size = max(256, CHUNK_WORK // robot.nv)
     with robot.model_pool() as (pool, threads):
         for start in range(0, n, size):
             stop = min(n, start + size)
-            algorithm(threads, pool, q[start:stop].T, x[start:stop].T, y[start:stop].T,
-                      out[start:stop].T)
+            algorithm(
+                threads, pool, q[start:stop].T, x[start:stop].T, y[start:stop].T, out[start:stop].T
+            )
             time.sleep(0)  # hand the GIL to the event loop if it is waiting
     return out
 
@@ -65,7 +68,6 @@ def inverse_dynamics(robot: Robot, s: States) -> Results:
 def forward_dynamics(robot: Robot, s: States) -> Results:
     """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) for N states on every core (parallel ABA), (N, nv)."""
     return {"a": _in_chunks(robot, pin.abaInParallel, s["q"], s["v"], s["tau"])}
-
 
 
 def gravity(robot: Robot, s: States) -> Results:

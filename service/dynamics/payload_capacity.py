@@ -69,11 +69,15 @@ class Capacity:
         if not np.isfinite(self.mass).any():
             return {"mass": None, "state": None, "limiting_joint": None}
         state = int(np.argmin(self.mass))
-        return {"mass": float(self.mass[state]), "state": state,
-                "limiting_joint": self.limiting_joint(state)}
+        return {
+            "mass": float(self.mass[state]),
+            "state": state,
+            "limiting_joint": self.limiting_joint(state),
+        }
 
     def answer(self, batched: bool) -> dict[str, Any]:
         """The JSON answer: none as null; per state (lists) for a batch, plus `minimum`."""
+
         def nullable(x: np.ndarray) -> Any:
             out = x.astype(object)
             out[~np.isfinite(x)] = None
@@ -112,11 +116,12 @@ def limits(robot: Robot, effort_limits: np.ndarray | None) -> np.ndarray:
     else:
         out = np.asarray(effort_limits, dtype=float).copy()
         if out.shape != (robot.nv,):
-            raise DimensionMismatch(f"effort_limits has {out.size} entries; robot '{robot.id}' "
-                                    f"has nv = {robot.nv}")
+            raise DimensionMismatch(
+                f"effort_limits has {out.size} entries; robot '{robot.id}' has nv = {robot.nv}"
+            )
         if not np.isfinite(out).all() or (out < 0).any():
             raise InvalidInput("effort_limits must be finite and ≥ 0 (N·m or N; 0 = no limit)")
-    out[:robot.root_nv] = 0.0  # a floating root's rows: the wrench holding the base
+    out[: robot.root_nv] = 0.0  # a floating root's rows: the wrench holding the base
     return out
 
 
@@ -134,7 +139,8 @@ def _unit_mass_robot(robot: Robot, fid: int, center_of_mass: np.ndarray) -> Robo
     model.armature = np.zeros(model.nv)
     frame = model.frames[fid]
     model.inertias[frame.parentJoint] = frame.placement.act(
-        pin.Inertia(1.0, np.asarray(center_of_mass, dtype=float), np.zeros((3, 3))))
+        pin.Inertia(1.0, np.asarray(center_of_mass, dtype=float), np.zeros((3, 3)))
+    )
     return derived(robot, model)
 
 
@@ -149,8 +155,9 @@ def batch_rnea(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.
     return out
 
 
-def capacity_from_torques(tau0: np.ndarray, tau1: np.ndarray, limit: np.ndarray
-                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def capacity_from_torques(
+    tau0: np.ndarray, tau1: np.ndarray, limit: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(mass (N,), limiting index (N,), mass per coordinate (N, nv), τ at capacity (N, nv))
     from τ₀, τ₁ (N, nv) and the limits L (nv; 0 = none), by the rule of the module docstring."""
     limited = limit > 0
@@ -173,11 +180,17 @@ def capacity_from_torques(tau0: np.ndarray, tau1: np.ndarray, limit: np.ndarray
     return mass, index, per, tau
 
 
-def capacity(robot: Robot, q: np.ndarray, frame: str, *,
-             center_of_mass: Sequence[float] | None = None,
-             v: np.ndarray | None = None, a: np.ndarray | None = None,
-             payloads: Sequence[PayloadLike] | None = None,
-             effort_limits: np.ndarray | None = None) -> Capacity:
+def capacity(
+    robot: Robot,
+    q: np.ndarray,
+    frame: str,
+    *,
+    center_of_mass: Sequence[float] | None = None,
+    v: np.ndarray | None = None,
+    a: np.ndarray | None = None,
+    payloads: Sequence[PayloadLike] | None = None,
+    effort_limits: np.ndarray | None = None,
+) -> Capacity:
     """The heaviest point mass `robot` can hold at `center_of_mass` (m, in `frame`, default its
     origin) for each of N states: q (N, nq) in Pinocchio's order, v and a (N, nv; rad/s, rad/s²
     or m/s, m/s²; default zero: holding still), already carrying `payloads`, within
@@ -199,9 +212,14 @@ def capacity(robot: Robot, q: np.ndarray, frame: str, *,
     return Capacity(mass, index, per, tau, velocity_owners(robot))
 
 
-def payload_capacity(robot: Robot, s: States, *, frame: str,
-                     center_of_mass: Sequence[float] | None = None,
-                     effort_limits: Any = None) -> Results:
+def payload_capacity(
+    robot: Robot,
+    s: States,
+    *,
+    frame: str,
+    center_of_mass: Sequence[float] | None = None,
+    effort_limits: Any = None,
+) -> Results:
     """The heaviest point mass (kg) the robot can hold at `center_of_mass` (m, in `frame`;
     default its origin) without any joint torque exceeding its effort limit, per state (q; v
     and a default zero: holding still): τ(m) = τ₀ + m τ₁ is affine in m, so the answer is
@@ -212,23 +230,39 @@ def payload_capacity(robot: Robot, s: States, *, frame: str,
     capacity and the first state that has it. `effort_limits` (nv, ≥ 0, 0 = no limit) replaces
     the model's; a floating root's rows are never limits. Payloads already carried count in
     τ₀ (the request's `payloads`)."""
-    cap = capacity(robot, s["q"], frame, center_of_mass=center_of_mass, v=s.arrays.get("v"),
-                   a=s.arrays.get("a"),
-                   effort_limits=None if effort_limits is None else np.asarray(effort_limits,
-                                                                               dtype=float))
+    cap = capacity(
+        robot,
+        s["q"],
+        frame,
+        center_of_mass=center_of_mass,
+        v=s.arrays.get("v"),
+        a=s.arrays.get("a"),
+        effort_limits=None if effort_limits is None else np.asarray(effort_limits, dtype=float),
+    )
     names = [cap.limiting_joint(i) for i in range(cap.mass.shape[0])]
-    out: dict[str, Any] = {"mass": cap.mass, "limiting_joint": names if s.batched else names[0],
-                           "mass_per_joint": cap.mass_per_joint, "tau": cap.tau}
+    out: dict[str, Any] = {
+        "mass": cap.mass,
+        "limiting_joint": names if s.batched else names[0],
+        "mass_per_joint": cap.mass_per_joint,
+        "tau": cap.tau,
+    }
     if s.batched:
         out["minimum"] = cap.minimum()
     return out
 
 
 PAYLOADS = (
-    Quantity("payload-capacity", ("q",), payload_capacity,
-             "Payload capacity: the heaviest point mass a frame can hold within the effort "
-             "limits, and the joint that limits it", optional=("v", "a"),
-             joint_answers=("tau",), named_options=(("effort_limits", "nv"),),
-             work=lambda r, s, o: 2 * s.count * r.nv, whole_batch=True,
-             answer_size=lambda r, o, v: 1 + 2 * r.nv),
+    Quantity(
+        "payload-capacity",
+        ("q",),
+        payload_capacity,
+        "Payload capacity: the heaviest point mass a frame can hold within the effort "
+        "limits, and the joint that limits it",
+        optional=("v", "a"),
+        joint_answers=("tau",),
+        named_options=(("effort_limits", "nv"),),
+        work=lambda r, s, o: 2 * s.count * r.nv,
+        whole_batch=True,
+        answer_size=lambda r, o, v: 1 + 2 * r.nv,
+    ),
 )

@@ -68,19 +68,29 @@ def check_inertia(index: int, inertia: np.ndarray) -> np.ndarray:
     or breaks the triangle inequality (kg·m², see the module docstring)."""
     largest = float(np.max(np.abs(inertia)))
     if largest > MAX_INERTIA:  # beyond any body, and past what an eigen-solve can square
-        raise _invalid(index, "inertia", f"has an entry of {largest:.3g} kg·m²: at most "
-                       f"{MAX_INERTIA:.0e} kg·m² in magnitude")
+        raise _invalid(
+            index,
+            "inertia",
+            f"has an entry of {largest:.3g} kg·m²: at most {MAX_INERTIA:.0e} kg·m² in magnitude",
+        )
     if np.max(np.abs(inertia - inertia.T)) > SYMMETRY_TOL * largest:
         raise _invalid(index, "inertia", "must be symmetric (I[i][j] = I[j][i])")
     inertia = 0.5 * (inertia + inertia.T)
     moments = np.linalg.eigvalsh(inertia)
     shown = ", ".join(f"{m:.6g}" for m in moments)
     if moments[0] < -(NEGATIVE_REL_TOL * largest + ABS_TOL):
-        raise _invalid(index, "inertia", f"must be positive semidefinite; its principal moments "
-                       f"are {shown} kg·m²")
+        raise _invalid(
+            index,
+            "inertia",
+            f"must be positive semidefinite; its principal moments are {shown} kg·m²",
+        )
     if moments[0] + moments[1] < moments[2] - (TRIANGLE_REL_TOL * float(moments.sum()) + ABS_TOL):
-        raise _invalid(index, "inertia", f"breaks the triangle inequality of a rigid body "
-                       f"(λ₁ + λ₂ ≥ λ₃); its principal moments are {shown} kg·m²")
+        raise _invalid(
+            index,
+            "inertia",
+            f"breaks the triangle inequality of a rigid body "
+            f"(λ₁ + λ₂ ≥ λ₃); its principal moments are {shown} kg·m²",
+        )
     return inertia
 
 
@@ -89,8 +99,10 @@ def check_payload(robot: Robot, index: int, payload: PayloadLike) -> PlacedPaylo
     if isinstance(payload, PlacedPayload):
         payload = payload.as_dict()
     if not isinstance(payload, Mapping):
-        raise InvalidInput(f"payloads[{index}] must be an object with frame, mass, "
-                           "center_of_mass and inertia", payload=index)
+        raise InvalidInput(
+            f"payloads[{index}] must be an object with frame, mass, center_of_mass and inertia",
+            payload=index,
+        )
     frame = payload.get("frame")
     if not isinstance(frame, str):
         raise _invalid(index, "frame", "must name a frame of the robot")
@@ -104,17 +116,26 @@ def check_payload(robot: Robot, index: int, payload: PayloadLike) -> PlacedPaylo
     com = payload.get("center_of_mass")
     c = np.zeros(3) if com is None else _numbers(index, "center_of_mass", com, (3,))
     given = payload.get("inertia")
-    inertia = (np.zeros((3, 3)) if given is None
-               else check_inertia(index, _numbers(index, "inertia", given, (3, 3))))
-    return PlacedPayload(frame, float(mass), (float(c[0]), float(c[1]), float(c[2])),
-                         tuple(tuple(float(x) for x in row) for row in inertia))
+    inertia = (
+        np.zeros((3, 3))
+        if given is None
+        else check_inertia(index, _numbers(index, "inertia", given, (3, 3)))
+    )
+    return PlacedPayload(
+        frame,
+        float(mass),
+        (float(c[0]), float(c[1]), float(c[2])),
+        tuple(tuple(float(x) for x in row) for row in inertia),
+    )
 
 
 def check_payloads(robot: Robot, payloads: Sequence[PayloadLike]) -> tuple[PlacedPayload, ...]:
     """Every payload checked (the first mistake raised), in canonical order."""
     if len(payloads) > MAX_PAYLOADS:
-        raise InvalidInput(f"payloads has {len(payloads)} entries; at most {MAX_PAYLOADS} are "
-                           "allowed (combine payloads held by one frame into one)")
+        raise InvalidInput(
+            f"payloads has {len(payloads)} entries; at most {MAX_PAYLOADS} are "
+            "allowed (combine payloads held by one frame into one)"
+        )
     return canonical([check_payload(robot, i, p) for i, p in enumerate(payloads)])
 
 

@@ -22,13 +22,11 @@ from service.states import States
 
 def body_frames(robot: Robot) -> tuple[list[str], list[int]]:
     """Names and indices of the model's body frames (one per link), in model order."""
-    pairs = [(f.name, i) for i, f in enumerate(robot.model.frames)
-             if f.type == pin.FrameType.BODY]
+    pairs = [(f.name, i) for i, f in enumerate(robot.model.frames) if f.type == pin.FrameType.BODY]
     return [name for name, _ in pairs], [i for _, i in pairs]
 
 
-def frame_placements(robot: Robot, s: States, *, frames: list[str] | None = None
-                     ) -> dict[str, Any]:
+def frame_placements(robot: Robot, s: States, *, frames: list[str] | None = None) -> dict[str, Any]:
     """World placements of `frames` (default: every body frame) for each q: `positions`
     (N, F, 3) in m and `rotations` (N, F, 3, 3), the world placement oMf = (R, p) of each frame
     (a point x of the frame is at p + R x), and `frames`, the F names, once."""
@@ -50,8 +48,7 @@ def frame_placements(robot: Robot, s: States, *, frames: list[str] | None = None
                 placement = placements[fid]
                 positions[i, k] = placement.translation
                 rotations[i, k] = placement.rotation
-    results: dict[str, Any] = finite("frame-placements", positions=positions,
-                                     rotations=rotations)
+    results: dict[str, Any] = finite("frame-placements", positions=positions, rotations=rotations)
     return {"frames": names, **results}
 
 
@@ -69,7 +66,12 @@ def placements_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
 
 
 PLACEMENTS = (
-    Quantity("frame-placements", ("q",), frame_placements, "World placements of the body "
-             "frames (or the named frames) for q", work=placements_work,
-             answer_size=placements_size),
+    Quantity(
+        "frame-placements",
+        ("q",),
+        frame_placements,
+        "World placements of the body frames (or the named frames) for q",
+        work=placements_work,
+        answer_size=placements_size,
+    ),
 )

@@ -117,13 +117,20 @@ def finite(quantity: str, **results: np.ndarray) -> Results:
     """Return `results`, or raise NonFiniteResult naming the first non-finite one."""
     for name, value in results.items():
         if not all_finite(value):
-            raise NonFiniteResult(f"{quantity}: the computed {name} is not finite for these "
-                                  "inputs (is a moving body massless, or an input extreme?)")
+            raise NonFiniteResult(
+                f"{quantity}: the computed {name} is not finite for these "
+                "inputs (is a moving body massless, or an input extreme?)"
+            )
     return results
 
 
-def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any],
-        should_stop: ShouldStop | None = None) -> dict[str, Any]:
+def run(
+    robot: Robot,
+    quantity: Quantity,
+    s: States,
+    options: dict[str, Any],
+    should_stop: ShouldStop | None = None,
+) -> dict[str, Any]:
     """Compute one quantity and drop the batch axis again for a single-state request.
 
     Every computation runs inside the one guard of numerical linear algebra: a factorization
@@ -137,8 +144,11 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any],
     if should_stop is not None:
         if quantity.stoppable:
             options = {**options, "should_stop": should_stop}
-        elif s.count > _chunk_states(robot, quantity) and not quantity.whole_batch \
-                and not _per_state_options(options):
+        elif (
+            s.count > _chunk_states(robot, quantity)
+            and not quantity.whole_batch
+            and not _per_state_options(options)
+        ):
             return _run_in_chunks(robot, quantity, s, options, should_stop)
         elif should_stop():  # computed whole: stopped only before it starts
             raise ComputationStopped(f"{quantity.name}: stopped before computing")
@@ -152,8 +162,10 @@ def run(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any],
     if robot.q_to_api is not None and "q" in quantity.joint_answers:
         results["q"] = robot.api_q(results["q"])  # configurations answered (simulate's)
     # (a non-array answer, e.g. the frame names of frame-placements, is given once as it is)
-    return {name: s.unbatch(value) if isinstance(value, np.ndarray) else value
-            for name, value in results.items()}
+    return {
+        name: s.unbatch(value) if isinstance(value, np.ndarray) else value
+        for name, value in results.items()
+    }
 
 
 CHUNK_WORK = 50_000
@@ -170,8 +182,9 @@ def _chunk_states(robot: Robot, quantity: Quantity) -> int:
     return max(quantity.parallel_from, CHUNK_WORK // max(robot.nv, 1))
 
 
-def _run_in_chunks(robot: Robot, quantity: Quantity, s: States, options: dict[str, Any],
-                   should_stop: ShouldStop) -> dict[str, Any]:
+def _run_in_chunks(
+    robot: Robot, quantity: Quantity, s: States, options: dict[str, Any], should_stop: ShouldStop
+) -> dict[str, Any]:
     """`run` over consecutive chunks of the batch, asking `should_stop` before each; the
     answers are written into arrays of the whole batch (non-array answers, e.g. frame names,
     come from the first chunk). A true `should_stop` raises `ComputationStopped`."""
@@ -180,19 +193,22 @@ def _run_in_chunks(robot: Robot, quantity: Quantity, s: States, options: dict[st
     for start in range(0, n, size):
         hand_over()
         if should_stop():
-            raise ComputationStopped(f"{quantity.name}: stopped at state {start} of {n} "
-                                     "(the client went away or the request's deadline "
-                                     "passed)")
+            raise ComputationStopped(
+                f"{quantity.name}: stopped at state {start} of {n} "
+                "(the client went away or the request's deadline "
+                "passed)"
+            )
         report_progress(should_stop, start, n, "state")
-        part = States({name: a[start:start + size] for name, a in s.arrays.items()}, True,
-                      first=start)
+        part = States(
+            {name: a[start : start + size] for name, a in s.arrays.items()}, True, first=start
+        )
         for name, value in run(robot, quantity, part, options).items():
             if not isinstance(value, np.ndarray):
                 out.setdefault(name, value)
                 continue
             if name not in out:
                 out[name] = np.empty((n, *value.shape[1:]), dtype=value.dtype)
-            out[name][start:start + value.shape[0]] = value
+            out[name][start : start + value.shape[0]] = value
     return out
 
 
@@ -202,7 +218,8 @@ def linear_algebra_failure(quantity: str, exc: np.linalg.LinAlgError) -> Singula
     reason = str(exc).split("\n", 1)[0][:120] or "the solver failed"
     return SingularConfiguration(
         f"{quantity}: the linear algebra failed for these inputs ({reason}): the "
-        "configuration is singular for it or an input is too extreme to compute with")
+        "configuration is singular for it or an input is too extreme to compute with"
+    )
 
 
 def nv_numbers(robot: Robot, options: dict[str, Any], with_v: bool) -> int:

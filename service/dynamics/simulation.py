@@ -64,8 +64,10 @@ Acceleration = Callable[..., np.ndarray]  # (robot, q, v, tau, data) -> a
 def _vector(robot: Robot, field: str, value: Any, dim: str) -> np.ndarray:
     arr = np.asarray(value, dtype=np.float64)
     if arr.shape != (getattr(robot, dim),):
-        raise DimensionMismatch(f"{field} has shape {list(arr.shape)}; robot '{robot.id}' "
-                                f"needs {dim} = {getattr(robot, dim)} numbers")
+        raise DimensionMismatch(
+            f"{field} has shape {list(arr.shape)}; robot '{robot.id}' "
+            f"needs {dim} = {getattr(robot, dim)} numbers"
+        )
     return arr
 
 
@@ -75,13 +77,15 @@ def _gain(robot: Robot, field: str, value: Any) -> np.ndarray | float:
     return _vector(robot, field, value, "nv")
 
 
-def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, Any] | None
-                  ) -> Torque:
+def torque_source(
+    robot: Robot, steps: int, tau: Any, controller: Mapping[str, Any] | None
+) -> Torque:
     """τ(k, q, v, data) for step k at state (q, v); `data` is a borrowed pin.Data."""
     model = robot.model
     if tau is not None and controller is not None:
-        raise InvalidInput("give either tau (constant or scheduled torques) or a controller, "
-                           "not both")
+        raise InvalidInput(
+            "give either tau (constant or scheduled torques) or a controller, not both"
+        )
     if controller is not None:
         target = _vector(robot, "controller.q_target", controller["q_target"], "nq")
         target = configurations(robot, target[np.newaxis])[0]  # checked, Pinocchio's order
@@ -99,25 +103,32 @@ def torque_source(robot: Robot, steps: int, tau: Any, controller: Mapping[str, A
     if tau is None:
         zero = np.zeros(robot.nv)
         return lambda k, q, v, data: zero
-    schedule = as_array("tau", tau,
-                        "(a constant torque) or 2-D (a schedule [steps][nv])")
+    schedule = as_array("tau", tau, "(a constant torque) or 2-D (a schedule [steps][nv])")
     if schedule.ndim == 1:
         constant = _vector(robot, "tau", schedule, "nv")
         return lambda k, q, v, data: constant
     if schedule.shape != (steps, robot.nv):
-        raise DimensionMismatch(f"tau has shape {list(schedule.shape)}; a torque schedule is "
-                                f"[steps][nv] = [{steps}][{robot.nv}] (or give nv numbers for "
-                                "a constant torque)")
+        raise DimensionMismatch(
+            f"tau has shape {list(schedule.shape)}; a torque schedule is "
+            f"[steps][nv] = [{steps}][{robot.nv}] (or give nv numbers for "
+            "a constant torque)"
+        )
     return lambda k, q, v, data: schedule[k]
 
 
-def check_limits(robot: Robot, s: States, steps: int, integrator: str, max_steps: int,
-                 max_work: int) -> None:
+def check_limits(
+    robot: Robot, s: States, steps: int, integrator: str, max_steps: int, max_work: int
+) -> None:
     if s.count * steps > max_steps:
-        total = f"{s.count} states × {steps} steps = {s.count * steps}" if s.batched else (
-            f"steps = {steps}")
-        raise InvalidInput(f"{total} is over the limit of {max_steps} simulated steps per "
-                           "request (ROBODYN_MAX_SIMULATION_STEPS)")
+        total = (
+            f"{s.count} states × {steps} steps = {s.count * steps}"
+            if s.batched
+            else (f"steps = {steps}")
+        )
+        raise InvalidInput(
+            f"{total} is over the limit of {max_steps} simulated steps per "
+            "request (ROBODYN_MAX_SIMULATION_STEPS)"
+        )
     work = s.count * steps * robot.nv * STAGES[integrator]
     if work > max_work:
         fits = max_work // max(s.count * robot.nv * STAGES[integrator], 1)
@@ -125,7 +136,11 @@ def check_limits(robot: Robot, s: States, steps: int, integrator: str, max_steps
             f"this simulation's work, states × steps × nv × stages = {s.count} × {steps} × "
             f"{robot.nv} × {STAGES[integrator]} = {work}, is over the limit of {max_work} "
             f"(ROBODYN_MAX_SIMULATION_WORK): at most {fits:,} steps of this request fit; "
-            "simulate fewer steps or states", work=work, max_work=max_work, largest_steps=fits)
+            "simulate fewer steps or states",
+            work=work,
+            max_work=max_work,
+            largest_steps=fits,
+        )
 
 
 def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
@@ -134,18 +149,31 @@ def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
     stages = STAGES.get(options.get("integrator", "semi-implicit-euler"), 4)
     each: float = robot.nv
     if options.get("contacts") is not None:
-        each = rollout_evaluation_work(robot, options["contacts"],
-                                       float(options.get("damping") or 0.0),
-                                       options.get("controller") is not None)
+        each = rollout_evaluation_work(
+            robot,
+            options["contacts"],
+            float(options.get("damping") or 0.0),
+            options.get("controller") is not None,
+        )
     return int(s.count * int(options.get("steps", 1)) * stages * each)
 
 
-def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
-             controller: Mapping[str, Any] | None = None,
-             max_simulation_steps: int, max_simulation_work: int,
-             integrator: str = "semi-implicit-euler",
-             contacts: Sequence[Mapping[str, Any]] | None = None, damping: float = 0.0,
-             max_work: int | None = None, should_stop: ShouldStop | None = None) -> Results:
+def simulate(
+    robot: Robot,
+    s: States,
+    *,
+    dt: float,
+    steps: int,
+    tau: Any = None,
+    controller: Mapping[str, Any] | None = None,
+    max_simulation_steps: int,
+    max_simulation_work: int,
+    integrator: str = "semi-implicit-euler",
+    contacts: Sequence[Mapping[str, Any]] | None = None,
+    damping: float = 0.0,
+    max_work: int | None = None,
+    should_stop: ShouldStop | None = None,
+) -> Results:
     """The trajectory from (q, v) over `steps` steps of `dt` s: t (N, steps+1) in s, q
     (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J; with
     `contacts` (a fixed contact set, `service.dynamics.contacts_simulation`) also
@@ -155,25 +183,39 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
     # tau and the controller's gains and target are arrays (the API converts name-keyed ones)
     check_limits(robot, s, steps, integrator, max_simulation_steps, max_simulation_work)
     if contacts is not None:
-        options = {"steps": steps, "integrator": integrator, "contacts": contacts,
-                   "damping": damping, "controller": controller}
+        options = {
+            "steps": steps,
+            "integrator": integrator,
+            "contacts": contacts,
+            "damping": damping,
+            "controller": controller,
+        }
         each = rollout_evaluation_work(robot, contacts, damping, controller is not None)
-        check_work("simulate", simulation_work(robot, s, options), max_work,
-                   f"states × steps × stages × one constrained evaluation = {s.count} × "
-                   f"{steps} × {STAGES[integrator]} × {each:,.0f}",
-                   s.count * STAGES[integrator] * each, "steps")
+        check_work(
+            "simulate",
+            simulation_work(robot, s, options),
+            max_work,
+            f"states × steps × stages × one constrained evaluation = {s.count} × "
+            f"{steps} × {STAGES[integrator]} × {each:,.0f}",
+            s.count * STAGES[integrator] * each,
+            "steps",
+        )
     stop = Stopper(should_stop, "simulate", "step", total=s.count * steps)
     # contacts: the PD's gravity compensation is replaced by a contact-consistent one
-    contact = (ContactRollout(robot, contacts, dt, damping) if contacts is not None else None)
-    plain_controller = (controller if contact is None or controller is None
-                        else {**controller, "gravity_compensation": False})
+    contact = ContactRollout(robot, contacts, dt, damping) if contacts is not None else None
+    plain_controller = (
+        controller
+        if contact is None or controller is None
+        else {**controller, "gravity_compensation": False}
+    )
     torque = torque_source(robot, steps, tau, plain_controller)
     accel: Acceleration = _aba
     if contact is not None:
         accel = contact.acceleration
         if controller is not None:
-            torque = pd_with_contacts(contact, torque,
-                                      bool(controller.get("gravity_compensation", False)))
+            torque = pd_with_contacts(
+                contact, torque, bool(controller.get("gravity_compensation", False))
+            )
     n = s.count
     qs, vs = np.empty((n, steps + 1, robot.nq)), np.empty((n, steps + 1, robot.nv))
     energy = np.empty((n, steps + 1))
@@ -185,19 +227,29 @@ def simulate(robot: Robot, s: States, *, dt: float, steps: int, tau: Any = None,
             if contact is not None:
                 contact.start(data, s["q"][i], i if s.batched else None)
             stop.where, stop.offset = where, i * steps
-            rollout(robot, data, torque, dt, s["q"][i], s["v"][i], qs[i], vs[i], energy[i],
-                    where, accel, stop)
+            rollout(
+                robot,
+                data,
+                torque,
+                dt,
+                s["q"][i],
+                s["v"][i],
+                qs[i],
+                vs[i],
+                energy[i],
+                where,
+                accel,
+                stop,
+            )
             if contact is not None and drift is not None:
                 drift[i] = contact.drift(qs[i], data)
     t = np.broadcast_to(dt * np.arange(steps + 1), (n, steps + 1)).copy()
     if drift is not None:
-        return finite("simulate", t=t, q=qs, v=vs, mechanical_energy=energy,
-                      constraint_drift=drift)
+        return finite("simulate", t=t, q=qs, v=vs, mechanical_energy=energy, constraint_drift=drift)
     return finite("simulate", t=t, q=qs, v=vs, mechanical_energy=energy)
 
 
-def _aba(robot: Robot, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: Any
-         ) -> np.ndarray:
+def _aba(robot: Robot, q: np.ndarray, v: np.ndarray, tau: np.ndarray, data: Any) -> np.ndarray:
     """Unconstrained forward dynamics (ABA)."""
     return np.asarray(pin.aba(robot.model, data, q, v, tau, pin.Convention.WORLD))
 
@@ -209,15 +261,27 @@ def _mechanical_energy(robot: Robot, data: Any, q: np.ndarray, v: np.ndarray) ->
 
 
 def _diverged(where: str, k: int, dt: float) -> NonFiniteResult:
-    return NonFiniteResult(f"simulate: {where}the state is not finite after step {k + 1} "
-                           f"(t = {(k + 1) * dt:.6g} s); the simulation diverged — try a "
-                           "smaller dt, smaller gains or the rk4 integrator")
+    return NonFiniteResult(
+        f"simulate: {where}the state is not finite after step {k + 1} "
+        f"(t = {(k + 1) * dt:.6g} s); the simulation diverged — try a "
+        "smaller dt, smaller gains or the rk4 integrator"
+    )
 
 
-def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray,
-                         v: np.ndarray, qs: np.ndarray, vs: np.ndarray, energy: np.ndarray,
-                         where: str, accel: Acceleration = _aba, stop: Stopper | None = None
-                         ) -> None:
+def _semi_implicit_euler(
+    robot: Robot,
+    data: Any,
+    torque: Torque,
+    dt: float,
+    q: np.ndarray,
+    v: np.ndarray,
+    qs: np.ndarray,
+    vs: np.ndarray,
+    energy: np.ndarray,
+    where: str,
+    accel: Acceleration = _aba,
+    stop: Stopper | None = None,
+) -> None:
     model, normalize = robot.model, bool(robot.unit_joints)
     stop = stop or Stopper(None, "simulate", "step")
     qs[0], vs[0], energy[0] = q, v, _mechanical_energy(robot, data, q, v)
@@ -234,9 +298,20 @@ def _semi_implicit_euler(robot: Robot, data: Any, torque: Torque, dt: float, q: 
         energy[k + 1] = _mechanical_energy(robot, data, q, v)
 
 
-def _rk4(robot: Robot, data: Any, torque: Torque, dt: float, q: np.ndarray, v: np.ndarray,
-         qs: np.ndarray, vs: np.ndarray, energy: np.ndarray, where: str,
-         accel: Acceleration = _aba, stop: Stopper | None = None) -> None:
+def _rk4(
+    robot: Robot,
+    data: Any,
+    torque: Torque,
+    dt: float,
+    q: np.ndarray,
+    v: np.ndarray,
+    qs: np.ndarray,
+    vs: np.ndarray,
+    energy: np.ndarray,
+    where: str,
+    accel: Acceleration = _aba,
+    stop: Stopper | None = None,
+) -> None:
     """Runge–Kutta–Munthe-Kaas RK4: stage configurations q ⊕ θ, and q's stage slopes are the
     velocities mapped to the tangent space at q by the inverse right Jacobian of ⊕,
     dθ/dt = Jr(θ)⁻¹ v = ∂ difference(q, q ⊕ θ) / ∂(q ⊕ θ) · v (the identity for
@@ -286,11 +361,21 @@ def fewer_steps(robot: Robot, numbers: int) -> str:
 
 
 SIMULATION = (
-    Quantity("simulate", ("q", "v"), simulate,
-             "Simulate: integrate forward dynamics from (q, v) under torques or a PD controller",
-             joint_answers=("q", "v"),
-             settings=("max_simulation_steps", "max_simulation_work", "max_work"),
-             work=simulation_work, answer_size=simulation_size, smaller_request=fewer_steps,
-             named_options=(("tau", "nv"), ("controller.q_target", "nq"),
-                            ("controller.kp", "nv"), ("controller.kd", "nv"))),
+    Quantity(
+        "simulate",
+        ("q", "v"),
+        simulate,
+        "Simulate: integrate forward dynamics from (q, v) under torques or a PD controller",
+        joint_answers=("q", "v"),
+        settings=("max_simulation_steps", "max_simulation_work", "max_work"),
+        work=simulation_work,
+        answer_size=simulation_size,
+        smaller_request=fewer_steps,
+        named_options=(
+            ("tau", "nv"),
+            ("controller.q_target", "nq"),
+            ("controller.kp", "nv"),
+            ("controller.kd", "nv"),
+        ),
+    ),
 )

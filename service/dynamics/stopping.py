@@ -36,8 +36,9 @@ def hand_over() -> None:
     time.sleep(0)
 
 
-def report_progress(should_stop: Any, done: int, total: int, unit: str,
-                    stage: str | None = None) -> None:
+def report_progress(
+    should_stop: Any, done: int, total: int, unit: str, stage: str | None = None
+) -> None:
     """Tell `should_stop` (when it listens: a `report` method) that `done` of `total` units
     of work are done."""
     report = getattr(should_stop, "report", None)
@@ -50,11 +51,26 @@ class Stopper:
     `what` was computed and how far it got (`where` and the `unit` number k). With `total`
     (the units of the whole computation), also report progress: `offset` + k of `total`."""
 
-    __slots__ = ("next", "offset", "report", "should_stop", "stage", "total", "unit", "what",
-                 "where")
+    __slots__ = (
+        "next",
+        "offset",
+        "report",
+        "should_stop",
+        "stage",
+        "total",
+        "unit",
+        "what",
+        "where",
+    )
 
-    def __init__(self, should_stop: ShouldStop | None, what: str, unit: str,
-                 total: int | None = None, stage: str | None = None) -> None:
+    def __init__(
+        self,
+        should_stop: ShouldStop | None,
+        what: str,
+        unit: str,
+        total: int | None = None,
+        stage: str | None = None,
+    ) -> None:
         self.should_stop = should_stop
         self.what, self.unit = what, unit
         self.where = ""  # e.g. "state 3: " in a batch of rollouts
@@ -74,6 +90,7 @@ class Stopper:
         if self.should_stop():
             raise ComputationStopped(
                 f"{self.what}: {self.where}stopped at {self.unit} {k} before the end (the "
-                "client went away or the request's deadline passed)")
+                "client went away or the request's deadline passed)"
+            )
         if self.report is not None:
             self.report(self.offset + k, self.total, self.unit, self.stage)

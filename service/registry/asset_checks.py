@@ -56,8 +56,10 @@ class _Counter:
         self.count += 1
         self.depth += 1
         if self.max_elements is not None and self.count > self.max_elements:
-            raise _Capped(f"it has more than {self.max_elements} XML elements (limit "
-                          "ROBODYN_MAX_XML_ELEMENTS)")
+            raise _Capped(
+                f"it has more than {self.max_elements} XML elements (limit "
+                "ROBODYN_MAX_XML_ELEMENTS)"
+            )
         if self.max_depth is not None and self.depth > self.max_depth:
             raise _Capped(f"it is nested deeper than {self.max_depth} XML levels")
 
@@ -73,11 +75,15 @@ class _Counter:
 
 def _xml_problem(text: str, max_elements: int | None, max_depth: int | None) -> str | None:
     """Why `text` is not an acceptable XML document, or None (streamed, no tree built)."""
-    parser = DefusedXMLParser(target=_Counter(max_elements, max_depth), forbid_dtd=True,
-                              forbid_entities=True, forbid_external=True)
+    parser = DefusedXMLParser(
+        target=_Counter(max_elements, max_depth),
+        forbid_dtd=True,
+        forbid_entities=True,
+        forbid_external=True,
+    )
     try:
         for start in range(0, len(text), _CHUNK):
-            parser.feed(text[start:start + _CHUNK])
+            parser.feed(text[start : start + _CHUNK])
         parser.close()
     except _Capped as exc:
         return str(exc)
@@ -141,12 +147,20 @@ def unreferenced(keys: Iterable[str], texts: Iterable[str]) -> list[str]:
 def asset_texts(description: str, assets: Mapping[str, bytes], *more: str) -> list[str]:
     """The description, the assets that are text (not meshes or images) and `more` (a xacro's
     expansion): where an asset may be named."""
-    return [description, *more, *(data.decode("utf-8", "replace") for key, data in assets.items()
-                                  if extension(key) not in (*MESH_TYPES, "png"))]
+    return [
+        description,
+        *more,
+        *(
+            data.decode("utf-8", "replace")
+            for key, data in assets.items()
+            if extension(key) not in (*MESH_TYPES, "png")
+        ),
+    ]
 
 
-def missing_meshes(visuals: Iterable[Mapping[str, Any]], keys: Iterable[str]
-                   ) -> list[dict[str, Any]]:
+def missing_meshes(
+    visuals: Iterable[Mapping[str, Any]], keys: Iterable[str]
+) -> list[dict[str, Any]]:
     """The mesh files URDF `visuals` (entries of `visuals.urdf_visuals`) reference that are not
     among the asset `keys`: [{"file": key, "links": [link, ...]}] in document order."""
     have = set(keys)
@@ -160,16 +174,17 @@ def missing_meshes(visuals: Iterable[Mapping[str, Any]], keys: Iterable[str]
     return [{"file": key, "links": links} for key, links in missing.items()]
 
 
-def asset_report(description_format: str, description: str, urdf: str | None,
-                 assets: Mapping[str, bytes]) -> dict[str, Any]:
+def asset_report(
+    description_format: str, description: str, urdf: str | None, assets: Mapping[str, bytes]
+) -> dict[str, Any]:
     """What the builder reports about the assets of a built upload: `unreferenced_assets`
     (keys) and, for a URDF (a xacro: `urdf` is its expansion), `missing_meshes`."""
     more = (urdf,) if urdf is not None and urdf is not description else ()
     report: dict[str, Any] = {
-        "unreferenced_assets": unreferenced(assets, asset_texts(description, assets, *more))}
+        "unreferenced_assets": unreferenced(assets, asset_texts(description, assets, *more))
+    }
     if description_format != "mjcf" and urdf is not None:  # MuJoCo refuses a missing mesh
-        report["missing_meshes"] = (missing_meshes(urdf_visuals(urdf), assets)
-                                    + outside_meshes(urdf))
+        report["missing_meshes"] = missing_meshes(urdf_visuals(urdf), assets) + outside_meshes(urdf)
     return report
 
 

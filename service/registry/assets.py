@@ -53,24 +53,33 @@ def _shown(key: str) -> str:
 def normalize_key(key: str) -> str:
     """The normalized relative path of an asset key or a reference to one (`InvalidModel` if
     it is absolute, climbs with `..` or is empty)."""
-    text = key[len("package://"):] if key.startswith("package://") else key
+    text = key[len("package://") :] if key.startswith("package://") else key
     if "\\" in text or text.startswith(("/", "~")) or ":" in text or "\x00" in text:
-        raise InvalidModel(f"asset '{_shown(key)}': keys are relative paths with '/' "
-                           "separators (no leading '/', '~', '\\' or ':')")
+        raise InvalidModel(
+            f"asset '{_shown(key)}': keys are relative paths with '/' "
+            "separators (no leading '/', '~', '\\' or ':')"
+        )
     if len(text) > 4 * MAX_KEY_LENGTH:  # before splitting it (`./` segments are dropped)
-        raise InvalidModel(f"asset '{_shown(key)}': the key is {len(text)} characters long; "
-                           f"the limit is {MAX_KEY_LENGTH}")
+        raise InvalidModel(
+            f"asset '{_shown(key)}': the key is {len(text)} characters long; "
+            f"the limit is {MAX_KEY_LENGTH}"
+        )
     parts = [p for p in PurePosixPath(text).parts if p not in ("", ".")]
     if not parts or ".." in parts:
-        raise InvalidModel(f"asset '{_shown(key)}': a key must name a file inside the upload "
-                           "(no '..', not empty)")
+        raise InvalidModel(
+            f"asset '{_shown(key)}': a key must name a file inside the upload (no '..', not empty)"
+        )
     if len(parts) > MAX_KEY_SEGMENTS:
-        raise InvalidModel(f"asset '{_shown(key)}': the key has {len(parts)} path segments; "
-                           f"the limit is {MAX_KEY_SEGMENTS}")
+        raise InvalidModel(
+            f"asset '{_shown(key)}': the key has {len(parts)} path segments; "
+            f"the limit is {MAX_KEY_SEGMENTS}"
+        )
     normal = "/".join(parts)
     if len(normal) > MAX_KEY_LENGTH:
-        raise InvalidModel(f"asset '{_shown(key)}': the key is {len(normal)} characters long; "
-                           f"the limit is {MAX_KEY_LENGTH}")
+        raise InvalidModel(
+            f"asset '{_shown(key)}': the key is {len(normal)} characters long; "
+            f"the limit is {MAX_KEY_LENGTH}"
+        )
     return normal
 
 
@@ -98,8 +107,9 @@ def _readable(kind: str, data: bytes) -> str | None:
     return None
 
 
-def decode_assets(encoded: Mapping[str, str] | None, max_bytes: int | None = None
-                  ) -> dict[str, bytes]:
+def decode_assets(
+    encoded: Mapping[str, str] | None, max_bytes: int | None = None
+) -> dict[str, bytes]:
     """Validated assets (normalized key → bytes) of an upload's `"assets"` member."""
     if not encoded:
         return {}
@@ -111,8 +121,10 @@ def decode_assets(encoded: Mapping[str, str] | None, max_bytes: int | None = Non
         normal = normalize_key(key)
         kind = extension(normal)
         if kind not in KNOWN_TYPES:
-            raise InvalidModel(f"asset '{_shown(key)}': '.{_shown(kind)}' is not a known file "
-                               f"type (known: {', '.join(KNOWN_TYPES)})")
+            raise InvalidModel(
+                f"asset '{_shown(key)}': '.{_shown(kind)}' is not a known file "
+                f"type (known: {', '.join(KNOWN_TYPES)})"
+            )
         if normal in out:
             raise InvalidModel(f"asset '{_shown(key)}' is given twice (as '{normal}')")
         try:

@@ -50,8 +50,12 @@ def _set_gravity(model: Any, gravity: Sequence[float] | None) -> None:
         model.gravity = pin.Motion(np.asarray(gravity, dtype=float), np.zeros(3))
 
 
-def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None = None,
-                     assets: Mapping[str, bytes] | None = None) -> MJCFModel:
+def build_mjcf_model(
+    text: str,
+    root_joint: str,
+    gravity: Sequence[float] | None = None,
+    assets: Mapping[str, bytes] | None = None,
+) -> MJCFModel:
     """Compile MJCF text with MuJoCo (`mjcf_compile`, assets in memory) and build its Pinocchio
     model body by body (`mjcf_build`) and its visuals (`mjcf_visuals`); gravity defaults to the
     model's own."""
@@ -61,9 +65,13 @@ def build_mjcf_model(text: str, root_joint: str, gravity: Sequence[float] | None
     return built
 
 
-def build_model(description_format: str, text: str, root_joint: str,
-                gravity: Sequence[float] | None = None,
-                assets: Mapping[str, bytes] | None = None) -> Any:
+def build_model(
+    description_format: str,
+    text: str,
+    root_joint: str,
+    gravity: Sequence[float] | None = None,
+    assets: Mapping[str, bytes] | None = None,
+) -> Any:
     """Build a model from validated URDF or MJCF text (`description_format`: "urdf"/"mjcf")."""
     if description_format == "mjcf":
         return build_mjcf_model(text, root_joint, gravity, assets).model
@@ -74,8 +82,10 @@ def build_model(description_format: str, text: str, root_joint: str,
 
 def reference_configurations(model: Any) -> dict[str, np.ndarray]:
     """The model's named configurations (MJCF keyframes and "qpos0"), normalized."""
-    return {entry.key(): pin.normalize(model, np.array(entry.data(), dtype=float))
-            for entry in model.referenceConfigurations}
+    return {
+        entry.key(): pin.normalize(model, np.array(entry.data(), dtype=float))
+        for entry in model.referenceConfigurations
+    }
 
 
 def check_moves(model: Any) -> None:
@@ -83,9 +93,11 @@ def check_moves(model: Any) -> None:
     root): it has no dynamics, and several of Pinocchio's algorithms (frame Jacobians) crash
     the process on it instead of answering."""
     if model.nv == 0:
-        raise InvalidModel("the model has no moving joint (nv = 0), so it has no dynamics to "
-                           'compute; give it a moving joint, or a root joint ("root_joint": '
-                           '"free-flyer" or "planar")')
+        raise InvalidModel(
+            "the model has no moving joint (nv = 0), so it has no dynamics to "
+            'compute; give it a moving joint, or a root joint ("root_joint": '
+            '"free-flyer" or "planar")'
+        )
 
 
 def check_subtree_masses(model: Any) -> None:
@@ -94,8 +106,10 @@ def check_subtree_masses(model: Any) -> None:
     pin.computeSubtreeMasses(model, data)
     for jid in range(1, model.njoints):
         if model.joints[jid].nv and data.mass[jid] <= 0.0:
-            raise InvalidModel(f"joint '{model.names[jid]}' moves a subtree without mass: the "
-                               "mass matrix is singular")
+            raise InvalidModel(
+                f"joint '{model.names[jid]}' moves a subtree without mass: the "
+                "mass matrix is singular"
+            )
 
 
 def check_mass_matrix(model: Any) -> None:
@@ -106,8 +120,10 @@ def check_mass_matrix(model: Any) -> None:
     if not np.all(np.isfinite(M)):
         raise InvalidModel("the mass matrix at the neutral configuration is not finite")
     if model.nv and np.linalg.eigvalsh(M)[0] <= 0.0:
-        raise InvalidModel("the mass matrix at the neutral configuration is not positive "
-                           "definite (a moving body without mass or inertia)")
+        raise InvalidModel(
+            "the mass matrix at the neutral configuration is not positive "
+            "definite (a moving body without mass or inertia)"
+        )
 
 
 @dataclass(frozen=True)

@@ -78,11 +78,20 @@ def _forbid_file_writes() -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
 
 
-def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | None,
-                 description_format: str = "urdf", memory_mb: int = 1024, cpu_s: int = 20,
-                 max_nv: int | None = None, limits: Limits | None = None,
-                 reject_findings: bool = False, assets: Mapping[str, bytes] | None = None,
-                 xacro_args: Mapping[str, str] | None = None) -> None:
+def _child_build(
+    conn: Any,
+    text: str,
+    root_joint: str,
+    gravity: list[float] | None,
+    description_format: str = "urdf",
+    memory_mb: int = 1024,
+    cpu_s: int = 20,
+    max_nv: int | None = None,
+    limits: Limits | None = None,
+    reject_findings: bool = False,
+    assets: Mapping[str, bytes] | None = None,
+    xacro_args: Mapping[str, str] | None = None,
+) -> None:
     """The builder process: validate, then (unless findings are to be rejected) build.
     Answers ("ok", Checked, model bytes, report), ("checked", Checked) or ("invalid", detail);
     the report holds what a format adds (MJCF: `MJCFModel.report`; xacro: its expansion)."""
@@ -118,8 +127,10 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
             model = build_urdf_model(text, root_joint, gravity)
         if max_nv is not None and model.nv > max_nv:
             # before createData: its memory grows with nv³
-            raise InvalidModel(f"the model has nv = {model.nv} velocity coordinates (with its "
-                               f"root joint); the limit is {max_nv} (ROBODYN_MAX_NV)")
+            raise InvalidModel(
+                f"the model has nv = {model.nv} velocity coordinates (with its "
+                f"root joint); the limit is {max_nv} (ROBODYN_MAX_NV)"
+            )
         check_moves(model)
         if description_format == "mjcf":
             check_subtree_masses(model)  # URDF uploads are checked on the text (urdf_check)
@@ -129,8 +140,13 @@ def _child_build(conn: Any, text: str, root_joint: str, gravity: list[float] | N
     except InvalidModel as exc:
         conn.send(("invalid", exc.detail))
     except MemoryError:
-        conn.send(("invalid", f"building the model needed more than its memory limit of "
-                              f"{memory_mb} MB (ROBODYN_BUILD_MEMORY_MB)"))
+        conn.send(
+            (
+                "invalid",
+                f"building the model needed more than its memory limit of "
+                f"{memory_mb} MB (ROBODYN_BUILD_MEMORY_MB)",
+            )
+        )
     except Exception:  # the parser's own messages carry C++ paths: never forward them
         conn.send(("invalid", _native_failure(description_format, memory_mb)))
     finally:
@@ -142,9 +158,11 @@ def _native_failure(description_format: str, memory_mb: int) -> str:
     is never forwarded): MuJoCo for an MJCF (its compiler, or an allocation it could not
     make), Pinocchio's URDF parser otherwise."""
     if description_format == "mjcf":
-        return ("MuJoCo could not build a model from this MJCF (e.g. an allocation it could "
-                f"not make within the builder's memory limit of {memory_mb} MB, "
-                "ROBODYN_BUILD_MEMORY_MB)")
+        return (
+            "MuJoCo could not build a model from this MJCF (e.g. an allocation it could "
+            f"not make within the builder's memory limit of {memory_mb} MB, "
+            "ROBODYN_BUILD_MEMORY_MB)"
+        )
     return "Pinocchio could not build a model from this description"
 
 
@@ -171,16 +189,22 @@ def _death(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
     if exitcode is not None and exitcode < 0:
         sig = -exitcode
         if sig == signal.SIGXCPU or sig == signal.SIGKILL:
-            return (f"building the model was stopped: it used more than its CPU limit of "
-                    f"{cpu_s} s (ROBODYN_BUILD_CPU_S) or was killed")
+            return (
+                f"building the model was stopped: it used more than its CPU limit of "
+                f"{cpu_s} s (ROBODYN_BUILD_CPU_S) or was killed"
+            )
         if sig == signal.SIGSEGV:
-            return ("the native model builder crashed on this description (segmentation fault, "
-                    "e.g. a stack overflow on a very long chain)")
+            return (
+                "the native model builder crashed on this description (segmentation fault, "
+                "e.g. a stack overflow on a very long chain)"
+            )
         name = signal.Signals(sig).name if sig in signal.valid_signals() else str(sig)
         return f"the native model builder crashed on this description (signal {name})"
     if exitcode not in (None, 0):  # e.g. std::bad_alloc → abort, or Python could not start
-        return (f"the native model builder failed on this description (it may have needed more "
-                f"than its memory limit of {memory_mb} MB, ROBODYN_BUILD_MEMORY_MB)")
+        return (
+            f"the native model builder failed on this description (it may have needed more "
+            f"than its memory limit of {memory_mb} MB, ROBODYN_BUILD_MEMORY_MB)"
+        )
     return "the native model builder ended without an answer on this description"
 
 
@@ -222,32 +246,62 @@ def cpu_seconds(pid: int) -> float | None:
 def _timed_out(pid: int, timeout_s: float) -> Exception:
     cpu = cpu_seconds(pid)
     if cpu is not None and cpu < STARVED_CPU_FRACTION * timeout_s:
-        return Overloaded(f"building the model got only {cpu:.1f} s of CPU time in its "
-                          f"{timeout_s:g} s (ROBODYN_BUILD_TIMEOUT_S): the server is too busy "
-                          "right now; retry shortly")
-    return InvalidModel(f"building the model took longer than {timeout_s:g} s "
-                        "(ROBODYN_BUILD_TIMEOUT_S)")
+        return Overloaded(
+            f"building the model got only {cpu:.1f} s of CPU time in its "
+            f"{timeout_s:g} s (ROBODYN_BUILD_TIMEOUT_S): the server is too busy "
+            "right now; retry shortly"
+        )
+    return InvalidModel(
+        f"building the model took longer than {timeout_s:g} s (ROBODYN_BUILD_TIMEOUT_S)"
+    )
 
 
-def build_isolated(text: str, root_joint: str, gravity: list[float] | None,
-                   timeout_s: float, *, description_format: str = "urdf",
-                   memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None,
-                   limits: Limits | None = None, assets: Mapping[str, bytes] | None = None,
-                   xacro_args: Mapping[str, str] | None = None) -> Any:
+def build_isolated(
+    text: str,
+    root_joint: str,
+    gravity: list[float] | None,
+    timeout_s: float,
+    *,
+    description_format: str = "urdf",
+    memory_mb: int = 1024,
+    cpu_s: int = 20,
+    max_nv: int | None = None,
+    limits: Limits | None = None,
+    assets: Mapping[str, bytes] | None = None,
+    xacro_args: Mapping[str, str] | None = None,
+) -> Any:
     """Validate and build a URDF, MJCF or xacro model in a resource-limited child process
     (`build_upload`, findings reported, not rejected): the model."""
-    return build_upload(text, root_joint, gravity, timeout_s,
-                        description_format=description_format, memory_mb=memory_mb,
-                        cpu_s=cpu_s, max_nv=max_nv, limits=limits, assets=assets,
-                        xacro_args=xacro_args).model
+    return build_upload(
+        text,
+        root_joint,
+        gravity,
+        timeout_s,
+        description_format=description_format,
+        memory_mb=memory_mb,
+        cpu_s=cpu_s,
+        max_nv=max_nv,
+        limits=limits,
+        assets=assets,
+        xacro_args=xacro_args,
+    ).model
 
 
-def build_upload(text: str, root_joint: str, gravity: list[float] | None,
-                 timeout_s: float, *, description_format: str = "urdf",
-                 memory_mb: int = 1024, cpu_s: int = 20, max_nv: int | None = None,
-                 limits: Limits | None = None, reject_findings: bool = False,
-                 assets: Mapping[str, bytes] | None = None,
-                 xacro_args: Mapping[str, str] | None = None) -> Built:
+def build_upload(
+    text: str,
+    root_joint: str,
+    gravity: list[float] | None,
+    timeout_s: float,
+    *,
+    description_format: str = "urdf",
+    memory_mb: int = 1024,
+    cpu_s: int = 20,
+    max_nv: int | None = None,
+    limits: Limits | None = None,
+    reject_findings: bool = False,
+    assets: Mapping[str, bytes] | None = None,
+    xacro_args: Mapping[str, str] | None = None,
+) -> Built:
     """Validate (with the caps of `limits`) and build a description in a resource-limited
     child process: URDF, MJCF (compiled by MuJoCo with its `assets` in memory) or xacro
     (expanded there first with `xacro_args`, `service.registry.xacro_expand`). With
@@ -263,9 +317,24 @@ def build_upload(text: str, root_joint: str, gravity: list[float] | None,
         raise ValueError(f"description_format must be one of {FORMATS}")
     ctx = _mp_context()
     parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child_build, daemon=True,
-                       args=(child, text, root_joint, gravity, description_format, memory_mb,
-                             cpu_s, max_nv, limits, reject_findings, assets, xacro_args))
+    proc = ctx.Process(
+        target=_child_build,
+        daemon=True,
+        args=(
+            child,
+            text,
+            root_joint,
+            gravity,
+            description_format,
+            memory_mb,
+            cpu_s,
+            max_nv,
+            limits,
+            reject_findings,
+            assets,
+            xacro_args,
+        ),
+    )
     try:
         proc.start()
     except OSError:  # no processes or descriptors left: the server's condition, not the model's

@@ -46,8 +46,10 @@ class BuildSlots:
         time. Blocking: call it off the event loop."""
         with self._lock:
             if self.waiting >= self.max_waiting:
-                raise Overloaded(f"{self.building} models are being built (or their equations "
-                                 f"derived) and {self.waiting} are waiting; retry shortly")
+                raise Overloaded(
+                    f"{self.building} models are being built (or their equations "
+                    f"derived) and {self.waiting} are waiting; retry shortly"
+                )
             self.waiting += 1
         try:
             acquired = self._free.acquire(timeout=self.wait_s)
@@ -55,9 +57,11 @@ class BuildSlots:
             with self._lock:
                 self.waiting -= 1
         if not acquired:
-            raise Overloaded(f"no model builder became free within {self.wait_s:g} s "
-                             f"({self.slots} build at a time, ROBODYN_MAX_CONCURRENT_BUILDS; "
-                             "ROBODYN_BUILD_QUEUE_TIMEOUT_S); retry shortly")
+            raise Overloaded(
+                f"no model builder became free within {self.wait_s:g} s "
+                f"({self.slots} build at a time, ROBODYN_MAX_CONCURRENT_BUILDS; "
+                "ROBODYN_BUILD_QUEUE_TIMEOUT_S); retry shortly"
+            )
         with self._lock:
             self.building += 1
         try:

@@ -29,8 +29,10 @@ log = logging.getLogger("robodyn.catalog")
 def erd_robots_dir() -> Path:
     """The `robots/` directory of the installed example-robot-data package."""
     for entry in sys.path:
-        for candidate in (Path(entry) / "cmeel.prefix" / "share" / "example-robot-data",
-                          Path(entry) / ".." / ".." / ".." / "share" / "example-robot-data"):
+        for candidate in (
+            Path(entry) / "cmeel.prefix" / "share" / "example-robot-data",
+            Path(entry) / ".." / ".." / ".." / "share" / "example-robot-data",
+        ):
             if (candidate / "robots").is_dir():
                 return (candidate / "robots").resolve()
     raise FileNotFoundError("the example-robot-data package is not installed")
@@ -52,8 +54,12 @@ def catalog_entries() -> list[CatalogEntry]:
     return [CatalogEntry(name, spec) for name, spec in sorted(table.items())]
 
 
-_VELOCITY_EFFORT_BOUNDS = ("lowerVelocityLimit", "upperVelocityLimit", "lowerEffortLimit",
-                           "upperEffortLimit")
+_VELOCITY_EFFORT_BOUNDS = (
+    "lowerVelocityLimit",
+    "upperVelocityLimit",
+    "lowerEffortLimit",
+    "upperEffortLimit",
+)
 
 
 def _keep_joints_below(model: Any, limit: int) -> Any:
@@ -65,15 +71,18 @@ def _keep_joints_below(model: Any, limit: int) -> Any:
         nq, nv = jm.nq, jm.nv
         rq, rv = reduced.joints[new].idx_q, reduced.joints[new].idx_v
         for attr, (src, dst, n) in {
-            "upperPositionLimit": (jm.idx_q, rq, nq), "lowerPositionLimit": (jm.idx_q, rq, nq),
-            "velocityLimit": (jm.idx_v, rv, nv), "effortLimit": (jm.idx_v, rv, nv),
+            "upperPositionLimit": (jm.idx_q, rq, nq),
+            "lowerPositionLimit": (jm.idx_q, rq, nq),
+            "velocityLimit": (jm.idx_v, rv, nv),
+            "effortLimit": (jm.idx_v, rv, nv),
             # Pinocchio ≥ 3.4 also keeps lower bounds (addJoint leaves them at +max, which
             # its model reduction refuses as lower > upper)
-            **{name: (jm.idx_v, rv, nv) for name in _VELOCITY_EFFORT_BOUNDS
-               if hasattr(model, name)},
+            **{
+                name: (jm.idx_v, rv, nv) for name in _VELOCITY_EFFORT_BOUNDS if hasattr(model, name)
+            },
         }.items():
             values = getattr(reduced, attr)
-            values[dst:dst + n] = getattr(model, attr)[src:src + n]
+            values[dst : dst + n] = getattr(model, attr)[src : src + n]
             setattr(reduced, attr, values)
         reduced.appendBodyToJoint(new, model.inertias[jid], pin.SE3.Identity())
     for frame in model.frames:
@@ -108,11 +117,13 @@ def load_entry(entry: CatalogEntry) -> Robot:
         srdf = str(entry.path("srdf"))
         if spec.get("rotor_parameters"):
             pin.loadRotorParameters(model, srdf, False)
-        model.armature = np.multiply(np.asarray(model.rotorInertia).flat,
-                                     np.square(np.asarray(model.rotorGearRatio).flat))
+        model.armature = np.multiply(
+            np.asarray(model.rotorInertia).flat, np.square(np.asarray(model.rotorGearRatio).flat)
+        )
         pin.loadReferenceConfigurations(model, srdf, False)
-        references = {e.key(): pin.normalize(model, np.array(e.data()))
-                      for e in model.referenceConfigurations}
+        references = {
+            e.key(): pin.normalize(model, np.array(e.data())) for e in model.referenceConfigurations
+        }
         posture = spec.get("reference_posture")
         if posture is not None and posture in references:
             default = references[posture].copy()
@@ -123,21 +134,33 @@ def load_entry(entry: CatalogEntry) -> Robot:
     contact_type = spec.get("contact_type", "point")
     contacts = [{"frame": frame, "type": contact_type} for frame in spec.get("contact_frames", [])]
     visuals, asset_paths = _visuals(entry, text, model)
-    return Robot(id=entry.name, name=entry.name, source="catalog", root_joint=root_joint,
-                 model=model, reference_configurations=references,
-                 default_configuration=default, warnings=[f.as_dict() for f in findings],
-                 contact_frames=contacts, visuals=visuals, asset_paths=asset_paths)
+    return Robot(
+        id=entry.name,
+        name=entry.name,
+        source="catalog",
+        root_joint=root_joint,
+        model=model,
+        reference_configurations=references,
+        default_configuration=default,
+        warnings=[f.as_dict() for f in findings],
+        contact_frames=contacts,
+        visuals=visuals,
+        asset_paths=asset_paths,
+    )
 
 
-def _visuals(entry: CatalogEntry, text: str, model: Any) -> tuple[list[dict[str, Any]],
-                                                                  dict[str, Path]]:
+def _visuals(
+    entry: CatalogEntry, text: str, model: Any
+) -> tuple[list[dict[str, Any]], dict[str, Path]]:
     """The robot's visuals and the mesh files they name (inside example-robot-data); none,
     logged, if the description's visuals cannot be read: the dynamics still serve."""
     body_frames = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
     try:
-        return resolve_assets(on_model(urdf_visuals(text), body_frames.__contains__),
-                              package_root=erd_robots_dir().parent.parent,
-                              description_dir=entry.path("urdf").parent)
+        return resolve_assets(
+            on_model(urdf_visuals(text), body_frames.__contains__),
+            package_root=erd_robots_dir().parent.parent,
+            description_dir=entry.path("urdf").parent,
+        )
     except Exception as exc:
         log.warning("catalog robot %r: visuals not read (%s)", entry.name, exc)
         return [], {}

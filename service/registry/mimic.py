@@ -25,9 +25,14 @@ def mimic_problems(joints: dict[str, Element], mimics: dict[str, str]) -> list[M
         if target == jname:
             out.append(("self_mimic", jname, f"joint '{label}': mimics itself"))
         elif joints[target].get("type") == "fixed":
-            out.append(("mimic_of_fixed_joint", jname,
-                        f"joint '{label}': mimics joint '{shown(target)}', which is fixed (it "
-                        "has no motion to copy)"))
+            out.append(
+                (
+                    "mimic_of_fixed_joint",
+                    jname,
+                    f"joint '{label}': mimics joint '{shown(target)}', which is fixed (it "
+                    "has no motion to copy)",
+                )
+            )
     done: set[str] = set()
     for start in mimics:  # each joint mimics at most one: follow the chain, iteratively
         path: list[str] = []
@@ -38,11 +43,16 @@ def mimic_problems(joints: dict[str, Element], mimics: dict[str, str]) -> list[M
             on_path.add(joint)
             joint = mimics.get(joint)
         if joint is not None and joint in on_path and mimics.get(joint) != joint:
-            cycle = path[path.index(joint):]
+            cycle = path[path.index(joint) :]
             shown_cycle = " → ".join(f"'{shown(j)}'" for j in [*cycle[:6], cycle[0]])
-            out.append(("mimic_cycle", joint,
-                        f"joint '{shown(joint)}': its mimics form a cycle ({shown_cycle}"
-                        f"{' …' if len(cycle) > 6 else ''}); one joint of a mimic chain must "
-                        "move on its own"))
+            out.append(
+                (
+                    "mimic_cycle",
+                    joint,
+                    f"joint '{shown(joint)}': its mimics form a cycle ({shown_cycle}"
+                    f"{' …' if len(cycle) > 6 else ''}); one joint of a mimic chain must "
+                    "move on its own",
+                )
+            )
         done.update(path)
     return out

@@ -36,8 +36,11 @@ from service.registry.urdf_check import Finding, _inertia_findings
 
 FREE, BALL, SLIDE, HINGE = 0, 1, 2, 3  # mujoco.mjtJoint
 GRAVITY_DISABLED = 128  # mujoco.mjtDisableBit.mjDSBL_GRAVITY
-_AXES: dict[tuple[float, ...], str] = {(1.0, 0.0, 0.0): "X", (0.0, 1.0, 0.0): "Y",
-                                       (0.0, 0.0, 1.0): "Z"}
+_AXES: dict[tuple[float, ...], str] = {
+    (1.0, 0.0, 0.0): "X",
+    (0.0, 1.0, 0.0): "Y",
+    (0.0, 0.0, 1.0): "Z",
+}
 
 
 @dataclass
@@ -55,10 +58,13 @@ class MJCFModel:
 
     def report(self) -> dict[str, Any]:
         """What the registry stores and reports beside the model (plain data)."""
-        return {"root_joint": self.root_joint,
-                "findings": [f.as_dict() for f in self.findings],
-                "notes": [f.as_dict() for f in self.notes], "visuals": self.visuals,
-                "bodies": len(self.body_frames) - 1}
+        return {
+            "root_joint": self.root_joint,
+            "findings": [f.as_dict() for f in self.findings],
+            "notes": [f.as_dict() for f in self.notes],
+            "visuals": self.visuals,
+            "bodies": len(self.body_frames) - 1,
+        }
 
 
 def se3(quat_wxyz: np.ndarray, pos: np.ndarray) -> Any:
@@ -82,10 +88,14 @@ def _name(mj: Any, kind: str, index: int, fallback: str, taken: set[str]) -> str
 def _hinge_or_slide(kind: int, axis: np.ndarray) -> Any:
     letter = _AXES.get(tuple(float(a) for a in axis))
     if kind == HINGE:
-        return getattr(pin, f"JointModelR{letter}")() if letter else \
-            pin.JointModelRevoluteUnaligned(axis)
-    return getattr(pin, f"JointModelP{letter}")() if letter else \
-        pin.JointModelPrismaticUnaligned(axis)
+        return (
+            getattr(pin, f"JointModelR{letter}")()
+            if letter
+            else pin.JointModelRevoluteUnaligned(axis)
+        )
+    return (
+        getattr(pin, f"JointModelP{letter}")() if letter else pin.JointModelPrismaticUnaligned(axis)
+    )
 
 
 class _Builder:
@@ -99,17 +109,27 @@ class _Builder:
         self.body_offset: list[Any] = [pin.SE3.Identity()] * mj.nbody  # joint → body frame
         self.root = root_joint
         if root_joint != "fixed":
-            joint = pin.JointModelFreeFlyer() if root_joint == "free-flyer" \
-                else pin.JointModelPlanar()
+            joint = (
+                pin.JointModelFreeFlyer() if root_joint == "free-flyer" else pin.JointModelPlanar()
+            )
             jid = self.model.addJoint(0, joint, pin.SE3.Identity(), "root_joint")
             self.body_frame[0] = self.model.addJointFrame(jid, 0)
             self.body_joint[0] = jid
 
-    def add_joint(self, parent: int, joint: Any, placement: Any, name: str,
-                  lower: np.ndarray, upper: np.ndarray, effort: float) -> int:
+    def add_joint(
+        self,
+        parent: int,
+        joint: Any,
+        placement: Any,
+        name: str,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        effort: float,
+    ) -> int:
         nv = joint.nv
-        jid = self.model.addJoint(parent, joint, placement, name, np.full(nv, effort),
-                                  np.full(nv, np.inf), lower, upper)
+        jid = self.model.addJoint(
+            parent, joint, placement, name, np.full(nv, effort), np.full(nv, np.inf), lower, upper
+        )
         self.model.addJointFrame(jid, -1)
         return int(jid)
 
@@ -126,25 +146,35 @@ class _Builder:
             name = _name(mj, "joint", j, f"{body_name}_joint{j - first}", self.names)
             if kind == FREE:
                 if parent != 0 or count != 1 or self.root != "fixed":
-                    raise InvalidModel(f"body '{body_name}': a free joint is served only as the "
-                                       "single joint of a body attached to the world")
+                    raise InvalidModel(
+                        f"body '{body_name}': a free joint is served only as the "
+                        "single joint of a body attached to the world"
+                    )
                 big = np.full(3, np.inf)  # unbounded (reported as null)
-                jid = self.add_joint(jid, pin.JointModelTranslation(), pin.SE3.Identity(), name,
-                                     -big, big, np.inf)
+                jid = self.add_joint(
+                    jid, pin.JointModelTranslation(), pin.SE3.Identity(), name, -big, big, np.inf
+                )
                 self.names.add(f"{name}_rotation")
-                jid = self.add_joint(jid, pin.JointModelSpherical(), pin.SE3.Identity(),
-                                     f"{name}_rotation", -np.full(4, np.inf), np.full(4, np.inf),
-                                     np.inf)
+                jid = self.add_joint(
+                    jid,
+                    pin.JointModelSpherical(),
+                    pin.SE3.Identity(),
+                    f"{name}_rotation",
+                    -np.full(4, np.inf),
+                    np.full(4, np.inf),
+                    np.inf,
+                )
                 self._map(qadr, jid, (0, 1, 2, 6, 3, 4, 5), base=-3)
                 idx_v = model.joints[jid].idx_v - 3
                 dof = int(mj.jnt_dofadr[j])
-                model.armature[idx_v:idx_v + 6] = mj.dof_armature[dof:dof + 6]
+                model.armature[idx_v : idx_v + 6] = mj.dof_armature[dof : dof + 6]
                 here = pin.SE3.Identity()
                 continue
             pos = np.asarray(mj.jnt_pos[j], dtype=float)
             placement = here * _shift(pos - anchor)
-            effort = (float(np.max(np.abs(mj.jnt_actfrcrange[j])))
-                      if mj.jnt_actfrclimited[j] else np.inf)
+            effort = (
+                float(np.max(np.abs(mj.jnt_actfrcrange[j]))) if mj.jnt_actfrclimited[j] else np.inf
+            )
             if kind == BALL:
                 joint = pin.JointModelSpherical()
                 lower, upper = -np.full(4, np.inf), np.full(4, np.inf)
@@ -153,8 +183,11 @@ class _Builder:
                 axis = np.asarray(mj.jnt_axis[j], dtype=float)
                 ref = float(mj.qpos0[qadr])
                 joint = _hinge_or_slide(kind, axis)
-                placement = placement * (pin.SE3(pin.exp3(-ref * axis), np.zeros(3))
-                                         if kind == HINGE else _shift(-ref * axis))
+                placement = placement * (
+                    pin.SE3(pin.exp3(-ref * axis), np.zeros(3))
+                    if kind == HINGE
+                    else _shift(-ref * axis)
+                )
                 limited = bool(mj.jnt_limited[j])
                 lower = np.array([mj.jnt_range[j][0] if limited else -np.inf])
                 upper = np.array([mj.jnt_range[j][1] if limited else np.inf])
@@ -163,14 +196,16 @@ class _Builder:
             self._map(qadr, jid, order)
             dof = int(mj.jnt_dofadr[j])
             idx_v = model.joints[jid].idx_v
-            model.armature[idx_v:idx_v + joint.nv] = mj.dof_armature[dof:dof + joint.nv]
+            model.armature[idx_v : idx_v + joint.nv] = mj.dof_armature[dof : dof + joint.nv]
             here, anchor = pin.SE3.Identity(), pos
         offset = here * _shift(-anchor)
-        inertia = pin.Inertia(float(mj.body_mass[b]), np.asarray(mj.body_ipos[b], float),
-                              _rotated(mj.body_iquat[b], mj.body_inertia[b]))
+        inertia = pin.Inertia(
+            float(mj.body_mass[b]),
+            np.asarray(mj.body_ipos[b], float),
+            _rotated(mj.body_iquat[b], mj.body_inertia[b]),
+        )
         model.appendBodyToJoint(jid, inertia, offset)
-        self.body_frame[b] = model.addBodyFrame(body_name, jid, offset,
-                                                self.body_frame[parent])
+        self.body_frame[b] = model.addBodyFrame(body_name, jid, offset, self.body_frame[parent])
         self.body_joint[b], self.body_offset[b] = jid, offset
 
     def _map(self, qadr: int, jid: int, order: tuple[int, ...], base: int = 0) -> None:
@@ -184,8 +219,11 @@ class _Builder:
             b = int(mj.site_bodyid[s])
             name = _name(mj, "site", s, f"site{s}", self.frame_names)
             placement = self.body_offset[b] * se3(mj.site_quat[s], mj.site_pos[s])
-            self.model.addFrame(pin.Frame(name, self.body_joint[b], self.body_frame[b],
-                                          placement, pin.FrameType.OP_FRAME))
+            self.model.addFrame(
+                pin.Frame(
+                    name, self.body_joint[b], self.body_frame[b], placement, pin.FrameType.OP_FRAME
+                )
+            )
 
     def configuration(self, qpos: np.ndarray) -> np.ndarray:
         """Pinocchio's q of a MuJoCo qpos (a root joint robodyn added is at its neutral)."""
@@ -203,19 +241,30 @@ def _notes(mj: Any) -> list[Finding]:
     notes = []
     for e in range(mj.neq):
         name = mj.equality(e).name or f"equality{e}"
-        notes.append(Finding("ignored_equality", "equality", name,
-                             f"equality constraint '{name}' is not part of the model: robodyn "
-                             "computes the dynamics of the open kinematic tree"))
+        notes.append(
+            Finding(
+                "ignored_equality",
+                "equality",
+                name,
+                f"equality constraint '{name}' is not part of the model: robodyn "
+                "computes the dynamics of the open kinematic tree",
+            )
+        )
     for t in range(mj.ntendon):
         name = mj.tendon(t).name or f"tendon{t}"
-        notes.append(Finding("ignored_tendon", "tendon", name,
-                             f"tendon '{name}' is not part of the model: robodyn computes the "
-                             "rigid-body dynamics of the joints (no tendon forces or armature)"))
+        notes.append(
+            Finding(
+                "ignored_tendon",
+                "tendon",
+                name,
+                f"tendon '{name}' is not part of the model: robodyn computes the "
+                "rigid-body dynamics of the joints (no tendon forces or armature)",
+            )
+        )
     return notes
 
 
-def pinocchio_model(mj: Any, root_joint: str = "fixed",
-                    gravity: Any = None) -> MJCFModel:
+def pinocchio_model(mj: Any, root_joint: str = "fixed", gravity: Any = None) -> MJCFModel:
     """The Pinocchio model of compiled MuJoCo model `mj` (see the module docstring).
 
     `root_joint` "free-flyer"/"planar" adds that joint between the world and the model's bodies
@@ -229,9 +278,11 @@ def pinocchio_model(mj: Any, root_joint: str = "fixed",
     if has_free and root_joint == "free-flyer":
         root_joint = "fixed"  # the free joint is the root
     if root_joint != "fixed" and (len(tops) != 1 or mj.body_jntnum[tops[0]]):
-        raise InvalidModel(f"root_joint '{root_joint}' is added only above a single top body "
-                           "without joints; this model has "
-                           f"{len(tops)} top bodies{' with joints' if len(tops) == 1 else ''}")
+        raise InvalidModel(
+            f"root_joint '{root_joint}' is added only above a single top body "
+            "without joints; this model has "
+            f"{len(tops)} top bodies{' with joints' if len(tops) == 1 else ''}"
+        )
     builder = _Builder(mj, root_joint)
     findings: list[Finding] = []
     for b in range(1, mj.nbody):
@@ -248,7 +299,8 @@ def pinocchio_model(mj: Any, root_joint: str = "fixed",
     model.gravity = pin.Motion(np.asarray(gravity, dtype=float), np.zeros(3))
     model.referenceConfigurations["qpos0"] = builder.configuration(mj.qpos0)
     for k in range(mj.nkey):
-        model.referenceConfigurations[mj.key(k).name or f"key{k}"] = \
-            builder.configuration(mj.key_qpos[k])
+        model.referenceConfigurations[mj.key(k).name or f"key{k}"] = builder.configuration(
+            mj.key_qpos[k]
+        )
     frames = ["universe"] + [model.frames[builder.body_frame[b]].name for b in range(1, mj.nbody)]
     return MJCFModel(model, served, findings, _notes(mj), builder.q_index, frames)

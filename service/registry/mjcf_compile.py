@@ -45,29 +45,32 @@ def parse_xml(text: str | bytes, what: str, limits: Limits) -> Element:
     """Parse XML safely (no DTD, entities or external references), within the element and
     nesting caps; `what` names the file in messages."""
     try:
-        root = SafeET.fromstring(text, forbid_dtd=True, forbid_entities=True,
-                                 forbid_external=True)
+        root = SafeET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DefusedXmlException:
-        raise InvalidModel(f"{what}: the XML has a DTD, entity or external reference; these "
-                           "are refused") from None
+        raise InvalidModel(
+            f"{what}: the XML has a DTD, entity or external reference; these are refused"
+        ) from None
     except (SafeET.ParseError, ValueError) as exc:
         raise InvalidModel(f"{what} is not well-formed XML ({shown(str(exc), 200)})") from None
     count = sum(1 for _ in root.iter())
     if count > limits.max_elements:
-        raise InvalidModel(f"{what} has {count} XML elements; the limit is "
-                           f"{limits.max_elements}")
+        raise InvalidModel(f"{what} has {count} XML elements; the limit is {limits.max_elements}")
     stack = [(root, 1)]
     while stack:
         el, depth = stack.pop()
         if depth > limits.max_depth + 8:
-            raise InvalidModel(f"{what}: <{shown(str(el.tag))}> is nested deeper than "
-                               f"{limits.max_depth + 8} XML levels")
+            raise InvalidModel(
+                f"{what}: <{shown(str(el.tag))}> is nested deeper than "
+                f"{limits.max_depth + 8} XML levels"
+            )
         for attr in ("name", "model"):  # names are echoed in every answer: bounded
             value = el.get(attr)
             if value is not None and len(value) > limits.max_name_length:
-                raise InvalidModel(f"{what}: <{shown(str(el.tag))}> {attr}='{shown(value)}' is "
-                                   f"{len(value)} characters long; the limit is "
-                                   f"{limits.max_name_length} (ROBODYN_MAX_NAME_LENGTH)")
+                raise InvalidModel(
+                    f"{what}: <{shown(str(el.tag))}> {attr}='{shown(value)}' is "
+                    f"{len(value)} characters long; the limit is "
+                    f"{limits.max_name_length} (ROBODYN_MAX_NAME_LENGTH)"
+                )
         stack.extend((child, depth + 1) for child in el)
     return root
 
@@ -80,17 +83,18 @@ def _check_paths(root: Element, what: str) -> None:
                 continue
             path = PurePosixPath(value.replace("\\", "/"))
             if path.is_absolute() or ".." in path.parts or ":" in value or value.startswith("~"):
-                raise InvalidModel(f"{what}: <{shown(str(el.tag))}> {attr}='{shown(value)}' "
-                                   "points outside the upload; references must be relative "
-                                   "paths to the upload's assets")
+                raise InvalidModel(
+                    f"{what}: <{shown(str(el.tag))}> {attr}='{shown(value)}' "
+                    "points outside the upload; references must be relative "
+                    "paths to the upload's assets"
+                )
 
 
 def preflight(text: str, assets: Mapping[str, bytes], limits: Limits) -> str:
     """Check the description and its XML assets (see the module docstring); the model's name."""
     root = parse_xml(text, "the MJCF", limits)
     if root.tag != "mujoco":
-        raise InvalidModel(f"the root element is <{shown(str(root.tag))}>; an MJCF needs "
-                           "<mujoco>")
+        raise InvalidModel(f"the root element is <{shown(str(root.tag))}>; an MJCF needs <mujoco>")
     _check_paths(root, "the MJCF")
     for key, data in assets.items():
         if key.lower().endswith(".xml"):
@@ -138,22 +142,61 @@ def compile_mjcf(text: str, assets: Mapping[str, bytes]) -> Any:
     return mj
 
 
-_OPTION_FIELDS = ("gravity", "wind", "magnetic", "timestep", "density", "viscosity",
-                  "impratio", "tolerance", "o_margin", "o_solref", "o_solimp", "o_friction")
+_OPTION_FIELDS = (
+    "gravity",
+    "wind",
+    "magnetic",
+    "timestep",
+    "density",
+    "viscosity",
+    "impratio",
+    "tolerance",
+    "o_margin",
+    "o_solref",
+    "o_solimp",
+    "o_friction",
+)
 _ELEMENTS = {  # model array prefix → (MuJoCo object type, MJCF element)
-    "body": (mujoco.mjtObj.mjOBJ_BODY, "body"), "jnt": (mujoco.mjtObj.mjOBJ_JOINT, "joint"),
-    "geom": (mujoco.mjtObj.mjOBJ_GEOM, "geom"), "site": (mujoco.mjtObj.mjOBJ_SITE, "site"),
-    "key": (mujoco.mjtObj.mjOBJ_KEY, "key"), "actuator": (mujoco.mjtObj.mjOBJ_ACTUATOR,
-                                                          "actuator"),
-    "tendon": (mujoco.mjtObj.mjOBJ_TENDON, "tendon"), "cam": (mujoco.mjtObj.mjOBJ_CAMERA,
-                                                             "camera"),
+    "body": (mujoco.mjtObj.mjOBJ_BODY, "body"),
+    "jnt": (mujoco.mjtObj.mjOBJ_JOINT, "joint"),
+    "geom": (mujoco.mjtObj.mjOBJ_GEOM, "geom"),
+    "site": (mujoco.mjtObj.mjOBJ_SITE, "site"),
+    "key": (mujoco.mjtObj.mjOBJ_KEY, "key"),
+    "actuator": (mujoco.mjtObj.mjOBJ_ACTUATOR, "actuator"),
+    "tendon": (mujoco.mjtObj.mjOBJ_TENDON, "tendon"),
+    "cam": (mujoco.mjtObj.mjOBJ_CAMERA, "camera"),
 }
 
 
-_GIVEN = frozenset(("pos", "quat", "mass", "inertia", "ipos", "iquat", "axis", "range",
-                    "size", "qpos", "qvel", "act", "ctrl", "mpos", "mquat", "time", "friction",
-                    "armature", "damping", "stiffness", "springref", "frictionloss", "gear",
-                    "margin", "ref"))
+_GIVEN = frozenset(
+    (
+        "pos",
+        "quat",
+        "mass",
+        "inertia",
+        "ipos",
+        "iquat",
+        "axis",
+        "range",
+        "size",
+        "qpos",
+        "qvel",
+        "act",
+        "ctrl",
+        "mpos",
+        "mquat",
+        "time",
+        "friction",
+        "armature",
+        "damping",
+        "stiffness",
+        "springref",
+        "frictionloss",
+        "gear",
+        "margin",
+        "ref",
+    )
+)
 
 
 def check_finite(mj: Any) -> None:
@@ -164,8 +207,10 @@ def check_finite(mj: Any) -> None:
         value = np.asarray(getattr(mj.opt, name, 0.0), dtype=float)
         if not np.all(np.isfinite(value)):
             shown_name = name.removeprefix("o_")
-            raise InvalidModel(f"<option {shown_name}> holds a non-finite number "
-                               f"({_numbers(value)}); every number must be finite")
+            raise InvalidModel(
+                f"<option {shown_name}> holds a non-finite number "
+                f"({_numbers(value)}); every number must be finite"
+            )
     # attributes the MJCF gives first, so a NaN is named where it was written (a NaN position
     # also spoils values derived from it, e.g. body_invweight0)
     names = [n for n in dir(mj) if not n.startswith("_")]
@@ -186,11 +231,15 @@ def check_finite(mj: Any) -> None:
             obj, tag = _ELEMENTS[prefix]
             element_name = mujoco.mj_id2name(mj, obj, row)
             which = f" name='{shown(element_name)}'" if element_name else f" (number {row})"
-            values = value[row] if value.ndim > 1 else value[row:row + 1]
-            raise InvalidModel(f"<{tag}{which}> {attribute} holds a non-finite number "
-                               f"({_numbers(values)}); every number must be finite")
-        raise InvalidModel(f"the compiled model's {field_name} holds a non-finite number; every "
-                           "number of the MJCF must be finite")
+            values = value[row] if value.ndim > 1 else value[row : row + 1]
+            raise InvalidModel(
+                f"<{tag}{which}> {attribute} holds a non-finite number "
+                f"({_numbers(values)}); every number must be finite"
+            )
+        raise InvalidModel(
+            f"the compiled model's {field_name} holds a non-finite number; every "
+            "number of the MJCF must be finite"
+        )
 
 
 def _numbers(values: Any) -> str:

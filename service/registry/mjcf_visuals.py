@@ -26,7 +26,7 @@ def _path(mj: Any, adr: int) -> str | None:
     if adr < 0:
         return None
     raw = bytes(mj.paths[adr:])
-    return raw[:raw.index(b"\0")].decode("utf-8", "replace") if b"\0" in raw else None
+    return raw[: raw.index(b"\0")].decode("utf-8", "replace") if b"\0" in raw else None
 
 
 def _geometry(mj: Any, g: int) -> tuple[dict[str, Any] | None, Any]:
@@ -35,8 +35,11 @@ def _geometry(mj: Any, g: int) -> tuple[dict[str, Any] | None, Any]:
     if kind == SPHERE:
         return {"type": "sphere", "radius": size[0]}, None
     if kind in (CAPSULE, CYLINDER):
-        return {"type": "capsule" if kind == CAPSULE else "cylinder", "radius": size[0],
-                "length": 2 * size[1]}, None
+        return {
+            "type": "capsule" if kind == CAPSULE else "cylinder",
+            "radius": size[0],
+            "length": 2 * size[1],
+        }, None
     if kind == BOX:
         return {"type": "box", "size": [2 * s for s in size]}, None
     if kind == MESH:
@@ -44,8 +47,11 @@ def _geometry(mj: Any, g: int) -> tuple[dict[str, Any] | None, Any]:
         path = _path(mj, int(mj.mesh_pathadr[mesh]))
         if path is None:  # vertices given in the XML: no file to serve
             return None, None
-        geometry = {"type": "mesh", "asset": normalize_key(path),
-                    "scale": [float(x) for x in mj.mesh_scale[mesh]]}
+        geometry = {
+            "type": "mesh",
+            "asset": normalize_key(path),
+            "scale": [float(x) for x in mj.mesh_scale[mesh]],
+        }
         return geometry, se3(mj.mesh_quat[mesh], mj.mesh_pos[mesh]).inverse()
     return None, None
 
@@ -66,12 +72,16 @@ def mjcf_visuals(mj: Any, body_frames: list[str]) -> list[dict[str, Any]]:
         placement = se3(mj.geom_quat[g], mj.geom_pos[g])
         if correction is not None:
             placement = placement * correction
-        out.append({
-            "name": mj.geom(g).name or f"geom{g}",
-            "frame": body_frames[int(mj.geom_bodyid[g])],
-            "placement": {"translation": [float(x) for x in placement.translation],
-                          "rotation": np.asarray(placement.rotation).tolist()},
-            "geometry": geometry,
-            "color": [float(c) for c in rgba]})
+        out.append(
+            {
+                "name": mj.geom(g).name or f"geom{g}",
+                "frame": body_frames[int(mj.geom_bodyid[g])],
+                "placement": {
+                    "translation": [float(x) for x in placement.translation],
+                    "rotation": np.asarray(placement.rotation).tolist(),
+                },
+                "geometry": geometry,
+                "color": [float(c) for c in rgba],
+            }
+        )
     return out
-

@@ -42,14 +42,20 @@ class PlacedPayload:
 
     def spatial_inertia(self) -> Any:
         """The payload's spatial inertia in the frame (`pin.Inertia`)."""
-        return pin.Inertia(self.mass, np.array(self.center_of_mass, dtype=float),
-                           np.array(self.inertia, dtype=float))
+        return pin.Inertia(
+            self.mass,
+            np.array(self.center_of_mass, dtype=float),
+            np.array(self.inertia, dtype=float),
+        )
 
     def as_dict(self) -> dict[str, Any]:
         """The payload as the API writes it (for records, ids and `modifications`)."""
-        return {"frame": self.frame, "mass": self.mass,
-                "center_of_mass": list(self.center_of_mass),
-                "inertia": [list(row) for row in self.inertia]}
+        return {
+            "frame": self.frame,
+            "mass": self.mass,
+            "center_of_mass": list(self.center_of_mass),
+            "inertia": [list(row) for row in self.inertia],
+        }
 
     @classmethod
     def from_dict(cls, value: dict[str, Any]) -> PlacedPayload:
@@ -80,35 +86,62 @@ def composed_model(robot: Robot, payloads: Sequence[PlacedPayload]) -> Any:
         frame = model.frames[fid]
         joint = int(frame.parentJoint)
         model.inertias[joint] = model.inertias[joint] + frame.placement.act(
-            payload.spatial_inertia())
+            payload.spatial_inertia()
+        )
     return model
 
 
-def carrying(robot: Robot, payloads: Sequence[PlacedPayload], *, robot_id: str | None = None,
-             name: str | None = None, source: str | None = None,
-             parent: str | None = None, modifications: dict[str, Any] | None = None) -> Robot:
+def carrying(
+    robot: Robot,
+    payloads: Sequence[PlacedPayload],
+    *,
+    robot_id: str | None = None,
+    name: str | None = None,
+    source: str | None = None,
+    parent: str | None = None,
+    modifications: dict[str, Any] | None = None,
+) -> Robot:
     """A new `Robot` like `robot` whose model carries `payloads` (a copy: `robot` is never
     changed), with its own Data pool. Everything but the inertias carries over (joints,
     frames, limits, configurations, visuals). Without `robot_id` it keeps the robot's id, so
     error messages name the robot the request named."""
-    return derived(robot, composed_model(robot, payloads), robot_id=robot_id, name=name,
-                   source=source, parent=parent, modifications=modifications)
+    return derived(
+        robot,
+        composed_model(robot, payloads),
+        robot_id=robot_id,
+        name=name,
+        source=source,
+        parent=parent,
+        modifications=modifications,
+    )
 
 
-def derived(robot: Robot, model: Any, *, robot_id: str | None = None, name: str | None = None,
-            source: str | None = None, parent: str | None = None,
-            modifications: dict[str, Any] | None = None) -> Robot:
+def derived(
+    robot: Robot,
+    model: Any,
+    *,
+    robot_id: str | None = None,
+    name: str | None = None,
+    source: str | None = None,
+    parent: str | None = None,
+    modifications: dict[str, Any] | None = None,
+) -> Robot:
     """A `Robot` with `model` (same joints and frames as `robot.model`) and everything else of
     `robot`: configurations, contact frames, warnings, visuals, the q convention."""
     return Robot(
         id=robot.id if robot_id is None else robot_id,
         name=robot.name if name is None else name,
         source=robot.source if source is None else source,
-        root_joint=robot.root_joint, model=model,
+        root_joint=robot.root_joint,
+        model=model,
         reference_configurations=dict(robot.reference_configurations),
         default_configuration=robot.default_configuration,
         contact_frames=[dict(c) for c in robot.contact_frames],
-        warnings=list(robot.warnings), origin=robot.origin, visuals=robot.visuals,
-        asset_paths=dict(robot.asset_paths), mujoco_qpos=robot.mujoco_qpos,
+        warnings=list(robot.warnings),
+        origin=robot.origin,
+        visuals=robot.visuals,
+        asset_paths=dict(robot.asset_paths),
+        mujoco_qpos=robot.mujoco_qpos,
         parent=parent if parent is not None else robot.parent,
-        modifications=modifications if modifications is not None else robot.modifications)
+        modifications=modifications if modifications is not None else robot.modifications,
+    )

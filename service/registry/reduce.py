@@ -50,20 +50,25 @@ def _shown(name: str) -> str:
 
 def as_lists(locked: Mapping[str, LockedValue]) -> dict[str, list[float]]:
     """The locked joints as requested, each value a list of floats (for ids and records)."""
-    return {name: [float(value)] if isinstance(value, int | float) else [float(x) for x in value]
-            for name, value in locked.items()}
+    return {
+        name: [float(value)] if isinstance(value, int | float) else [float(x) for x in value]
+        for name, value in locked.items()
+    }
 
 
 def _unit(values: list[float], joint: str, kind: str) -> list[float]:
     norm = math.sqrt(sum(x * x for x in values))
     if abs(norm - 1.0) > UNIT_NORM_TOL:
-        raise InvalidConfiguration(f"locked joint '{_shown(joint)}': the {kind} must have unit "
-                                   f"norm; its norm is {norm:.9g}")
+        raise InvalidConfiguration(
+            f"locked joint '{_shown(joint)}': the {kind} must have unit "
+            f"norm; its norm is {norm:.9g}"
+        )
     return [x / norm for x in values]
 
 
-def _joint_q(joint: str, kind: str, nq: int, values: list[float], wxyz: bool = False
-             ) -> list[float]:
+def _joint_q(
+    joint: str, kind: str, nq: int, values: list[float], wxyz: bool = False
+) -> list[float]:
     """The q entries of one locked joint from its requested value (see the module docstring),
     in Pinocchio's order; `wxyz`: a spherical joint's value is (qw, qx, qy, qz)."""
     n = len(values)
@@ -84,16 +89,19 @@ def _joint_q(joint: str, kind: str, nq: int, values: list[float], wxyz: bool = F
         return _unit(values, joint, "quaternion (qx, qy, qz, qw)")
     if kind not in ("continuous", "planar", "free_flyer", "spherical") and n == nq:
         return values
-    expected = {"continuous": "an angle θ or [cos θ, sin θ]", "planar": "[x, y, θ] or "
-                "[x, y, cos θ, sin θ]", "free_flyer": "[x, y, z, qx, qy, qz, qw]",
-                "spherical": "[qw, qx, qy, qz]" if wxyz else "[qx, qy, qz, qw]"}.get(
-        kind, "a number" if nq == 1 else f"a list of its {nq} entries of q")
-    raise InvalidInput(f"locked joint '{_shown(joint)}' is {kind}: its value must be {expected}; "
-                       f"{n} numbers were given")
+    expected = {
+        "continuous": "an angle θ or [cos θ, sin θ]",
+        "planar": "[x, y, θ] or [x, y, cos θ, sin θ]",
+        "free_flyer": "[x, y, z, qx, qy, qz, qw]",
+        "spherical": "[qw, qx, qy, qz]" if wxyz else "[qx, qy, qz, qw]",
+    }.get(kind, "a number" if nq == 1 else f"a list of its {nq} entries of q")
+    raise InvalidInput(
+        f"locked joint '{_shown(joint)}' is {kind}: its value must be {expected}; "
+        f"{n} numbers were given"
+    )
 
 
-def locked_configuration(robot: Robot, locked: Mapping[str, LockedValue]
-                         ) -> dict[str, list[float]]:
+def locked_configuration(robot: Robot, locked: Mapping[str, LockedValue]) -> dict[str, list[float]]:
     """Check the locked joints of `robot` and give each one's q entries (model order).
 
     Raises `InvalidInput` (unknown joint names, all listed; a value of the wrong size),
@@ -105,11 +113,14 @@ def locked_configuration(robot: Robot, locked: Mapping[str, LockedValue]
         raise InvalidInput("locked_joints is empty; name at least one joint to lock")
     unknown = [name for name in locked if name not in robot.joint_types]
     if unknown:
-        shown = ", ".join(f"'{_shown(n)}'{did_you_mean(n, robot.joint_types)}"
-                          for n in unknown[:10])
+        shown = ", ".join(
+            f"'{_shown(n)}'{did_you_mean(n, robot.joint_types)}" for n in unknown[:10]
+        )
         more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
-        raise InvalidInput(f"robot '{robot.id}' has no joint {shown}{more}; the `joints` of "
-                           f"GET /v1/robots/{robot.id} list the valid names")
+        raise InvalidInput(
+            f"robot '{robot.id}' has no joint {shown}{more}; the `joints` of "
+            f"GET /v1/robots/{robot.id} list the valid names"
+        )
     out: dict[str, list[float]] = {}
     for jid in range(1, model.njoints):
         name = model.names[jid]
@@ -122,17 +133,19 @@ def locked_configuration(robot: Robot, locked: Mapping[str, LockedValue]
         wxyz = jm.idx_q in robot.wxyz_starts  # MuJoCo's order: w first (`Robot.mujoco_qpos`)
         q = _joint_q(name, kind, jm.nq, values, wxyz)
         if kind in CHECKED_LIMITS:
-            lower = model.lowerPositionLimit[jm.idx_q:jm.idx_q + jm.nq]
-            upper = model.upperPositionLimit[jm.idx_q:jm.idx_q + jm.nq]
+            lower = model.lowerPositionLimit[jm.idx_q : jm.idx_q + jm.nq]
+            upper = model.upperPositionLimit[jm.idx_q : jm.idx_q + jm.nq]
             for x, lo, hi in zip(q, lower, upper, strict=True):
                 if not lo - LIMIT_TOL <= x <= hi + LIMIT_TOL:
                     raise InvalidConfiguration(
                         f"locked joint '{_shown(name)}': {x:.9g} is outside its position "
-                        f"limits [{lo:.9g}, {hi:.9g}] (rad or m)")
+                        f"limits [{lo:.9g}, {hi:.9g}] (rad or m)"
+                    )
         out[name] = q
     if sum(model.joints[model.getJointId(n)].nv for n in out) == model.nv:
-        raise InvalidModel("locking every moving joint leaves nothing to move; keep at least "
-                           "one joint free")
+        raise InvalidModel(
+            "locking every moving joint leaves nothing to move; keep at least one joint free"
+        )
     return out
 
 
@@ -175,29 +188,44 @@ def _rename_frame(model: Any, fid: int, name: str) -> None:
     model.frames[fid] = frame
 
 
-def reduced_robot(base: Robot, locked_q: Mapping[str, list[float]], robot_id: str, name: str,
-                  origin: dict[str, Any], parent: str | None = None,
-                  modifications: dict[str, Any] | None = None) -> Robot:
+def reduced_robot(
+    base: Robot,
+    locked_q: Mapping[str, list[float]],
+    robot_id: str,
+    name: str,
+    origin: dict[str, Any],
+    parent: str | None = None,
+    modifications: dict[str, Any] | None = None,
+) -> Robot:
     """The `Robot` of `base` with the joints of `locked_q` (from `locked_configuration`) locked.
 
     The base's root joint stays the reduced model's root unless it is locked ("fixed" then).
     `parent` and `modifications`: what its RobotInfo says it derives from (a variant).
     """
     model = base.model
-    q_ref = (base.default_configuration if base.default_configuration is not None
-             else pin.neutral(model)).copy()
+    q_ref = (
+        base.default_configuration if base.default_configuration is not None else pin.neutral(model)
+    ).copy()
     ids = []
     for joint, values in locked_q.items():
         jid = model.getJointId(joint)
-        q_ref[model.joints[jid].idx_q:model.joints[jid].idx_q + len(values)] = values
+        q_ref[model.joints[jid].idx_q : model.joints[jid].idx_q + len(values)] = values
         ids.append(jid)
     reduced = build_reduced_model(model, sorted(ids), q_ref)
     keep = _restriction(model, reduced)
     root_locked = model.njoints > 1 and model.names[1] in locked_q
     default = None if base.default_configuration is None else base.default_configuration[keep]
     return Robot(
-        id=robot_id, name=name, source="upload",
-        root_joint="fixed" if root_locked else base.root_joint, model=reduced,
+        id=robot_id,
+        name=name,
+        source="upload",
+        root_joint="fixed" if root_locked else base.root_joint,
+        model=reduced,
         reference_configurations={k: v[keep] for k, v in base.reference_configurations.items()},
-        default_configuration=default, warnings=list(base.warnings), origin=origin,
-        mujoco_qpos=base.mujoco_qpos, parent=parent, modifications=modifications)
+        default_configuration=default,
+        warnings=list(base.warnings),
+        origin=origin,
+        mujoco_qpos=base.mujoco_qpos,
+        parent=parent,
+        modifications=modifications,
+    )

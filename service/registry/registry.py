@@ -51,11 +51,16 @@ NOT_FOUND_HINT = "GET /v1/robots lists the valid ids"
 
 
 class Registry:
-    def __init__(self, data_dir: Path, catalog_names: list[str] | None = None,
-                 build_timeout_s: float = Settings.model_fields["build_timeout_s"].default,
-                 *, limits: Limits | None = None,
-                 build_limits: dict[str, Any] | None = None,
-                 build_slots: BuildSlots | None = None) -> None:
+    def __init__(
+        self,
+        data_dir: Path,
+        catalog_names: list[str] | None = None,
+        build_timeout_s: float = Settings.model_fields["build_timeout_s"].default,
+        *,
+        limits: Limits | None = None,
+        build_limits: dict[str, Any] | None = None,
+        build_slots: BuildSlots | None = None,
+    ) -> None:
         self.store = ModelStore(data_dir)
         self.assets = AssetStore(data_dir)
         self.catalog_names = catalog_names
@@ -91,9 +96,14 @@ class Registry:
             except Exception as exc:  # a bad record must not stop the service
                 log.error("stored model %s not loaded: %s", model_id, exc)
         self.ready = True
-        log.info("registry ready: %d catalog robots, %d uploads in %.2f s (%d not loaded: %s)",
-                 len(self.catalog), len(self.uploads), time.perf_counter() - started,
-                 len(self.catalog_failures), ", ".join(sorted(self.catalog_failures)) or "-")
+        log.info(
+            "registry ready: %d catalog robots, %d uploads in %.2f s (%d not loaded: %s)",
+            len(self.catalog),
+            len(self.uploads),
+            time.perf_counter() - started,
+            len(self.catalog_failures),
+            ", ".join(sorted(self.catalog_failures)) or "-",
+        )
 
     def _load_stored(self, model_id: str) -> Robot | None:
         record = self.store.read(model_id)
@@ -113,31 +123,47 @@ class Registry:
             payloads = [PlacedPayload.from_dict(p) for p in record.get("payloads", [])]
             fitted = Fitted.from_dict(record)
             changes = record.get("modifications") or modifications(
-                payloads, record.get("locked_request", locked), fitted)
-            return variant_robot(base, payloads, locked, robot_id=model_id,
-                                 name=record.get("name", model_id), changes=changes,
-                                 fitted=fitted)
+                payloads, record.get("locked_request", locked), fitted
+            )
+            return variant_robot(
+                base,
+                payloads,
+                locked,
+                robot_id=model_id,
+                name=record.get("name", model_id),
+                changes=changes,
+                fitted=fitted,
+            )
         fmt, text, assets = rebuild_inputs(record, self.assets)
         model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
         check_moves(model)  # a record stored before nv = 0 was refused is not served
-        return Robot(id=model_id, name=record.get("name", model_id), source="upload",
-                     root_joint=record.get("served_root_joint", record["root_joint"]),
-                     model=model, reference_configurations=reference_configurations(model),
-                     warnings=record.get("warnings", []), visuals=record.get("visuals"),
-                     asset_paths=mesh_paths(self.assets, record), mujoco_qpos=fmt == "mjcf")
+        return Robot(
+            id=model_id,
+            name=record.get("name", model_id),
+            source="upload",
+            root_joint=record.get("served_root_joint", record["root_joint"]),
+            model=model,
+            reference_configurations=reference_configurations(model),
+            warnings=record.get("warnings", []),
+            visuals=record.get("visuals"),
+            asset_paths=mesh_paths(self.assets, record),
+            mujoco_qpos=fmt == "mjcf",
+        )
 
     def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
         """The base of a reduced model: a catalog robot (loaded here if this server does not
         serve it) or an upload (served here, or rebuilt from the record embedded in `spec`)."""
         base_id = spec["id"]
-        robot = (self.catalog.get(base_id) if spec["source"] == "catalog"
-                 else self.uploads.get(base_id)) or self._bases.get(base_id)
+        robot = (
+            self.catalog.get(base_id) if spec["source"] == "catalog" else self.uploads.get(base_id)
+        ) or self._bases.get(base_id)
         if robot is None:
             if spec["source"] == "catalog":
                 loaded, failures = load_catalog([base_id])
                 if base_id not in loaded:
-                    raise RuntimeError(f"catalog robot {base_id} not loadable: "
-                                       f"{failures.get(base_id)}")
+                    raise RuntimeError(
+                        f"catalog robot {base_id} not loadable: {failures.get(base_id)}"
+                    )
                 robot = loaded[base_id]
             else:
                 robot = self._robot_from_record(base_id, spec["record"])
@@ -155,8 +181,10 @@ class Registry:
         if robot is not None:
             return robot
         if robot_id in self.catalog_failures:
-            raise RobotNotFound(f"catalog robot '{robot_id}' could not be loaded on this server "
-                                f"({self.catalog_failures[robot_id]}); {NOT_FOUND_HINT}")
+            raise RobotNotFound(
+                f"catalog robot '{robot_id}' could not be loaded on this server "
+                f"({self.catalog_failures[robot_id]}); {NOT_FOUND_HINT}"
+            )
         if not self.store.exists(robot_id):  # deleted here or by another replica
             with self._lock:
                 self.uploads.pop(robot_id, None)
@@ -168,8 +196,10 @@ class Registry:
                 robot = self._load_stored(robot_id)
             except Exception as exc:  # a record this server cannot rebuild: logged, not a 500
                 log.error("stored model %s not loaded: %s", robot_id, exc)
-                raise RobotNotFound(f"stored model '{_shown(robot_id)}' could not be rebuilt on "
-                                    "this server (see its log)") from None
+                raise RobotNotFound(
+                    f"stored model '{_shown(robot_id)}' could not be rebuilt on "
+                    "this server (see its log)"
+                ) from None
             if robot is None:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
         return robot
@@ -199,19 +229,29 @@ class Registry:
 
     # -- uploads and deletions ------------------------------------------------------------
 
-    def upload(self, *, urdf: str | None = None, mjcf: str | None = None, root_joint: str,
-               gravity: list[float] | None, name: str | None, inertia_check: str,
-               locked_joints: Mapping[str, LockedValue] | None = None,
-               xacro: str | None = None, xacro_args: Mapping[str, str] | None = None,
-               assets: Mapping[str, str] | None = None) -> tuple[Robot, bool]:
+    def upload(
+        self,
+        *,
+        urdf: str | None = None,
+        mjcf: str | None = None,
+        root_joint: str,
+        gravity: list[float] | None,
+        name: str | None,
+        inertia_check: str,
+        locked_joints: Mapping[str, LockedValue] | None = None,
+        xacro: str | None = None,
+        xacro_args: Mapping[str, str] | None = None,
+        assets: Mapping[str, str] | None = None,
+    ) -> tuple[Robot, bool]:
         """Validate, build (out of process) and store an uploaded URDF, MJCF or xacro (with
         `locked_joints`: its reduced model, stored alone): (robot, created). `assets`: path →
         base64 of the files it references; `gravity` None: the description's own
         (`upload_formats`)."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
-        given = [(f, t) for f, t in (("urdf", urdf), ("mjcf", mjcf), ("xacro", xacro))
-                 if t is not None]
+        given = [
+            (f, t) for f, t in (("urdf", urdf), ("mjcf", mjcf), ("xacro", xacro)) if t is not None
+        ]
         if len(given) != 1:
             raise ValueError("give exactly one of urdf, mjcf and xacro")
         fmt, text = given[0]
@@ -221,10 +261,18 @@ class Registry:
         # in this one: on a large description they would hold its GIL for seconds), one build
         # slot each.
         with self.build_slots.slot():
-            built = build_upload(text, root_joint, record["gravity"], self.build_timeout_s,
-                                 description_format=fmt, limits=self.limits,
-                                 reject_findings=inertia_check == "reject", assets=files,
-                                 xacro_args=xacro_args, **self.build_limits)
+            built = build_upload(
+                text,
+                root_joint,
+                record["gravity"],
+                self.build_timeout_s,
+                description_format=fmt,
+                limits=self.limits,
+                reject_findings=inertia_check == "reject",
+                assets=files,
+                xacro_args=xacro_args,
+                **self.build_limits,
+            )
         checked = built.checked
         check_findings(checked.findings, inertia_check)
         model_id = content_id(record)
@@ -235,46 +283,70 @@ class Registry:
         model = built.model
         assert model is not None  # built unless findings were rejected (above)
         warnings = after_build(record, built.report, model, checked, self.limits)
-        robot = Robot(id=model_id, name=name or checked.label, source="upload",
-                      root_joint=record.get("served_root_joint", root_joint), model=model,
-                      reference_configurations=reference_configurations(model),
-                      warnings=warnings, visuals=record.get("visuals"),
-                      asset_paths=mesh_paths(self.assets, record), mujoco_qpos=fmt == "mjcf")
+        robot = Robot(
+            id=model_id,
+            name=name or checked.label,
+            source="upload",
+            root_joint=record.get("served_root_joint", root_joint),
+            model=model,
+            reference_configurations=reference_configurations(model),
+            warnings=warnings,
+            visuals=record.get("visuals"),
+            asset_paths=mesh_paths(self.assets, record),
+            mujoco_qpos=fmt == "mjcf",
+        )
         with robot.data():  # create its first Data here (a second at nv = 128), not on the loop
             pass
         robot.info()  # and its description (thousands of frames for a large model)
         with self.assets.storing():  # the files are named by a record before any sweep
             self.assets.put(files)
             if request is not None:
-                spec = {"source": "upload", "id": model_id,
-                        "record": {**record, "name": robot.name, "warnings": warnings}}
+                spec = {
+                    "source": "upload",
+                    "id": model_id,
+                    "record": {**record, "name": robot.name, "warnings": warnings},
+                }
                 return self._store_variant(robot, spec, (), request, name), True
-            record.update(id=model_id, name=robot.name, inertia_check=inertia_check,
-                          warnings=warnings, summary=robot.summary(), created_at=time.time())
+            record.update(
+                id=model_id,
+                name=robot.name,
+                inertia_check=inertia_check,
+                warnings=warnings,
+                summary=robot.summary(),
+                created_at=time.time(),
+            )
             self.store.write(record)
         with self._lock:
             self.uploads[model_id] = robot
         log.info("stored upload %s (%s): nq=%d nv=%d", model_id, robot.name, robot.nq, robot.nv)
         return robot, True
 
-    def reduce(self, robot_id: str, locked_joints: Mapping[str, LockedValue],
-               name: str | None = None) -> tuple[Robot, bool]:
+    def reduce(
+        self, robot_id: str, locked_joints: Mapping[str, LockedValue], name: str | None = None
+    ) -> tuple[Robot, bool]:
         """Store the reduced model of any robot with `locked_joints` locked: (robot, created).
         The variant with locked joints alone (`variant`)."""
         if not locked_joints:
             raise InvalidInput("locked_joints is empty; name at least one joint to lock")
         return self.variant(robot_id, locked_joints=locked_joints, name=name)
 
-    def variant(self, robot_id: str, *, payloads: Sequence[PlacedPayload] = (),
-                locked_joints: Mapping[str, LockedValue] | None = None,
-                name: str | None = None, fitted: Fitted | None = None) -> tuple[Robot, bool]:
+    def variant(
+        self,
+        robot_id: str,
+        *,
+        payloads: Sequence[PlacedPayload] = (),
+        locked_joints: Mapping[str, LockedValue] | None = None,
+        name: str | None = None,
+        fitted: Fitted | None = None,
+    ) -> tuple[Robot, bool]:
         """Store the variant of any robot carrying `payloads` (checked against that robot by
         `service.dynamics.payloads.check_payloads`) with `locked_joints` locked, and the
         identified values `fitted` (checked by identification): (robot, created). At least one
         modification; `InvalidInput` otherwise."""
         if not payloads and not locked_joints and not fitted:  # (None or an empty Fitted)
-            raise InvalidInput("a variant needs at least one modification: payloads or "
-                               "locked_joints")
+            raise InvalidInput(
+                "a variant needs at least one modification: payloads or locked_joints"
+            )
         base = self.get(robot_id)
         request = as_lists(locked_joints or {})
         fitted = fitted or NOTHING_FITTED
@@ -288,39 +360,74 @@ class Registry:
             else:
                 record = self.store.read(base.id)
                 if record is None:
-                    raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; "
-                                        f"{NOT_FOUND_HINT}")
-                keys = (("format", "base", "locked_joints", "payloads", "inertial_parameters",
-                         "friction")
-                        if record.get("format") in ("reduced", "variant") else REBUILD_KEYS)
-                spec = {"source": "upload", "id": base.id,
-                        "record": {**{k: record[k] for k in keys if k in record},
-                                   "name": base.name, "warnings": base.warnings}}
+                    raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
+                keys = (
+                    (
+                        "format",
+                        "base",
+                        "locked_joints",
+                        "payloads",
+                        "inertial_parameters",
+                        "friction",
+                    )
+                    if record.get("format") in ("reduced", "variant")
+                    else REBUILD_KEYS
+                )
+                spec = {
+                    "source": "upload",
+                    "id": base.id,
+                    "record": {
+                        **{k: record[k] for k in keys if k in record},
+                        "name": base.name,
+                        "warnings": base.warnings,
+                    },
+                }
             return self._store_variant(base, spec, payloads, request, name, fitted), True
 
-    def _store_variant(self, base: Robot, spec: dict[str, Any],
-                       payloads: Sequence[PlacedPayload], request: dict[str, list[float]],
-                       name: str | None, fitted: Fitted | None = None) -> Robot:
+    def _store_variant(
+        self,
+        base: Robot,
+        spec: dict[str, Any],
+        payloads: Sequence[PlacedPayload],
+        request: dict[str, list[float]],
+        name: str | None,
+        fitted: Fitted | None = None,
+    ) -> Robot:
         fitted = fitted or NOTHING_FITTED
         locked = locked_configuration(base, request) if request else {}
         model_id = variant_id(spec["id"], payloads, request, fitted)
         changes = modifications(payloads, request, fitted)
         kind = "variant" if payloads or fitted else "reduced"
-        robot = variant_robot(base, payloads, locked, robot_id=model_id,
-                              name=name or f"{base.name} ({kind})", changes=changes,
-                              fitted=fitted)
+        robot = variant_robot(
+            base,
+            payloads,
+            locked,
+            robot_id=model_id,
+            name=name or f"{base.name} ({kind})",
+            changes=changes,
+            fitted=fitted,
+        )
         record: dict[str, Any] = {
-            "format": kind, "base": spec, "locked_joints": locked, "locked_request": request,
-            "modifications": changes, "id": model_id, "name": robot.name,
-            "warnings": robot.warnings, "summary": robot.summary(), "created_at": time.time()}
+            "format": kind,
+            "base": spec,
+            "locked_joints": locked,
+            "locked_request": request,
+            "modifications": changes,
+            "id": model_id,
+            "name": robot.name,
+            "warnings": robot.warnings,
+            "summary": robot.summary(),
+            "created_at": time.time(),
+        }
         if payloads:
             record["payloads"] = changes["payloads"]
         record.update(fitted.as_dict())
         self.store.write(record)
         with self._lock:
             self.uploads[model_id] = robot
-        log.info("stored %s model %s of %s: nq=%d nv=%d", kind, model_id, base.id, robot.nq,
-                 robot.nv)
+        log.info(
+            "stored %s model %s of %s: nq=%d nv=%d", kind, model_id, base.id, robot.nq, robot.nv
+        )
         return robot
 
     def delete(self, robot_id: str) -> None:
@@ -329,8 +436,7 @@ class Registry:
         with self._lock:
             self.uploads.pop(robot_id, None)
         if not self.store.delete(robot_id):
-            raise RobotNotFound(f"no uploaded robot has id '{_shown(robot_id)}'; "
-                                f"{NOT_FOUND_HINT}")
+            raise RobotNotFound(f"no uploaded robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
         self.assets.collect(self._named_assets)
 
     def _named_assets(self) -> set[str]:

@@ -25,11 +25,17 @@ from service.registry import data_pool
 
 # Pinocchio joint model short names → the joint type robodyn reports.
 _JOINT_TYPES = {
-    "JointModelRX": "revolute", "JointModelRY": "revolute", "JointModelRZ": "revolute",
+    "JointModelRX": "revolute",
+    "JointModelRY": "revolute",
+    "JointModelRZ": "revolute",
     "JointModelRevoluteUnaligned": "revolute",
-    "JointModelRUBX": "continuous", "JointModelRUBY": "continuous", "JointModelRUBZ": "continuous",
+    "JointModelRUBX": "continuous",
+    "JointModelRUBY": "continuous",
+    "JointModelRUBZ": "continuous",
     "JointModelRevoluteUnboundedUnaligned": "continuous",
-    "JointModelPX": "prismatic", "JointModelPY": "prismatic", "JointModelPZ": "prismatic",
+    "JointModelPX": "prismatic",
+    "JointModelPY": "prismatic",
+    "JointModelPZ": "prismatic",
     "JointModelPrismaticUnaligned": "prismatic",
     "JointModelFreeFlyer": "free_flyer",
     "JointModelPlanar": "planar",
@@ -70,8 +76,12 @@ def floating_root_nv(model: Any) -> int:
     first = joint_type(model.joints[1])
     if first in ("free_flyer", "planar"):
         return int(model.joints[1].nv)
-    if (first == "translation" and model.njoints > 2 and model.parents[2] == 1
-            and joint_type(model.joints[2]) == "spherical"):
+    if (
+        first == "translation"
+        and model.njoints > 2
+        and model.parents[2] == 1
+        and joint_type(model.joints[2]) == "spherical"
+    ):
         return 6
     return 0
 
@@ -122,7 +132,8 @@ class Robot:
             part = UNIT_PARTS.get(joint_type(jm))
             if part is not None:
                 self.unit_joints.append(
-                    (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1]))
+                    (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1])
+                )
         # The mass the dynamics moves (every body a joint moves, payloads included: RobotInfo's
         # `total_mass` and `moving_mass`) and the mass of the links fixed to the world (a fixed
         # base's base link: it takes no part in the dynamics; Pinocchio keeps it in the
@@ -131,17 +142,22 @@ class Robot:
         self.fixed_mass = float(self.model.inertias[0].mass)
         self.root_nv: int = floating_root_nv(self.model)  # unactuated root rows of v
         # q index permutations API → Pinocchio and back; None when q needs no reordering
-        self.wxyz_starts: tuple[int, ...] = tuple(
-            self.model.joints[self.model.getJointId(name)].idx_q
-            for name, kind in self.joint_types.items()
-            if kind == "spherical") if self.mujoco_qpos else ()
+        self.wxyz_starts: tuple[int, ...] = (
+            tuple(
+                self.model.joints[self.model.getJointId(name)].idx_q
+                for name, kind in self.joint_types.items()
+                if kind == "spherical"
+            )
+            if self.mujoco_qpos
+            else ()
+        )
         self.q_from_api: np.ndarray | None = None
         self.q_to_api: np.ndarray | None = None
         if self.wxyz_starts:
             self.q_from_api, self.q_to_api = np.arange(self.nq), np.arange(self.nq)
             for s in self.wxyz_starts:
-                self.q_from_api[s:s + 4] = (s + 1, s + 2, s + 3, s)
-                self.q_to_api[s:s + 4] = (s + 3, s, s + 1, s + 2)
+                self.q_from_api[s : s + 4] = (s + 1, s + 2, s + 3, s)
+                self.q_to_api[s : s + 4] = (s + 3, s, s + 1, s + 2)
         # Frame name → frame index. A link and a joint (an MJCF body and its joint) may share a
         # name: the body frame of that name is meant, else the first frame of that name in
         # model order (the order of `frames` in `info()`).
@@ -155,7 +171,6 @@ class Robot:
         self._pool = data_pool.Pool(data_pool.BUDGET, self.nv)
         # a robot that is gone (deleted upload) gives its idle Datas back to the budget
         weakref.finalize(self, self._pool.close)
-
 
     @functools.cached_property
     def armature(self) -> np.ndarray | None:
@@ -205,12 +220,19 @@ class Robot:
             try:
                 yield pool, PARALLEL_THREADS
             finally:
-                data_pool.BUDGET.keep_model_pool(self._pool, pool,
-                                                 PARALLEL_THREADS * self._pool.size)
+                data_pool.BUDGET.keep_model_pool(
+                    self._pool, pool, PARALLEL_THREADS * self._pool.size
+                )
 
     def summary(self) -> dict[str, Any]:
-        return {"id": self.id, "name": self.name, "source": self.source, "nq": self.nq,
-                "nv": self.nv, "root_joint": self.root_joint}
+        return {
+            "id": self.id,
+            "name": self.name,
+            "source": self.source,
+            "nq": self.nq,
+            "nv": self.nv,
+            "root_joint": self.root_joint,
+        }
 
     def info(self) -> dict[str, Any]:
         """The RobotInfo document of API.md (computed once; the model never changes)."""
@@ -221,19 +243,26 @@ class Robot:
                 jm = m.joints[jid]
                 qs, vs = slice(jm.idx_q, jm.idx_q + jm.nq), slice(jm.idx_v, jm.idx_v + jm.nv)
                 unbounded = joint_type(jm) == "continuous"  # (cos, sin): no position limit
-                joints.append({
-                    "name": m.names[jid], "type": joint_type(jm),
-                    "parent": m.names[m.parents[jid]],
-                    "idx_q": int(jm.idx_q), "nq": int(jm.nq),
-                    "idx_v": int(jm.idx_v), "nv": int(jm.nv),
-                    "lower": [None] * jm.nq if unbounded
-                    else _finite_or_none(m.lowerPositionLimit[qs]),
-                    "upper": [None] * jm.nq if unbounded
-                    else _finite_or_none(m.upperPositionLimit[qs]),
-                    "velocity_limit": _finite_or_none(m.velocityLimit[vs]),
-                    "effort_limit": _finite_or_none(m.effortLimit[vs]),
-                    "armature": [float(x) for x in m.armature[vs]],
-                })
+                joints.append(
+                    {
+                        "name": m.names[jid],
+                        "type": joint_type(jm),
+                        "parent": m.names[m.parents[jid]],
+                        "idx_q": int(jm.idx_q),
+                        "nq": int(jm.nq),
+                        "idx_v": int(jm.idx_v),
+                        "nv": int(jm.nv),
+                        "lower": [None] * jm.nq
+                        if unbounded
+                        else _finite_or_none(m.lowerPositionLimit[qs]),
+                        "upper": [None] * jm.nq
+                        if unbounded
+                        else _finite_or_none(m.upperPositionLimit[qs]),
+                        "velocity_limit": _finite_or_none(m.velocityLimit[vs]),
+                        "effort_limit": _finite_or_none(m.effortLimit[vs]),
+                        "armature": [float(x) for x in m.armature[vs]],
+                    }
+                )
             default = self.default_configuration
             neutral = [float(x) for x in self.api_q(pin.neutral(m))]
             self._info = {
@@ -244,18 +273,25 @@ class Robot:
                 "fixed_mass": self.fixed_mass,
                 "neutral_configuration": neutral,
                 "default_configuration": (
-                    [float(x) for x in self.api_q(default)] if default is not None
-                    else list(neutral)),
+                    [float(x) for x in self.api_q(default)]
+                    if default is not None
+                    else list(neutral)
+                ),
                 "reference_configurations": {
                     k: [float(x) for x in self.api_q(v)]
-                    for k, v in self.reference_configurations.items()},
+                    for k, v in self.reference_configurations.items()
+                },
                 "warnings": list(self.warnings),
                 "contact_frames": [dict(c) for c in self.contact_frames],
                 "joints": joints,
                 "frames": [
-                    {"name": f.name, "type": str(f.type).rsplit(".", 1)[-1].lower(),
-                     "parent_joint": m.names[f.parentJoint]}
-                    for f in m.frames],
+                    {
+                        "name": f.name,
+                        "type": str(f.type).rsplit(".", 1)[-1].lower(),
+                        "parent_joint": m.names[f.parentJoint],
+                    }
+                    for f in m.frames
+                ],
             }
             if self.origin is not None:
                 self._info["reduced_from"] = self.origin
@@ -274,9 +310,14 @@ def friction_table(model: Any, friction: dict[str, np.ndarray]) -> list[dict[str
     for jid in range(1, model.njoints):
         joint = model.joints[jid]
         if joint.nv == 1:
-            rows.append({"joint": model.names[jid],
-                         **{k: float(friction[k][joint.idx_v])
-                            for k in ("coulomb", "viscous", "offset")}})
+            rows.append(
+                {
+                    "joint": model.names[jid],
+                    **{
+                        k: float(friction[k][joint.idx_v]) for k in ("coulomb", "viscous", "offset")
+                    },
+                }
+            )
     return rows
 
 

@@ -52,11 +52,15 @@ class _CappedBuilder(TreeBuilder):
         self.count += 1
         self.depth += 1
         if self.count > self.max_elements:
-            raise _Capped(f"the description has more than {self.max_elements} XML elements "
-                          "(limit ROBODYN_MAX_XML_ELEMENTS)")
+            raise _Capped(
+                f"the description has more than {self.max_elements} XML elements "
+                "(limit ROBODYN_MAX_XML_ELEMENTS)"
+            )
         if self.depth > self.max_depth:
-            raise _Capped(f"the XML is nested deeper than {self.max_depth} levels "
-                          "(limit ROBODYN_MAX_XML_DEPTH)")
+            raise _Capped(
+                f"the XML is nested deeper than {self.max_depth} levels "
+                "(limit ROBODYN_MAX_XML_DEPTH)"
+            )
         return super().start(tag, attrs)
 
     def end(self, tag: str) -> Element:
@@ -70,22 +74,25 @@ def parse_bounded(text: str, max_elements: int, max_depth: int) -> Element:
     Raises `InvalidModel` with a reason; never echoes the text.
     """
     builder = _CappedBuilder(max_elements, max_depth)
-    parser = DefusedXMLParser(target=builder, forbid_dtd=True, forbid_entities=True,
-                              forbid_external=True)
+    parser = DefusedXMLParser(
+        target=builder, forbid_dtd=True, forbid_entities=True, forbid_external=True
+    )
     try:
         for start in range(0, len(text), _CHUNK):
-            parser.feed(text[start:start + _CHUNK])
+            parser.feed(text[start : start + _CHUNK])
         root: Element = parser.close()
     except _Capped as exc:
         raise InvalidModel(exc.message) from None
     except DefusedXmlException:
-        raise InvalidModel("the XML has a DTD, entity or external reference; "
-                           "these are refused") from None
+        raise InvalidModel(
+            "the XML has a DTD, entity or external reference; these are refused"
+        ) from None
     except ParseError as exc:
         raise InvalidModel(f"the text is not well-formed XML ({_position(exc)})") from None
     except (ValueError, UnicodeError):  # e.g. lone surrogates that cannot be encoded
-        raise InvalidModel("the text is not well-formed XML (it has characters that "
-                           "cannot be encoded as UTF-8)") from None
+        raise InvalidModel(
+            "the text is not well-formed XML (it has characters that cannot be encoded as UTF-8)"
+        ) from None
     return root
 
 
@@ -101,7 +108,8 @@ def check_name_lengths(root: Element, max_length: int) -> None:
             if value is not None and len(value) > max_length:
                 raise InvalidModel(
                     f"<{shown(str(el.tag))}> {attr} '{shown(value)}' is {len(value)} characters "
-                    f"long; the limit is {max_length} (ROBODYN_MAX_NAME_LENGTH)")
+                    f"long; the limit is {max_length} (ROBODYN_MAX_NAME_LENGTH)"
+                )
 
 
 def _position(exc: ParseError) -> str:
@@ -109,16 +117,16 @@ def _position(exc: ParseError) -> str:
     return str(exc).split("\n")[0][:120]
 
 
-def read_numbers(raw: str | None, count: int, what: str, default: str | None = None
-                 ) -> list[float]:
+def read_numbers(raw: str | None, count: int, what: str, default: str | None = None) -> list[float]:
     """Exactly `count` finite plain decimal numbers from an attribute value."""
     raw = raw if raw is not None else default
     if raw is None:
         raise InvalidModel(f"{what} is missing")
     parts = raw.split()
     if len(parts) != count:
-        raise InvalidModel(f"{what} must have {count} number{'s' if count > 1 else ''}, "
-                           f"found {len(parts)} values")
+        raise InvalidModel(
+            f"{what} must have {count} number{'s' if count > 1 else ''}, found {len(parts)} values"
+        )
     values = []
     for part in parts:
         if not _NUMBER.fullmatch(part):

@@ -38,9 +38,12 @@ def content_id(record: dict[str, Any]) -> str:
     and `inertia_check` do not change the dynamics and are not part of it.
     """
     gravity = record["gravity"]  # None: the description's own (MJCF)
-    identity = {"format": record["format"], "description": record["description"],
-                "root_joint": record["root_joint"],
-                "gravity": None if gravity is None else [float(g) for g in gravity]}
+    identity = {
+        "format": record["format"],
+        "description": record["description"],
+        "root_joint": record["root_joint"],
+        "gravity": None if gravity is None else [float(g) for g in gravity],
+    }
     if record.get("assets"):  # key → sha256 of the bytes; absent for uploads without assets
         identity["assets"] = dict(sorted(record["assets"].items()))
     if record["format"] == "xacro":
@@ -54,9 +57,15 @@ def reduced_id(base_id: str, locked_joints: dict[str, list[float]]) -> str:
     (joint name → list of numbers). Base ids are themselves content-derived (or catalog names),
     so the same reduction gives the same id on any machine."""
     canonical = json.dumps(
-        {"format": "reduced", "base": base_id,
-         "locked_joints": {k: [float(x) for x in v] for k, v in sorted(locked_joints.items())}},
-        sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+        {
+            "format": "reduced",
+            "base": base_id,
+            "locked_joints": {k: [float(x) for x in v] for k, v in sorted(locked_joints.items())},
+        },
+        sort_keys=True,
+        separators=(",", ":"),
+        ensure_ascii=False,
+    )
     return "r-" + hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:24]
 
 

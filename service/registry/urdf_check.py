@@ -42,8 +42,7 @@ from service.settings import Settings
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 AXIS_TYPES = ("revolute", "continuous", "prismatic", "planar")
-JOINT_NV = {"revolute": 1, "continuous": 1, "prismatic": 1, "fixed": 0, "floating": 6,
-            "planar": 3}
+JOINT_NV = {"revolute": 1, "continuous": 1, "prismatic": 1, "fixed": 0, "floating": 6, "planar": 3}
 NEGATIVE_REL_TOL = 1e-4  # of the largest principal moment
 TRIANGLE_REL_TOL = 1e-4  # of the trace
 ABS_TOL = 1e-12  # kg·m²
@@ -60,8 +59,12 @@ class Finding:
     message: str
 
     def as_dict(self) -> dict[str, str]:
-        return {"code": self.code, "element": self.element, "name": self.name,
-                "message": self.message}
+        return {
+            "code": self.code,
+            "element": self.element,
+            "name": self.name,
+            "message": self.message,
+        }
 
 
 @dataclass
@@ -110,8 +113,12 @@ def _check_origin(el: Element | None, what: str) -> None:
     _numbers(el.get("rpy"), 3, f"{what} origin rpy", "0 0 0")
 
 
-_GEOMETRY = {"box": (("size", 3),), "cylinder": (("radius", 1), ("length", 1)),
-             "sphere": (("radius", 1),), "capsule": (("radius", 1), ("length", 1))}
+_GEOMETRY = {
+    "box": (("size", 3),),
+    "cylinder": (("radius", 1), ("length", 1)),
+    "sphere": (("radius", 1),),
+    "capsule": (("radius", 1), ("length", 1)),
+}
 
 
 def _check_shapes(link: Element, name: str) -> None:
@@ -139,18 +146,28 @@ def _inertia_findings(link: str, tensor: np.ndarray) -> list[Finding]:
     name = shown(link)
     largest = float(np.max(np.abs(moments)))
     if moments[0] < -(NEGATIVE_REL_TOL * largest + ABS_TOL):
-        return [Finding(
-            "negative_principal_moment", "link", link,
-            f"link '{name}': inertia has a negative principal moment {moments[0]:.6g} kg·m² "
-            f"(principal moments {shown_moments}; largest {largest:.6g})")]
+        return [
+            Finding(
+                "negative_principal_moment",
+                "link",
+                link,
+                f"link '{name}': inertia has a negative principal moment {moments[0]:.6g} kg·m² "
+                f"(principal moments {shown_moments}; largest {largest:.6g})",
+            )
+        ]
     a, b, c = moments
     trace = float(a + b + c)
     if a + b < c - (TRIANGLE_REL_TOL * abs(trace) + ABS_TOL):
         excess = (c - a - b) / c * 100
-        return [Finding(
-            "triangle_inequality", "link", link,
-            f"link '{name}': principal moments {shown_moments} kg·m² violate the triangle "
-            f"inequality ({a:.6g} + {b:.6g} < {c:.6g}, short by {excess:.3g} % of the largest)")]
+        return [
+            Finding(
+                "triangle_inequality",
+                "link",
+                link,
+                f"link '{name}': principal moments {shown_moments} kg·m² violate the triangle "
+                f"inequality ({a:.6g} + {b:.6g} < {c:.6g}, short by {excess:.3g} % of the largest)",
+            )
+        ]
     return []
 
 
@@ -170,13 +187,17 @@ def _link_mass(link: Element, name: str, findings: list[Finding]) -> float:
     inertia_el = inertial.find("inertia")
     if inertia_el is None:
         raise InvalidModel(f"link '{label}': <inertial> needs an <inertia> element")
-    comps = {k: _number(inertia_el, k, f"link '{label}' inertia {k}")
-             for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
-    tensor = np.array([
-        [comps["ixx"], comps["ixy"], comps["ixz"]],
-        [comps["ixy"], comps["iyy"], comps["iyz"]],
-        [comps["ixz"], comps["iyz"], comps["izz"]],
-    ])
+    comps = {
+        k: _number(inertia_el, k, f"link '{label}' inertia {k}")
+        for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    }
+    tensor = np.array(
+        [
+            [comps["ixx"], comps["ixy"], comps["ixz"]],
+            [comps["ixy"], comps["iyy"], comps["iyz"]],
+            [comps["ixz"], comps["iyz"], comps["izz"]],
+        ]
+    )
     findings.extend(_inertia_findings(name, tensor))
     return mass
 
@@ -186,11 +207,11 @@ def _check_joint(joint: Element, name: str, jtype: str) -> None:
     _check_origin(joint.find("origin"), f"joint '{label}'")
     if jtype in AXIS_TYPES:
         axis_el = joint.find("axis")
-        axis = _numbers(None if axis_el is None else axis_el.get("xyz"), 3,
-                        f"joint '{label}' axis xyz", "1 0 0")
+        axis = _numbers(
+            None if axis_el is None else axis_el.get("xyz"), 3, f"joint '{label}' axis xyz", "1 0 0"
+        )
         if math.sqrt(sum(x * x for x in axis)) < 1e-9:
-            raise InvalidModel(f"joint '{label}': axis is zero; a {jtype} joint needs a "
-                               "direction")
+            raise InvalidModel(f"joint '{label}': axis is zero; a {jtype} joint needs a direction")
     limit = joint.find("limit")
     if limit is not None:
         for attr in ("lower", "upper", "effort", "velocity"):
@@ -200,8 +221,16 @@ def _check_joint(joint: Element, name: str, jtype: str) -> None:
         el = joint.find(tag)
         if el is not None:
             for attr, value in el.attrib.items():
-                if attr in ("damping", "friction", "rising", "falling", "soft_lower_limit",
-                            "soft_upper_limit", "k_position", "k_velocity"):
+                if attr in (
+                    "damping",
+                    "friction",
+                    "rising",
+                    "falling",
+                    "soft_lower_limit",
+                    "soft_upper_limit",
+                    "k_position",
+                    "k_velocity",
+                ):
                     _numbers(value, 1, f"joint '{label}' {tag} {attr}")
 
 
@@ -210,8 +239,9 @@ def _check_parser_requirements(joint: Element, name: str, jtype: str) -> None:
     label = shown(name)
     limit = joint.find("limit")
     if limit is None and jtype in ("revolute", "prismatic"):
-        raise InvalidModel(f"joint '{label}': a {jtype} joint needs a <limit effort=... "
-                           "velocity=...> element")
+        raise InvalidModel(
+            f"joint '{label}': a {jtype} joint needs a <limit effort=... velocity=...> element"
+        )
     if limit is not None:
         for attr in ("effort", "velocity"):
             if limit.get(attr) is None:
@@ -220,8 +250,11 @@ def _check_parser_requirements(joint: Element, name: str, jtype: str) -> None:
     if safety is not None and safety.get("k_velocity") is None:
         raise InvalidModel(f"joint '{label}': <safety_controller> needs k_velocity")
     dynamics = joint.find("dynamics")
-    if dynamics is not None and dynamics.get("damping") is None and dynamics.get(
-            "friction") is None:
+    if (
+        dynamics is not None
+        and dynamics.get("damping") is None
+        and dynamics.get("friction") is None
+    ):
         raise InvalidModel(f"joint '{label}': <dynamics> needs damping or friction")
     mimic = joint.find("mimic")
     if mimic is not None and not mimic.get("joint"):
@@ -275,10 +308,13 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
         if RESERVED_NAME in names:
             raise InvalidModel(
                 f"{kind} '{RESERVED_NAME}': the name is Pinocchio's own (its world joint and "
-                f"frame), so that {kind} could not be found by name; rename it")
+                f"frame), so that {kind} could not be found by name; rename it"
+            )
     if len(links) > limits.max_links:
-        raise InvalidModel(f"the description has {len(links)} links; the limit is "
-                           f"{limits.max_links} (ROBODYN_MAX_LINKS)")
+        raise InvalidModel(
+            f"the description has {len(links)} links; the limit is "
+            f"{limits.max_links} (ROBODYN_MAX_LINKS)"
+        )
 
     children: dict[str, list[tuple[str, str]]] = {name: [] for name in links}
     mimics: dict[str, str] = {}  # joint → the joint it mimics (existing targets only)
@@ -289,8 +325,9 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
         jtype = joint.get("type")
         label = shown(jname)
         if jtype not in JOINT_TYPES:
-            raise InvalidModel(f"joint '{label}': type '{shown(jtype)}' is not one of "
-                               f"{', '.join(JOINT_TYPES)}")
+            raise InvalidModel(
+                f"joint '{label}': type '{shown(jtype)}' is not one of {', '.join(JOINT_TYPES)}"
+            )
         parent_el, child_el = joint.find("parent"), joint.find("child")
         parent = None if parent_el is None else parent_el.get("link")
         child = None if child_el is None else child_el.get("link")
@@ -298,11 +335,12 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
             raise InvalidModel(f"joint '{label}': needs <parent link=...> and <child link=...>")
         for role, link in (("parent", parent), ("child", child)):
             if link not in links:
-                raise InvalidModel(f"joint '{label}': {role} link '{shown(link)}' does not "
-                                   "exist")
+                raise InvalidModel(f"joint '{label}': {role} link '{shown(link)}' does not exist")
         if child in parent_of:
-            raise InvalidModel(f"link '{shown(child)}' is the child of two joints "
-                               f"('{shown(parent_of[child])}' and '{label}')")
+            raise InvalidModel(
+                f"link '{shown(child)}' is the child of two joints "
+                f"('{shown(parent_of[child])}' and '{label}')"
+            )
         parent_of[child] = jname
         child_of_joint[jname] = child
         children[parent].append((jname, child))
@@ -311,9 +349,15 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
         if mimic is not None:
             target = mimic.get("joint")
             if target not in joints:
-                tolerable(Finding("dangling_mimic", "joint", jname,
-                                  f"joint '{label}': mimics joint '{shown(target)}', which "
-                                  "does not exist (the mimic is ignored)"))
+                tolerable(
+                    Finding(
+                        "dangling_mimic",
+                        "joint",
+                        jname,
+                        f"joint '{label}': mimics joint '{shown(target)}', which "
+                        "does not exist (the mimic is ignored)",
+                    )
+                )
             else:
                 mimics[jname] = target
             for attr in ("multiplier", "offset"):
@@ -325,16 +369,20 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
     for code, joint_name, message in mimic_problems(joints, mimics):
         tolerable(Finding(code, "joint", joint_name, message))
     if nv > limits.max_nv:
-        raise InvalidModel(f"the description has nv = {nv} velocity coordinates ({moving} "
-                           f"moving joints); the limit is {limits.max_nv} (ROBODYN_MAX_NV)")
+        raise InvalidModel(
+            f"the description has nv = {nv} velocity coordinates ({moving} "
+            f"moving joints); the limit is {limits.max_nv} (ROBODYN_MAX_NV)"
+        )
 
     roots = [name for name in links if name not in parent_of]
     if len(roots) != 1:
         if not roots:
             raise InvalidModel("the kinematic graph has a cycle: every link has a parent joint")
-        raise InvalidModel(f"the description has {len(roots)} root links "
-                           f"({', '.join(shown(r) for r in sorted(roots)[:5])}); a URDF tree "
-                           "has exactly one")
+        raise InvalidModel(
+            f"the description has {len(roots)} root links "
+            f"({', '.join(shown(r) for r in sorted(roots)[:5])}); a URDF tree "
+            "has exactly one"
+        )
 
     masses = {name: _link_mass(link, name, findings) for name, link in links.items()}
 
@@ -345,15 +393,18 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
     while stack:
         link, depth = stack.pop()
         if depth > limits.max_depth:
-            raise InvalidModel(f"the kinematic chain is deeper than {limits.max_depth} links "
-                               "(ROBODYN_MAX_DEPTH)")
+            raise InvalidModel(
+                f"the kinematic chain is deeper than {limits.max_depth} links (ROBODYN_MAX_DEPTH)"
+            )
         seen.add(link)
         order.append((link, depth))
         stack.extend((child, depth + 1) for _, child in children[link])
     if len(seen) != len(links):
         stray = sorted(set(links) - seen)[:5]
-        raise InvalidModel(f"links {', '.join(shown(s) for s in stray)} are not connected to "
-                           f"the root '{shown(roots[0])}' (a cycle)")
+        raise InvalidModel(
+            f"links {', '.join(shown(s) for s in stray)} are not connected to "
+            f"the root '{shown(roots[0])}' (a cycle)"
+        )
 
     subtree_mass = dict(masses)
     for link, _ in reversed(order):
@@ -363,12 +414,23 @@ def check_urdf(text: str, limits: Limits = Limits(), *, lenient: bool = False) -
         if joint.get("type") != "fixed":
             child = child_of_joint[jname]
             if subtree_mass[child] <= 0.0:
-                tolerable(Finding(
-                    "massless_subtree", "joint", jname,
-                    f"joint '{shown(jname)}' moves link '{shown(child)}', whose subtree has no "
-                    "mass: the mass matrix is singular"))
+                tolerable(
+                    Finding(
+                        "massless_subtree",
+                        "joint",
+                        jname,
+                        f"joint '{shown(jname)}' moves link '{shown(child)}', whose subtree has no "
+                        "mass: the mass matrix is singular",
+                    )
+                )
     for jname, joint in joints.items():
         _check_parser_requirements(joint, jname, joint.get("type", ""))
-    return URDFSummary(robot_name=robot_name, links=len(links), joints=len(joints),
-                       moving_joints=moving, depth=max(d for _, d in order), findings=findings,
-                       nv=nv)
+    return URDFSummary(
+        robot_name=robot_name,
+        links=len(links),
+        joints=len(joints),
+        moving_joints=moving,
+        depth=max(d for _, d in order),
+        findings=findings,
+        nv=nv,
+    )

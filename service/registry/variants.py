@@ -55,19 +55,25 @@ class Fitted:
         if self.inertial_parameters is not None:
             out["inertial_parameters"] = [_number(x) for x in self.inertial_parameters]
         if self.friction is not None:
-            out["friction"] = [{"joint": j, **dict(zip(FRICTION_TERMS, map(_number, terms),
-                                                       strict=True))}
-                               for j, *terms in self.friction]
+            out["friction"] = [
+                {"joint": j, **dict(zip(FRICTION_TERMS, map(_number, terms), strict=True))}
+                for j, *terms in self.friction
+            ]
         return out
 
     @classmethod
     def from_dict(cls, value: Mapping[str, Any]) -> Fitted:
         """The inverse of `as_dict` (a record's, or identification's answer)."""
         pi, friction = value.get("inertial_parameters"), value.get("friction")
-        return cls(None if pi is None else tuple(float(x) for x in pi),
-                   None if friction is None else tuple(
-                       (str(f["joint"]), float(f["coulomb"]), float(f["viscous"]),
-                        float(f["offset"])) for f in friction))
+        return cls(
+            None if pi is None else tuple(float(x) for x in pi),
+            None
+            if friction is None
+            else tuple(
+                (str(f["joint"]), float(f["coulomb"]), float(f["viscous"]), float(f["offset"]))
+                for f in friction
+            ),
+        )
 
 
 NOTHING_FITTED = Fitted()
@@ -107,30 +113,48 @@ def _number(x: float) -> float:
 
 def canonical_payloads(payloads: Sequence[PlacedPayload]) -> list[dict[str, Any]]:
     """The payloads as stored and hashed: canonical order, plain floats."""
-    return [{"frame": p.frame, "mass": _number(p.mass),
-             "center_of_mass": [_number(x) for x in p.center_of_mass],
-             "inertia": [[_number(x) for x in row] for row in p.inertia]}
-            for p in canonical(payloads)]
+    return [
+        {
+            "frame": p.frame,
+            "mass": _number(p.mass),
+            "center_of_mass": [_number(x) for x in p.center_of_mass],
+            "inertia": [[_number(x) for x in row] for row in p.inertia],
+        }
+        for p in canonical(payloads)
+    ]
 
 
-def variant_id(parent_id: str, payloads: Sequence[PlacedPayload],
-               locked_joints: Mapping[str, list[float]], fitted: Fitted | None = None) -> str:
+def variant_id(
+    parent_id: str,
+    payloads: Sequence[PlacedPayload],
+    locked_joints: Mapping[str, list[float]],
+    fitted: Fitted | None = None,
+) -> str:
     """The id of a variant of `parent_id`: `reduced_id` for locked joints alone (as reduce
     always gave), else "v-" and a hash of the parent's id and the canonical modifications."""
     fitted = fitted or NOTHING_FITTED
     if not payloads and not fitted:
         return reduced_id(parent_id, dict(locked_joints))
     canonical_form = json.dumps(
-        {"format": "variant", "base": parent_id, "payloads": canonical_payloads(payloads),
-         "locked_joints": {k: [_number(x) for x in v] for k, v in sorted(locked_joints.items())},
-         **fitted.as_dict()},
-        sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+        {
+            "format": "variant",
+            "base": parent_id,
+            "payloads": canonical_payloads(payloads),
+            "locked_joints": {k: [_number(x) for x in v] for k, v in sorted(locked_joints.items())},
+            **fitted.as_dict(),
+        },
+        sort_keys=True,
+        separators=(",", ":"),
+        ensure_ascii=False,
+    )
     return "v-" + hashlib.sha256(canonical_form.encode("utf-8")).hexdigest()[:24]
 
 
-def modifications(payloads: Sequence[PlacedPayload],
-                  locked_request: Mapping[str, list[float]], fitted: Fitted | None = None
-                  ) -> dict[str, Any]:
+def modifications(
+    payloads: Sequence[PlacedPayload],
+    locked_request: Mapping[str, list[float]],
+    fitted: Fitted | None = None,
+) -> dict[str, Any]:
     """RobotInfo's `modifications`: the locked joints as requested and the payloads (checked:
     defaults filled in, canonical order), and identified values; only the kinds given."""
     out: dict[str, Any] = (fitted or NOTHING_FITTED).as_dict()
@@ -141,9 +165,16 @@ def modifications(payloads: Sequence[PlacedPayload],
     return out
 
 
-def variant_robot(parent: Robot, payloads: Sequence[PlacedPayload],
-                  locked_q: Mapping[str, list[float]], *, robot_id: str, name: str,
-                  changes: dict[str, Any], fitted: Fitted | None = None) -> Robot:
+def variant_robot(
+    parent: Robot,
+    payloads: Sequence[PlacedPayload],
+    locked_q: Mapping[str, list[float]],
+    *,
+    robot_id: str,
+    name: str,
+    changes: dict[str, Any],
+    fitted: Fitted | None = None,
+) -> Robot:
     """The `Robot` of a variant of `parent`: identified values set, payloads added, then
     `locked_q` (checked joint positions, `locked_configuration` of the parent) locked.
     `changes` is its `modifications`. Friction (the parent's, or identified) follows the
@@ -153,13 +184,26 @@ def variant_robot(parent: Robot, payloads: Sequence[PlacedPayload],
     if fitted.inertial_parameters is not None:
         parent = derived(parent, with_parameters(parent.model, fitted.inertial_parameters))
     if not locked_q:
-        robot = carrying(parent, payloads, robot_id=robot_id, name=name, source="upload",
-                         parent=parent.id, modifications=changes)
+        robot = carrying(
+            parent,
+            payloads,
+            robot_id=robot_id,
+            name=name,
+            source="upload",
+            parent=parent.id,
+            modifications=changes,
+        )
     else:
         base = carrying(parent, payloads) if payloads else parent
-        robot = reduced_robot(base, locked_q, robot_id, name,
-                              origin={"robot": parent.id, "locked_joints": dict(locked_q)},
-                              parent=parent.id, modifications=changes)
+        robot = reduced_robot(
+            base,
+            locked_q,
+            robot_id,
+            name,
+            origin={"robot": parent.id, "locked_joints": dict(locked_q)},
+            parent=parent.id,
+            modifications=changes,
+        )
     if friction is not None:
         robot.friction = friction_arrays(robot.model, friction)
     return robot
@@ -175,6 +219,12 @@ def _rows(robot: Robot) -> tuple[FrictionRow, ...] | None:
         joint = robot.model.joints[jid]
         if joint.nv == 1:
             i = joint.idx_v
-            rows.append((str(robot.model.names[jid]), float(friction["coulomb"][i]),
-                         float(friction["viscous"][i]), float(friction["offset"][i])))
+            rows.append(
+                (
+                    str(robot.model.names[jid]),
+                    float(friction["coulomb"][i]),
+                    float(friction["viscous"][i]),
+                    float(friction["offset"][i]),
+                )
+            )
     return tuple(rows)

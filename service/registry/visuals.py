@@ -43,7 +43,7 @@ def asset_key(filename: str) -> str | None:
     normalized (no `./`); None for an absolute path, a URL or a path that leaves its root."""
     name = filename.strip()
     if name.startswith("package://"):
-        name = name[len("package://"):].lstrip("/")  # (some write package:///pkg/x)
+        name = name[len("package://") :].lstrip("/")  # (some write package:///pkg/x)
     elif "://" in name or name.startswith("/") or "\\" in name:
         return None
     key = posixpath.normpath(name)
@@ -56,9 +56,11 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> list[list[float]]:
     """R = Rz(yaw) Ry(pitch) Rx(roll), the URDF convention, as a row-major 3×3 list."""
     cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
     cy, sy = math.cos(yaw), math.sin(yaw)
-    rows = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr]]
+    rows = [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
     return [[x + 0.0 for x in row] for row in rows]  # no -0.0
 
 
@@ -84,17 +86,22 @@ def _geometry(geometry: Element) -> dict[str, Any] | None:
         if tag == "box":
             return {"type": "box", "size": read_numbers(shape.get("size"), 3, "box size")}
         if tag == "sphere":
-            return {"type": "sphere",
-                    "radius": read_numbers(shape.get("radius"), 1, "sphere radius")[0]}
+            return {
+                "type": "sphere",
+                "radius": read_numbers(shape.get("radius"), 1, "sphere radius")[0],
+            }
         if tag in ("cylinder", "capsule"):
-            return {"type": tag,
-                    "radius": read_numbers(shape.get("radius"), 1, f"{tag} radius")[0],
-                    "length": read_numbers(shape.get("length"), 1, f"{tag} length")[0]}
+            return {
+                "type": tag,
+                "radius": read_numbers(shape.get("radius"), 1, f"{tag} radius")[0],
+                "length": read_numbers(shape.get("length"), 1, f"{tag} length")[0],
+            }
     return None
 
 
-def _visual(link: str, index: int, visual: Element, named: Mapping[str, list[float]]
-            ) -> dict[str, Any] | None:
+def _visual(
+    link: str, index: int, visual: Element, named: Mapping[str, list[float]]
+) -> dict[str, Any] | None:
     geometry_element = visual.find("geometry")
     if geometry_element is None:
         return None
@@ -105,9 +112,13 @@ def _visual(link: str, index: int, visual: Element, named: Mapping[str, list[flo
     xyz = read_numbers(None if origin is None else origin.get("xyz"), 3, "origin xyz", "0 0 0")
     rpy = read_numbers(None if origin is None else origin.get("rpy"), 3, "origin rpy", "0 0 0")
     # named as Pinocchio names its geometries: unique, where descriptions reuse visual names
-    return {"name": f"{link}_{index}", "frame": link,
-            "placement": {"translation": xyz, "rotation": rpy_matrix(*rpy)},
-            "geometry": geometry, "color": _color(visual.find("material"), named)}
+    return {
+        "name": f"{link}_{index}",
+        "frame": link,
+        "placement": {"translation": xyz, "rotation": rpy_matrix(*rpy)},
+        "geometry": geometry,
+        "color": _color(visual.find("material"), named),
+    }
 
 
 def urdf_visuals(urdf_text: str) -> list[dict[str, Any]]:
@@ -138,15 +149,17 @@ def urdf_visuals(urdf_text: str) -> list[dict[str, Any]]:
     return visuals
 
 
-def on_model(visuals: list[dict[str, Any]], has_body_frame: Callable[[str], bool]
-             ) -> list[dict[str, Any]]:
+def on_model(
+    visuals: list[dict[str, Any]], has_body_frame: Callable[[str], bool]
+) -> list[dict[str, Any]]:
     """The visuals whose link is a body frame of the model (a reduced catalog model, e.g.
     talos_legs, has fewer links than its description)."""
     return [v for v in visuals if has_body_frame(v["frame"])]
 
 
-def resolve_assets(visuals: list[dict[str, Any]], package_root: Path, description_dir: Path
-                   ) -> tuple[list[dict[str, Any]], dict[str, Path]]:
+def resolve_assets(
+    visuals: list[dict[str, Any]], package_root: Path, description_dir: Path
+) -> tuple[list[dict[str, Any]], dict[str, Path]]:
     """For a description installed on disk (the catalog): the visuals whose mesh files exist,
     and `asset_paths` mapping each referenced key to its file. `pkg/x` is looked up as
     `package_root/pkg/x` and a relative path next to the description; a file outside
@@ -162,8 +175,14 @@ def resolve_assets(visuals: list[dict[str, Any]], package_root: Path, descriptio
             continue
         key = geometry["asset"]
         candidates = [root / key, description_dir / key]
-        found = next((p.resolve() for p in candidates if p.resolve().is_file()
-                      and p.resolve().is_relative_to(root)), None)
+        found = next(
+            (
+                p.resolve()
+                for p in candidates
+                if p.resolve().is_file() and p.resolve().is_relative_to(root)
+            ),
+            None,
+        )
         if found is None:
             log.info("visual %r: mesh %r not found; left out", visual["name"], key)
             continue
@@ -175,8 +194,11 @@ def resolve_assets(visuals: list[dict[str, Any]], package_root: Path, descriptio
     return kept, paths
 
 
-def ensure_visuals(robot: Robot, base: Callable[[str], Robot],
-                   description: Callable[[str], Mapping[str, Any] | None]) -> None:
+def ensure_visuals(
+    robot: Robot,
+    base: Callable[[str], Robot],
+    description: Callable[[str], Mapping[str, Any] | None],
+) -> None:
     """Fill `robot.visuals` (and `asset_paths` of a reduced model) if not computed yet. Blocking
     (parses XML): call it off the event loop. `base(id)` gives a served robot, `description(id)`
     an upload's stored record (with "format" and "description")."""
@@ -192,9 +214,15 @@ def ensure_visuals(robot: Robot, base: Callable[[str], Robot],
         robot.visuals = visuals
         return
     record = description(robot.id) if robot.source == "upload" else None
-    urdf = None if record is None else (
-        record["description"] if record.get("format", "urdf") == "urdf"
-        else record.get("expanded_urdf"))  # a xacro upload: the URDF it expanded to
+    urdf = (
+        None
+        if record is None
+        else (
+            record["description"]
+            if record.get("format", "urdf") == "urdf"
+            else record.get("expanded_urdf")
+        )
+    )  # a xacro upload: the URDF it expanded to
     visuals = [] if urdf is None else on_model(urdf_visuals(urdf), has_body)
     # Only the meshes the visuals name are served (not collision meshes, not included files).
     keys = {v["geometry"]["asset"] for v in visuals if v["geometry"]["type"] == "mesh"}

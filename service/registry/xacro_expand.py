@@ -35,12 +35,45 @@ from service.errors import InvalidModel
 
 ROOT_FILE = ".robodyn-upload.xacro"
 MAX_MESSAGE = 400
-_REFUSED = ("os.system", "os.exec", "os.posix_spawn", "os.spawn", "os.fork", "os.forkpty",
-            "os.kill", "os.killpg", "os.remove", "os.rename", "os.rmdir", "os.mkdir",
-            "os.symlink", "os.link", "os.chmod", "os.chown", "os.truncate", "os.chdir",
-            "os.listdir", "os.scandir", "os.putenv", "os.unsetenv", "os.chroot", "subprocess.",
-            "socket.", "ctypes.", "mmap.", "shutil.", "sys.addaudithook",
-            "pty.", "signal.", "resource.", "fcntl.", "winreg.", "urllib.", "http.", "ftplib.")
+_REFUSED = (
+    "os.system",
+    "os.exec",
+    "os.posix_spawn",
+    "os.spawn",
+    "os.fork",
+    "os.forkpty",
+    "os.kill",
+    "os.killpg",
+    "os.remove",
+    "os.rename",
+    "os.rmdir",
+    "os.mkdir",
+    "os.symlink",
+    "os.link",
+    "os.chmod",
+    "os.chown",
+    "os.truncate",
+    "os.chdir",
+    "os.listdir",
+    "os.scandir",
+    "os.putenv",
+    "os.unsetenv",
+    "os.chroot",
+    "subprocess.",
+    "socket.",
+    "ctypes.",
+    "mmap.",
+    "shutil.",
+    "sys.addaudithook",
+    "pty.",
+    "signal.",
+    "resource.",
+    "fcntl.",
+    "winreg.",
+    "urllib.",
+    "http.",
+    "ftplib.",
+)
 _WRITE_FLAGS = os.O_WRONLY | os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_TRUNC
 _state: dict[str, Any] = {"root": None}
 
@@ -59,10 +92,12 @@ def _audit(event: str, args: tuple[Any, ...]) -> None:
             return
         inside = os.path.realpath(os.path.join(root, os.fsdecode(path)))
         writing = (isinstance(mode, str) and any(c in mode for c in "wax+")) or (
-            isinstance(flags, int) and flags & _WRITE_FLAGS)
+            isinstance(flags, int) and flags & _WRITE_FLAGS
+        )
         if writing or not inside.startswith(root + os.sep):
-            raise Refused(f"opening '{_shown(os.fsdecode(path))}' (only the upload's assets "
-                          "can be read)")
+            raise Refused(
+                f"opening '{_shown(os.fsdecode(path))}' (only the upload's assets can be read)"
+            )
     elif event == "import":
         if args[0] not in sys.modules:  # no new code: only modules imported before
             raise Refused(f"importing {str(args[0])[:80]!r}")
@@ -77,14 +112,18 @@ _abs_filename_spec = xacro.abs_filename_spec
 def _filename(spec: str) -> str:
     """xacro's include and YAML paths, with `package://pkg/x` as the asset `pkg/x`."""
     if spec.startswith("package://"):
-        return os.path.join(_state["root"] or ".", spec[len("package://"):])
+        return os.path.join(_state["root"] or ".", spec[len("package://") :])
     return str(_abs_filename_spec(spec))
 
 
 def _find_in_assets(pkg: str) -> str:
     root = _state["root"]
-    if root is None or "/" in pkg or pkg in ("", ".", "..") or \
-            not os.path.isdir(os.path.join(root, pkg)):
+    if (
+        root is None
+        or "/" in pkg
+        or pkg in ("", ".", "..")
+        or not os.path.isdir(os.path.join(root, pkg))
+    ):
         raise Refused(f"$(find {_shown(pkg)}): no asset is under '{_shown(pkg)}/'")
     return os.path.join(root, pkg)
 
@@ -133,8 +172,10 @@ def expand_xacro(root_file: Path, args: Mapping[str, str]) -> str:
         if isinstance(cause, Refused):
             raise InvalidModel(f"xacro was refused {cause}") from None
         if isinstance(cause, RecursionError):
-            raise InvalidModel("xacro: the expansion recursed too deeply (a macro or property "
-                               "that refers to itself?)") from None
+            raise InvalidModel(
+                "xacro: the expansion recursed too deeply (a macro or property "
+                "that refers to itself?)"
+            ) from None
         if isinstance(cause, MemoryError):
             raise MemoryError from None
         message = _shown(" ".join(str(exc).split())) or type(exc).__name__
@@ -153,6 +194,9 @@ def _cause(exc: BaseException) -> BaseException:
             return current
         seen.append(current)
         wrapped = getattr(current, "exc", None)
-        current = (wrapped if isinstance(wrapped, BaseException)
-                   else current.__cause__ or current.__context__)
+        current = (
+            wrapped
+            if isinstance(wrapped, BaseException)
+            else current.__cause__ or current.__context__
+        )
     return exc

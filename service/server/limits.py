@@ -17,8 +17,14 @@ FD_RESERVE = 64  # file descriptors kept for other than connections
 LINGER_S = 2.0  # how long a closing connection keeps reading (and discarding) what still comes
 
 # Connections closed by the protocol, by reason (exported as robodyn_connections_closed_total).
-CLOSED: dict[str, int] = {"header_timeout": 0, "body_timeout": 0, "send_timeout": 0,
-                          "evicted": 0, "refused": 0, "bad_request": 0}
+CLOSED: dict[str, int] = {
+    "header_timeout": 0,
+    "body_timeout": 0,
+    "send_timeout": 0,
+    "evicted": 0,
+    "refused": 0,
+    "bad_request": 0,
+}
 
 
 @dataclass(frozen=True)
@@ -37,8 +43,12 @@ def connection_limits() -> ConnectionLimits:
     from service.settings import Settings  # at first connection, after the workers' start
 
     s = Settings()
-    return ConnectionLimits(s.header_timeout_s, s.body_timeout_s, s.send_timeout_s,
-                            min(s.max_connections, _descriptors_for_connections()))
+    return ConnectionLimits(
+        s.header_timeout_s,
+        s.body_timeout_s,
+        s.send_timeout_s,
+        min(s.max_connections, _descriptors_for_connections()),
+    )
 
 
 def _descriptors_for_connections() -> int:
@@ -51,10 +61,13 @@ def _descriptors_for_connections() -> int:
     return max(soft - FD_RESERVE, 16)
 
 
-def problem_answer(status: int, reason: bytes, code: str, title: str, detail: str,
-                    extra_headers: bytes = b"") -> bytes:
+def problem_answer(
+    status: int, reason: bytes, code: str, title: str, detail: str, extra_headers: bytes = b""
+) -> bytes:
     """A complete HTTP/1.1 problem+json answer that closes the connection."""
     body = orjson.dumps(problem_document(code, title, status, detail))
-    return (b"HTTP/1.1 %d %s\r\ncontent-type: application/problem+json\r\n"
-            b"content-length: %d\r\nconnection: close\r\n%s\r\n" % (
-                status, reason, len(body), extra_headers)) + body
+    return (
+        b"HTTP/1.1 %d %s\r\ncontent-type: application/problem+json\r\n"
+        b"content-length: %d\r\nconnection: close\r\n%s\r\n"
+        % (status, reason, len(body), extra_headers)
+    ) + body

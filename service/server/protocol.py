@@ -49,6 +49,7 @@ from service.server.limits import (
 
 log = logging.getLogger("robodyn.connections")
 
+
 class CoalescedWrites:
     """The socket transport as one request/response cycle sees it: `write`s made in one step of
     the event loop leave in one `write` at the end of that step; `close` closes, or lingers
@@ -92,8 +93,12 @@ class GuardedCycle(RequestResponseCycle):
     protocol: HardenedHttpToolsProtocol
 
     def send(self, message: Any) -> Any:  # (returns uvicorn's coroutine: no extra frame)
-        if (not self.response_started and self.more_body and not self.disconnected
-                and message["type"] == "http.response.start"):
+        if (
+            not self.response_started
+            and self.more_body
+            and not self.disconnected
+            and message["type"] == "http.response.start"
+        ):
             self.keep_alive = False  # uvicorn adds `connection: close` and closes after it
             self.transport.on_close = self.protocol.linger_close  # type: ignore[attr-defined]
         return RequestResponseCycle.send(self, message)
@@ -101,11 +106,22 @@ class GuardedCycle(RequestResponseCycle):
     async def send_500_response(self) -> None:
         """uvicorn's last-resort 500 (the application failed before answering), as
         problem+json; the app's own middleware normally answers first."""
-        body = orjson.dumps(problem_document("internal_error", "Internal error", 500,
-                                             "the service failed to answer this request"))
-        await self.send({"type": "http.response.start", "status": 500, "headers": [
-            (b"content-type", b"application/problem+json"),
-            (b"content-length", str(len(body)).encode()), (b"connection", b"close")]})
+        body = orjson.dumps(
+            problem_document(
+                "internal_error", "Internal error", 500, "the service failed to answer this request"
+            )
+        )
+        await self.send(
+            {
+                "type": "http.response.start",
+                "status": 500,
+                "headers": [
+                    (b"content-type", b"application/problem+json"),
+                    (b"content-length", str(len(body)).encode()),
+                    (b"connection", b"close"),
+                ],
+            }
+        )
         await self.send({"type": "http.response.body", "body": body, "more_body": False})
 
 
@@ -137,10 +153,17 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
         now = self.loop.time()
         if full and not self._evict_one():
             CLOSED["refused"] += 1
-            transport.write(problem_answer(
-                503, b"Service Unavailable", "overloaded", "Overloaded",
-                f"the server has {self.limits.max_connections} open connections, its limit "
-                "(ROBODYN_MAX_CONNECTIONS); retry shortly", b"retry-after: 1\r\n"))
+            transport.write(
+                problem_answer(
+                    503,
+                    b"Service Unavailable",
+                    "overloaded",
+                    "Overloaded",
+                    f"the server has {self.limits.max_connections} open connections, its limit "
+                    "(ROBODYN_MAX_CONNECTIONS); retry shortly",
+                    b"retry-after: 1\r\n",
+                )
+            )
             self.linger_close()
             return
         self._idle[self] = None
@@ -197,8 +220,11 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             if waiting == "body" or before != "head":  # body progress, or a new head began
                 self._since = self.loop.time()
             if self._read_timer is None:
-                self._arm_read_timer(self.limits.header_timeout_s if waiting == "head"
-                                     else self.limits.body_timeout_s)
+                self._arm_read_timer(
+                    self.limits.header_timeout_s
+                    if waiting == "head"
+                    else self.limits.body_timeout_s
+                )
 
     def on_message_begin(self) -> None:
         super().on_message_begin()
@@ -265,9 +291,15 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             if cycle.response_started:  # an answer is under way: no room for another
                 self.transport.close()
                 return
-        self.transport.write(problem_answer(
-            400, b"Bad Request", "bad_request", "Bad request",
-            "the request is not valid HTTP/1.1 (request line or headers)"))
+        self.transport.write(
+            problem_answer(
+                400,
+                b"Bad Request",
+                "bad_request",
+                "Bad request",
+                "the request is not valid HTTP/1.1 (request line or headers)",
+            )
+        )
         self.linger_close()
 
     # -- writing ------------------------------------------------------------------------
@@ -290,5 +322,12 @@ class HardenedHttpToolsProtocol(HttpToolsProtocol):
             self.transport.abort()
 
 
-__all__ = ["CLOSED", "LINGER_S", "CoalescedWrites", "ConnectionLimits", "GuardedCycle",
-           "HardenedHttpToolsProtocol", "connection_limits"]
+__all__ = [
+    "CLOSED",
+    "LINGER_S",
+    "CoalescedWrites",
+    "ConnectionLimits",
+    "GuardedCycle",
+    "HardenedHttpToolsProtocol",
+    "connection_limits",
+]

@@ -22,10 +22,17 @@ CHROMIUM = os.environ.get("ROBODYN_TEST_CHROMIUM", "/usr/bin/chromium")
 # Flags known to work here as root on a machine without internet (see the environment notes):
 # no sandbox (root), WebGL on the CPU (SwiftShader through ANGLE, for the explorer's 3-D view;
 # no GPU is used), and none of Chromium's own background connections.
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader",
-                 "--enable-unsafe-swiftshader", "--disable-quic",
-                 "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync"]
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 CATALOG = "ur5,panda,planar_arm,solo12,double_pendulum_continuous,talos"
 ARTIFACTS = Path(__file__).parent / "artifacts"
 
@@ -50,15 +57,16 @@ def browser() -> Iterator[object]:
     asyncio loop marked running in this thread while it is open, which would break the
     asyncio tests of other modules; closing it after each module releases the loop."""
     if not (Path(CHROMIUM).is_file() and os.access(CHROMIUM, os.X_OK)):
-        pytest.skip(f"browser tests need Debian's Chromium at {CHROMIUM}, which is absent: "
-                    "run `apt-get install -y chromium` (as .ci/run does); no browser is "
-                    "downloaded")
+        pytest.skip(
+            f"browser tests need Debian's Chromium at {CHROMIUM}, which is absent: "
+            "run `apt-get install -y chromium` (as .ci/run does); no browser is "
+            "downloaded"
+        )
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as pw:
         # Playwright starts the browser on a fresh temporary profile (--user-data-dir) itself.
-        chromium = pw.chromium.launch(executable_path=CHROMIUM, headless=True,
-                                      args=CHROMIUM_ARGS)
+        chromium = pw.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
         try:
             yield chromium
         finally:
@@ -77,8 +85,11 @@ class PageLog:
     def foreign_requests(self, origin: str) -> list[str]:
         """Requests that went anywhere but `origin` (scheme, host and port)."""
         want = urlsplit(origin)
-        return [u for u in self.requests
-                if (urlsplit(u).scheme, urlsplit(u).netloc) != (want.scheme, want.netloc)]
+        return [
+            u
+            for u in self.requests
+            if (urlsplit(u).scheme, urlsplit(u).netloc) != (want.scheme, want.netloc)
+        ]
 
 
 @pytest.fixture

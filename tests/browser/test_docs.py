@@ -12,17 +12,26 @@ METHODS = {"get", "put", "post", "delete", "patch", "head", "options", "trace"}
 
 def test_docs_render_every_operation_offline(page, server, api) -> None:
     spec = api.get("/openapi.json").json()
-    operations = sorted((method.upper(), path) for path, item in spec["paths"].items()
-                        for method in item if method in METHODS)
+    operations = sorted(
+        (method.upper(), path)
+        for path, item in spec["paths"].items()
+        for method in item
+        if method in METHODS
+    )
     assert len(operations) >= 10
     page.goto(server + "/docs")
     page.locator(".opblock").first.wait_for()
-    page.wait_for_function("(n) => document.querySelectorAll('.opblock').length >= n",
-                           arg=len(operations))
-    shown = sorted(page.eval_on_selector_all(
-        ".opblock", """bs => bs.map(b => [
+    page.wait_for_function(
+        "(n) => document.querySelectorAll('.opblock').length >= n", arg=len(operations)
+    )
+    shown = sorted(
+        page.eval_on_selector_all(
+            ".opblock",
+            """bs => bs.map(b => [
             b.querySelector('.opblock-summary-method').textContent.trim(),
-            b.querySelector('.opblock-summary-path').dataset.path])"""))
+            b.querySelector('.opblock-summary-path').dataset.path])""",
+        )
+    )
     assert shown == [list(op) for op in operations]
     assert "robodyn" in page.locator(".information-container .title").inner_text()
     page.screenshot(path=str(ARTIFACTS / "docs.png"))
@@ -37,10 +46,11 @@ def test_docs_render_every_operation_offline(page, server, api) -> None:
 
 
 def test_docs_try_it_out_calls_this_service(page, server, api) -> None:
-    """"Try it out" on GET /v1/robots sends the request to this service and shows its answer."""
+    """ "Try it out" on GET /v1/robots sends the request to this service and shows its answer."""
     page.goto(server + "/docs")
     block = page.locator(".opblock-get").filter(
-        has=page.locator(".opblock-summary-path[data-path='/v1/robots']"))
+        has=page.locator(".opblock-summary-path[data-path='/v1/robots']")
+    )
     block.locator(".opblock-summary").click()
     block.locator("button.try-out__btn").click()
     block.locator("button.execute").click()

@@ -29,7 +29,8 @@ def open_explorer(page, server: str, robot: str | None = None) -> None:
         before = page.locator("#heatmap").get_attribute("data-robot")
         page.select_option("#robot", robot)
         page.wait_for_function(
-            "(r) => document.querySelector('#heatmap').dataset.robot === r", arg=robot)
+            "(r) => document.querySelector('#heatmap').dataset.robot === r", arg=robot
+        )
         assert before != robot
         wait_computed(page)
 
@@ -50,8 +51,8 @@ def shown_state(page) -> tuple[list[float], list[float]]:
 
 def shown_mass_matrix(page) -> np.ndarray:
     cells = page.eval_on_selector_all(
-        "#heatmap rect.cell",
-        "rs => rs.map(r => [+r.dataset.row, +r.dataset.col, r.dataset.value])")
+        "#heatmap rect.cell", "rs => rs.map(r => [+r.dataset.row, +r.dataset.col, r.dataset.value])"
+    )
     n = math.isqrt(len(cells))
     assert n * n == len(cells) and n > 0
     M = np.full((n, n), np.nan)
@@ -62,25 +63,34 @@ def shown_mass_matrix(page) -> np.ndarray:
 
 def shown_bars(page, chart: str) -> list[float]:
     return page.eval_on_selector_all(
-        f"#{chart} .bar-row", "rows => rows.map(r => parseFloat(r.dataset.value))")
+        f"#{chart} .bar-row", "rows => rows.map(r => parseFloat(r.dataset.value))"
+    )
 
 
 def set_slider(page, selector: str, value: float) -> None:
     """Drag-equivalent: set a range input and fire the `input` event a drag fires."""
-    page.eval_on_selector(selector, """(input, value) => {
+    page.eval_on_selector(
+        selector,
+        """(input, value) => {
         input.value = String(value);
         input.dispatchEvent(new Event('input', {bubbles: true}));
-    }""", value)
+    }""",
+        value,
+    )
 
 
 def position_sliders(page) -> list[float]:
-    return [float(x) for x in page.eval_on_selector_all(
-        "#joints input[id^='q-']", "xs => xs.map(x => x.value)")]
+    return [
+        float(x)
+        for x in page.eval_on_selector_all("#joints input[id^='q-']", "xs => xs.map(x => x.value)")
+    ]
 
 
 def velocity_sliders(page) -> list[float]:
-    return [float(x) for x in page.eval_on_selector_all(
-        "#joints input[id^='v-']", "xs => xs.map(x => x.value)")]
+    return [
+        float(x)
+        for x in page.eval_on_selector_all("#joints input[id^='v-']", "xs => xs.map(x => x.value)")
+    ]
 
 
 def assert_matches_api(page, api: httpx.Client, robot: str, q, v) -> None:
@@ -111,7 +121,8 @@ def test_page_loads_cleanly_and_lists_every_robot(page, server, api) -> None:
     # Every control is labelled: a <label for> names each input and select.
     unlabelled = page.eval_on_selector_all(
         "input, select",
-        "xs => xs.filter(x => !x.labels || x.labels.length === 0).map(x => x.id || x.name)")
+        "xs => xs.filter(x => !x.labels || x.labels.length === 0).map(x => x.id || x.name)",
+    )
     assert unlabelled == []
 
 
@@ -126,19 +137,21 @@ def test_moving_a_slider_redraws_the_api_values_for_that_configuration(page, ser
     set_slider(page, f"#q-{elbow}", 1.234)
     page.wait_for_function(
         "(k) => JSON.parse(document.querySelector('#heatmap').dataset.q)[k] === 1.234",
-        arg=info["joints"][elbow]["idx_q"])
+        arg=info["joints"][elbow]["idx_q"],
+    )
     wait_computed(page)
     q, v = shown_state(page)
     # ur5's joints are all revolute: q is exactly what the sliders show.
     assert q == position_sliders(page) and v == velocity_sliders(page)
     assert q[elbow] == 1.234 and q[:elbow] == q0[:elbow]
     assert not close(shown_mass_matrix(page), M0)  # the move changed M(q) ...
-    assert_matches_api(page, api, "ur5", q, v)     # ... to what the service says it is
+    assert_matches_api(page, api, "ur5", q, v)  # ... to what the service says it is
 
     # A velocity slider changes C(q, v) v and T, not M(q).
     set_slider(page, "#v-0", -2.0)
-    page.wait_for_function("() => JSON.parse(document.querySelector('#heatmap').dataset.v)[0]"
-                           " === -2")
+    page.wait_for_function(
+        "() => JSON.parse(document.querySelector('#heatmap').dataset.v)[0] === -2"
+    )
     wait_computed(page)
     q2, v2 = shown_state(page)
     assert q2 == q and v2[0] == -2.0
@@ -157,8 +170,9 @@ def test_hovering_a_cell_shows_its_value_and_joint_pair(page, server, api) -> No
     label, value = tip.inner_text().split(" = ")
     assert label == f"M[{names[1]}, {names[2]}]"
     assert math.isclose(float(value), M[1][2], rel_tol=1e-5)
-    page.screenshot(path=str(ARTIFACTS / "tooltip.png"),
-                    clip=page.locator("#mass-matrix-figure").bounding_box())
+    page.screenshot(
+        path=str(ARTIFACTS / "tooltip.png"), clip=page.locator("#mass-matrix-figure").bounding_box()
+    )
     page.mouse.move(1, 1)
     assert tip.is_hidden()
 
@@ -166,8 +180,9 @@ def test_hovering_a_cell_shows_its_value_and_joint_pair(page, server, api) -> No
 def test_sliders_are_bounded_by_the_joint_limits(page, server, api) -> None:
     open_explorer(page, server, "panda")
     info = api.get("/v1/robots/panda").json()
-    bounds = page.eval_on_selector_all("#joints input[id^='q-']",
-                                       "xs => xs.map(x => [+x.min, +x.max])")
+    bounds = page.eval_on_selector_all(
+        "#joints input[id^='q-']", "xs => xs.map(x => [+x.min, +x.max])"
+    )
     joints = [j for j in info["joints"] if j["nv"] == 1]
     assert len(bounds) == len(joints) == info["nv"]
     for (lo, hi), j in zip(bounds, joints, strict=True):
@@ -192,7 +207,8 @@ def test_keyboard_moves_a_slider_and_the_page_recomputes(page, server, api) -> N
     moved = float(slider.input_value())
     assert moved == pytest.approx(start + 3 * (hi - lo) / 100)  # step "any": 1 % per key
     page.wait_for_function(
-        "(x) => JSON.parse(document.querySelector('#heatmap').dataset.q)[1] === x", arg=moved)
+        "(x) => JSON.parse(document.querySelector('#heatmap').dataset.q)[1] === x", arg=moved
+    )
     wait_computed(page)
     q, v = shown_state(page)
     assert_matches_api(page, api, "ur5", q, v)
@@ -203,7 +219,8 @@ def test_keyboard_moves_a_slider_and_the_page_recomputes(page, server, api) -> N
     page.keyboard.press("Home")
     assert float(slider.input_value()) == lo
     page.wait_for_function(
-        "(x) => JSON.parse(document.querySelector('#heatmap').dataset.q)[1] === x", arg=lo)
+        "(x) => JSON.parse(document.querySelector('#heatmap').dataset.q)[1] === x", arg=lo
+    )
     wait_computed(page)
     assert_matches_api(page, api, "ur5", *shown_state(page))
 
@@ -213,8 +230,9 @@ def test_free_flyer_base_gives_a_unit_quaternion(page, server, api) -> None:
     info = api.get("/v1/robots/solo12").json()
     base = info["joints"][0]
     assert base["type"] == "free_flyer"
-    labels = page.eval_on_selector_all("#joints input[id^='q-']",
-                                       "xs => xs.map(x => x.labels[0].textContent)")
+    labels = page.eval_on_selector_all(
+        "#joints input[id^='q-']", "xs => xs.map(x => x.labels[0].textContent)"
+    )
     assert len(labels) == info["nv"]  # one position control per velocity coordinate
     yaw = next(i for i, t in enumerate(labels) if t.startswith(f"{base['name']} yaw"))
     set_slider(page, f"#q-{yaw}", 0.9)
@@ -241,8 +259,9 @@ def test_mjcf_ball_joint_gives_a_w_first_quaternion(page, server, api) -> None:
     robot = r.json()["id"]
     assert r.json()["neutral_configuration"] == [1, 0, 0, 0]
     open_explorer(page, server, robot)
-    labels = page.eval_on_selector_all("#joints input[id^='q-']",
-                                       "xs => xs.map(x => x.labels[0].textContent)")
+    labels = page.eval_on_selector_all(
+        "#joints input[id^='q-']", "xs => xs.map(x => x.labels[0].textContent)"
+    )
     yaw = next(i for i, t in enumerate(labels) if t.startswith("socket yaw"))
     set_slider(page, f"#q-{yaw}", 0.9)
     page.wait_for_function("""() => {
@@ -262,24 +281,29 @@ def test_continuous_joint_angle_becomes_cos_sin(page, server, api) -> None:
     set_slider(page, "#q-1", -2.5)
     idx = info["joints"][1]["idx_q"]
     page.wait_for_function(
-        "(k) => JSON.parse(document.querySelector('#heatmap').dataset.q)[k + 1] < -0.5", arg=idx)
+        "(k) => JSON.parse(document.querySelector('#heatmap').dataset.q)[k + 1] < -0.5", arg=idx
+    )
     wait_computed(page)
     q, v = shown_state(page)
-    assert q[idx:idx + 2] == pytest.approx([math.cos(-2.5), math.sin(-2.5)], abs=1e-15)
+    assert q[idx : idx + 2] == pytest.approx([math.cos(-2.5), math.sin(-2.5)], abs=1e-15)
     assert_matches_api(page, api, "double_pendulum_continuous", q, v)
 
 
 def test_an_invalid_upload_shows_the_servers_error(page, server, api) -> None:
     open_explorer(page, server)
-    bad = (b'<robot name="broken"><link name="base"/>'
-           b'<joint name="j1" type="revolute"><parent link="base"/><child link="nowhere"/>'
-           b'<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
-           b'</robot>')
-    expected = api.post("/v1/robots", json={"urdf": bad.decode(), "root_joint": "fixed",
-                                            "inertia_check": "reject"})
+    bad = (
+        b'<robot name="broken"><link name="base"/>'
+        b'<joint name="j1" type="revolute"><parent link="base"/><child link="nowhere"/>'
+        b'<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        b"</robot>"
+    )
+    expected = api.post(
+        "/v1/robots", json={"urdf": bad.decode(), "root_joint": "fixed", "inertia_check": "reject"}
+    )
     assert expected.status_code == 422
-    page.set_input_files("#urdf-file", files=[{"name": "broken.urdf", "mimeType": "text/xml",
-                                               "buffer": bad}])
+    page.set_input_files(
+        "#urdf-file", files=[{"name": "broken.urdf", "mimeType": "text/xml", "buffer": bad}]
+    )
     page.click("#upload button[type=submit]")
     detail = page.locator("#upload-status .detail")
     detail.wait_for()
@@ -291,15 +315,17 @@ def test_an_invalid_upload_shows_the_servers_error(page, server, api) -> None:
 def test_a_valid_upload_is_listed_chosen_and_explored(page, server, api) -> None:
     open_explorer(page, server)
     urdf = (ROBOTS_DIR / "planar_arm.urdf").read_bytes()
-    page.set_input_files("#urdf-file", files=[{"name": "arm.urdf", "mimeType": "text/xml",
-                                               "buffer": urdf}])
+    page.set_input_files(
+        "#urdf-file", files=[{"name": "arm.urdf", "mimeType": "text/xml", "buffer": urdf}]
+    )
     page.fill("#upload-name", "my arm")
     page.click("#upload button[type=submit]")
     page.locator("#upload-status.ok").wait_for()
     uploads = [r for r in api.get("/v1/robots").json()["robots"] if r["source"] == "upload"]
     robot = next(r["id"] for r in uploads if r["name"] == "my arm")
     page.wait_for_function(
-        "(r) => document.querySelector('#heatmap').dataset.robot === r", arg=robot)
+        "(r) => document.querySelector('#heatmap').dataset.robot === r", arg=robot
+    )
     wait_computed(page)
     assert page.locator("#robot").input_value() == robot
     assert robot in page.locator("#upload-status").inner_text()
@@ -310,7 +336,8 @@ def test_a_valid_upload_is_listed_chosen_and_explored(page, server, api) -> None
 
 def _cell_colours(page) -> list[tuple[float, tuple[int, int, int]]]:
     cells = page.eval_on_selector_all(
-        "#heatmap rect.cell", "rs => rs.map(r => [r.dataset.value, r.getAttribute('fill')])")
+        "#heatmap rect.cell", "rs => rs.map(r => [r.dataset.value, r.getAttribute('fill')])"
+    )
     return [(float(v), tuple(int(c) for c in fill[4:-1].split(","))) for v, fill in cells]
 
 
@@ -335,15 +362,22 @@ def test_colour_scale_follows_the_value(page, server, api, robot) -> None:
         # How far each colour is along its arm of the scale (grey → red, or grey → blue):
         # monotone in |M|, up to the rounding of colours to integers.
         full = {True: (178, 24, 43), False: (33, 102, 172)}
-        along = sorted((abs(v), sum(abs(a - b) for a, b in zip(c, grey, strict=True))
-                        / sum(abs(a - b) for a, b in zip(full[v > 0], grey, strict=True)))
-                       for v, c in cells)
+        along = sorted(
+            (
+                abs(v),
+                sum(abs(a - b) for a, b in zip(c, grey, strict=True))
+                / sum(abs(a - b) for a, b in zip(full[v > 0], grey, strict=True)),
+            )
+            for v, c in cells
+        )
         assert all(f2 >= f1 - 0.01 for (_, f1), (_, f2) in pairwise(along))
         assert along[-1][1] == 1.0
         signs = {(v > 0, c[0] > c[2]) for v, c in cells if c != grey}
         assert signs <= {(True, True), (False, False)}  # red for positive, blue for negative
-        page.screenshot(path=str(ARTIFACTS / f"heatmap-{robot}-{'log' if checked else 'lin'}.png"),
-                        clip=page.locator("#mass-matrix-figure").bounding_box())
+        page.screenshot(
+            path=str(ARTIFACTS / f"heatmap-{robot}-{'log' if checked else 'lin'}.png"),
+            clip=page.locator("#mass-matrix-figure").bounding_box(),
+        )
 
 
 def test_zero_velocity_button_zeroes_kinetic_energy_and_coriolis(page, server, api) -> None:
@@ -351,7 +385,8 @@ def test_zero_velocity_button_zeroes_kinetic_energy_and_coriolis(page, server, a
     assert float(page.locator("#kinetic-energy").get_attribute("data-value")) > 0
     page.click("#zero-velocity")
     page.wait_for_function(
-        "() => JSON.parse(document.querySelector('#heatmap').dataset.v).every(x => x === 0)")
+        "() => JSON.parse(document.querySelector('#heatmap').dataset.v).every(x => x === 0)"
+    )
     wait_computed(page)
     q, v = shown_state(page)
     assert v == [0.0] * len(v) and velocity_sliders(page) == v
@@ -368,18 +403,28 @@ def test_page_waits_for_a_service_still_loading_its_catalog(page, server) -> Non
     def not_ready_twice(route) -> None:
         if len(refused) < 2:
             refused.append(route.request.url)
-            route.fulfill(status=503, content_type="application/problem+json",
-                          headers={"Retry-After": "1"},
-                          body=json.dumps({"type": "about:blank", "title": "Not ready",
-                                           "status": 503, "code": "not_ready",
-                                           "detail": "the robot catalog is still loading"}))
+            route.fulfill(
+                status=503,
+                content_type="application/problem+json",
+                headers={"Retry-After": "1"},
+                body=json.dumps(
+                    {
+                        "type": "about:blank",
+                        "title": "Not ready",
+                        "status": 503,
+                        "code": "not_ready",
+                        "detail": "the robot catalog is still loading",
+                    }
+                ),
+            )
         else:
             route.continue_()
 
     page.route(f"{server}/v1/robots", not_ready_twice)
     page.goto(server + "/")
-    page.wait_for_function("() => document.querySelector('#status').textContent"
-                           ".includes('still loading')")
+    page.wait_for_function(
+        "() => document.querySelector('#status').textContent.includes('still loading')"
+    )
     wait_computed(page)
     assert len(refused) == 2
     assert page.locator("#robot").input_value() == "ur5"
@@ -419,8 +464,9 @@ def test_every_visible_text_has_readable_contrast(page, server) -> None:
     including the heat map's labels, the tooltip and an upload error."""
     open_explorer(page, server, "ur5")
     page.hover("#heatmap rect[data-row='0'][data-col='0']")
-    page.set_input_files("#urdf-file", files=[{"name": "x.urdf", "mimeType": "text/xml",
-                                               "buffer": b"<robot"}])
+    page.set_input_files(
+        "#urdf-file", files=[{"name": "x.urdf", "mimeType": "text/xml", "buffer": b"<robot"}]
+    )
     page.click("#upload button[type=submit]")
     page.locator("#upload-status .detail").wait_for()
     page.hover("#heatmap rect[data-row='0'][data-col='1']")
@@ -436,15 +482,17 @@ def test_planar_root_gives_x_y_and_an_angle(page, server, api) -> None:
     """An upload with a planar root: x, y sliders (unbounded limits fall back to ±1 m) and an
     angle θ sent as (cos θ, sin θ)."""
     urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text()
-    stored = api.post("/v1/robots", json={"urdf": urdf, "root_joint": "planar",
-                                          "name": "arm on a plane"})
+    stored = api.post(
+        "/v1/robots", json={"urdf": urdf, "root_joint": "planar", "name": "arm on a plane"}
+    )
     assert stored.status_code in (200, 201), stored.text
     robot = stored.json()["id"]
     root = stored.json()["joints"][0]
     assert root["type"] == "planar" and (root["nq"], root["nv"]) == (4, 3)
     open_explorer(page, server, robot)
-    bounds = page.eval_on_selector_all("#joints input[id^='q-']",
-                                       "xs => xs.slice(0, 3).map(x => [+x.min, +x.max])")
+    bounds = page.eval_on_selector_all(
+        "#joints input[id^='q-']", "xs => xs.slice(0, 3).map(x => [+x.min, +x.max])"
+    )
     assert bounds[:2] == [[-1, 1], [-1, 1]]
     assert bounds[2] == pytest.approx([-math.pi, math.pi])
     set_slider(page, "#q-0", 0.25)
@@ -462,35 +510,38 @@ def _listed(page) -> list[str]:
     return page.eval_on_selector_all("#robot option", "os => os.map(o => o.value)")
 
 
-def test_an_upload_made_through_the_api_appears_when_the_page_comes_back(page, server,
-                                                                          api) -> None:
+def test_an_upload_made_through_the_api_appears_when_the_page_comes_back(page, server, api) -> None:
     open_explorer(page, server, "planar_arm")
     urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text().replace("planar_arm", "api_arm")
     robot = api.post("/v1/robots", json={"urdf": urdf, "name": "made by a script"}).json()["id"]
     assert robot not in _listed(page)
     page.evaluate("() => window.dispatchEvent(new Event('focus'))")  # the user comes back
-    page.wait_for_function("(r) => [...document.querySelectorAll('#robot option')]"
-                           ".some(o => o.value === r)", arg=robot)
+    page.wait_for_function(
+        "(r) => [...document.querySelectorAll('#robot option')].some(o => o.value === r)", arg=robot
+    )
     assert page.locator("#robot").input_value() == "planar_arm"  # the choice stays
     api.delete(f"/v1/robots/{robot}")
     page.evaluate("() => window.dispatchEvent(new Event('focus'))")
-    page.wait_for_function("(r) => ![...document.querySelectorAll('#robot option')]"
-                           ".some(o => o.value === r)", arg=robot)
+    page.wait_for_function(
+        "(r) => ![...document.querySelectorAll('#robot option')].some(o => o.value === r)",
+        arg=robot,
+    )
     assert page.log.console_errors == []
 
 
-def test_a_deep_link_to_a_robot_uploaded_after_the_page_loaded_opens_it(page, server,
-                                                                        api) -> None:
+def test_a_deep_link_to_a_robot_uploaded_after_the_page_loaded_opens_it(page, server, api) -> None:
     open_explorer(page, server)
     urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text().replace("planar_arm", "linked_arm")
     robot = api.post("/v1/robots", json={"urdf": urdf, "name": "linked"}).json()["id"]
     page.evaluate("(r) => { location.hash = 'robot=' + r; }", robot)
     page.wait_for_function(
-        "(r) => document.querySelector('#heatmap').dataset.robot === r", arg=robot)
+        "(r) => document.querySelector('#heatmap').dataset.robot === r", arg=robot
+    )
     wait_computed(page)
     assert page.locator("#robot").input_value() == robot
     page.evaluate("() => { location.hash = 'robot=no-such-robot'; }")
-    page.wait_for_function("() => document.querySelector('#status').textContent"
-                           ".includes(\"No robot 'no-such-robot'\")")
+    page.wait_for_function(
+        "() => document.querySelector('#status').textContent.includes(\"No robot 'no-such-robot'\")"
+    )
     assert page.locator("#robot").input_value() == robot
     api.delete(f"/v1/robots/{robot}")

@@ -26,7 +26,8 @@ def entries(page, quantity: str) -> list[dict]:
         """tds => tds.map(td => ({row: +td.dataset.row, col: +td.dataset.col,
                                    depends: td.dataset.depends, text: td.innerText,
                                    katex: !!td.querySelector('.katex'),
-                                   background: getComputedStyle(td).backgroundColor}))""")
+                                   background: getComputedStyle(td).backgroundColor}))""",
+    )
 
 
 def test_planar_arm_equations_are_typeset_and_tinted_by_dependence(page, server, api) -> None:
@@ -49,8 +50,10 @@ def test_planar_arm_equations_are_typeset_and_tinted_by_dependence(page, server,
     assert "depends on q2" in legend and "depends on q1 q2" in legend
     # KaTeX's fonts came from the service
     assert any("/static/vendor/katex/fonts/" in u for u in page.log.requests)
-    page.screenshot(path=str(ARTIFACTS / "equations-planar-arm.png"),
-                    clip=page.locator("#results").bounding_box())
+    page.screenshot(
+        path=str(ARTIFACTS / "equations-planar-arm.png"),
+        clip=page.locator("#results").bounding_box(),
+    )
 
 
 def test_hover_shows_the_value_at_the_sliders(page, server, api) -> None:
@@ -69,24 +72,32 @@ def test_hover_shows_the_value_at_the_sliders(page, server, api) -> None:
     C = api.post("/v1/robots/ur5/coriolis", json={"q": q, "v": v}).json()["coriolis_matrix"]
     g = api.post("/v1/robots/ur5/gravity", json={"q": q}).json()["gravity"]
     tip = page.locator("#equations-tooltip")
-    for quantity, (i, j), want in [("mass_matrix", (1, 2), M[1][2]),
-                                   ("coriolis_matrix", (0, 1), C[0][1]),
-                                   ("gravity", (1, 0), g[1])]:
-        page.hover(f".eq-block[data-quantity='{quantity}'] "
-                   f".eq-entry[data-row='{i}'][data-col='{j}']")
+    for quantity, (i, j), want in [
+        ("mass_matrix", (1, 2), M[1][2]),
+        ("coriolis_matrix", (0, 1), C[0][1]),
+        ("gravity", (1, 0), g[1]),
+    ]:
+        page.hover(
+            f".eq-block[data-quantity='{quantity}'] .eq-entry[data-row='{i}'][data-col='{j}']"
+        )
         assert tip.is_visible()
-        assert math.isclose(float(tip.get_attribute("data-value")), want, rel_tol=1e-12,
-                            abs_tol=1e-12)
+        assert math.isclose(
+            float(tip.get_attribute("data-value")), want, rel_tol=1e-12, abs_tol=1e-12
+        )
     # and the expressions themselves evaluate to those numbers (the service's own test checks
     # this exactly; here: the text the page typesets is the answer's)
     answer = api.get("/v1/robots/ur5/equations").json()
     shown = entries(page, "gravity")
     assert [e["depends"] for e in shown] == [
-        " ".join(s["depends_on"]) for s in answer["structure"]["gravity"]]
+        " ".join(s["depends_on"]) for s in answer["structure"]["gravity"]
+    ]
     assert np.shape(answer["coriolis_matrix"]["latex"]) == (6, 6)
     # long entries: a list, M's upper triangle (21 entries), all of C (36), g (6)
     assert [len(entries(page, k)) for k in ("mass_matrix", "coriolis_matrix", "gravity")] == [
-        21, 36, 6]
+        21,
+        36,
+        6,
+    ]
     page.mouse.move(1, 1)
     assert tip.is_hidden()
     assert page.log.console_errors == [] and page.log.page_errors == []

@@ -16,8 +16,9 @@ def _log_csv() -> tuple[str, dict]:
     ur5 = load_catalog(["ur5"])[0]["ur5"]
     log = synthetic_log(ur5.model, seed=4, duration=8.0, rate=100.0, noise=0.05)
     rows = np.column_stack([log.t, log.q, log.tau])
-    header = "t," + ",".join(f"q{j}" for j in range(6)) + "," + \
-        ",".join(f"tau{j}" for j in range(6))
+    header = (
+        "t," + ",".join(f"q{j}" for j in range(6)) + "," + ",".join(f"tau{j}" for j in range(6))
+    )
     text = header + "\n" + "\n".join(",".join(repr(float(x)) for x in row) for row in rows)
     body = {"t": log.t.tolist(), "q": log.q.tolist(), "tau": log.tau.tolist(), "store": False}
     return text, body
@@ -28,12 +29,14 @@ def test_identify_a_log_in_the_page(browser, server, api) -> None:
     expected = api.post("/v1/robots/ur5/identify", json=body, timeout=120).json()
     page = browser.new_page()
     open_explorer(page, server, "ur5")
-    page.set_input_files("#ident-file", files=[{"name": "log.csv", "mimeType": "text/csv",
-                                                "buffer": csv.encode()}])
+    page.set_input_files(
+        "#ident-file", files=[{"name": "log.csv", "mimeType": "text/csv", "buffer": csv.encode()}]
+    )
     page.click("#identify-form button[type=submit]")
     page.wait_for_selector("#ident-rmse", timeout=120_000)
     rows = page.eval_on_selector_all(
-        "#ident-rmse tr", "rs => rs.slice(1).map(r => [...r.children].map(c => c.textContent))")
+        "#ident-rmse tr", "rs => rs.slice(1).map(r => [...r.children].map(c => c.textContent))"
+    )
     assert [r[0] for r in rows] == [f["joint"] for f in expected["friction"]]
     for j, row in enumerate(rows):
         for cell, key in zip(row[1:], ("validation_before", "validation", "train"), strict=True):
@@ -48,10 +51,13 @@ def test_identify_a_log_in_the_page(browser, server, api) -> None:
 def test_a_csv_of_the_wrong_width_is_refused_in_the_page(browser, server) -> None:
     page = browser.new_page()
     open_explorer(page, server, "ur5")
-    page.set_input_files("#ident-file", files=[{"name": "bad.csv", "mimeType": "text/csv",
-                                                "buffer": b"0,1,2\n1,2,3\n"}])
+    page.set_input_files(
+        "#ident-file",
+        files=[{"name": "bad.csv", "mimeType": "text/csv", "buffer": b"0,1,2\n1,2,3\n"}],
+    )
     page.click("#identify-form button[type=submit]")
     page.wait_for_function(
-        "() => document.querySelector('#ident-status').classList.contains('error')")
+        "() => document.querySelector('#ident-status').classList.contains('error')"
+    )
     assert "needs 13" in page.locator("#ident-status").inner_text()
     page.close()

@@ -46,8 +46,7 @@ def test_explorer_page_references_only_its_own_files(client) -> None:
         assert answer.content == (WEB_DIR / name).read_bytes()
 
 
-def test_explorer_modules_are_served_and_the_import_map_is_the_only_inline_script(
-        client) -> None:
+def test_explorer_modules_are_served_and_the_import_map_is_the_only_inline_script(client) -> None:
     """view3d.js and the vendored three.js modules (with their licence in the repository) are
     served as JavaScript; the CSP admits exactly the inline import map, by its hash."""
     import base64
@@ -105,13 +104,24 @@ def test_docs_page_loads_swagger_ui_from_the_installed_package(client) -> None:
     assert b"SwaggerUIBundle" in client.get("/docs/assets/swagger-ui-bundle.js").content
 
 
-@pytest.mark.parametrize("path", [
-    "/static/__init__.py", "/static/index.html", "/static/..%2f..%2fmain.py",
-    "/static/../api/routes/pages.py", "/static/vendor/three/package.json",
-    "/static/vendor/three/README.md", "/static/vendor%2F..%2Fpages.py",
-    "/static/vendor/three/build/../../../__init__.py", "/docs/assets/index.html",
-    "/docs/assets/swagger-initializer.js",
-    "/docs/assets/..%2f..%2f__init__.py", "/redoc", "/docs/oauth2-redirect"])
+@pytest.mark.parametrize(
+    "path",
+    [
+        "/static/__init__.py",
+        "/static/index.html",
+        "/static/..%2f..%2fmain.py",
+        "/static/../api/routes/pages.py",
+        "/static/vendor/three/package.json",
+        "/static/vendor/three/README.md",
+        "/static/vendor%2F..%2Fpages.py",
+        "/static/vendor/three/build/../../../__init__.py",
+        "/docs/assets/index.html",
+        "/docs/assets/swagger-initializer.js",
+        "/docs/assets/..%2f..%2f__init__.py",
+        "/redoc",
+        "/docs/oauth2-redirect",
+    ],
+)
 def test_nothing_else_is_served(client, path: str) -> None:
     answer = client.get(path)
     assert answer.status_code == 404

@@ -20,27 +20,32 @@ from tests.browser.test_explorer import (
 
 def wait_payload(page, *, mass: float | None = None) -> list[float]:
     """Wait until the Payload view has drawn its answers (for `mass` kg, if given): its q."""
-    page.wait_for_function("""(mass) => {
+    page.wait_for_function(
+        """(mass) => {
         const s = document.querySelector('#payload-status');
         const view = document.querySelector('#payload-view');
         return s.textContent.startsWith('Computed') && view.dataset.q &&
           (mass === null || document.querySelector('#payload-share').dataset.value ==
              String(mass / +document.querySelector('#payload-capacity').dataset.value));
-    }""", arg=mass)
+    }""",
+        arg=mass,
+    )
     return json.loads(page.locator("#payload-view").get_attribute("data-q"))
 
 
 def assert_matches_api(page, api, q, frame: str, mass: float, com: list[float]) -> None:
     payloads = [{"frame": frame, "mass": mass, "center_of_mass": com}]
     g = api.post("/v1/robots/ur5/gravity", json={"q": q, "payloads": payloads}).json()
-    cap = api.post("/v1/robots/ur5/payload-capacity",
-                   json={"q": q, "frame": frame, "center_of_mass": com}).json()
+    cap = api.post(
+        "/v1/robots/ur5/payload-capacity", json={"q": q, "frame": frame, "center_of_mass": com}
+    ).json()
     assert close(shown_bars(page, "payload-gravity-chart"), g["gravity"])
     shown = float(page.locator("#payload-capacity").get_attribute("data-value"))
     assert np.isclose(shown, cap["mass"], rtol=1e-12)
     assert page.locator("#payload-limiting").text_content() == cap["limiting_joint"]
     limiting = page.eval_on_selector_all(
-        "#payload-gravity-chart .bar-row.limiting", "rows => rows.map(r => +r.dataset.index)")
+        "#payload-gravity-chart .bar-row.limiting", "rows => rows.map(r => +r.dataset.index)"
+    )
     names = [j["name"] for j in api.get("/v1/robots/ur5").json()["joints"]]
     assert [names[i] for i in limiting] == [cap["limiting_joint"]]
     row = page.locator("#payload-table tr.limiting")
@@ -70,7 +75,8 @@ def test_a_payload_shows_gravity_and_capacity_and_follows_the_state(page, server
     set_slider(page, f"#q-{shoulder}", -0.4)
     page.wait_for_function(
         "(k) => JSON.parse(document.querySelector('#payload-view').dataset.q || '[]')[k] === -0.4",
-        arg=shoulder)
+        arg=shoulder,
+    )
     wait_computed(page)
     q = wait_payload(page, mass=5.0)
     assert q[shoulder] == -0.4
@@ -78,8 +84,9 @@ def test_a_payload_shows_gravity_and_capacity_and_follows_the_state(page, server
 
     # a bad mass is said, not sent
     page.fill("#payload-mass", "-1")
-    page.wait_for_function("() => document.querySelector('#payload-status')"
-                           ".classList.contains('error')")
+    page.wait_for_function(
+        "() => document.querySelector('#payload-status').classList.contains('error')"
+    )
     page.click("#dynamics-view-button")
     assert page.locator("#mass-matrix-figure").is_visible()
     assert not page.locator("#payload-view").is_visible()

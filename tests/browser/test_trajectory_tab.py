@@ -35,9 +35,16 @@ def test_a_pasted_motion_is_checked_and_plotted(page, server, api) -> None:
     q0 = info["default_configuration"]
     rows = [[float(x) for x in line.split(",")] for line in CSV.strip().splitlines()[1:]]
     q = [[r[1], r[2], r[3], *q0[3:]] for r in rows]
-    expected = api.post("/v1/robots/ur5/trajectory-check",
-                        json={"t": [r[0] for r in rows], "q": q, "velocity_scale": 0.5,
-                              "effort_scale": 1, "samples_per_interval": 4}).json()
+    expected = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        json={
+            "t": [r[0] for r in rows],
+            "q": q,
+            "velocity_scale": 0.5,
+            "effort_scale": 1,
+            "samples_per_interval": 4,
+        },
+    ).json()
     shown = page.evaluate("() => document.querySelector('#trajectory-plots').result.answer")
     assert shown["violations"] == expected["violations"]
     np.testing.assert_allclose(shown["tau"], expected["tau"], rtol=1e-12)
@@ -69,11 +76,12 @@ def test_waypoints_are_retimed_and_played(page, server, api) -> None:
     start = page.evaluate("() => document.querySelector('#trajectory-view3d').dataset.q")
     page.click("#trajectory-play")
     page.wait_for_function(
-        "(s) => document.querySelector('#trajectory-view3d').dataset.q !== s", arg=start)
-    page.wait_for_function("() => document.querySelector('#trajectory-play').textContent "
-                           "=== 'Play'", timeout=30_000)  # played to the end
-    end = page.evaluate("() => JSON.parse(document.querySelector('#trajectory-view3d')"
-                        ".dataset.q)")
+        "(s) => document.querySelector('#trajectory-view3d').dataset.q !== s", arg=start
+    )
+    page.wait_for_function(
+        "() => document.querySelector('#trajectory-play').textContent === 'Play'", timeout=30_000
+    )  # played to the end
+    end = page.evaluate("() => JSON.parse(document.querySelector('#trajectory-view3d').dataset.q)")
     np.testing.assert_allclose(end, answer["q"][-1], atol=1e-12)
     assert page.log.console_errors == [] and page.log.page_errors == []
 
@@ -84,10 +92,13 @@ def test_a_long_check_shows_the_services_progress(page, server) -> None:
     _trajectory_tab(page, server)
     t = np.linspace(0.0, 20.0, 20_000)
     lines = ["t,shoulder_pan_joint,shoulder_lift_joint"] + [
-        f"{x:.17g},{0.4 * np.sin(0.3 * x):.17g},{-1.2 + 0.3 * np.sin(0.6 * x):.17g}" for x in t]
-    page.evaluate("text => { const area = document.querySelector('#trajectory-csv'); "
-                  "area.value = text; area.dispatchEvent(new Event('input')); }",
-                  "\n".join(lines))
+        f"{x:.17g},{0.4 * np.sin(0.3 * x):.17g},{-1.2 + 0.3 * np.sin(0.6 * x):.17g}" for x in t
+    ]
+    page.evaluate(
+        "text => { const area = document.querySelector('#trajectory-csv'); "
+        "area.value = text; area.dispatchEvent(new Event('input')); }",
+        "\n".join(lines),
+    )
     page.fill("#samples-per-interval", "16")
     page.evaluate("""() => {
         window.statuses = [];

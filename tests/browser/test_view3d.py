@@ -52,22 +52,27 @@ CANVAS_JS = """() => {
 
 def wait_drawn(page, robot: str) -> None:
     """Wait until the view shows `robot` placed at the sliders' q with every mesh loaded."""
-    page.wait_for_function("""(r) => {
+    page.wait_for_function(
+        """(r) => {
         const v = document.querySelector('#view3d'), p = document.querySelector('#view-progress');
         return v.dataset.robot === r && v.dataset.q && p.dataset.total !== undefined
           && p.dataset.done === p.dataset.total
-          && v.dataset.q === document.querySelector('#heatmap').dataset.q }""", arg=robot,
-                           timeout=60_000)
+          && v.dataset.q === document.querySelector('#heatmap').dataset.q }""",
+        arg=robot,
+        timeout=60_000,
+    )
 
 
 def frame_matrix(page, frame: str) -> np.ndarray:
     elements = page.evaluate(
-        "(f) => document.querySelector('#view3d').robotView.frames.get(f).matrix.elements", frame)
+        "(f) => document.querySelector('#view3d').robotView.frames.get(f).matrix.elements", frame
+    )
     return np.array(elements).reshape(4, 4).T  # three.js stores column-major
 
 
 def changed_pixels(page, before: str) -> int:
-    return page.evaluate("""([a, b]) => new Promise((resolve) => {
+    return page.evaluate(
+        """([a, b]) => new Promise((resolve) => {
         const load = (src) => new Promise((ok) => { const i = new Image(); i.onload = () => ok(i);
                                                       i.src = src; });
         Promise.all([load(a), load(b)]).then(([x, y]) => {
@@ -81,7 +86,9 @@ def changed_pixels(page, before: str) -> int:
                                                     || p[i + 2] !== q[i + 2]) n++;
           resolve(n);
         });
-    })""", [before, page.evaluate(CANVAS_JS)])
+    })""",
+        [before, page.evaluate(CANVAS_JS)],
+    )
 
 
 def move_joint(page, api, robot: str, joint: str, value: float) -> list[float]:
@@ -91,9 +98,12 @@ def move_joint(page, api, robot: str, joint: str, value: float) -> list[float]:
     row = next(k for k, j in enumerate(rows) if j["name"] == joint)
     idx_q = next(j["idx_q"] for j in info["joints"] if j["name"] == joint)
     set_slider(page, f"#q-{row}", value)
-    page.wait_for_function("""([k, x]) => {
+    page.wait_for_function(
+        """([k, x]) => {
         const q = document.querySelector('#view3d').dataset.q;
-        return q && JSON.parse(q)[k] === x }""", arg=[idx_q, value])
+        return q && JSON.parse(q)[k] === x }""",
+        arg=[idx_q, value],
+    )
     wait_computed(page)
     wait_drawn(page, robot)
     return page.evaluate("() => JSON.parse(document.querySelector('#view3d').dataset.q)")
@@ -101,8 +111,7 @@ def move_joint(page, api, robot: str, joint: str, value: float) -> list[float]:
 
 def assert_placed_as_the_service_says(page, api, robot: str, q) -> None:
     answer = api.post(f"/v1/robots/{robot}/frame-placements", json={"q": q}).json()
-    for name, p, R in zip(answer["frames"], answer["positions"], answer["rotations"],
-                          strict=True):
+    for name, p, R in zip(answer["frames"], answer["positions"], answer["rotations"], strict=True):
         M = frame_matrix(page, name)
         assert np.allclose(M[:3, 3], p, atol=1e-6), name  # float32 on the GPU side
         assert np.allclose(M[:3, :3], R, atol=1e-6), name
@@ -116,8 +125,9 @@ def test_ur5_is_drawn_from_its_meshes_and_moves_with_a_slider(page, server, api)
     q = page.evaluate("() => JSON.parse(document.querySelector('#view3d').dataset.q)")
     assert_placed_as_the_service_says(page, api, "ur5", q)
     com = api.post("/v1/robots/ur5/center-of-mass", json={"q": q}).json()["position"]
-    shown = page.evaluate("() => document.querySelector('#view3d').robotView.com.position"
-                          ".toArray()")
+    shown = page.evaluate(
+        "() => document.querySelector('#view3d').robotView.com.position.toArray()"
+    )
     assert np.allclose(shown, com, atol=1e-6)
     before = page.evaluate(CANVAS_JS)
     q2 = move_joint(page, api, "ur5", "shoulder_lift_joint", -1.0)
@@ -197,14 +207,21 @@ def test_links_coloured_by_gravity_over_effort_limit(page, server, api) -> None:
     g = api.post("/v1/robots/ur5/gravity", json={"q": q}).json()["gravity"]
     info = api.get("/v1/robots/ur5").json()
     for joint in info["joints"]:
-        link = next(f["name"] for f in info["frames"]
-                    if f["type"] == "body" and f["parent_joint"] == joint["name"])
-        colour = page.evaluate("(f) => document.querySelector('#view3d').robotView.frames"
-                               ".get(f).userData.tint.color.toArray()", link)
+        link = next(
+            f["name"]
+            for f in info["frames"]
+            if f["type"] == "body" and f["parent_joint"] == joint["name"]
+        )
+        colour = page.evaluate(
+            "(f) => document.querySelector('#view3d').robotView.frames"
+            ".get(f).userData.tint.color.toArray()",
+            link,
+        )
         ratio = abs(g[joint["idx_v"]]) / joint["effort_limit"][0]
         # three.js keeps colours in linear space: compare after its sRGB → linear conversion
-        expected = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
-                    for c in _heat(ratio)]
+        expected = [
+            c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in _heat(ratio)
+        ]
         assert np.allclose(colour, expected, atol=1e-6), joint["name"]
     assert changed_pixels(page, before) > 1000
     page.check("#show-triads")
@@ -219,18 +236,29 @@ def test_links_coloured_by_gravity_over_effort_limit(page, server, api) -> None:
 def test_talos_heat_map_and_bars_are_readable(page, server, api) -> None:
     open_explorer(page, server, "talos")
     info = api.get("/v1/robots/talos").json()
-    fonts = page.eval_on_selector_all("#heatmap text", "ts => ts.map(t => +t.getAttribute("
-                                      "'font-size'))")
+    fonts = page.eval_on_selector_all(
+        "#heatmap text", "ts => ts.map(t => +t.getAttribute('font-size'))"
+    )
     assert min(fonts) >= 11
     # Lines separate the limbs: base | legs | torso | arms | head (each line drawn twice).
-    first = ["leg_left_1_joint", "leg_right_1_joint", "torso_1_joint", "arm_left_1_joint",
-             "arm_right_1_joint", "head_1_joint"]
+    first = [
+        "leg_left_1_joint",
+        "leg_right_1_joint",
+        "torso_1_joint",
+        "arm_left_1_joint",
+        "arm_right_1_joint",
+        "head_1_joint",
+    ]
     idx = {j["name"]: j["idx_v"] for j in info["joints"]}
     lines = page.eval_on_selector_all(
-        "#heatmap line.limb", "ls => ls.map(l => [+l.getAttribute('y1'), +l.getAttribute('y2')])")
-    row_top = dict(page.eval_on_selector_all(
-        "#heatmap rect.cell[data-col='0']",
-        "rs => rs.map(r => [+r.dataset.row, +r.getAttribute('y')])"))
+        "#heatmap line.limb", "ls => ls.map(l => [+l.getAttribute('y1'), +l.getAttribute('y2')])"
+    )
+    row_top = dict(
+        page.eval_on_selector_all(
+            "#heatmap rect.cell[data-col='0']",
+            "rs => rs.map(r => [+r.dataset.row, +r.getAttribute('y')])",
+        )
+    )
     across = sorted(y1 for y1, y2 in lines if y1 == y2)
     assert across == sorted(row_top[idx[name]] for name in first)
     assert len(lines) == 2 * len(first)
@@ -239,17 +267,20 @@ def test_talos_heat_map_and_bars_are_readable(page, server, api) -> None:
     q = page.evaluate("() => JSON.parse(document.querySelector('#heatmap').dataset.q)")
     M = np.array(api.post("/v1/robots/talos/mass-matrix", json={"q": q}).json()["mass_matrix"])
     cells = page.eval_on_selector_all(
-        "#heatmap rect.cell", "rs => rs.map(r => [+r.dataset.row, +r.dataset.col, "
-        "+r.dataset.normalised])")
+        "#heatmap rect.cell",
+        "rs => rs.map(r => [+r.dataset.row, +r.dataset.col, +r.dataset.normalised])",
+    )
     d = np.sqrt(np.diag(M))
     for i, j, value in cells:
         assert math.isclose(value, M[i, j] / (d[i] * d[j]), rel_tol=1e-9, abs_tol=1e-12)
     # The free-flyer's rows have their own scale: the largest joint bar is full width.
-    groups = page.eval_on_selector_all("#gravity-chart .bar-group", "ps => ps.map(p => "
-                                       "p.textContent)")
+    groups = page.eval_on_selector_all(
+        "#gravity-chart .bar-group", "ps => ps.map(p => p.textContent)"
+    )
     assert len(groups) == 2 and "own scale" in groups[0]
-    widths = page.eval_on_selector_all("#gravity-chart .bar-row .bar",
-                                       "bs => bs.map(b => parseFloat(b.style.width))")
+    widths = page.eval_on_selector_all(
+        "#gravity-chart .bar-row .bar", "bs => bs.map(b => parseFloat(b.style.width))"
+    )
     assert max(widths[:6]) == 50 and max(widths[6:]) == 50
     page.locator("#mass-matrix-figure").screenshot(path=str(ARTIFACTS / "heatmap-talos.png"))
 
@@ -257,9 +288,16 @@ def test_talos_heat_map_and_bars_are_readable(page, server, api) -> None:
 def test_an_upload_whose_meshes_were_not_uploaded_is_a_stick_figure(page, server, api) -> None:
     """Its visuals name meshes the service does not have (404 asset_not_found): once every
     load has failed, the view draws the stick figure instead of nothing."""
-    urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text().replace(
-        '<link name="link1">', '<link name="link1"><visual><geometry>'
-        '<mesh filename="package://arm/meshes/link1.stl"/></geometry></visual>', 1)
+    urdf = (
+        (ROBOTS_DIR / "planar_arm.urdf")
+        .read_text()
+        .replace(
+            '<link name="link1">',
+            '<link name="link1"><visual><geometry>'
+            '<mesh filename="package://arm/meshes/link1.stl"/></geometry></visual>',
+            1,
+        )
+    )
     stored = api.post("/v1/robots", json={"urdf": urdf, "name": "arm without its meshes"})
     robot = stored.json()["id"]
     visuals = api.get(f"/v1/robots/{robot}/visuals").json()["visuals"]
@@ -279,18 +317,32 @@ def test_meshes_missing_from_an_upload_are_named_not_claimed_loaded(page, server
     """Three mesh visuals, one mesh uploaded: the view says 1 of 3 loaded and names the two
     missing files (from the upload's `missing_mesh` warnings, without fetching them), and the
     warnings box counts them."""
-    stl = (b"\0" * 80 + (12).to_bytes(4, "little")
-           + b"".join(np.array([0, 0, 1, 0, 0, 0, 0.1, 0, 0, 0, 0.1, 0], "<f4").tobytes()
-                      + b"\0\0" for _ in range(12)))
+    stl = (
+        b"\0" * 80
+        + (12).to_bytes(4, "little")
+        + b"".join(
+            np.array([0, 0, 1, 0, 0, 0, 0.1, 0, 0, 0, 0.1, 0], "<f4").tobytes() + b"\0\0"
+            for _ in range(12)
+        )
+    )
     urdf = (ROBOTS_DIR / "planar_arm.urdf").read_text()
     urdf = urdf.replace('<link name="base"/>', '<link name="base"></link>')
     for link in ("base", "link1", "link2"):
-        urdf = urdf.replace(f'<link name="{link}">', f'<link name="{link}"><visual><geometry>'
-                            f'<mesh filename="package://arm3/meshes/{link}.stl"/></geometry>'
-                            "</visual>", 1)
-    stored = api.post("/v1/robots", json={
-        "urdf": urdf, "name": "arm with one mesh of three",
-        "assets": {"arm3/meshes/link1.stl": base64.b64encode(stl).decode()}})
+        urdf = urdf.replace(
+            f'<link name="{link}">',
+            f'<link name="{link}"><visual><geometry>'
+            f'<mesh filename="package://arm3/meshes/{link}.stl"/></geometry>'
+            "</visual>",
+            1,
+        )
+    stored = api.post(
+        "/v1/robots",
+        json={
+            "urdf": urdf,
+            "name": "arm with one mesh of three",
+            "assets": {"arm3/meshes/link1.stl": base64.b64encode(stl).decode()},
+        },
+    )
     assert stored.status_code == 201, stored.text
     robot = stored.json()["id"]
     missing = [w["file"] for w in stored.json()["warnings"] if w["code"] == "missing_mesh"]

@@ -38,8 +38,9 @@ def reference(registry: Registry) -> Reference:
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """A real server (once per module) serving CATALOG; uploads need API_KEY. Its URL."""
-    with running_server(tmp_path_factory.mktemp("server-data"), catalog=",".join(CATALOG),
-                        api_keys=API_KEY) as url:
+    with running_server(
+        tmp_path_factory.mktemp("server-data"), catalog=",".join(CATALOG), api_keys=API_KEY
+    ) as url:
         yield url
 
 
@@ -69,6 +70,8 @@ def anyio_backend() -> str:
 async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
     """An `AsyncClient` on the real app in process, through httpx's ASGI transport."""
     transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http) as c):
+    async with (
+        httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
+        AsyncClient(http_client=http) as c,
+    ):
         yield c

@@ -20,8 +20,11 @@ from tests.client.helpers import ATOL, CATALOG, RTOL, Reference, two_link_urdf
 pytestmark = pytest.mark.anyio
 
 QUANTITIES = {
-    "mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
-    "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
+    "mass_matrix": ("q",),
+    "gravity": ("q",),
+    "coriolis": ("q", "v"),
+    "nonlinear_effects": ("q", "v"),
+    "inverse_dynamics": ("q", "v", "a"),
     "forward_dynamics": ("q", "v", "tau"),
 }
 
@@ -29,8 +32,10 @@ QUANTITIES = {
 @asynccontextmanager
 async def _client(app: Any, **options: Any) -> AsyncIterator[AsyncClient]:
     transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http, **options) as client):
+    async with (
+        httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
+        AsyncClient(http_client=http, **options) as client,
+    ):
         yield client
 
 
@@ -54,7 +59,8 @@ def assert_same(got: Any, want: Any) -> None:
 @pytest.mark.parametrize("quantity", list(QUANTITIES))
 @pytest.mark.parametrize("robot_id", CATALOG)
 async def test_dynamics_equal_pinocchio_single_and_batch(
-        client: AsyncClient, reference: Reference, robot_id: str, quantity: str) -> None:
+    client: AsyncClient, reference: Reference, robot_id: str, quantity: str
+) -> None:
     states = reference.states(robot_id, 3, seed=len(quantity))
     inputs = [states[name] for name in QUANTITIES[quantity]]
     want = getattr(reference, quantity)(robot_id, *inputs)  # batch axis first
@@ -76,8 +82,10 @@ async def test_robot_list_and_info(client: AsyncClient, registry: Registry) -> N
     assert (talos.nq, talos.nv, talos.root_joint) == (model.nq, model.nv, "free-flyer")
     assert talos.joints[0].type == "free_flyer" and talos.joints[0].q_slice == slice(0, 7)
     knee = talos.joint("leg_left_4_joint")
-    assert (knee.idx_q, knee.idx_v) == (model.idx_qs[model.getJointId(knee.name)],
-                                        model.idx_vs[model.getJointId(knee.name)])
+    assert (knee.idx_q, knee.idx_v) == (
+        model.idx_qs[model.getJointId(knee.name)],
+        model.idx_vs[model.getJointId(knee.name)],
+    )
     assert talos.total_mass == pytest.approx(float(sum(i.mass for i in model.inertias)))
     np.testing.assert_array_equal(talos.gravity, [0.0, 0.0, -9.81])
     assert "half_sitting" in talos.reference_configurations
@@ -98,10 +106,13 @@ async def test_upload_compute_delete(client: AsyncClient, reference: Reference) 
 
     reference.add_urdf(arm.id, urdf)
     s = reference.states(arm.id, 2)
-    assert_same(await client.inverse_dynamics(arm.id, s["q"], s["v"], s["a"]),
-                reference.inverse_dynamics(arm.id, s["q"], s["v"], s["a"]))
-    assert_same(await client.coriolis(arm.id, s["q"], s["v"]),
-                reference.coriolis(arm.id, s["q"], s["v"]))
+    assert_same(
+        await client.inverse_dynamics(arm.id, s["q"], s["v"], s["a"]),
+        reference.inverse_dynamics(arm.id, s["q"], s["v"], s["a"]),
+    )
+    assert_same(
+        await client.coriolis(arm.id, s["q"], s["v"]), reference.coriolis(arm.id, s["q"], s["v"])
+    )
 
     await client.delete(arm.id)
     assert arm.id not in await client.robots()
@@ -129,8 +140,9 @@ async def test_server_errors_raise_their_classes(client: AsyncClient) -> None:
     with pytest.raises(robodyn.ValidationError, match="root_joint"):
         await client.upload(two_link_urdf(), root_joint="sideways")
     with pytest.raises(robodyn.InvalidModelError, match="elbow"):
-        await client.upload(two_link_urdf().replace('<child link="fore"/>',
-                                                    '<child link="missing"/>'))
+        await client.upload(
+            two_link_urdf().replace('<child link="fore"/>', '<child link="missing"/>')
+        )
 
 
 async def test_inertia_check_reject_and_warn(client: AsyncClient) -> None:

@@ -20,8 +20,12 @@ def _answer(transform: Callable[[bytes], tuple[bytes, dict[str, str]]]) -> httpx
     def handler(request: httpx.Request) -> httpx.Response:
         assert request.headers["accept"].startswith(binary.MEDIA_TYPE)
         content, headers = transform(binary.encode({"mass_matrix": MASS}))
-        return httpx.Response(200, headers={"content-type": binary.MEDIA_TYPE, **headers},
-                              stream=httpx.ByteStream(content))
+        return httpx.Response(
+            200,
+            headers={"content-type": binary.MEDIA_TYPE, **headers},
+            stream=httpx.ByteStream(content),
+        )
+
     return httpx.MockTransport(handler)
 
 
@@ -43,16 +47,21 @@ def _truncated(body: bytes) -> tuple[bytes, dict[str, str]]:
 
 
 def _mass_matrix_sync(transport: httpx.MockTransport) -> np.ndarray:
-    with httpx.Client(transport=transport, base_url="http://robodyn") as http, \
-            Client(http_client=http, binary=True) as client:
+    with (
+        httpx.Client(transport=transport, base_url="http://robodyn") as http,
+        Client(http_client=http, binary=True) as client,
+    ):
         return client.mass_matrix("ur5", np.zeros((2, 6)))
 
 
 def _mass_matrix_async(transport: httpx.MockTransport) -> np.ndarray:
     async def run() -> np.ndarray:
-        async with httpx.AsyncClient(transport=transport, base_url="http://robodyn") as http, \
-                AsyncClient(http_client=http, binary=True) as client:
+        async with (
+            httpx.AsyncClient(transport=transport, base_url="http://robodyn") as http,
+            AsyncClient(http_client=http, binary=True) as client,
+        ):
             return await client.mass_matrix("ur5", np.zeros((2, 6)))
+
     return asyncio.run(run())
 
 
@@ -87,8 +96,9 @@ def test_only_plain_successful_binary_answers_use_the_buffer() -> None:
     from robodyn import core
 
     def response(status: int = 200, **headers: str) -> httpx.Response:
-        return httpx.Response(status, headers={"content-type": binary.MEDIA_TYPE,
-                                               "content-length": "80", **headers})
+        return httpx.Response(
+            status, headers={"content-type": binary.MEDIA_TYPE, "content-length": "80", **headers}
+        )
 
     assert core.binary_length(response()) == 80
     assert core.binary_length(response(422)) is None

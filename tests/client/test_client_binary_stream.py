@@ -14,8 +14,11 @@ from robodyn import AsyncClient, Client, core
 from tests.client.helpers import ATOL, RTOL, Reference
 
 QUANTITIES = {
-    "mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
-    "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
+    "mass_matrix": ("q",),
+    "gravity": ("q",),
+    "coriolis": ("q", "v"),
+    "nonlinear_effects": ("q", "v"),
+    "inverse_dynamics": ("q", "v", "a"),
     "forward_dynamics": ("q", "v", "tau"),
 }
 
@@ -25,8 +28,9 @@ def _as_tuple(x):
 
 
 @pytest.mark.parametrize("quantity", list(QUANTITIES))
-def test_binary_and_json_answers_are_bit_identical(server: str, reference: Reference,
-                                                   quantity: str) -> None:
+def test_binary_and_json_answers_are_bit_identical(
+    server: str, reference: Reference, quantity: str
+) -> None:
     states = reference.states("talos", 80, seed=3)
     inputs = [states[name] for name in QUANTITIES[quantity]]
     with Client(server, binary=True) as b, Client(server, binary=False) as j:
@@ -49,9 +53,12 @@ def test_the_client_chooses_the_binary_form_for_large_batches(app) -> None:
         async def record(request: httpx.Request) -> None:
             seen.append(request)
 
-        async with httpx.AsyncClient(transport=transport, base_url="http://robodyn",
-                                     event_hooks={"request": [record]}) as http, \
-                AsyncClient(http_client=http) as client:
+        async with (
+            httpx.AsyncClient(
+                transport=transport, base_url="http://robodyn", event_hooks={"request": [record]}
+            ) as http,
+            AsyncClient(http_client=http) as client,
+        ):
             small = await client.gravity("ur5", np.zeros((2, 6)))
             large_n = core.BINARY_FROM // 6 + 1
             large = await client.gravity("ur5", np.zeros((large_n, 6)))
@@ -69,15 +76,17 @@ def test_stream_sync(server: str, reference: Reference) -> None:
     with Client(server) as client, client.stream("ur5") as s:
         for i in range(5):
             q, v, a = states["q"][i], states["v"][i], states["a"][i]
-            np.testing.assert_allclose(s.inverse_dynamics(q, v, a), want[i],
-                                       rtol=RTOL, atol=ATOL)
+            np.testing.assert_allclose(s.inverse_dynamics(q, v, a), want[i], rtol=RTOL, atol=ATOL)
         C, Cv = s.coriolis(states["q"], states["v"])  # a batch over the stream
         assert C.shape == (5, 6, 6) and Cv.shape == (5, 6)
         with pytest.raises(robodyn.DimensionMismatchError):
             s.gravity(np.zeros(5))
-        np.testing.assert_allclose(s.mass_matrix(states["q"][0]),
-                                   reference.mass_matrix("ur5", states["q"][:1])[0],
-                                   rtol=RTOL, atol=ATOL)  # still open after the error
+        np.testing.assert_allclose(
+            s.mass_matrix(states["q"][0]),
+            reference.mass_matrix("ur5", states["q"][:1])[0],
+            rtol=RTOL,
+            atol=ATOL,
+        )  # still open after the error
 
 
 def test_stream_binary_and_async(server: str, reference: Reference) -> None:
@@ -90,7 +99,8 @@ def test_stream_binary_and_async(server: str, reference: Reference) -> None:
     a = asyncio.run(run())
     with Client(server, binary=False) as j:
         np.testing.assert_array_equal(
-            a, j.forward_dynamics("talos", states["q"], states["v"], states["tau"]))
+            a, j.forward_dynamics("talos", states["q"], states["v"], states["tau"])
+        )
 
 
 def test_stream_of_an_unknown_robot_raises(server: str) -> None:
@@ -117,23 +127,25 @@ def test_the_binary_format_example_in_the_docs_runs(server: str, reference: Refe
 
 TASK_SPACE_CALLS = {
     "mass_matrix_inverse": lambda c, q, v: (c.mass_matrix_inverse("talos", q),),
-    "energy": lambda c, q, v: (lambda e: (e.kinetic_energy, e.potential_energy,
-                                          e.mechanical_energy))(c.energy("talos", q, v)),
+    "energy": lambda c, q, v: (
+        lambda e: (e.kinetic_energy, e.potential_energy, e.mechanical_energy)
+    )(c.energy("talos", q, v)),
     "center_of_mass": lambda c, q, v: (lambda r: (r.position, r.jacobian, r.velocity))(
-        c.center_of_mass("talos", q, v)),
+        c.center_of_mass("talos", q, v)
+    ),
     "jacobian": lambda c, q, v: (lambda r: (r.jacobian, r.jacobian_time_variation))(
-        c.jacobian("talos", q, "gripper_left_joint", reference_frame="local", v=v)),
-    "operational_space": lambda c, q, v: (lambda r: (
-        r.inertia, r.jacobian, r.dynamically_consistent_inverse, r.gravity, r.coriolis))(
-        c.operational_space("talos", q, "gripper_left_joint", v=v, task="linear",
-                            damping=1e-3)),
+        c.jacobian("talos", q, "gripper_left_joint", reference_frame="local", v=v)
+    ),
+    "operational_space": lambda c, q, v: (
+        lambda r: (r.inertia, r.jacobian, r.dynamically_consistent_inverse, r.gravity, r.coriolis)
+    )(c.operational_space("talos", q, "gripper_left_joint", v=v, task="linear", damping=1e-3)),
 }
 
 
 @pytest.mark.parametrize("quantity", list(TASK_SPACE_CALLS))
-def test_task_space_quantities_in_binary_equal_json_and_stream(server: str,
-                                                               reference: Reference,
-                                                               quantity: str) -> None:
+def test_task_space_quantities_in_binary_equal_json_and_stream(
+    server: str, reference: Reference, quantity: str
+) -> None:
     """Quantities with options (frame, task, damping) travel in the binary header's fields:
     the binary answer equals the JSON one bit for bit, and the stream gives the same."""
     states = reference.states("talos", 40, seed=11)
@@ -161,21 +173,35 @@ class _StreamAsClient:
 
 
 PART_7_CALLS = {
-    "inverse_dynamics_derivatives": lambda c, s: tuple(c.inverse_dynamics_derivatives(
-        "talos", s["q"], s["v"], s["a"])),
-    "forward_dynamics_derivatives": lambda c, s: tuple(c.forward_dynamics_derivatives(
-        "talos", s["q"], s["v"], s["tau"])),
+    "inverse_dynamics_derivatives": lambda c, s: tuple(
+        c.inverse_dynamics_derivatives("talos", s["q"], s["v"], s["a"])
+    ),
+    "forward_dynamics_derivatives": lambda c, s: tuple(
+        c.forward_dynamics_derivatives("talos", s["q"], s["v"], s["tau"])
+    ),
     "centroidal": lambda c, s: tuple(c.centroidal("talos", s["q"], s["v"])),
-    "inverse_dynamics_with_a_wrench": lambda c, s: (c.inverse_dynamics(
-        "talos", s["q"], s["v"], s["a"], external_forces=[
-            {"frame": "gripper_left_joint", "wrench": [1.0, -2.0, 3.0, 0.1, 0.2, -0.3],
-             "reference_frame": "local"}]),),
+    "inverse_dynamics_with_a_wrench": lambda c, s: (
+        c.inverse_dynamics(
+            "talos",
+            s["q"],
+            s["v"],
+            s["a"],
+            external_forces=[
+                {
+                    "frame": "gripper_left_joint",
+                    "wrench": [1.0, -2.0, 3.0, 0.1, 0.2, -0.3],
+                    "reference_frame": "local",
+                }
+            ],
+        ),
+    ),
 }
 
 
 @pytest.mark.parametrize("quantity", list(PART_7_CALLS))
 def test_derivatives_centroidal_and_wrenches_in_binary_and_on_the_stream(
-        server: str, reference: Reference, quantity: str) -> None:
+    server: str, reference: Reference, quantity: str
+) -> None:
     states = reference.states("talos", 12, seed=5)
     call = PART_7_CALLS[quantity]
     with Client(server, binary=True) as b, Client(server, binary=False) as j:

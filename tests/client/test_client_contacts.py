@@ -51,16 +51,18 @@ def test_contact_methods_return_named_results(client, registry, n):
     s = _states(registry, n)
     got = client.contact_dynamics("talos", s["q"], s["v"], s["tau"], SOLES)
     assert isinstance(got, robodyn.ContactDynamics)
-    want = _expected(registry, contact_dynamics, {k: s[k] for k in ("q", "v", "tau")},
-                     contacts=SOLES)
+    want = _expected(
+        registry, contact_dynamics, {k: s[k] for k in ("q", "v", "tau")}, contacts=SOLES
+    )
     np.testing.assert_array_equal(got.a, want["a"])
     np.testing.assert_array_equal(got.contact_forces, want["contact_forces"])
     assert got.contact_forces.shape == ((12,) if n is None else (n, 12))
 
     inv = client.contact_inverse_dynamics("talos", s["q"], s["v"], s["a"], SOLES)
     assert isinstance(inv, robodyn.ContactInverseDynamics)
-    want = _expected(registry, contact_inverse_dynamics, {k: s[k] for k in ("q", "v", "a")},
-                     contacts=SOLES)
+    want = _expected(
+        registry, contact_inverse_dynamics, {k: s[k] for k in ("q", "v", "a")}, contacts=SOLES
+    )
     np.testing.assert_array_equal(inv.tau, want["tau"])
     np.testing.assert_array_equal(inv.contact_forces, want["contact_forces"])
     if n is None:
@@ -69,8 +71,9 @@ def test_contact_methods_return_named_results(client, registry, n):
 
     imp = client.impulse_dynamics("talos", s["q"], s["v"], SOLES, restitution=0.5)
     assert isinstance(imp, robodyn.ImpulseDynamics)
-    want = _expected(registry, impulse_dynamics, {k: s[k] for k in ("q", "v")},
-                     contacts=SOLES, restitution=0.5)
+    want = _expected(
+        registry, impulse_dynamics, {k: s[k] for k in ("q", "v")}, contacts=SOLES, restitution=0.5
+    )
     np.testing.assert_array_equal(imp.v, want["v"])
     np.testing.assert_array_equal(imp.contact_impulses, want["contact_impulses"])
     v_after, impulses = imp  # a named tuple
@@ -83,8 +86,9 @@ def test_robot_info_suggests_the_feet_and_they_stand(client, registry):
     assert info.contact_frames == SOLES
     assert client.robot("ur5").contact_frames == []
     zero = np.zeros(info.nv)
-    held = client.contact_inverse_dynamics("talos", info.default_configuration, zero, zero,
-                                           info.contact_frames)
+    held = client.contact_inverse_dynamics(
+        "talos", info.default_configuration, zero, zero, info.contact_frames
+    )
     weight = info.total_mass * 9.81
     assert held.residual <= 1e-9 * weight
     assert held.contact_forces.reshape(2, 6)[:, 2].sum() == pytest.approx(weight, rel=1e-9)
@@ -93,9 +97,21 @@ def test_robot_info_suggests_the_feet_and_they_stand(client, registry):
 def test_simulate_with_contacts_reports_the_drift(client, registry):
     info = client.robot("talos")
     q0 = info.default_configuration
-    traj = client.simulate("talos", q0, np.zeros(info.nv), dt=1e-3, steps=20, contacts=SOLES,
-                           controller={"type": "pd", "kp": 0.0, "kd": 0.0, "q_target": q0,
-                                       "gravity_compensation": True})
+    traj = client.simulate(
+        "talos",
+        q0,
+        np.zeros(info.nv),
+        dt=1e-3,
+        steps=20,
+        contacts=SOLES,
+        controller={
+            "type": "pd",
+            "kp": 0.0,
+            "kd": 0.0,
+            "q_target": q0,
+            "gravity_compensation": True,
+        },
+    )
     assert isinstance(traj, robodyn.ContactTrajectory)
     assert traj.constraint_drift.shape == (21,) and traj.q.shape == (21, info.nq)
     assert traj.constraint_drift.max() < 1e-10
@@ -120,28 +136,47 @@ def test_server_errors_raise_their_classes(client):
     with pytest.raises(robodyn.UnknownFrameError, match="no_such_frame"):
         client.contact_dynamics("ur5", q, q, q, [{"frame": "no_such_frame"}])
     with pytest.raises(robodyn.SingularConfigurationError, match="tool0"):
-        client.contact_dynamics("ur5", q + 0.3, q, q, [{"frame": "tool0", "type": "6d"},
-                                                        {"frame": "wrist_3_link",
-                                                         "type": "6d"}])
+        client.contact_dynamics(
+            "ur5",
+            q + 0.3,
+            q,
+            q,
+            [{"frame": "tool0", "type": "6d"}, {"frame": "wrist_3_link", "type": "6d"}],
+        )
     with pytest.raises(robodyn.SingularConfigurationError, match="world"):
         client.impulse_dynamics("ur5", q, q, ["base_link"])
     # damping answers the singular set
-    got = client.contact_dynamics("ur5", q + 0.3, q, q, [{"frame": "tool0", "type": "6d"},
-                                                         {"frame": "wrist_3_link",
-                                                          "type": "6d"}], damping=1e-6)
+    got = client.contact_dynamics(
+        "ur5",
+        q + 0.3,
+        q,
+        q,
+        [{"frame": "tool0", "type": "6d"}, {"frame": "wrist_3_link", "type": "6d"}],
+        damping=1e-6,
+    )
     assert got.contact_forces.shape == (12,)
 
 
-@pytest.mark.parametrize("contacts", [[], "tool0", [{"frame": 3}], [{"frame": "tool0",
-                                                                    "type": "line"}],
-                                      [{"frame": "tool0", "mu": 1.0}], [7]])
+@pytest.mark.parametrize(
+    "contacts",
+    [
+        [],
+        "tool0",
+        [{"frame": 3}],
+        [{"frame": "tool0", "type": "line"}],
+        [{"frame": "tool0", "mu": 1.0}],
+        [7],
+    ],
+)
 def test_bad_contacts_are_refused_locally(contacts):
     with pytest.raises(robodyn.InputError):
         BUILDERS["contact_dynamics"]("ur5", np.zeros(6), np.zeros(6), np.zeros(6), contacts)
 
 
-@pytest.mark.parametrize("options", [{"restitution": 2.0}, {"restitution": -1.0},
-                                     {"damping": float("nan")}, {"damping": True}])
+@pytest.mark.parametrize(
+    "options",
+    [{"restitution": 2.0}, {"restitution": -1.0}, {"damping": float("nan")}, {"damping": True}],
+)
 def test_bad_options_are_refused_locally(options):
     with pytest.raises(robodyn.InputError):
         BUILDERS["impulse_dynamics"]("ur5", np.zeros(6), np.zeros(6), ["tool0"], **options)
@@ -151,17 +186,21 @@ def test_bad_options_are_refused_locally(options):
 async def test_async_client_matches(aclient, registry):
     s = _states(registry, 2, seed=9)
     got = await aclient.contact_inverse_dynamics("talos", s["q"], s["v"], s["a"], SOLES)
-    want = _expected(registry, contact_inverse_dynamics, {k: s[k] for k in ("q", "v", "a")},
-                     contacts=SOLES)
+    want = _expected(
+        registry, contact_inverse_dynamics, {k: s[k] for k in ("q", "v", "a")}, contacts=SOLES
+    )
     np.testing.assert_array_equal(got.tau, want["tau"])
     np.testing.assert_array_equal(got.residual, want["residual"])
     imp = await aclient.impulse_dynamics("talos", s["q"], s["v"], SOLES)
-    np.testing.assert_array_equal(imp.v, _expected(registry, impulse_dynamics, {
-        k: s[k] for k in ("q", "v")}, contacts=SOLES)["v"])
+    np.testing.assert_array_equal(
+        imp.v,
+        _expected(registry, impulse_dynamics, {k: s[k] for k in ("q", "v")}, contacts=SOLES)["v"],
+    )
     fwd = await aclient.contact_dynamics("talos", s["q"], s["v"], s["tau"], SOLES)
     assert fwd.a.shape == (2, registry.catalog["talos"].nv)
-    traj = await aclient.simulate("talos", s["q"][0], np.zeros(fwd.a.shape[1]), dt=1e-3,
-                                  steps=3, contacts=SOLES)
+    traj = await aclient.simulate(
+        "talos", s["q"][0], np.zeros(fwd.a.shape[1]), dt=1e-3, steps=3, contacts=SOLES
+    )
     assert traj.constraint_drift.shape == (4,)
     with pytest.raises(robodyn.UnknownFrameError):
         await aclient.contact_dynamics("talos", s["q"], s["v"], s["tau"], ["nope"])

@@ -26,44 +26,101 @@ from service.main import create_app
 from service.settings import Settings
 
 CLIENT_DIR = Path(__file__).parents[2] / "clients" / "python"
-BLOCKED = ("fastapi", "pydantic", "pydantic_settings", "pinocchio", "uvicorn", "starlette",
-           "service")
-INFO = {"id": "r", "name": "r", "source": "upload", "nq": 1, "nv": 1, "root_joint": "fixed",
-        "gravity": [0, 0, -9.81], "total_mass": 1.0, "neutral_configuration": [0.0],
-        "reference_configurations": {}, "warnings": [], "joints": [], "frames": []}
-ANSWERS = {"mass_matrix": [[1.0]], "gravity": [0.0], "coriolis_matrix": [[0.0]],
-           "coriolis_forces": [0.0], "nonlinear_effects": [0.0], "tau": [0.0], "a": [0.0],
-           "robots": [], "unavailable": {}, "status": "ok", **INFO,
-           # beyond the equation of motion
-           "mass_matrix_inverse": [[1.0]], "kinetic_energy": 0.5, "potential_energy": 1.0,
-           "mechanical_energy": 1.5, "position": [0.0, 0.0, 1.0], "jacobian": [[0.0]],
-           "inertia": [[1.0]], "dynamically_consistent_inverse": [[0.0]], "coriolis": [0.0],
-           "bodies": [],
-           "dtau_dq": [[0.0]], "dtau_dv": [[0.0]], "dtau_da": [[1.0]], "da_dq": [[0.0]],
-           "da_dv": [[0.0]], "da_dtau": [[1.0]], "momentum": [0.0] * 6,
-           "momentum_matrix": [[0.0]] * 6, "center_of_mass": [0.0] * 3}
+BLOCKED = (
+    "fastapi",
+    "pydantic",
+    "pydantic_settings",
+    "pinocchio",
+    "uvicorn",
+    "starlette",
+    "service",
+)
+INFO = {
+    "id": "r",
+    "name": "r",
+    "source": "upload",
+    "nq": 1,
+    "nv": 1,
+    "root_joint": "fixed",
+    "gravity": [0, 0, -9.81],
+    "total_mass": 1.0,
+    "neutral_configuration": [0.0],
+    "reference_configurations": {},
+    "warnings": [],
+    "joints": [],
+    "frames": [],
+}
+ANSWERS = {
+    "mass_matrix": [[1.0]],
+    "gravity": [0.0],
+    "coriolis_matrix": [[0.0]],
+    "coriolis_forces": [0.0],
+    "nonlinear_effects": [0.0],
+    "tau": [0.0],
+    "a": [0.0],
+    "robots": [],
+    "unavailable": {},
+    "status": "ok",
+    **INFO,
+    # beyond the equation of motion
+    "mass_matrix_inverse": [[1.0]],
+    "kinetic_energy": 0.5,
+    "potential_energy": 1.0,
+    "mechanical_energy": 1.5,
+    "position": [0.0, 0.0, 1.0],
+    "jacobian": [[0.0]],
+    "inertia": [[1.0]],
+    "dynamically_consistent_inverse": [[0.0]],
+    "coriolis": [0.0],
+    "bodies": [],
+    "dtau_dq": [[0.0]],
+    "dtau_dv": [[0.0]],
+    "dtau_da": [[1.0]],
+    "da_dq": [[0.0]],
+    "da_dv": [[0.0]],
+    "da_dtau": [[1.0]],
+    "momentum": [0.0] * 6,
+    "momentum_matrix": [[0.0]] * 6,
+    "center_of_mass": [0.0] * 3,
+}
 # the equations in explicit form of a 1-joint robot
 _ONE = {"expressions": [["0.5"]], "latex": [["0.5"]]}
-EQUATIONS = {"joints": ["j"], "coordinates": ["q1"], "velocities": ["dq1"],
-             "mass_matrix": _ONE, "coriolis_matrix": _ONE,
-             "gravity": {"expressions": ["0"], "latex": ["0"]},
-             "christoffel": {"expressions": [[["0"]]], "latex": [[["0"]]]},
-             "kinetic_energy": {"expressions": "0.25*dq1**2", "latex": r"0.25 \dot{q}_{1}^{2}"},
-             "potential_energy": {"expressions": "0", "latex": "0"},
-             "structure": {"mass_matrix": [[{"depends_on": [], "constant": True,
-                                             "zero": False}]],
-                           "gravity": [{"depends_on": [], "constant": True, "zero": True}]}}
+EQUATIONS = {
+    "joints": ["j"],
+    "coordinates": ["q1"],
+    "velocities": ["dq1"],
+    "mass_matrix": _ONE,
+    "coriolis_matrix": _ONE,
+    "gravity": {"expressions": ["0"], "latex": ["0"]},
+    "christoffel": {"expressions": [[["0"]]], "latex": [[["0"]]]},
+    "kinetic_energy": {"expressions": "0.25*dq1**2", "latex": r"0.25 \dot{q}_{1}^{2}"},
+    "potential_energy": {"expressions": "0", "latex": "0"},
+    "structure": {
+        "mass_matrix": [[{"depends_on": [], "constant": True, "zero": False}]],
+        "gravity": [{"depends_on": [], "constant": True, "zero": True}],
+    },
+}
 # a trajectory's mechanical energy has one value per sample (energy's has one per state)
 TRAJECTORY = {"t": [0.0], "q": [[0.0]], "v": [[0.0]], "mechanical_energy": [0.0]}
 ARGS: dict[str, tuple[Any, ...]] = {
-    "health": (), "ready": (), "robots": (), "robot": ("r",), "upload": ("<robot/>",),
-    "delete": ("r",), "mass_matrix": ("r", [0.0]), "gravity": ("r", [0.0]),
-    "coriolis": ("r", [0.0], [0.0]), "nonlinear_effects": ("r", [0.0], [0.0]),
+    "health": (),
+    "ready": (),
+    "robots": (),
+    "robot": ("r",),
+    "upload": ("<robot/>",),
+    "delete": ("r",),
+    "mass_matrix": ("r", [0.0]),
+    "gravity": ("r", [0.0]),
+    "coriolis": ("r", [0.0], [0.0]),
+    "nonlinear_effects": ("r", [0.0], [0.0]),
     "inverse_dynamics": ("r", [0.0], [0.0], [0.0]),
     "forward_dynamics": ("r", [0.0], [0.0], [0.0]),
-    "mass_matrix_inverse": ("r", [0.0]), "energy": ("r", [0.0], [0.0]),
-    "center_of_mass": ("r", [0.0]), "jacobian": ("r", [0.0], "f"),
-    "operational_space": ("r", [0.0], "f"), "inertias": ("r",),
+    "mass_matrix_inverse": ("r", [0.0]),
+    "energy": ("r", [0.0], [0.0]),
+    "center_of_mass": ("r", [0.0]),
+    "jacobian": ("r", [0.0], "f"),
+    "operational_space": ("r", [0.0], "f"),
+    "inertias": ("r",),
     "inverse_dynamics_derivatives": ("r", [0.0], [0.0], [0.0]),
     "forward_dynamics_derivatives": ("r", [0.0], [0.0], [0.0]),
     "centroidal": ("r", [0.0], [0.0]),
@@ -73,36 +130,65 @@ ARGS: dict[str, tuple[Any, ...]] = {
 }
 KWARGS: dict[str, dict[str, Any]] = {"simulate": {"dt": 1e-3, "steps": 1}}
 # contacts
-ANSWERS.update({"contact_forces": [0.0], "residual": 0.0, "contact_impulses": [0.0],
-                "v": [0.0]})
-ARGS.update({"contact_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
-             "contact_inverse_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
-             "impulse_dynamics": ("r", [0.0], [0.0], ["f"])})
+ANSWERS.update({"contact_forces": [0.0], "residual": 0.0, "contact_impulses": [0.0], "v": [0.0]})
+ARGS.update(
+    {
+        "contact_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
+        "contact_inverse_dynamics": ("r", [0.0], [0.0], [0.0], ["f"]),
+        "impulse_dynamics": ("r", [0.0], [0.0], ["f"]),
+    }
+)
 # payloads
 ANSWERS.update({"mass": 1.0, "limiting_joint": "j", "mass_per_joint": [None]})
 ARGS.update({"payload_capacity": ("r", [0.0], "f"), "variant": ("r",)})
-KWARGS.update({"variant": {"payloads": [{"frame": "f", "mass": 1.0}],
-                           "locked_joints": {"elbow": 0.5}}})
+KWARGS.update(
+    {"variant": {"payloads": [{"frame": "f", "mass": 1.0}], "locked_joints": {"elbow": 0.5}}}
+)
 # trajectories
-CHECK = {"feasible": True, "tau": [[0.0], [0.0]], "v": [[0.0], [0.0]], "joints": [],
-         "violations": [], "work": {"positive": 0.0, "negative": 0.0}}
-RETIMED = {"duration": 1.0, "t": [0.0, 1.0], "q": [[0.0], [1.0]], "v": [[0.0], [0.0]],
-           "a": [[0.0], [0.0]], "tau": [[0.0], [0.0]], "check": CHECK}
-ARGS.update({"trajectory_check": ("r", [0.0, 1.0], [[0.0], [1.0]]),
-             "retime": ("r", [[0.0], [1.0]])})
+CHECK = {
+    "feasible": True,
+    "tau": [[0.0], [0.0]],
+    "v": [[0.0], [0.0]],
+    "joints": [],
+    "violations": [],
+    "work": {"positive": 0.0, "negative": 0.0},
+}
+RETIMED = {
+    "duration": 1.0,
+    "t": [0.0, 1.0],
+    "q": [[0.0], [1.0]],
+    "v": [[0.0], [0.0]],
+    "a": [[0.0], [0.0]],
+    "tau": [[0.0], [0.0]],
+    "check": CHECK,
+}
+ARGS.update(
+    {"trajectory_check": ("r", [0.0, 1.0], [[0.0], [1.0]]), "retime": ("r", [[0.0], [1.0]])}
+)
 
 # identification
-ANSWERS.update({"layout": ["m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz",
-                           "Izz"],
-                "parameters": [0.0] * 10, "regressor": [[0.0] * 10], "friction": [],
-                "base_parameters": {"expressions": [], "values": [],
-                                    "standard_deviation": []},
-                "condition_number": 1.0, "physically_consistent": True,
-                "rmse": {"train": [0.0], "validation": [0.0], "validation_before": [0.0]},
-                "filter_hz": None, "samples": {"train": 1, "validation": 1, "fit": 1},
-                "robot": None})
-ARGS.update({"inertial_parameters": ("r",), "regressor": ("r", [0.0], [0.0], [0.0]),
-             "identify": ("r", [0.0, 0.1], [[0.0], [0.1]], [[0.0], [0.0]])})
+ANSWERS.update(
+    {
+        "layout": ["m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz"],
+        "parameters": [0.0] * 10,
+        "regressor": [[0.0] * 10],
+        "friction": [],
+        "base_parameters": {"expressions": [], "values": [], "standard_deviation": []},
+        "condition_number": 1.0,
+        "physically_consistent": True,
+        "rmse": {"train": [0.0], "validation": [0.0], "validation_before": [0.0]},
+        "filter_hz": None,
+        "samples": {"train": 1, "validation": 1, "fit": 1},
+        "robot": None,
+    }
+)
+ARGS.update(
+    {
+        "inertial_parameters": ("r",),
+        "regressor": ("r", [0.0], [0.0], [0.0]),
+        "identify": ("r", [0.0, 0.1], [[0.0], [0.1]], [[0.0], [0.0]]),
+    }
+)
 
 
 def sent_requests() -> dict[str, httpx.Request]:
@@ -134,8 +220,11 @@ def openapi(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 
 
 def test_every_request_the_client_sends_is_a_route_of_the_server(openapi: dict) -> None:
-    routes = [(re.compile("^" + re.sub(r"\{[^/]+\}", "[^/]+", path) + "$"), method.upper())
-              for path, methods in openapi["paths"].items() for method in methods]
+    routes = [
+        (re.compile("^" + re.sub(r"\{[^/]+\}", "[^/]+", path) + "$"), method.upper())
+        for path, methods in openapi["paths"].items()
+        for method in methods
+    ]
     requests = sent_requests()
     assert set(requests) == set(ARGS) == set(BUILDERS)
     for name, request in requests.items():
@@ -152,9 +241,14 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
     ReduceRequest.model_validate_json(requests["reduce"].content)
     IdentifyRequest.model_validate_json(requests["identify"].content)
     SPECS["regressor"].request.model_validate_json(requests["regressor"].content)
-    inputs = {"mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
-              "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
-              "forward_dynamics": ("q", "v", "tau")}
+    inputs = {
+        "mass_matrix": ("q",),
+        "gravity": ("q",),
+        "coriolis": ("q", "v"),
+        "nonlinear_effects": ("q", "v"),
+        "inverse_dynamics": ("q", "v", "a"),
+        "forward_dynamics": ("q", "v", "tau"),
+    }
     for name, fields in inputs.items():
         body = json.loads(requests[name].content)
         assert tuple(body) == fields
@@ -194,8 +288,14 @@ assert not loaded, loaded
 print(robodyn.__file__)
 """
     env = {**os.environ, "PYTHONPATH": str(CLIENT_DIR / "src")}
-    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
-                          text=True, timeout=60, cwd=CLIENT_DIR)
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=CLIENT_DIR,
+    )
     assert done.returncode == 0, done.stderr
     assert Path(done.stdout.strip()).is_relative_to(CLIENT_DIR / "src" / "robodyn")
 
@@ -203,8 +303,9 @@ print(robodyn.__file__)
 def test_distribution_depends_on_httpx_numpy_and_stamina_only() -> None:
     """No Pinocchio, FastAPI or torch: httpx, numpy and stamina (retries) only."""
     project = tomllib.loads((CLIENT_DIR / "pyproject.toml").read_text())["project"]
-    names = {re.split(r"[<>=!~\[; ]", dep, maxsplit=1)[0].lower()
-             for dep in project["dependencies"]}
+    names = {
+        re.split(r"[<>=!~\[; ]", dep, maxsplit=1)[0].lower() for dep in project["dependencies"]
+    }
     assert project["name"] == "robodyn" and names == {"httpx", "numpy", "stamina"}
     assert project["version"] == robodyn.__version__
     assert (CLIENT_DIR / "src" / "robodyn" / "py.typed").exists()
@@ -212,12 +313,23 @@ def test_distribution_depends_on_httpx_numpy_and_stamina_only() -> None:
 
 def test_answers_are_numpy_and_match_the_server_answer_fields() -> None:
     requests = sent_requests()
-    paths = {BUILDERS[name](*ARGS[name]).quantity: name for name in requests
-             if name in ("mass_matrix", "gravity", "coriolis", "nonlinear_effects",
-                         "inverse_dynamics", "forward_dynamics")}
+    paths = {
+        BUILDERS[name](*ARGS[name]).quantity: name
+        for name in requests
+        if name
+        in (
+            "mass_matrix",
+            "gravity",
+            "coriolis",
+            "nonlinear_effects",
+            "inverse_dynamics",
+            "forward_dynamics",
+        )
+    }
     assert len(paths) == 6 and set(paths) <= set(SPECS)
-    http = httpx.Client(transport=httpx.MockTransport(
-        lambda request: httpx.Response(200, json=ANSWERS)))
+    http = httpx.Client(
+        transport=httpx.MockTransport(lambda request: httpx.Response(200, json=ANSWERS))
+    )
     with robodyn.Client("http://mock", http_client=http) as client:
         for path, name in paths.items():
             fields = list(SPECS[path].answer.model_fields)

@@ -40,8 +40,9 @@ class JointState:
 # -- ROS-style inputs ---------------------------------------------------------------------
 
 
-def test_a_joint_state_without_the_gripper_equals_the_full_arrays(server: str,
-                                                                    reference: Reference) -> None:
+def test_a_joint_state_without_the_gripper_equals_the_full_arrays(
+    server: str, reference: Reference
+) -> None:
     """panda's JointState without its fingers, filled from neutral: the same answers as the
     full arrays with the fingers at neutral and still."""
     s = reference.states("panda", 2, seed=3)
@@ -53,10 +54,12 @@ def test_a_joint_state_without_the_gripper_equals_the_full_arrays(server: str,
         neutral = np.asarray(info.raw["neutral_configuration"])
         for j in fingers:
             q[j.q_slice], v[j.v_slice], tau[j.v_slice] = neutral[j.q_slice], 0.0, 0.0
-        state = JointState(name=[j.name for j in reversed(arm)],
-                           position=[float(q[j.q_slice][0]) for j in reversed(arm)],
-                           velocity=[float(v[j.v_slice][0]) for j in reversed(arm)],
-                           effort=[float(tau[j.v_slice][0]) for j in reversed(arm)])
+        state = JointState(
+            name=[j.name for j in reversed(arm)],
+            position=[float(q[j.q_slice][0]) for j in reversed(arm)],
+            velocity=[float(v[j.v_slice][0]) for j in reversed(arm)],
+            effort=[float(tau[j.v_slice][0]) for j in reversed(arm)],
+        )
         expected = plain.forward_dynamics("panda", q, v, tau)
         assert np.array_equal(ros.forward_dynamics("panda", state, state, state), expected)
         as_dict = dict(zip(state.name, state.position, strict=True))
@@ -76,8 +79,9 @@ def test_continuous_joints_take_angles_from_a_joint_state(server: str) -> None:
     theta = [0.4, -2.2]
     q = np.array([np.cos(theta[0]), np.sin(theta[0]), np.cos(theta[1]), np.sin(theta[1])])
     with Client(server) as client:
-        state = JointState(name=["joint2", "joint1"], position=[theta[1], theta[0]],
-                           velocity=[0.5, -0.3])
+        state = JointState(
+            name=["joint2", "joint1"], position=[theta[1], theta[0]], velocity=[0.5, -0.3]
+        )
         got = client.nonlinear_effects("double_pendulum_continuous", state, state)
         want = client.nonlinear_effects("double_pendulum_continuous", q, [-0.3, 0.5])
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
@@ -103,8 +107,7 @@ def test_torch_inputs_and_torch_answers(server: str, reference: Reference) -> No
         expected = numpy_client.coriolis("talos", s["q"], v.numpy().astype(np.float64))
         C, Cv = torch_client.coriolis("talos", q, v)
         assert isinstance(C, torch.Tensor) and C.dtype == torch.float64
-        assert np.array_equal(C.numpy(), expected[0]) and np.array_equal(Cv.numpy(),
-                                                                         expected[1])
+        assert np.array_equal(C.numpy(), expected[0]) and np.array_equal(Cv.numpy(), expected[1])
         energy = torch_client.energy("talos", q, v)
         assert isinstance(energy.kinetic_energy, torch.Tensor)
         single = torch_client.gravity("talos", torch.tensor(s["q"][0]))
@@ -115,8 +118,9 @@ def test_jax_inputs(server: str) -> None:
     jnp = pytest.importorskip("jax.numpy")
     q = [0.1, -1.2, 1.3, 0.2, 0.5, -0.3]
     with Client(server) as client:
-        np.testing.assert_array_equal(client.gravity("ur5", jnp.asarray(q)),
-                                      client.gravity("ur5", np.float32(q)))
+        np.testing.assert_array_equal(
+            client.gravity("ur5", jnp.asarray(q)), client.gravity("ur5", np.float32(q))
+        )
 
 
 def test_array_type_is_checked(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -131,8 +135,9 @@ def test_array_type_is_checked(monkeypatch: pytest.MonkeyPatch) -> None:
 # -- progress -----------------------------------------------------------------------------
 
 
-def test_progress_of_a_batch_in_chunks_is_reported_in_order(server: str,
-                                                            reference: Reference) -> None:
+def test_progress_of_a_batch_in_chunks_is_reported_in_order(
+    server: str, reference: Reference
+) -> None:
     s = reference.states("ur5", 4500, seed=5)
     seen: list[tuple[int, int]] = []
     with Client(server) as client, Client(server, progress=lambda *a: seen.append(a)) as chunked:
@@ -156,8 +161,10 @@ def test_the_async_client_reports_progress_too(server: str, reference: Reference
     seen: list[tuple[int, int]] = []
 
     async def run() -> tuple[np.ndarray, np.ndarray]:
-        async with AsyncClient(server) as whole, \
-                AsyncClient(server, progress=lambda *a: seen.append(a)) as chunked:
+        async with (
+            AsyncClient(server) as whole,
+            AsyncClient(server, progress=lambda *a: seen.append(a)) as chunked,
+        ):
             return (await chunked.gravity("ur5", s["q"]), await whole.gravity("ur5", s["q"]))
 
     parts, expected = asyncio.run(run())
@@ -165,22 +172,31 @@ def test_the_async_client_reports_progress_too(server: str, reference: Reference
 
 
 @pytest.mark.parametrize("batched", [False, True])
-def test_a_long_simulation_in_chunks_is_the_one_request_trajectory(server: str,
-                                                                   batched: bool) -> None:
+def test_a_long_simulation_in_chunks_is_the_one_request_trajectory(
+    server: str, batched: bool
+) -> None:
     q0, v0 = np.array([0.1, -1.2, 1.3, 0.2, 0.5, -0.3]), np.zeros(6)
     if batched:
         q0, v0 = np.stack([q0, -q0]), np.stack([v0, v0 + 0.1])
     schedule = np.sin(np.arange(5001)[:, None] * 1e-3 * np.arange(1, 7))[:5000]
     seen: list[tuple[int, int]] = []
     with Client(server) as client:
-        for kwargs in ({"controller": {"type": "pd", "kp": 50.0, "kd": 5.0,
-                                       "q_target": np.zeros(6)}},
-                       {"tau": schedule} if not batched else {"tau": np.ones(6)}):
-            whole = client.simulate("ur5", q0, v0, dt=1e-3, steps=5000, integrator="rk4",
-                                    **kwargs)
+        for kwargs in (
+            {"controller": {"type": "pd", "kp": 50.0, "kd": 5.0, "q_target": np.zeros(6)}},
+            {"tau": schedule} if not batched else {"tau": np.ones(6)},
+        ):
+            whole = client.simulate("ur5", q0, v0, dt=1e-3, steps=5000, integrator="rk4", **kwargs)
             seen.clear()
-            parts = client.simulate("ur5", q0, v0, dt=1e-3, steps=5000, integrator="rk4",
-                                    progress=lambda *a: seen.append(a), **kwargs)
+            parts = client.simulate(
+                "ur5",
+                q0,
+                v0,
+                dt=1e-3,
+                steps=5000,
+                integrator="rk4",
+                progress=lambda *a: seen.append(a),
+                **kwargs,
+            )
             assert seen == [(2000, 5000), (4000, 5000), (5000, 5000)]
             for got, want in zip(parts, whole, strict=True):
                 assert got.shape == want.shape and np.array_equal(got, want)
@@ -210,9 +226,17 @@ def _busy(times: int, retry_after: str | None, log: list[float]) -> Any:
         log.append(time.monotonic())
         if len(log) <= times:
             headers = {"Retry-After": retry_after} if retry_after is not None else {}
-            return httpx.Response(503, headers=headers, json={
-                "type": "about:blank", "title": "Overloaded", "status": 503,
-                "detail": "busy", "code": "overloaded"})
+            return httpx.Response(
+                503,
+                headers=headers,
+                json={
+                    "type": "about:blank",
+                    "title": "Overloaded",
+                    "status": 503,
+                    "detail": "busy",
+                    "code": "overloaded",
+                },
+            )
         return httpx.Response(200, json={"gravity": [1.0] * 6})
 
     return handler
@@ -220,8 +244,7 @@ def _busy(times: int, retry_after: str | None, log: list[float]) -> Any:
 
 def test_retries_honour_retry_after_then_succeed(real_retries: Any) -> None:
     log: list[float] = []
-    http = httpx.Client(transport=httpx.MockTransport(_busy(2, "0.3", log)),
-                        base_url="http://mock")
+    http = httpx.Client(transport=httpx.MockTransport(_busy(2, "0.3", log)), base_url="http://mock")
     with Client(http_client=http, retry=Retry(attempts=5, timeout=10.0)) as client:
         assert client.gravity("ur5", np.zeros(6)).tolist() == [1.0] * 6
     assert len(log) == 3
@@ -230,28 +253,41 @@ def test_retries_honour_retry_after_then_succeed(real_retries: Any) -> None:
 
 def test_retries_stop_within_the_budget(real_retries: Any) -> None:
     log: list[float] = []
-    http = httpx.Client(transport=httpx.MockTransport(_busy(100, "0.25", log)),
-                        base_url="http://mock")
+    http = httpx.Client(
+        transport=httpx.MockTransport(_busy(100, "0.25", log)), base_url="http://mock"
+    )
     started = time.monotonic()
-    with Client(http_client=http, retry=Retry(attempts=50, timeout=1.0)) as client, \
-            pytest.raises(robodyn.OverloadedError):
+    with (
+        Client(http_client=http, retry=Retry(attempts=50, timeout=1.0)) as client,
+        pytest.raises(robodyn.OverloadedError),
+    ):
         client.gravity("ur5", np.zeros(6))
     assert time.monotonic() - started < 1.2 and 3 <= len(log) <= 5
     log.clear()  # a Retry-After past the budget: no waiting for nothing
-    http = httpx.Client(transport=httpx.MockTransport(_busy(100, "30", log)),
-                        base_url="http://mock")
+    http = httpx.Client(
+        transport=httpx.MockTransport(_busy(100, "30", log)), base_url="http://mock"
+    )
     started = time.monotonic()
-    with Client(http_client=http, retry=Retry(attempts=5, timeout=5.0)) as client, \
-            pytest.raises(robodyn.OverloadedError) as raised:
+    with (
+        Client(http_client=http, retry=Retry(attempts=5, timeout=5.0)) as client,
+        pytest.raises(robodyn.OverloadedError) as raised,
+    ):
         client.gravity("ur5", np.zeros(6))
     assert time.monotonic() - started < 0.5 and len(log) == 1
     assert raised.value.retry_after == 30.0
     log.clear()  # at most `attempts` tries, with stamina's backoff without Retry-After
-    http = httpx.Client(transport=httpx.MockTransport(_busy(100, None, log)),
-                        base_url="http://mock")
-    with Client(http_client=http, retry=Retry(attempts=3, timeout=10.0, wait_initial=0.01,
-                                              wait_max=0.05, wait_jitter=0.0)) as client, \
-            pytest.raises(robodyn.OverloadedError):
+    http = httpx.Client(
+        transport=httpx.MockTransport(_busy(100, None, log)), base_url="http://mock"
+    )
+    with (
+        Client(
+            http_client=http,
+            retry=Retry(
+                attempts=3, timeout=10.0, wait_initial=0.01, wait_max=0.05, wait_jitter=0.0
+            ),
+        ) as client,
+        pytest.raises(robodyn.OverloadedError),
+    ):
         client.gravity("ur5", np.zeros(6))
     assert len(log) == 3
 
@@ -266,8 +302,7 @@ def test_which_failures_are_retried(real_retries: Any) -> None:
                 raise exc
             return httpx.Response(then, json={"gravity": [0.0] * 6})
 
-        return calls, httpx.Client(transport=httpx.MockTransport(handler),
-                                   base_url="http://mock")
+        return calls, httpx.Client(transport=httpx.MockTransport(handler), base_url="http://mock")
 
     fast = Retry(attempts=3, timeout=5.0, wait_initial=0.01, wait_max=0.01, wait_jitter=0.0)
     for exc in (httpx.ConnectError("refused"), httpx.RemoteProtocolError("closed")):
@@ -309,22 +344,39 @@ def test_the_async_client_retries_too(real_retries: Any) -> None:
 # -- types --------------------------------------------------------------------------------
 
 
-def test_a_script_using_every_method_passes_mypy_strict_and_runs(server: str,
-                                                                 tmp_path: Path) -> None:
+def test_a_script_using_every_method_passes_mypy_strict_and_runs(
+    server: str, tmp_path: Path
+) -> None:
     """tests/client/typed_usage.py type-checks under --strict; a misspelt option does not."""
     bad = tmp_path / "bad_usage.py"
-    bad.write_text("from robodyn import Client\n\n"
-                   "def f(c: Client) -> None:\n"
-                   "    c.jacobian('ur5', [0.0] * 6, 'tool0', reference_frame='wrold')\n"
-                   "    c.operational_space('ur5', [0.0] * 6, 'tool0', task='planar')\n"
-                   "    c.simulate('ur5', [0.0] * 6, [0.0] * 6, dt=0.1, steps=1, "
-                   "integrator='euler')\n")
+    bad.write_text(
+        "from robodyn import Client\n\n"
+        "def f(c: Client) -> None:\n"
+        "    c.jacobian('ur5', [0.0] * 6, 'tool0', reference_frame='wrold')\n"
+        "    c.operational_space('ur5', [0.0] * 6, 'tool0', task='planar')\n"
+        "    c.simulate('ur5', [0.0] * 6, [0.0] * 6, dt=0.1, steps=1, "
+        "integrator='euler')\n"
+    )
     root = HERE.parents[1]
     env = {"PYTHONPATH": f"{root}:{root / 'clients' / 'python' / 'src'}", "PATH": "/usr/bin"}
     result = subprocess.run(
-        [sys.executable, "-m", "mypy", "--strict", "--cache-dir", str(tmp_path / "cache"),
-         "--no-error-summary", str(HERE / "typed_usage.py"), str(bad)],
-        capture_output=True, text=True, env=env, cwd=root, timeout=600)
+        [
+            sys.executable,
+            "-m",
+            "mypy",
+            "--strict",
+            "--cache-dir",
+            str(tmp_path / "cache"),
+            "--no-error-summary",
+            str(HERE / "typed_usage.py"),
+            str(bad),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=root,
+        timeout=600,
+    )
     errors = [line for line in result.stdout.splitlines() if ": error:" in line]
     assert all("bad_usage.py" in line for line in errors), result.stdout
     assert [int(line.split(":")[1]) for line in errors] == [4, 5, 6], result.stdout
@@ -343,8 +395,9 @@ def test_a_script_using_every_method_passes_mypy_strict_and_runs(server: str,
 # -- the guide ----------------------------------------------------------------------------
 
 
-def test_the_examples_of_the_client_guide_run(server: str,
-                                              capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_examples_of_the_client_guide_run(
+    server: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     """docs/python-client.md: every `<!-- example -->` block (the torch one with torch)."""
     text = (HERE.parents[1] / "docs" / "python-client.md").read_text()
     examples = re.findall(r"<!-- example(: torch)? -->\n```python\n(.*?)```", text, re.S)
@@ -352,8 +405,7 @@ def test_the_examples_of_the_client_guide_run(server: str,
     for torch_only, code in examples:
         if torch_only and importlib.util.find_spec("torch") is None:
             continue
-        exec(compile(code.replace("http://127.0.0.1:8000", server), "python-client.md",
-                     "exec"), {})
+        exec(compile(code.replace("http://127.0.0.1:8000", server), "python-client.md", "exec"), {})
     out = capsys.readouterr().out
     assert "6000/6000 steps" in out and "422 dimension_mismatch ['panda_joint2'" in out
     assert "34.87 shoulder_lift_joint" in out
@@ -367,14 +419,23 @@ def test_a_request_stopped_at_the_server_deadline_is_not_retried(real_retries: A
 
     def handler(request: httpx.Request) -> httpx.Response:
         log.append(time.monotonic())
-        return httpx.Response(504, json={
-            "type": "about:blank", "title": "Deadline exceeded", "status": 504,
-            "detail": "simulate: stopped after 60 s of computing", "code": "deadline_exceeded",
-            "deadline_s": 60.0})
+        return httpx.Response(
+            504,
+            json={
+                "type": "about:blank",
+                "title": "Deadline exceeded",
+                "status": 504,
+                "detail": "simulate: stopped after 60 s of computing",
+                "code": "deadline_exceeded",
+                "deadline_s": 60.0,
+            },
+        )
 
     http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://mock")
-    with Client(http_client=http, retry=Retry(attempts=5, timeout=10.0)) as client, \
-            pytest.raises(robodyn.DeadlineExceededError) as raised:
+    with (
+        Client(http_client=http, retry=Retry(attempts=5, timeout=10.0)) as client,
+        pytest.raises(robodyn.DeadlineExceededError) as raised,
+    ):
         client.gravity("ur5", np.zeros(6))
     assert len(log) == 1 and isinstance(raised.value, TimeoutError)
     assert raised.value.body["deadline_s"] == 60.0

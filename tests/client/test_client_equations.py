@@ -26,8 +26,9 @@ def test_planar_arm_equations_are_typed_and_read_back_by_sympy(client: Client) -
     M = eq.mass_matrix.sympy(rational=True)
     assert isinstance(M, sp.Matrix) and M.shape == (2, 2)
     l1, l2, m1, m2 = 1, sp.Rational(7, 10), 2, sp.Rational(3, 2)
-    assert sp.simplify(M[0, 0] - (m1 * l1**2 + m2 * (l1**2 + l2**2 + 2 * l1 * l2 * sp.cos(q2)))
-                       ) == 0
+    assert (
+        sp.simplify(M[0, 0] - (m1 * l1**2 + m2 * (l1**2 + l2**2 + 2 * l1 * l2 * sp.cos(q2)))) == 0
+    )
     assert eq.gravity.sympy().shape == (2, 1)
     assert eq.christoffel.sympy().shape == (2, 2, 2)
     T = eq.kinetic_energy.sympy(rational=True)
@@ -49,18 +50,23 @@ def test_ur5_sympy_objects_equal_pinocchio(client: Client, registry: Any) -> Non
     for _ in range(2):
         qv, v = random_configuration(model, rng), rng.normal(size=6)
         np.testing.assert_allclose(M(*qv), pin.crba(model, data, qv), atol=1e-10)
-        np.testing.assert_allclose(C(*qv, *v), pin.computeCoriolisMatrix(model, data, qv, v),
-                                   atol=1e-10)
-        np.testing.assert_allclose(np.ravel(g(*qv)),
-                                   pin.computeGeneralizedGravity(model, data, qv), atol=1e-9)
+        np.testing.assert_allclose(
+            C(*qv, *v), pin.computeCoriolisMatrix(model, data, qv, v), atol=1e-10
+        )
+        np.testing.assert_allclose(
+            np.ravel(g(*qv)), pin.computeGeneralizedGravity(model, data, qv), atol=1e-9
+        )
 
 
-@pytest.mark.parametrize(("robot_id", "error", "says"), [
-    ("talos", robodyn.UnsupportedModelError, "free-flyer root joint"),
-    ("double_pendulum_continuous", robodyn.UnsupportedModelError, "continuous"),
-    ("panda", robodyn.UnsupportedModelError, "9 moving joints"),
-    ("no_such_robot", robodyn.RobotNotFoundError, "no robot has id"),
-])
+@pytest.mark.parametrize(
+    ("robot_id", "error", "says"),
+    [
+        ("talos", robodyn.UnsupportedModelError, "free-flyer root joint"),
+        ("double_pendulum_continuous", robodyn.UnsupportedModelError, "continuous"),
+        ("panda", robodyn.UnsupportedModelError, "9 moving joints"),
+        ("no_such_robot", robodyn.RobotNotFoundError, "no robot has id"),
+    ],
+)
 def test_errors(client: Client, robot_id: str, error: type, says: str) -> None:
     with pytest.raises(error, match=says) as raised:
         client.equations(robot_id)

@@ -51,8 +51,9 @@ def mock_client(handler: Callable[[httpx.Request], httpx.Response]) -> robodyn.C
 def server_problem(code: str, detail: str = "what went wrong", **headers: str) -> httpx.Response:
     """The answer the server itself gives for `code` (built by its own `problem`)."""
     answer = problem(code, code.replace("_", " ").capitalize(), detail, headers or None)
-    return httpx.Response(answer.status_code, content=bytes(answer.body),
-                          headers=dict(answer.headers))
+    return httpx.Response(
+        answer.status_code, content=bytes(answer.body), headers=dict(answer.headers)
+    )
 
 
 def test_every_server_code_is_listed_here_with_its_status() -> None:
@@ -63,8 +64,10 @@ def test_every_server_code_is_listed_here_with_its_status() -> None:
 @pytest.mark.parametrize("code", sorted(EXPECTED))
 def test_each_code_raises_its_class(code: str) -> None:
     status, cls, also = EXPECTED[code]
-    with mock_client(lambda request: server_problem(code, f"detail of {code}")) as client, \
-            pytest.raises(robodyn.APIError) as raised:
+    with (
+        mock_client(lambda request: server_problem(code, f"detail of {code}")) as client,
+        pytest.raises(robodyn.APIError) as raised,
+    ):
         client.robot("ur5")
     err = raised.value
     assert type(err) is cls and isinstance(err, also) and isinstance(err, robodyn.RobodynError)
@@ -78,8 +81,10 @@ def test_async_client_maps_errors_the_same_way() -> None:
     async def run() -> list[type[BaseException]]:
         raised: list[type[BaseException]] = []
         for code in EXPECTED:
-            http = httpx.AsyncClient(transport=httpx.MockTransport(
-                lambda request, code=code: server_problem(code)), base_url="http://mock")
+            http = httpx.AsyncClient(
+                transport=httpx.MockTransport(lambda request, code=code: server_problem(code)),
+                base_url="http://mock",
+            )
             async with http, robodyn.AsyncClient(http_client=http) as client:
                 try:
                     await client.gravity("ur5", np.zeros(6))
@@ -90,15 +95,21 @@ def test_async_client_maps_errors_the_same_way() -> None:
     assert asyncio.run(run()) == [cls for _, cls, _ in EXPECTED.values()]
 
 
-@pytest.mark.parametrize(("status", "body", "cls"), [
-    (422, {"code": "joint_locked", "detail": "new"}, robodyn.UnprocessableError),
-    (503, {"code": "maintenance", "detail": "new"}, robodyn.ServiceUnavailableError),
-    (409, {"detail": "no code at all"}, robodyn.ConflictError),
-    (404, "plain text, not JSON", robodyn.NotFoundError),
-    (502, "<html>Bad Gateway</html>", robodyn.ServerError),
-    (418, {"code": "teapot", "title": "I'm a teapot", "detail": "short and stout"},
-     robodyn.APIError),
-])
+@pytest.mark.parametrize(
+    ("status", "body", "cls"),
+    [
+        (422, {"code": "joint_locked", "detail": "new"}, robodyn.UnprocessableError),
+        (503, {"code": "maintenance", "detail": "new"}, robodyn.ServiceUnavailableError),
+        (409, {"detail": "no code at all"}, robodyn.ConflictError),
+        (404, "plain text, not JSON", robodyn.NotFoundError),
+        (502, "<html>Bad Gateway</html>", robodyn.ServerError),
+        (
+            418,
+            {"code": "teapot", "title": "I'm a teapot", "detail": "short and stout"},
+            robodyn.APIError,
+        ),
+    ],
+)
 def test_unknown_codes_fall_back_by_status(status: int, body: Any, cls: type) -> None:
     def handler(request: httpx.Request) -> httpx.Response:
         if isinstance(body, str):
@@ -117,19 +128,26 @@ def test_unknown_codes_fall_back_by_status(status: int, body: Any, cls: type) ->
 
 
 def test_retry_after_is_read() -> None:
-    with mock_client(lambda request: server_problem("overloaded", **{"Retry-After": "2.5"})
-                     ) as client, pytest.raises(robodyn.OverloadedError) as raised:
+    with (
+        mock_client(
+            lambda request: server_problem("overloaded", **{"Retry-After": "2.5"})
+        ) as client,
+        pytest.raises(robodyn.OverloadedError) as raised,
+    ):
         client.robots()
     assert raised.value.retry_after == 2.5
 
 
-@pytest.mark.parametrize(("exc", "cls"), [
-    (httpx.ConnectError("refused"), robodyn.TransportError),
-    (httpx.RemoteProtocolError("peer closed"), robodyn.TransportError),
-    (httpx.ReadTimeout("slow"), robodyn.TimeoutError),
-    (httpx.ConnectTimeout("slow"), robodyn.TimeoutError),
-    (httpx.PoolTimeout("busy"), robodyn.TimeoutError),
-])
+@pytest.mark.parametrize(
+    ("exc", "cls"),
+    [
+        (httpx.ConnectError("refused"), robodyn.TransportError),
+        (httpx.RemoteProtocolError("peer closed"), robodyn.TransportError),
+        (httpx.ReadTimeout("slow"), robodyn.TimeoutError),
+        (httpx.ConnectTimeout("slow"), robodyn.TimeoutError),
+        (httpx.PoolTimeout("busy"), robodyn.TimeoutError),
+    ],
+)
 def test_transport_failures_are_wrapped_from_the_httpx_error(exc: Exception, cls: type) -> None:
     def handler(request: httpx.Request) -> httpx.Response:
         raise exc
@@ -143,24 +161,32 @@ def test_transport_failures_are_wrapped_from_the_httpx_error(exc: Exception, cls
     assert not isinstance(err, robodyn.APIError)
 
 
-@pytest.mark.parametrize(("answer", "match"), [
-    (httpx.Response(200, text="not json"), "not JSON"),
-    (httpx.Response(200, json={"M": [[1.0]]}), "mass_matrix"),
-    (httpx.Response(200, json={"mass_matrix": [1.0, 2.0]}), "dimensions"),
-    (httpx.Response(200, json={"mass_matrix": [[1.0, 2.0]]}), "not square"),
-])
-def test_unreadable_success_answers_raise_response_format_error(answer: httpx.Response,
-                                                                match: str) -> None:
-    with mock_client(lambda request: answer) as client, \
-            pytest.raises(robodyn.ResponseFormatError, match=match) as raised:
+@pytest.mark.parametrize(
+    ("answer", "match"),
+    [
+        (httpx.Response(200, text="not json"), "not JSON"),
+        (httpx.Response(200, json={"M": [[1.0]]}), "mass_matrix"),
+        (httpx.Response(200, json={"mass_matrix": [1.0, 2.0]}), "dimensions"),
+        (httpx.Response(200, json={"mass_matrix": [[1.0, 2.0]]}), "not square"),
+    ],
+)
+def test_unreadable_success_answers_raise_response_format_error(
+    answer: httpx.Response, match: str
+) -> None:
+    with (
+        mock_client(lambda request: answer) as client,
+        pytest.raises(robodyn.ResponseFormatError, match=match) as raised,
+    ):
         client.mass_matrix("ur5", np.zeros(6))
     assert raised.value.status == 200 and not isinstance(raised.value, robodyn.APIError)
 
 
 def test_a_batch_answered_with_the_wrong_count_is_refused() -> None:
     answer = httpx.Response(200, json={"gravity": [[0.0] * 6] * 2})
-    with mock_client(lambda request: answer) as client, \
-            pytest.raises(robodyn.ResponseFormatError, match="2 states; 3 were sent"):
+    with (
+        mock_client(lambda request: answer) as client,
+        pytest.raises(robodyn.ResponseFormatError, match="2 states; 3 were sent"),
+    ):
         client.gravity("ur5", np.zeros((3, 6)))
 
 
@@ -172,8 +198,9 @@ def test_error_classes_are_exported_and_in_the_docstring_tree() -> None:
 
 
 def test_errors_survive_pickling() -> None:
-    api = robodyn.UnauthorizedError(401, "unauthorized", "Unauthorized", "send a key",
-                                    {"code": "unauthorized"}, 1.0)
+    api = robodyn.UnauthorizedError(
+        401, "unauthorized", "Unauthorized", "send a key", {"code": "unauthorized"}, 1.0
+    )
     transport = robodyn.TimeoutError("slow", method="GET", url="http://x/v1/robots")
     shape = robodyn.ResponseFormatError("odd", status=200, body={"a": 1})
     for err in (api, transport, shape):

@@ -26,8 +26,7 @@ def client(app: Any) -> Any:
 
 @pytest.fixture(scope="module")
 def log(registry: Any) -> Any:
-    return synthetic_log(registry.get("ur5").model, seed=3, duration=8.0, rate=100.0,
-                         noise=0.05)
+    return synthetic_log(registry.get("ur5").model, seed=3, duration=8.0, rate=100.0, noise=0.05)
 
 
 def test_inertial_parameters_and_regressor(client: Client, registry: Any) -> None:
@@ -35,20 +34,23 @@ def test_inertial_parameters_and_regressor(client: Client, registry: Any) -> Non
     got = client.inertial_parameters("panda")
     assert isinstance(got, robodyn.InertialParameters)
     np.testing.assert_array_equal(got.parameters, inertial_parameters(robot.model))
-    assert got.bodies[0] == "panda_joint1" and got.of("panda_joint2")[0] == \
-        robot.model.inertias[2].mass
+    assert (
+        got.bodies[0] == "panda_joint1"
+        and got.of("panda_joint2")[0] == robot.model.inertias[2].mass
+    )
     rng = np.random.default_rng(2)
     q, v, a = rng.uniform(-1, 1, (3, 4, robot.nv))
-    np.testing.assert_array_equal(client.regressor("panda", q, v, a),
-                                  regressor(robot, q, v, a))
-    np.testing.assert_array_equal(client.regressor("panda", q[0], v[0], a[0]),
-                                  regressor(robot, q[:1], v[:1], a[:1])[0])
+    np.testing.assert_array_equal(client.regressor("panda", q, v, a), regressor(robot, q, v, a))
+    np.testing.assert_array_equal(
+        client.regressor("panda", q[0], v[0], a[0]), regressor(robot, q[:1], v[:1], a[:1])[0]
+    )
 
 
 def test_identify(client: Client, registry: Any, log: Any) -> None:
     # plain lists (any columns numpy reads) in, numpy out
-    result = client.identify("ur5", log.t.tolist(), log.q.tolist(), log.tau.tolist(),
-                             store=False, include_series=True)
+    result = client.identify(
+        "ur5", log.t.tolist(), log.q.tolist(), log.tau.tolist(), store=False, include_series=True
+    )
     here = identify(registry.get("ur5"), log.t, log.q, log.tau)
     assert isinstance(result, robodyn.Identification)
     np.testing.assert_allclose(result.parameters, here.parameters, rtol=1e-9, atol=1e-12)
@@ -62,8 +64,9 @@ def test_identify(client: Client, registry: Any, log: Any) -> None:
 
 
 def test_identify_a_payload_answers_a_payload(client: Client, log: Any) -> None:
-    result = client.identify("ur5", log.t, log.q, log.tau, store=False,
-                             payload_frame="tool0", friction="viscous")
+    result = client.identify(
+        "ur5", log.t, log.q, log.tau, store=False, payload_frame="tool0", friction="viscous"
+    )
     assert result.payload is not None
     assert all(f.coulomb == 0.0 for f in result.friction)
 
@@ -71,8 +74,13 @@ def test_identify_a_payload_answers_a_payload(client: Client, log: Any) -> None:
 def test_identify_errors(client: Client, log: Any, registry: Any) -> None:
     talos = registry.get("talos")
     with pytest.raises(robodyn.UnsupportedModelError, match="fixed-base"):
-        client.identify("talos", log.t, np.tile(talos.default_configuration, (log.t.size, 1)),
-                        np.zeros((log.t.size, talos.nv)), store=False)
+        client.identify(
+            "talos",
+            log.t,
+            np.tile(talos.default_configuration, (log.t.size, 1)),
+            np.zeros((log.t.size, talos.nv)),
+            store=False,
+        )
     with pytest.raises(robodyn.ValidationError, match="needs at least"):
         client.identify("ur5", log.t[:30], log.q[:30], log.tau[:30], store=False)
     with pytest.raises(robodyn.DimensionMismatchError):
@@ -86,23 +94,27 @@ def test_identify_errors(client: Client, log: Any, registry: Any) -> None:
 @pytest.mark.anyio
 async def test_async_identify(app: Any, registry: Any, log: Any) -> None:
     transport = httpx.ASGITransport(app=app)
-    async with httpx.AsyncClient(transport=transport, base_url="http://app") as http, \
-            AsyncClient(http_client=http) as client:
-        result = await client.identify("ur5", log.t, log.q, log.tau, v=log.v, a=log.a,
-                                       method="least-squares", store=False)
+    async with (
+        httpx.AsyncClient(transport=transport, base_url="http://app") as http,
+        AsyncClient(http_client=http) as client,
+    ):
+        result = await client.identify(
+            "ur5", log.t, log.q, log.tau, v=log.v, a=log.a, method="least-squares", store=False
+        )
         parameters = await client.inertial_parameters("ur5")
-    here = identify(registry.get("ur5"), log.t, log.q, log.tau, v=log.v, a=log.a,
-                    method="least-squares")
-    np.testing.assert_allclose(result.base_parameters.values,
-                               here.base_parameters["values"], rtol=1e-9, atol=1e-12)
+    here = identify(
+        registry.get("ur5"), log.t, log.q, log.tau, v=log.v, a=log.a, method="least-squares"
+    )
+    np.testing.assert_allclose(
+        result.base_parameters.values, here.base_parameters["values"], rtol=1e-9, atol=1e-12
+    )
     assert parameters.layout[0] == "m"
-
-
 
 
 def _recording_client(app: Any, seen: list[httpx.Request], **options: Any) -> Any:
     """A TestClient on the app whose requests are recorded, bodies read (`request.read()`
     keeps them sendable), and a robodyn Client over it."""
+
     def record(request: httpx.Request) -> None:
         request.read()
         seen.append(request)
@@ -112,8 +124,7 @@ def _recording_client(app: Any, seen: list[httpx.Request], **options: Any) -> An
     return http, Client(http_client=http, **options)
 
 
-def test_identify_sends_a_large_log_in_the_binary_form(app: Any, registry: Any,
-                                                       log: Any) -> None:
+def test_identify_sends_a_large_log_in_the_binary_form(app: Any, registry: Any, log: Any) -> None:
     """800 samples × (t, 6 q, 6 τ) are over `BINARY_FROM` numbers: a safetensors body with t,
     q, tau as F64 tensors, bit for bit, the options in its metadata; the answer is the
     in-process fit, and the same as the JSON form's (`binary=False`)."""
@@ -154,14 +165,14 @@ def test_identify_sends_a_small_log_as_json(app: Any, log: Any) -> None:
     assert json.loads(seen[0].content)["t"] == log.t[:40].tolist()
 
 
-def test_identify_a_still_robot_is_a_validation_error(client: Client, registry: Any,
-                                                      log: Any) -> None:
+def test_identify_a_still_robot_is_a_validation_error(
+    client: Client, registry: Any, log: Any
+) -> None:
     import pinocchio as pin
 
     model = registry.get("ur5").model
     q = np.repeat(log.q[:1], log.t.size, axis=0)
-    tau = np.tile(pin.computeGeneralizedGravity(model, model.createData(), q[0]),
-                  (log.t.size, 1))
+    tau = np.tile(pin.computeGeneralizedGravity(model, model.createData(), q[0]), (log.t.size, 1))
     with pytest.raises(robodyn.ValidationError, match="too little motion") as raised:
         client.identify("ur5", log.t, q, tau, store=False)
     assert "shoulder_pan_joint 0 rad" in str(raised.value)

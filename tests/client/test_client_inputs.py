@@ -37,19 +37,22 @@ class Recorder:
         return json.loads(self.requests[-1].content)
 
 
-@pytest.mark.parametrize(("q", "match"), [
-    ([0, 0, float("nan"), 0, 0, 0], r"q\[2\] is nan; every entry must be finite"),
-    (np.full((2, 6), np.inf), r"q\[0, 0\] is inf"),
-    (["a", "b"], "real numbers, not text"),
-    ([True, False], "real numbers, not booleans"),
-    (np.ones(6) * 1j, "not complex"),
-    ([[1.0, 2.0], [3.0]], "ragged"),
-    (np.zeros((2, 2, 6)), "not 3-D"),
-    (1.5, "not a scalar"),
-    (None, "not objects"),
-    ([], "q is empty"),
-    (np.zeros((0, 6)), "empty batch"),
-])
+@pytest.mark.parametrize(
+    ("q", "match"),
+    [
+        ([0, 0, float("nan"), 0, 0, 0], r"q\[2\] is nan; every entry must be finite"),
+        (np.full((2, 6), np.inf), r"q\[0, 0\] is inf"),
+        (["a", "b"], "real numbers, not text"),
+        ([True, False], "real numbers, not booleans"),
+        (np.ones(6) * 1j, "not complex"),
+        ([[1.0, 2.0], [3.0]], "ragged"),
+        (np.zeros((2, 2, 6)), "not 3-D"),
+        (1.5, "not a scalar"),
+        (None, "not objects"),
+        ([], "q is empty"),
+        (np.zeros((0, 6)), "empty batch"),
+    ],
+)
 def test_bad_inputs_raise_input_error_and_send_nothing(q: Any, match: str) -> None:
     mock = Recorder()
     with mock.client() as client, pytest.raises(robodyn.InputError, match=match) as raised:
@@ -63,21 +66,24 @@ def test_inputs_must_be_equally_batched() -> None:
         with pytest.raises(robodyn.InputError, match="q is 1-D, v is 2-D, a is 1-D"):
             client.inverse_dynamics("ur5", np.zeros(6), np.zeros((1, 6)), np.zeros(6))
         with pytest.raises(robodyn.InputError, match="q has 2, v has 2, a has 3 states"):
-            client.inverse_dynamics("ur5", np.zeros((2, 6)), np.zeros((2, 6)),
-                                    np.zeros((3, 6)))
+            client.inverse_dynamics("ur5", np.zeros((2, 6)), np.zeros((2, 6)), np.zeros((3, 6)))
     assert mock.requests == []
 
 
 def test_body_is_plain_json_of_floats() -> None:
     mock = Recorder()
     with mock.client() as client:
-        tau = client.inverse_dynamics("ur5", [0, 1, 2, 3, 4, 5], np.arange(6, dtype=np.float32),
-                                      (0.1,) * 6)
+        tau = client.inverse_dynamics(
+            "ur5", [0, 1, 2, 3, 4, 5], np.arange(6, dtype=np.float32), (0.1,) * 6
+        )
     request = mock.requests[0]
     assert request.method == "POST" and request.url.path == "/v1/robots/ur5/inverse-dynamics"
     assert request.headers["content-type"] == "application/json"
-    assert mock.last_json == {"q": [0.0, 1.0, 2.0, 3.0, 4.0, 5.0],
-                              "v": [0.0, 1.0, 2.0, 3.0, 4.0, 5.0], "a": [0.1] * 6}
+    assert mock.last_json == {
+        "q": [0.0, 1.0, 2.0, 3.0, 4.0, 5.0],
+        "v": [0.0, 1.0, 2.0, 3.0, 4.0, 5.0],
+        "a": [0.1] * 6,
+    }
     assert tau.dtype == np.float64 and tau.shape == (6,)
 
 
@@ -139,10 +145,22 @@ def test_owned_client_is_closed_injected_one_is_not() -> None:
 
 
 def test_upload_body_and_created_flag(tmp_path: Path) -> None:
-    info = {"id": "u-1", "name": "arm", "source": "upload", "nq": 2, "nv": 2,
-            "root_joint": "fixed", "gravity": [0, 0, -1.62], "total_mass": 3.5,
-            "neutral_configuration": [0, 0], "reference_configurations": {}, "warnings": [],
-            "joints": [], "frames": [], "future_field": {"x": 1}}
+    info = {
+        "id": "u-1",
+        "name": "arm",
+        "source": "upload",
+        "nq": 2,
+        "nv": 2,
+        "root_joint": "fixed",
+        "gravity": [0, 0, -1.62],
+        "total_mass": 3.5,
+        "neutral_configuration": [0, 0],
+        "reference_configurations": {},
+        "warnings": [],
+        "joints": [],
+        "frames": [],
+        "future_field": {"x": 1},
+    }
     urdf = two_link_urdf()
     path = tmp_path / "arm.urdf"
     path.write_text(urdf)
@@ -154,8 +172,12 @@ def test_upload_body_and_created_flag(tmp_path: Path) -> None:
         with pytest.raises(robodyn.InputError, match="3 entries"):
             client.upload(urdf, gravity=[0, -9.81])
     assert created.last_json == {"urdf": urdf, "root_joint": "fixed", "gravity": [0, 0, -1.62]}
-    assert stored.last_json == {"urdf": urdf, "root_joint": "planar", "name": "x",
-                                "inertia_check": "warn"}
+    assert stored.last_json == {
+        "urdf": urdf,
+        "root_joint": "planar",
+        "name": "x",
+        "inertia_check": "warn",
+    }
     assert (first.created, again.created) == (True, False)
     assert first.raw["future_field"] == {"x": 1}  # unknown fields stay reachable
     np.testing.assert_array_equal(first.default_configuration, [0.0, 0.0])  # neutral if absent

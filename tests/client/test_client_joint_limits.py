@@ -48,15 +48,38 @@ def test_a_multi_dof_joint_keeps_tuples(client: Client) -> None:
 
 
 def test_limits_are_read_from_the_server_lists() -> None:
-    one = {"name": "j", "type": "revolute", "idx_q": 0, "nq": 1, "idx_v": 0, "nv": 1,
-           "lower": [-1.5], "upper": [None], "velocity_limit": [3.0], "effort_limit": [87.0],
-           "armature": [0.1]}
+    one = {
+        "name": "j",
+        "type": "revolute",
+        "idx_q": 0,
+        "nq": 1,
+        "idx_v": 0,
+        "nv": 1,
+        "lower": [-1.5],
+        "upper": [None],
+        "velocity_limit": [3.0],
+        "effort_limit": [87.0],
+        "armature": [0.1],
+    }
     joint = JointInfo.from_json(one)
-    assert (joint.lower, joint.upper, joint.velocity_limit, joint.effort_limit,
-            joint.armature) == (-1.5, None, 3.0, 87.0, 0.1)
-    planar = {**one, "type": "planar", "nq": 4, "nv": 3, "lower": [None] * 4,
-              "upper": [1.0, 1.0, None, None], "velocity_limit": [1.0, 2.0, 3.0],
-              "effort_limit": [None, 5.0, 6.0], "armature": [0.0, 0.0, 0.0]}
+    assert (joint.lower, joint.upper, joint.velocity_limit, joint.effort_limit, joint.armature) == (
+        -1.5,
+        None,
+        3.0,
+        87.0,
+        0.1,
+    )
+    planar = {
+        **one,
+        "type": "planar",
+        "nq": 4,
+        "nv": 3,
+        "lower": [None] * 4,
+        "upper": [1.0, 1.0, None, None],
+        "velocity_limit": [1.0, 2.0, 3.0],
+        "effort_limit": [None, 5.0, 6.0],
+        "armature": [0.0, 0.0, 0.0],
+    }
     joint = JointInfo.from_json(planar)
     assert joint.upper == (1.0, 1.0, None, None) and joint.effort_limit == (None, 5.0, 6.0)
     assert joint.armature == (0.0, 0.0, 0.0)

@@ -26,9 +26,13 @@ from tests.client.helpers import API_KEY, CATALOG, Reference
 from tests.operational_space_reference import RF, pinocchio_operational_space
 
 # (frame, task, damping) per robot: the 2-joint arms need damping for a 3-row task
-TASKS = {"ur5": ("tool0", "full", 0.0), "panda": ("panda_hand_tcp", "full", 0.0),
-         "talos": ("arm_left_7_link", "full", 0.0), "planar_arm": ("tip", "linear", 0.1),
-         "double_pendulum_continuous": ("link2", "linear", 0.1)}
+TASKS = {
+    "ur5": ("tool0", "full", 0.0),
+    "panda": ("panda_hand_tcp", "full", 0.0),
+    "talos": ("arm_left_7_link", "full", 0.0),
+    "planar_arm": ("tip", "linear", 0.1),
+    "double_pendulum_continuous": ("link2", "linear", 0.1),
+}
 N = 3
 
 
@@ -40,8 +44,9 @@ def _close(got: Any, want: Any, rtol: float = 1e-9) -> None:
     np.testing.assert_allclose(got, want, rtol=rtol, atol=rtol * scale)
 
 
-def expected(reference: Reference, robot_id: str, method: str, q: np.ndarray, v: np.ndarray
-             ) -> dict[str, np.ndarray]:
+def expected(
+    reference: Reference, robot_id: str, method: str, q: np.ndarray, v: np.ndarray
+) -> dict[str, np.ndarray]:
     """What each method must give, per state (batch axis first), from Pinocchio in process."""
     model = reference.model(robot_id)
     data = model.createData()
@@ -53,27 +58,40 @@ def expected(reference: Reference, robot_id: str, method: str, q: np.ndarray, v:
             M = pin.crba(model, data, qi)
             rows.append({"": np.linalg.inv(np.triu(M) + np.triu(M, 1).T)})
         elif method == "energy":
-            rows.append({"kinetic_energy": pin.computeKineticEnergy(model, data, qi, vi),
-                         "potential_energy": pin.computePotentialEnergy(model, data, qi)})
+            rows.append(
+                {
+                    "kinetic_energy": pin.computeKineticEnergy(model, data, qi, vi),
+                    "potential_energy": pin.computePotentialEnergy(model, data, qi),
+                }
+            )
             rows[-1]["mechanical_energy"] = sum(rows[-1].values())
         elif method == "center_of_mass":
-            rows.append({"position": pin.centerOfMass(model, data, qi).copy(),
-                         "jacobian": pin.jacobianCenterOfMass(model, data, qi).copy()})
+            rows.append(
+                {
+                    "position": pin.centerOfMass(model, data, qi).copy(),
+                    "jacobian": pin.jacobianCenterOfMass(model, data, qi).copy(),
+                }
+            )
             rows[-1]["velocity"] = rows[-1]["jacobian"] @ vi
         elif method == "jacobian":
             pin.computeJointJacobiansTimeVariation(model, data, qi, vi)
             pin.updateFramePlacements(model, data)
-            rows.append({"jacobian": pin.getFrameJacobian(model, data, fid, RF["local"]).copy(),
-                         "jacobian_time_variation": pin.getFrameJacobianTimeVariation(
-                             model, data, fid, RF["local"]).copy()})
+            rows.append(
+                {
+                    "jacobian": pin.getFrameJacobian(model, data, fid, RF["local"]).copy(),
+                    "jacobian_time_variation": pin.getFrameJacobianTimeVariation(
+                        model, data, fid, RF["local"]
+                    ).copy(),
+                }
+            )
         elif method == "operational_space":
-            rows.append(pinocchio_operational_space(model, qi, vi, frame, "world", task,
-                                                    damping))
+            rows.append(pinocchio_operational_space(model, qi, vi, frame, "world", task, damping))
     return {k: np.array([r[k] for r in rows]) for k in rows[0]}
 
 
-def call_args(robot_id: str, method: str, q: np.ndarray, v: np.ndarray
-              ) -> tuple[tuple[Any, ...], dict[str, Any]]:
+def call_args(
+    robot_id: str, method: str, q: np.ndarray, v: np.ndarray
+) -> tuple[tuple[Any, ...], dict[str, Any]]:
     frame, task, damping = TASKS[robot_id]
     if method == "mass_matrix_inverse":
         return (robot_id, q), {}
@@ -83,8 +101,12 @@ def call_args(robot_id: str, method: str, q: np.ndarray, v: np.ndarray
         return (robot_id, q, v), {}
     if method == "jacobian":
         return (robot_id, q, frame), {"reference_frame": "local", "v": v}
-    return (robot_id, q, frame), {"v": v, "reference_frame": "world", "task": task,
-                                  "damping": damping}
+    return (robot_id, q, frame), {
+        "v": v,
+        "reference_frame": "world",
+        "task": task,
+        "damping": damping,
+    }
 
 
 def check(got: Any, want: dict[str, np.ndarray], index: int | None) -> None:
@@ -112,8 +134,10 @@ METHODS = ["mass_matrix_inverse", "energy", "center_of_mass", "jacobian", "opera
 @pytest.fixture
 async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
     transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http) as client):
+    async with (
+        httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
+        AsyncClient(http_client=http) as client,
+    ):
         yield client
 
 
@@ -121,7 +145,8 @@ async def aclient(app: Any) -> AsyncIterator[AsyncClient]:
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("robot_id", CATALOG)
 async def test_async_methods_equal_pinocchio_single_and_batch(
-        aclient: AsyncClient, reference: Reference, robot_id: str, method: str) -> None:
+    aclient: AsyncClient, reference: Reference, robot_id: str, method: str
+) -> None:
     states = reference.states(robot_id, N, seed=len(method))
     q, v = states["q"], states["v"]
     want = expected(reference, robot_id, method, q, v)
@@ -139,8 +164,9 @@ async def test_async_inertias_and_errors(aclient: AsyncClient, registry: Any) ->
     assert len(inertias) == model.njoints - 1
     assert inertias.total_mass == pytest.approx(pin.computeTotalMass(model), rel=1e-12)
     body = inertias["arm_left_4_joint"]
-    np.testing.assert_allclose(body.center_of_mass, model.inertias[model.getJointId(
-        "arm_left_4_joint")].lever, atol=1e-15)
+    np.testing.assert_allclose(
+        body.center_of_mass, model.inertias[model.getJointId("arm_left_4_joint")].lever, atol=1e-15
+    )
     with pytest.raises(robodyn.UnknownFrameError) as err:
         await aclient.jacobian("ur5", np.zeros(6), "gripper")
     assert "`frames` of GET /v1/robots/ur5" in err.value.detail
@@ -162,7 +188,8 @@ def client(server: str) -> Iterator[Client]:
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("robot_id", ["ur5", "talos", "planar_arm"])
 def test_sync_methods_equal_pinocchio_single_and_batch(
-        client: Client, reference: Reference, robot_id: str, method: str) -> None:
+    client: Client, reference: Reference, robot_id: str, method: str
+) -> None:
     states = reference.states(robot_id, N, seed=7)
     q, v = states["q"], states["v"]
     want = expected(reference, robot_id, method, q, v)
@@ -179,8 +206,9 @@ def test_sync_optional_parts_and_defaults(client: Client, reference: Reference) 
     jac = client.jacobian("ur5", q, "tool0")
     assert jac.jacobian_time_variation is None and jac.jacobian.shape == (6, 6)
     model = reference.model("ur5")
-    default = pin.computeFrameJacobian(model, model.createData(), q, model.getFrameId("tool0"),
-                                       RF["local_world_aligned"])
+    default = pin.computeFrameJacobian(
+        model, model.createData(), q, model.getFrameId("tool0"), RF["local_world_aligned"]
+    )
     _close(jac.jacobian, default, 1e-12)  # local_world_aligned by default
     os = client.operational_space("ur5", q, "tool0", task="angular")
     assert os.coriolis is None and os.inertia.shape == (3, 3) and os.gravity.shape == (3,)
@@ -195,10 +223,10 @@ def test_sync_inertias_of_the_cube(client: Client) -> None:
             inertias = client.inertias(robot.id)
             cube = inertias["cube"]
             assert (cube.joint, cube.links, cube.mass) == ("hinge", ("cube",), 2.4)
-            np.testing.assert_allclose(cube.inertia_at_center_of_mass, 0.016 * np.eye(3),
-                                       atol=1e-15)
-            np.testing.assert_allclose(cube.inertia_at_joint[0], [0.136, -0.072, 0.144],
-                                       atol=1e-15)
+            np.testing.assert_allclose(
+                cube.inertia_at_center_of_mass, 0.016 * np.eye(3), atol=1e-15
+            )
+            np.testing.assert_allclose(cube.inertia_at_joint[0], [0.136, -0.072, 0.144], atol=1e-15)
             assert inertias.total_mass == pytest.approx(3.9, abs=1e-15)
             assert [b.joint for b in inertias] == ["hinge", "swing"]
         finally:
@@ -231,11 +259,17 @@ class Recorder:
         return httpx.Response(200, json={})
 
 
-@pytest.mark.parametrize(("kwargs", "error"), [
-    ({"task": "position"}, robodyn.InputError), ({"reference_frame": "WORLD"}, robodyn.InputError),
-    ({"damping": -1.0}, robodyn.InputError), ({"damping": float("nan")}, robodyn.InputError),
-    ({"damping": "0.1"}, robodyn.InputError), ({"damping": True}, robodyn.InputError),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "error"),
+    [
+        ({"task": "position"}, robodyn.InputError),
+        ({"reference_frame": "WORLD"}, robodyn.InputError),
+        ({"damping": -1.0}, robodyn.InputError),
+        ({"damping": float("nan")}, robodyn.InputError),
+        ({"damping": "0.1"}, robodyn.InputError),
+        ({"damping": True}, robodyn.InputError),
+    ],
+)
 def test_bad_options_raise_locally_and_send_nothing(kwargs: dict[str, Any], error: type) -> None:
     recorder = Recorder()
     http = httpx.Client(transport=httpx.MockTransport(recorder), base_url="http://mock")
@@ -260,8 +294,9 @@ def test_bodies_sent_validate_against_the_server_schemas() -> None:
         "energy": lambda c: c.energy("r", q, v),
         "center-of-mass": lambda c: c.center_of_mass("r", q),
         "jacobian": lambda c: c.jacobian("r", q, "tool0", v=v, reference_frame="world"),
-        "operational-space": lambda c: c.operational_space("r", q, "tool0", v=v, task="linear",
-                                                           damping=0.1),
+        "operational-space": lambda c: c.operational_space(
+            "r", q, "tool0", v=v, task="linear", damping=0.1
+        ),
     }
     with Client(http_client=http) as c:
         for path, send in sent.items():
@@ -273,8 +308,12 @@ def test_bodies_sent_validate_against_the_server_schemas() -> None:
 
 
 def test_result_fields_are_the_server_answer_fields() -> None:
-    pairs = {results.Energy: "energy", results.CenterOfMass: "center-of-mass",
-             results.FrameJacobian: "jacobian", results.OperationalSpace: "operational-space"}
+    pairs = {
+        results.Energy: "energy",
+        results.CenterOfMass: "center-of-mass",
+        results.FrameJacobian: "jacobian",
+        results.OperationalSpace: "operational-space",
+    }
     for cls, path in pairs.items():
         fields = {f.name for f in dataclasses.fields(cls)}
         assert fields == set(SPECS[path].answer.model_fields), cls

@@ -19,8 +19,11 @@ IO = {"close", "aclose", "stream"}  # not requests: the connection pool and stre
 
 
 def _public(cls: type) -> dict[str, Any]:
-    return {name: getattr(cls, name) for name in dir(cls)
-            if not name.startswith("_") and callable(getattr(cls, name))}
+    return {
+        name: getattr(cls, name)
+        for name in dir(cls)
+        if not name.startswith("_") and callable(getattr(cls, name))
+    }
 
 
 def _source_docstring(function: Any) -> str | None:
@@ -39,8 +42,10 @@ def test_both_clients_have_the_same_methods_signatures_and_docstrings() -> None:
         assert inspect.iscoroutinefunction(asynchronous[name]), name
         assert not inspect.iscoroutinefunction(sync[name]), name
         assert sync[name].__doc__ == asynchronous[name].__doc__, name
-    assert (inspect.signature(sync["stream"]).parameters
-            == inspect.signature(asynchronous["stream"]).parameters)
+    assert (
+        inspect.signature(sync["stream"]).parameters
+        == inspect.signature(asynchronous["stream"]).parameters
+    )
 
 
 def test_every_public_method_has_its_docstring_in_its_source() -> None:
@@ -79,7 +84,8 @@ def test_the_request_builder_chunks_batches_of_states_only() -> None:
 
     states = request("r", "gravity", array("gravity", 1), q=np.zeros((3000, 2)))
     assert states.chunks is not None and states.chunks.total == 3000
-    path = request("r", "retime", array("q", 2), independent_rows=False,
-                   waypoints=np.zeros((3000, 2)))
+    path = request(
+        "r", "retime", array("q", 2), independent_rows=False, waypoints=np.zeros((3000, 2))
+    )
     assert path.chunks is None and path.route == "/v1/robots/{robot_id}/retime"
     assert path.json_body() == {"waypoints": np.zeros((3000, 2)).tolist()}

@@ -18,21 +18,31 @@ from robodyn.stream import message
 
 from tests.client.test_client_contract import ANSWERS, ARGS, KWARGS, TRAJECTORY
 
-TOOL = Payload("tool0", 3.0, center_of_mass=np.array([0.0, 0.0, 0.05]),
-               inertia=np.diag([0.01, 0.02, 0.03]))
+TOOL = Payload(
+    "tool0", 3.0, center_of_mass=np.array([0.0, 0.0, 0.05]), inertia=np.diag([0.01, 0.02, 0.03])
+)
 GRIPPER = {"frame": "wrist_3_link", "mass": 0.5}  # a point mass at the frame's origin
-SENT = [{"frame": "tool0", "mass": 3.0, "center_of_mass": [0.0, 0.0, 0.05],
-         "inertia": [[0.01, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.03]]},
-        {"frame": "wrist_3_link", "mass": 0.5, "center_of_mass": [0.0, 0.0, 0.0],
-         "inertia": [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]}]
+SENT = [
+    {
+        "frame": "tool0",
+        "mass": 3.0,
+        "center_of_mass": [0.0, 0.0, 0.05],
+        "inertia": [[0.01, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.03]],
+    },
+    {
+        "frame": "wrist_3_link",
+        "mass": 0.5,
+        "center_of_mass": [0.0, 0.0, 0.0],
+        "inertia": [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+    },
+]
 
 
 def sized(body: dict[str, Any], simulate: bool) -> dict[str, Any]:
     """A 1-DoF robot's answer of the size the request asks for (states, steps)."""
     if simulate:
         n = body["steps"] + 1
-        return {"t": [0.0] * n, "q": [[0.0]] * n, "v": [[0.0]] * n,
-                "mechanical_energy": [0.0] * n}
+        return {"t": [0.0] * n, "q": [[0.0]] * n, "v": [[0.0]] * n, "mechanical_energy": [0.0] * n}
     return {"gravity": [[0.0]] * len(body["q"])}
 
 
@@ -64,8 +74,7 @@ def test_every_computing_method_sends_its_payloads(use_binary: bool) -> None:
     with mock.client(binary=use_binary) as client:
         for name in STREAMED:
             with contextlib.suppress(robodyn.ResponseFormatError):  # mock answers' shapes
-                getattr(client, name)(*ARGS[name], **KWARGS.get(name, {}),
-                                      payloads=[TOOL, GRIPPER])
+                getattr(client, name)(*ARGS[name], **KWARGS.get(name, {}), payloads=[TOOL, GRIPPER])
             assert mock.bodies[-1]["payloads"] == SENT, name
             with contextlib.suppress(robodyn.ResponseFormatError):
                 getattr(client, name)(*ARGS[name], **KWARGS.get(name, {}))
@@ -103,8 +112,12 @@ def test_stream_messages_carry_the_payloads() -> None:
 
 
 def test_a_payload_is_checked_when_made_and_compares_by_value() -> None:
-    assert Payload("tool0", 3, center_of_mass=np.array([0, 0, 0.05]),
-                   inertia=np.diag([0.01, 0.02, 0.03])) == TOOL
+    assert (
+        Payload(
+            "tool0", 3, center_of_mass=np.array([0, 0, 0.05]), inertia=np.diag([0.01, 0.02, 0.03])
+        )
+        == TOOL
+    )
     assert len({TOOL, Payload("tool0", 3.0, (0.0, 0.0, 0.05), np.diag([0.01, 0.02, 0.03]))}) == 1
     assert TOOL.to_json() == SENT[0]
     with pytest.raises(robodyn.InputError, match="Payload: mass must be a finite number"):
@@ -117,17 +130,20 @@ def test_a_payload_is_checked_when_made_and_compares_by_value() -> None:
         Payload("tool0", 1.0, inertia=np.full((3, 3), np.inf))
 
 
-@pytest.mark.parametrize(("payloads", "match"), [
-    (TOOL, "a list of Payload"),
-    ({"frame": "tool0", "mass": 1.0}, "a list of Payload"),
-    ([{"frame": "tool0", "mass": float("nan")}], r"payloads\[0\]: mass must be a finite"),
-    ([{"frame": "", "mass": 1.0}], r"payloads\[0\]: frame must be a frame name"),
-    ([{"frame": "tool0", "mass": 1.0, "center_of_mass": [0.0, 0.1]}], "must have shape"),
-    ([{"frame": "tool0", "mass": 1.0, "inertia": np.eye(2)}], r"inertia must have shape"),
-    ([{"frame": "tool0"}], r"payloads\[0\] needs 'frame' and 'mass'"),
-    ([{"frame": "tool0", "mass": 1.0, "color": "red"}], "nothing else"),
-    ([3.0], r"payloads\[0\] must be a Payload or a mapping"),
-])
+@pytest.mark.parametrize(
+    ("payloads", "match"),
+    [
+        (TOOL, "a list of Payload"),
+        ({"frame": "tool0", "mass": 1.0}, "a list of Payload"),
+        ([{"frame": "tool0", "mass": float("nan")}], r"payloads\[0\]: mass must be a finite"),
+        ([{"frame": "", "mass": 1.0}], r"payloads\[0\]: frame must be a frame name"),
+        ([{"frame": "tool0", "mass": 1.0, "center_of_mass": [0.0, 0.1]}], "must have shape"),
+        ([{"frame": "tool0", "mass": 1.0, "inertia": np.eye(2)}], r"inertia must have shape"),
+        ([{"frame": "tool0"}], r"payloads\[0\] needs 'frame' and 'mass'"),
+        ([{"frame": "tool0", "mass": 1.0, "color": "red"}], "nothing else"),
+        ([3.0], r"payloads\[0\] must be a Payload or a mapping"),
+    ],
+)
 def test_bad_payloads_are_refused_before_sending(payloads: Any, match: str) -> None:
     mock = Recorder()
     with mock.client() as client, pytest.raises(robodyn.InputError, match=match):

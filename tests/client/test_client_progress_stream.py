@@ -29,8 +29,9 @@ def test_a_long_check_reports_the_servers_evaluated_points(server: str) -> None:
     seen: list[tuple[int, int]] = []
     with Client(server) as client:
         plain = client.trajectory_check("ur5", t, q, samples_per_interval=16)
-        check = client.trajectory_check("ur5", t, q, samples_per_interval=16,
-                                        progress=lambda *a: seen.append(a))
+        check = client.trajectory_check(
+            "ur5", t, q, samples_per_interval=16, progress=lambda *a: seen.append(a)
+        )
     evaluated = (t.size - 1) * 16 + 1
     assert len(seen) >= 2 and all(total == evaluated for _, total in seen)
     assert [d for d, _ in seen] == sorted(d for d, _ in seen)
@@ -39,16 +40,15 @@ def test_a_long_check_reports_the_servers_evaluated_points(server: str) -> None:
     np.testing.assert_array_equal(check.tau, plain.tau)
 
 
-def test_identify_reports_its_stages_and_the_async_client_too(server: str,
-                                                              registry: Any) -> None:
-    log = synthetic_log(registry.get("ur5").model, seed=5, duration=8.0, rate=200.0,
-                        noise=0.05)
+def test_identify_reports_its_stages_and_the_async_client_too(server: str, registry: Any) -> None:
+    log = synthetic_log(registry.get("ur5").model, seed=5, duration=8.0, rate=200.0, noise=0.05)
     seen: list[tuple[int, int]] = []
 
     async def identified() -> robodyn.Identification:
         async with AsyncClient(server, api_key=API_KEY) as client:
-            return await client.identify("ur5", log.t, log.q, log.tau, store=False,
-                                         progress=lambda *a: seen.append(a))
+            return await client.identify(
+                "ur5", log.t, log.q, log.tau, store=False, progress=lambda *a: seen.append(a)
+            )
 
     with Client(server, api_key=API_KEY) as client:
         plain = client.identify("ur5", log.t, log.q, log.tau, store=False)
@@ -66,19 +66,19 @@ def test_a_refused_request_raises_before_any_progress(server: str) -> None:
 
 
 def test_a_problem_line_raises_its_error_after_the_progress_before_it() -> None:
-    stream = (b'{"progress":{"done":1,"total":3,"unit":"step","stage":"path"}}\n'
-              b'{"problem":{"type":"about:blank","title":"Deadline exceeded","status":504,'
-              b'"detail":"retime: stopped","code":"deadline_exceeded"}}\n')
+    stream = (
+        b'{"progress":{"done":1,"total":3,"unit":"step","stage":"path"}}\n'
+        b'{"problem":{"type":"about:blank","title":"Deadline exceeded","status":504,'
+        b'"detail":"retime: stopped","code":"deadline_exceeded"}}\n'
+    )
 
     def handler(request: httpx.Request) -> httpx.Response:
         assert request.headers["accept"].startswith("application/x-ndjson")
-        return httpx.Response(200, content=stream,
-                              headers={"content-type": "application/x-ndjson"})
+        return httpx.Response(200, content=stream, headers={"content-type": "application/x-ndjson"})
 
     seen: list[tuple[int, int]] = []
     http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://robodyn.test")
-    with Client(http_client=http) as client, \
-            pytest.raises(robodyn.DeadlineExceededError) as raised:
+    with Client(http_client=http) as client, pytest.raises(robodyn.DeadlineExceededError) as raised:
         client.retime("ur5", np.zeros((2, 6)), progress=lambda *a: seen.append(a))
     assert seen == [(1, 3)]
     assert raised.value.status == 504 and raised.value.detail == "retime: stopped"
@@ -86,17 +86,23 @@ def test_a_problem_line_raises_its_error_after_the_progress_before_it() -> None:
 
 def test_a_stream_cut_before_its_answer_is_a_format_error() -> None:
     def handler(request: httpx.Request) -> httpx.Response:
-        return httpx.Response(200, content=b'{"progress":{"done":1,"total":3,"unit":"x"}}\n',
-                              headers={"content-type": "application/x-ndjson"})
+        return httpx.Response(
+            200,
+            content=b'{"progress":{"done":1,"total":3,"unit":"x"}}\n',
+            headers={"content-type": "application/x-ndjson"},
+        )
 
     http = httpx.Client(transport=httpx.MockTransport(handler), base_url="http://robodyn.test")
-    with Client(http_client=http) as client, \
-            pytest.raises(robodyn.ResponseFormatError, match="ended before the answer"):
+    with (
+        Client(http_client=http) as client,
+        pytest.raises(robodyn.ResponseFormatError, match="ended before the answer"),
+    ):
         client.retime("ur5", np.zeros((2, 6)), progress=lambda *a: None)
 
 
-def test_progress_true_shows_the_stage_in_a_tqdm_bar(server: str,
-                                                     capsys: pytest.CaptureFixture[str]) -> None:
+def test_progress_true_shows_the_stage_in_a_tqdm_bar(
+    server: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     pytest.importorskip("tqdm")
     t, q = _motion(20_000)
     with Client(server, progress=True) as client:
@@ -118,9 +124,15 @@ def test_leaving_a_stream_stops_its_computation(server: str) -> None:
     t, q = _motion(30_000, seconds=100.0)
     body = {"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 32}
     before = _stopped_by_disconnect(server)
-    with httpx.Client(timeout=60) as http, http.stream(
-            "POST", server + "/v1/robots/ur5/trajectory-check", json=body,
-            headers={"accept": "application/x-ndjson"}) as response:
+    with (
+        httpx.Client(timeout=60) as http,
+        http.stream(
+            "POST",
+            server + "/v1/robots/ur5/trajectory-check",
+            json=body,
+            headers={"accept": "application/x-ndjson"},
+        ) as response,
+    ):
         first = next(response.iter_lines())
     assert first.startswith('{"progress":'), first[:200]
     deadline = time.monotonic() + 20

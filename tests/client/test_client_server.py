@@ -23,8 +23,11 @@ from tests.client.helpers import (
 )
 
 QUANTITIES = {
-    "mass_matrix": ("q",), "gravity": ("q",), "coriolis": ("q", "v"),
-    "nonlinear_effects": ("q", "v"), "inverse_dynamics": ("q", "v", "a"),
+    "mass_matrix": ("q",),
+    "gravity": ("q",),
+    "coriolis": ("q", "v"),
+    "nonlinear_effects": ("q", "v"),
+    "inverse_dynamics": ("q", "v", "a"),
     "forward_dynamics": ("q", "v", "tau"),
 }
 README = Path(__file__).parents[2] / "clients" / "python" / "README.md"
@@ -44,7 +47,8 @@ def close(got: np.ndarray, want: np.ndarray) -> None:
 @pytest.mark.parametrize("quantity", list(QUANTITIES))
 @pytest.mark.parametrize("robot_id", CATALOG)
 def test_dynamics_equal_pinocchio_single_and_batch(
-        client: Client, reference: Reference, robot_id: str, quantity: str) -> None:
+    client: Client, reference: Reference, robot_id: str, quantity: str
+) -> None:
     states = reference.states(robot_id, 4, seed=7)
     inputs = [states[name] for name in QUANTITIES[quantity]]
     want = getattr(reference, quantity)(robot_id, *inputs)
@@ -58,8 +62,7 @@ def test_dynamics_equal_pinocchio_single_and_batch(
         close(got_single, w[2])
 
 
-def test_equation_of_motion_holds_through_the_client(client: Client, reference: Reference
-                                                     ) -> None:
+def test_equation_of_motion_holds_through_the_client(client: Client, reference: Reference) -> None:
     s = reference.states("talos", 5, seed=3)
     q, v, a = s["q"], s["v"], s["a"]
     M = client.mass_matrix("talos", q)
@@ -85,8 +88,10 @@ def test_upload_closed_form_and_delete(server: str, reference: Reference) -> Non
             # Uniform rods about y: I = m l²/12 at the centre of mass, half way along.
             i1, i2, c2 = m1 * l1**2 / 12, m2 * l2**2 / 12, np.cos(q[1])
             m12 = i2 + m2 * (l2**2 / 4 + l1 * l2 / 2 * c2)
-            M = [[i1 + i2 + m1 * l1**2 / 4 + m2 * (l1**2 + l2**2 / 4 + l1 * l2 * c2), m12],
-                 [m12, i2 + m2 * l2**2 / 4]]
+            M = [
+                [i1 + i2 + m1 * l1**2 / 4 + m2 * (l1**2 + l2**2 / 4 + l1 * l2 * c2), m12],
+                [m12, i2 + m2 * l2**2 / 4],
+            ]
             np.testing.assert_allclose(client.mass_matrix(arm.id, q), M, rtol=1e-12)
             # Rotation about +y takes x to (cos, 0, −sin): height of a point at r is −r sin.
             g2 = -m2 * g0 * l2 / 2 * np.cos(q[0] + q[1])
@@ -95,8 +100,10 @@ def test_upload_closed_form_and_delete(server: str, reference: Reference) -> Non
 
             reference.add_urdf(arm.id, urdf)
             s = reference.states(arm.id, 3, seed=11)
-            close(client.forward_dynamics(arm.id, s["q"], s["v"], s["tau"]),
-                  reference.forward_dynamics(arm.id, s["q"], s["v"], s["tau"]))
+            close(
+                client.forward_dynamics(arm.id, s["q"], s["v"], s["tau"]),
+                reference.forward_dynamics(arm.id, s["q"], s["v"], s["tau"]),
+            )
         finally:
             client.delete(arm.id)
         assert arm.id not in client.robots()
@@ -106,8 +113,10 @@ def test_upload_closed_form_and_delete(server: str, reference: Reference) -> Non
 
 def test_uploads_need_the_api_key(server: str) -> None:
     for key in (None, "wrong-key"):
-        with Client(server, api_key=key) as client, \
-                pytest.raises(robodyn.UnauthorizedError, match="API key") as err:
+        with (
+            Client(server, api_key=key) as client,
+            pytest.raises(robodyn.UnauthorizedError, match="API key") as err,
+        ):
             client.upload(two_link_urdf(name="denied"))
         assert isinstance(err.value, PermissionError) and err.value.status == 401
     with Client(server) as client, pytest.raises(robodyn.UnauthorizedError):
@@ -131,7 +140,9 @@ def test_info_and_health(client: Client) -> None:
     assert {r.id: (r.nq, r.nv) for r in robots}["talos"] == (39, 38)
     pendulum = client.robot("double_pendulum_continuous")
     assert [(j.type, j.idx_q, j.nq, j.idx_v, j.nv) for j in pendulum.joints] == [
-        ("continuous", 0, 2, 0, 1), ("continuous", 2, 2, 1, 1)]
+        ("continuous", 0, 2, 0, 1),
+        ("continuous", 2, 2, 1, 1),
+    ]
     np.testing.assert_array_equal(pendulum.neutral_configuration, [1.0, 0.0, 1.0, 0.0])
     with pytest.raises(ValueError, match="read-only"):
         pendulum.neutral_configuration[0] = 2.0
@@ -149,21 +160,26 @@ def test_connection_is_reused_and_closed(server: str) -> None:
 
 
 def test_transport_failures_are_wrapped(server: str) -> None:
-    with Client(f"http://127.0.0.1:{free_port()}") as client, \
-            pytest.raises(robodyn.TransportError) as err:
+    with (
+        Client(f"http://127.0.0.1:{free_port()}") as client,
+        pytest.raises(robodyn.TransportError) as err,
+    ):
         client.robots()
     assert isinstance(err.value.__cause__, httpx.ConnectError)
     assert not isinstance(err.value, robodyn.TimeoutError) and err.value.method == "GET"
     q = np.tile(np.r_[np.zeros(3), 0, 0, 0, 1, np.zeros(32)], (2000, 1))  # ~1.5 MB to parse
-    with Client(server, timeout=httpx.Timeout(10.0, read=0.001)) as client, \
-            pytest.raises(robodyn.TimeoutError) as timeout:
+    with (
+        Client(server, timeout=httpx.Timeout(10.0, read=0.001)) as client,
+        pytest.raises(robodyn.TimeoutError) as timeout,
+    ):
         client.gravity("talos", q)
     assert isinstance(timeout.value, TimeoutError)  # the builtin
     assert isinstance(timeout.value.__cause__, httpx.ReadTimeout)
 
 
-def test_readme_example_runs(server: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                             capsys: pytest.CaptureFixture[str]) -> None:
+def test_readme_example_runs(
+    server: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     text = README.read_text()
     files = re.findall(r"<!-- file: (\S+) -->\n```\w+\n(.*?)```", text, re.S)
     examples = re.findall(r"<!-- example -->\n```python\n(.*?)```", text, re.S)

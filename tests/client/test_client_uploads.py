@@ -24,11 +24,12 @@ from tests.client.helpers import two_link_urdf
 from tests.service.registry.mjcf_reference import cube_stl
 from tests.service.registry.test_xacro import ARGS_XACRO, PART
 
-MODEL = ('<mujoco model="meshy"><compiler meshdir="assets"/><include file="parts/arm.xml"/>'
-         '</mujoco>')
-ARM = ('<mujoco><asset><mesh name="cube" file="./cube.stl"/></asset><worldbody><body name="b">'
-       '<joint axis="0 1 0"/><geom type="mesh" mesh="cube" density="900"/></body></worldbody>'
-       '</mujoco>')
+MODEL = '<mujoco model="meshy"><compiler meshdir="assets"/><include file="parts/arm.xml"/></mujoco>'
+ARM = (
+    '<mujoco><asset><mesh name="cube" file="./cube.stl"/></asset><worldbody><body name="b">'
+    '<joint axis="0 1 0"/><geom type="mesh" mesh="cube" density="900"/></body></worldbody>'
+    "</mujoco>"
+)
 
 
 @pytest.fixture(scope="module")
@@ -63,8 +64,9 @@ def test_a_directory_is_sent_with_what_it_references(client: Client, tmp_path: P
     info = client.upload(root)
     assert info.created and info.total_mass == pytest.approx(0.9, rel=1e-6)
     assert client.upload(root / "model.xml").id == info.id
-    explicit = client.upload(MODEL, assets={"parts/arm.xml": ARM,
-                                            "assets/cube.stl": root / "assets" / "cube.stl"})
+    explicit = client.upload(
+        MODEL, assets={"parts/arm.xml": ARM, "assets/cube.stl": root / "assets" / "cube.stl"}
+    )
     assert explicit.id == info.id and not explicit.created
     with pytest.raises(robodyn.InvalidModelError, match=r"arm\.xml"):
         client.upload(MODEL)  # text alone: nothing collected, the include is missing
@@ -83,7 +85,7 @@ def test_a_xacro_package_tree(client: Client, tmp_path: Path) -> None:
     assert set(body["assets"]) == {"parts/urdf/link.xacro", "parts/config/params.yaml"}
     info = client.upload(main, xacro_args={"mass": "2"})
     M = client.mass_matrix(info.id, [0.1])
-    np.testing.assert_allclose(M, [[0.001 + 2 * 0.25 ** 2]], rtol=1e-12)
+    np.testing.assert_allclose(M, [[0.001 + 2 * 0.25**2]], rtol=1e-12)
 
 
 def test_a_urdf_with_package_meshes(client: Client, tmp_path: Path) -> None:
@@ -93,36 +95,45 @@ def test_a_urdf_with_package_meshes(client: Client, tmp_path: Path) -> None:
     urdf = copy / "urdf" / "ur5_robot.urdf"
     body = upload_body(urdf)
     keys = set(body["assets"])
-    assert keys and all(k.startswith("example-robot-data/robots/ur_description/meshes/")
-                        for k in keys)
+    assert keys and all(
+        k.startswith("example-robot-data/robots/ur_description/meshes/") for k in keys
+    )
     info = client.upload(urdf)
     assert not [w for w in info.raw["warnings"] if w["code"] == "unreferenced_asset"]
     q = np.array([0.1, -0.5, 0.7, 0.2, 0.3, -0.1])
-    np.testing.assert_allclose(client.mass_matrix(info.id, q), client.mass_matrix("ur5", q),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        client.mass_matrix(info.id, q), client.mass_matrix("ur5", q), rtol=1e-12
+    )
 
 
-def _ros_package(root: Path, folder: str = "arm_description",
-                 package: str = "arm_description") -> Path:
+def _ros_package(
+    root: Path, folder: str = "arm_description", package: str = "arm_description"
+) -> Path:
     """A ROS package as cloned: package.xml, urdf/arm.urdf whose upper link's visual is
     `package://<package>/meshes/upper.stl`, the mesh, and a launch file (XML, not a model)."""
     pkg = root / folder
     for sub in ("urdf", "meshes", "launch"):
         (pkg / sub).mkdir(parents=True)
-    (pkg / "package.xml").write_text(f'<?xml version="1.0"?>\n<package format="3">'
-                                     f'<name>{package}</name><version>1.0.0</version></package>')
+    (pkg / "package.xml").write_text(
+        f'<?xml version="1.0"?>\n<package format="3">'
+        f"<name>{package}</name><version>1.0.0</version></package>"
+    )
     (pkg / "launch" / "view.launch.xml").write_text("<launch><arg name='gui'/></launch>")
-    visual = (f'<visual><geometry><mesh filename="package://{package}/meshes/upper.stl"/>'
-              '</geometry></visual>')
-    urdf = two_link_urdf(name="ros_arm").replace('<link name="upper">',
-                                                 f'<link name="upper">{visual}')
+    visual = (
+        f'<visual><geometry><mesh filename="package://{package}/meshes/upper.stl"/>'
+        "</geometry></visual>"
+    )
+    urdf = two_link_urdf(name="ros_arm").replace(
+        '<link name="upper">', f'<link name="upper">{visual}'
+    )
     (pkg / "urdf" / "arm.urdf").write_text(urdf)
     (pkg / "meshes" / "upper.stl").write_bytes(cube_stl())
     return pkg
 
 
-def test_a_ros_package_layout_is_found_and_its_meshes_resolve(app, client: Client,
-                                                             tmp_path: Path) -> None:
+def test_a_ros_package_layout_is_found_and_its_meshes_resolve(
+    app, client: Client, tmp_path: Path
+) -> None:
     ws = tmp_path / "ws"
     pkg = _ros_package(ws / "src")
     for given in (ws, ws / "src", pkg):  # a workspace, its src folder, or the package itself
@@ -154,9 +165,11 @@ def test_the_tree_search_prefers_urdf_folders_and_skips_included_files(tmp_path:
     (pkg / "urdf" / "arm.urdf").unlink()
     (pkg / "urdf" / "arm.urdf.xacro").write_text(
         '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="x">'
-        '<xacro:include filename="$(find arm_description)/urdf/arm.macro.xacro"/></robot>')
-    (pkg / "urdf" / "arm.macro.xacro").write_text('<robot xmlns:xacro="http://www.ros.org/wiki/'
-                                                  'xacro"><link name="l"/></robot>')
+        '<xacro:include filename="$(find arm_description)/urdf/arm.macro.xacro"/></robot>'
+    )
+    (pkg / "urdf" / "arm.macro.xacro").write_text(
+        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="l"/></robot>'
+    )
     body = upload_body(tmp_path)
     assert "arm.macro.xacro" in body["xacro"]
     assert set(body["assets"]) == {"arm_description/urdf/arm.macro.xacro"}
@@ -168,8 +181,9 @@ def test_the_tree_search_prefers_urdf_folders_and_skips_included_files(tmp_path:
 def test_the_format_is_told_from_the_text() -> None:
     from robodyn.uploads import detect_format
 
-    generated = ('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
-                 '<link name="a"/></robot>')
+    generated = (
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="a"/></robot>'
+    )
     assert detect_format(generated) == "urdf"  # xacro's output keeps the namespace
     assert detect_format(ARGS_XACRO) == "xacro"
     assert detect_format(MODEL) == "mjcf"
@@ -190,8 +204,10 @@ def test_local_errors(tmp_path: Path) -> None:
 async def test_async_client_uploads_a_directory(app, tmp_path: Path) -> None:
     root = _mjcf_dir(tmp_path / "async")
     transport = httpx.ASGITransport(app=app)
-    async with (httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
-                AsyncClient(http_client=http) as client):
+    async with (
+        httpx.AsyncClient(transport=transport, base_url="http://robodyn.test") as http,
+        AsyncClient(http_client=http) as client,
+    ):
         info = await client.upload(root, gravity=[0, 0, -1])
         assert info.raw["gravity"] == [0, 0, -1]
         M = await client.mass_matrix(info.id, [0.2])

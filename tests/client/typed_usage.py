@@ -25,8 +25,13 @@ class JointState:
 def main(url: str, api_key: str, urdf: str) -> dict[str, float]:
     """Every client method once; returns a few numbers so that the run is checked."""
     done: list[tuple[int, int]] = []
-    with Client(url, api_key=api_key, retry=Retry(attempts=3, timeout=10.0),
-                progress=lambda n, total: done.append((n, total)), fill="neutral") as client:
+    with Client(
+        url,
+        api_key=api_key,
+        retry=Retry(attempts=3, timeout=10.0),
+        progress=lambda n, total: done.append((n, total)),
+        fill="neutral",
+    ) as client:
         assert client.health()["status"] == "ok" and client.ready()
         assert "ur5" in client.robots().ids
         info: robodyn.RobotInfo = client.robot("ur5")
@@ -36,34 +41,54 @@ def main(url: str, api_key: str, urdf: str) -> dict[str, float]:
         g: np.ndarray = client.gravity("ur5", q.tolist())
         C, Cv = client.coriolis("ur5", q, v)
         h = client.nonlinear_effects("ur5", q, v)
-        tau = client.inverse_dynamics("ur5", q, v, v, external_forces=[
-            {"frame": "tool0", "wrench": [0, 0, 10, 0, 0, 0], "reference_frame": "world"}])
+        tau = client.inverse_dynamics(
+            "ur5",
+            q,
+            v,
+            v,
+            external_forces=[
+                {"frame": "tool0", "wrench": [0, 0, 10, 0, 0, 0], "reference_frame": "world"}
+            ],
+        )
         a = client.forward_dynamics("ur5", q, v, tau)
         Minv = client.mass_matrix_inverse("ur5", q)
         energy = client.energy("ur5", q, v)
         com = client.center_of_mass("ur5", q, v)
         J = client.jacobian("ur5", q, "tool0", reference_frame="world", v=v)
-        osd = client.operational_space("ur5", q, "tool0", v=v, reference_frame="local",
-                                       task="linear", damping=1e-3)
+        osd = client.operational_space(
+            "ur5", q, "tool0", v=v, reference_frame="local", task="linear", damping=1e-3
+        )
         inertias = client.inertias("ur5")
         did = client.inverse_dynamics_derivatives("ur5", q, v, a)
         fdd = client.forward_dynamics_derivatives("ur5", q, v, tau)
         cen = client.centroidal("ur5", q, v)
-        traj = client.simulate("ur5", q, np.zeros(info.nv), dt=1e-3, steps=10,
-                               integrator="rk4", progress=None)
+        traj = client.simulate(
+            "ur5", q, np.zeros(info.nv), dt=1e-3, steps=10, integrator="rk4", progress=None
+        )
         state = JointState(name=["shoulder_lift_joint", "elbow_joint"], position=[-1.0, 1.0])
         g_ros = client.gravity("ur5", state)  # the other joints at neutral (fill)
         arm = client.upload(urdf, root_joint="fixed", inertia_check="warn", name="typed")
         reduced = client.reduce("ur5", {"wrist_3_joint": 0.0}, name="ur5_no_wrist3")
         client.delete(arm.id)
         client.delete(reduced.id)
-    return {"M00": float(M[0, 0]), "g1": float(g[1]), "C": float(C.sum() + Cv.sum()),
-            "h": float(h.sum()), "Minv": float(Minv[0, 0]), "T": float(energy.kinetic_energy),
-            "com": float(com.position[2]), "J": float(J.jacobian.sum()),
-            "osd": float(osd.inertia[0, 0]), "mass": inertias.total_mass,
-            "did": float(did.dtau_dq.sum()), "fdd": float(fdd.da_dq.sum()),
-            "cen": float(cen.momentum.sum()), "traj": float(traj.q[-1, 1]),
-            "g_ros": float(g_ros[1]), "chunks": float(len(done))}
+    return {
+        "M00": float(M[0, 0]),
+        "g1": float(g[1]),
+        "C": float(C.sum() + Cv.sum()),
+        "h": float(h.sum()),
+        "Minv": float(Minv[0, 0]),
+        "T": float(energy.kinetic_energy),
+        "com": float(com.position[2]),
+        "J": float(J.jacobian.sum()),
+        "osd": float(osd.inertia[0, 0]),
+        "mass": inertias.total_mass,
+        "did": float(did.dtau_dq.sum()),
+        "fdd": float(fdd.da_dq.sum()),
+        "cen": float(cen.momentum.sum()),
+        "traj": float(traj.q[-1, 1]),
+        "g_ros": float(g_ros[1]),
+        "chunks": float(len(done)),
+    }
 
 
 def carrying(client: Client, q: np.ndarray) -> float:
@@ -72,8 +97,9 @@ def carrying(client: Client, q: np.ndarray) -> float:
     tool = Payload("tool0", 2.0, center_of_mass=(0.0, 0.0, 0.05))
     g = client.gravity("ur5", q, payloads=[tool, {"frame": "wrist_3_link", "mass": 0.5}])
     limit = client.robot("ur5").joint("elbow_joint").effort_limit
-    cap = client.payload_capacity("ur5", q, "tool0", center_of_mass=[0.0, 0.0, 0.05],
-                                  payloads=[tool])
+    cap = client.payload_capacity(
+        "ur5", q, "tool0", center_of_mass=[0.0, 0.0, 0.05], payloads=[tool]
+    )
     variant = client.variant("ur5", payloads=[tool], name="ur5 with a tool")
     assert variant.parent == "ur5" and cap.minimum is None
     return float(g[1]) / (limit if isinstance(limit, float) else 1.0) + float(cap.mass)
@@ -84,8 +110,16 @@ def identifying(client: Client, t: np.ndarray, q: np.ndarray, tau: np.ndarray) -
     params: robodyn.InertialParameters = client.inertial_parameters("ur5")
     Y: np.ndarray = client.regressor("ur5", q[0], q[0], q[0])
     result: robodyn.Identification = client.identify(
-        "ur5", t, q, tau, friction="viscous", method="least-squares", filter_hz=5.0,
-        store=False, payload_frame="tool0")
+        "ur5",
+        t,
+        q,
+        tau,
+        friction="viscous",
+        method="least-squares",
+        filter_hz=5.0,
+        store=False,
+        payload_frame="tool0",
+    )
     friction: robodyn.JointFriction = result.friction[0]
     return float(Y @ params.parameters @ result.rmse.validation) + friction.viscous
 
@@ -93,8 +127,9 @@ def identifying(client: Client, t: np.ndarray, q: np.ndarray, tau: np.ndarray) -
 async def main_async(url: str) -> float:
     async with AsyncClient(url, retry=None, array_type="numpy") as client:
         info = await client.robot("ur5")
-        tau = await client.inverse_dynamics("ur5", np.zeros(info.nq), np.zeros(info.nv),
-                                            np.zeros(info.nv))
+        tau = await client.inverse_dynamics(
+            "ur5", np.zeros(info.nq), np.zeros(info.nv), np.zeros(info.nv)
+        )
         return float(tau[1])
 
 

@@ -9,6 +9,12 @@ from starlette.routing import Match
 
 def serves(app: Any, method: str, path: str) -> bool:
     """True when some route of `app` fully matches `method` `path` (as the router would)."""
-    scope = {"type": "http", "method": method, "path": path, "root_path": "", "headers": [],
-             "query_string": b""}
+    scope = {
+        "type": "http",
+        "method": method,
+        "path": path,
+        "root_path": "",
+        "headers": [],
+        "query_string": b"",
+    }
     return any(route.matches(scope)[0] == Match.FULL for route in app.router.routes)

@@ -22,8 +22,13 @@ pytestmark = pytest.mark.slow
 def test_image_builds_runs_and_answers_like_pinocchio():
     if shutil.which("buildah") is None:
         pytest.skip("buildah is not installed (deploy/scripts/container-base.sh installs it)")
-    result = subprocess.run([sys.executable, str(ROOT / "deploy/scripts/container_check.py")],
-                            capture_output=True, text=True, timeout=1800, cwd=ROOT)
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "deploy/scripts/container_check.py")],
+        capture_output=True,
+        text=True,
+        timeout=1800,
+        cwd=ROOT,
+    )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-5000:]
     summary = json.loads(result.stdout.strip().splitlines()[-1])
     assert summary["catalog_robots"] >= 60

@@ -58,16 +58,21 @@ def _hadolint() -> str:
 
 
 def test_hadolint_passes():
-    result = subprocess.run([_hadolint(), "--no-color", str(ROOT / "Dockerfile")],
-                            capture_output=True, text=True, timeout=60)
+    result = subprocess.run(
+        [_hadolint(), "--no-color", str(ROOT / "Dockerfile")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
 
 
 def test_hadolint_would_catch_a_bad_dockerfile(tmp_path):
     bad = tmp_path / "Dockerfile"
     bad.write_text("FROM python\nRUN apt-get install gcc\nCMD python -m service\n")
-    result = subprocess.run([_hadolint(), "--no-color", str(bad)], capture_output=True,
-                            text=True, timeout=60)
+    result = subprocess.run(
+        [_hadolint(), "--no-color", str(bad)], capture_output=True, text=True, timeout=60
+    )
     assert result.returncode != 0
     assert "DL3006" in result.stdout and "DL3025" in result.stdout  # untagged base, shell CMD
 
@@ -75,8 +80,12 @@ def test_hadolint_would_catch_a_bad_dockerfile(tmp_path):
 def test_dockerfile_has_what_the_image_needs(dockerfile):
     assert _one(dockerfile, "FROM") == "python:3.11-slim"
     runs = [args for kw, args in dockerfile if kw == "RUN"]
-    assert any("libgomp1" in run and "--no-install-recommends" in run
-               and "rm -rf /var/lib/apt/lists/*" in run for run in runs)
+    assert any(
+        "libgomp1" in run
+        and "--no-install-recommends" in run
+        and "rm -rf /var/lib/apt/lists/*" in run
+        for run in runs
+    )
     assert all("--no-cache-dir" in run for run in runs if "pip install" in run)
     assert _one(dockerfile, "EXPOSE") == "8000"
     user = _one(dockerfile, "USER").split(":")[0]
@@ -101,8 +110,9 @@ def test_the_health_check_uses_a_real_route(dockerfile):
 
 def test_dependencies_are_installed_before_the_code_is_copied(dockerfile):
     order = [(kw, args) for kw, args in dockerfile if kw in ("COPY", "RUN")]
-    install = next(i for i, (kw, args) in enumerate(order) if "requirements.lock" in args
-                   and kw == "RUN")
+    install = next(
+        i for i, (kw, args) in enumerate(order) if "requirements.lock" in args and kw == "RUN"
+    )
     code = [i for i, (kw, args) in enumerate(order) if kw == "COPY" and "service" in args]
     assert code and min(code) > install
     copied_before = [args for kw, args in order[:install] if kw == "COPY"]
@@ -110,8 +120,11 @@ def test_dependencies_are_installed_before_the_code_is_copied(dockerfile):
 
 
 def test_build_context_holds_only_what_the_dockerfile_copies(dockerfile):
-    patterns = [line.strip() for line in (ROOT / ".dockerignore").read_text().splitlines()
-                if line.strip() and not line.startswith("#")]
+    patterns = [
+        line.strip()
+        for line in (ROOT / ".dockerignore").read_text().splitlines()
+        if line.strip() and not line.startswith("#")
+    ]
     assert patterns[0] == "*"  # everything else (.venv, .git, tests, data) stays out
     allowed = {p[1:].rstrip("/") for p in patterns if p.startswith("!")}
     sources = {args.split()[0].rstrip("/") for kw, args in dockerfile if kw == "COPY"}
@@ -132,11 +145,13 @@ def test_requirements_lock_pins_every_dependency_of_pyproject():
     for spec in project["dependencies"]:
         requirement = Requirement(spec)
         name = canonicalize_name(requirement.name)
-        assert name in pins, f"{name} is not in deploy/requirements.lock: run " \
-                             "deploy/scripts/lock-requirements.sh"
+        assert name in pins, (
+            f"{name} is not in deploy/requirements.lock: run deploy/scripts/lock-requirements.sh"
+        )
         assert requirement.specifier.contains(pins[name], prereleases=True), (
             f"{name}=={pins[name]} does not satisfy {requirement}: run "
-            "deploy/scripts/lock-requirements.sh")
+            "deploy/scripts/lock-requirements.sh"
+        )
     assert "uvloop" in pins and "httptools" in pins  # uvicorn[standard]'s extras too
 
 

@@ -152,8 +152,10 @@ def test_graceful_termination_outlasts_the_longest_request(pod, container):
     server_drain = 30  # uvicorn's timeout_graceful_shutdown in `python -m service`
     main_source = (ROOT / "service" / "__main__.py").read_text()
     assert f"timeout_graceful_shutdown={server_drain}" in main_source
-    longest_request = max(float(env["ROBODYN_BUILD_TIMEOUT_S"]),  # an upload's model build
-                          float(env["ROBODYN_EQUATIONS_TIMEOUT_S"]))  # a first derivation
+    longest_request = max(
+        float(env["ROBODYN_BUILD_TIMEOUT_S"]),  # an upload's model build
+        float(env["ROBODYN_EQUATIONS_TIMEOUT_S"]),
+    )  # a first derivation
     grace = pod["terminationGracePeriodSeconds"]
     assert grace > int(pre_stop[1]) + max(server_drain, longest_request)
 
@@ -163,8 +165,9 @@ def test_autoscaler_and_disruption_budget_keep_replicas_serving():
     hpa = _kind("HorizontalPodAutoscaler")
     target = hpa["spec"]["scaleTargetRef"]
     assert (target["kind"], target["name"]) == ("Deployment", deployment["metadata"]["name"])
-    assert hpa["spec"]["minReplicas"] >= 2 and hpa["spec"]["maxReplicas"] > hpa["spec"][
-        "minReplicas"]
+    assert (
+        hpa["spec"]["minReplicas"] >= 2 and hpa["spec"]["maxReplicas"] > hpa["spec"]["minReplicas"]
+    )
     (metric,) = hpa["spec"]["metrics"]
     assert metric["type"] == "Resource" and metric["resource"]["name"] == "cpu"
     pdb = _kind("PodDisruptionBudget")

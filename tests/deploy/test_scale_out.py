@@ -24,8 +24,19 @@ def test_two_replicas_behind_nginx_survive_losing_one(stop):
     if shutil.which("nginx") is None and not Path("/usr/sbin/nginx").exists():
         pytest.skip("nginx is not installed (Debian: apt-get install -y nginx)")
     result = subprocess.run(
-        [sys.executable, str(ROOT / "deploy/scripts/scale_out.py"), "--requests", "200",
-         "--stop", stop], capture_output=True, text=True, timeout=900, cwd=ROOT)
+        [
+            sys.executable,
+            str(ROOT / "deploy/scripts/scale_out.py"),
+            "--requests",
+            "200",
+            "--stop",
+            stop,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        cwd=ROOT,
+    )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-5000:]
     summary = json.loads(result.stdout.strip().splitlines()[-1])
     both, one = summary["both_up"], summary["one_stopped"]

@@ -66,8 +66,15 @@ def free_port() -> int:
 class Server:
     """`python -m service` in a subprocess (its own process group) on a free loopback port."""
 
-    def __init__(self, data_dir: Path, *, workers: int = 1, catalog: str = "ur5,planar_arm",
-                 env: dict[str, str] | None = None, port: int | None = None) -> None:
+    def __init__(
+        self,
+        data_dir: Path,
+        *,
+        workers: int = 1,
+        catalog: str = "ur5,planar_arm",
+        env: dict[str, str] | None = None,
+        port: int | None = None,
+    ) -> None:
         self.data_dir, self.workers, self.catalog = data_dir, workers, catalog
         self.extra_env = env or {}
         self.port = port or free_port()
@@ -76,15 +83,30 @@ class Server:
         self.log = data_dir.parent / f"server-{self.port}.log"
 
     def start(self, ready: bool = True) -> Server:
-        env = {**os.environ, "ROBODYN_DATA_DIR": str(self.data_dir),
-               "ROBODYN_CATALOG": self.catalog, "ROBODYN_LOG_LEVEL": "warning",
-               **self.extra_env}
+        env = {
+            **os.environ,
+            "ROBODYN_DATA_DIR": str(self.data_dir),
+            "ROBODYN_CATALOG": self.catalog,
+            "ROBODYN_LOG_LEVEL": "warning",
+            **self.extra_env,
+        }
         with self.log.open("ab") as log:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "service", "--port", str(self.port),
-                 "--workers", str(self.workers)],
-                env=env, cwd=REPO, stdout=log, stderr=subprocess.STDOUT,
-                start_new_session=True)
+                [
+                    sys.executable,
+                    "-m",
+                    "service",
+                    "--port",
+                    str(self.port),
+                    "--workers",
+                    str(self.workers),
+                ],
+                env=env,
+                cwd=REPO,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+            )
         if ready:
             wait_ready(lambda path: httpx.get(self.base + path, timeout=2))
         return self

@@ -26,9 +26,14 @@ class Answer:
         return "close" in self.headers.get("connection", "").lower()
 
 
-def request(method: str, path: str, body: bytes | None = None,
-            content_type: str | None = "application/json", headers: tuple[str, ...] = (),
-            content_length: int | None = None) -> bytes:
+def request(
+    method: str,
+    path: str,
+    body: bytes | None = None,
+    content_type: str | None = "application/json",
+    headers: tuple[str, ...] = (),
+    content_length: int | None = None,
+) -> bytes:
     lines = [f"{method} {path} HTTP/1.1", "host: test"]
     if body is not None or content_length is not None:
         length = len(body or b"") if content_length is None else content_length

@@ -45,13 +45,19 @@ def _options(quantity: str, robot) -> list[tuple[dict, bool]]:
     if quantity == "jacobian":
         return [({"frame": frame}, False), ({"frame": frame}, True)]
     if quantity == "operational-space":
-        return [({"frame": frame, "task": t, "damping": 0.5}, v)
-                for t in ("full", "linear", "angular") for v in (False, True)]
+        return [
+            ({"frame": frame, "task": t, "damping": 0.5}, v)
+            for t in ("full", "linear", "angular")
+            for v in (False, True)
+        ]
     if quantity == "center-of-mass":
         return [({}, False), ({}, True)]
     if quantity == "simulate":
-        return [({"dt": 0.001, "steps": 3}, True), ({"dt": 0.001, "steps": 7}, True),
-                ({"dt": 0.001, "steps": 3, "contacts": _contacts(robot), "damping": 1e-3}, True)]
+        return [
+            ({"dt": 0.001, "steps": 3}, True),
+            ({"dt": 0.001, "steps": 7}, True),
+            ({"dt": 0.001, "steps": 3, "contacts": _contacts(robot), "damping": 1e-3}, True),
+        ]
     if quantity.startswith(("contact-", "impulse-")):
         return [({"contacts": _contacts(robot), "damping": 1e-3}, True)]
     if quantity == "payload-capacity":
@@ -84,8 +90,10 @@ def _inputs(robot, quantity: dynamics.Quantity, with_v: bool, n: int) -> dict:
 @pytest.mark.parametrize("path", sorted(dynamics.QUANTITIES))
 def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -> None:
     if path == "retime":
-        pytest.skip("retime's sample count follows from the duration, known only after "
-                    "solving: it checks the budget itself (dynamics/trajectories/test_http.py)")
+        pytest.skip(
+            "retime's sample count follows from the duration, known only after "
+            "solving: it checks the budget itself (dynamics/trajectories/test_http.py)"
+        )
     quantity = dynamics.QUANTITIES[path]
     for robot in robots.values():
         for options, with_v in _options(path, robot):
@@ -95,20 +103,29 @@ def test_the_formulas_count_the_numbers_of_computed_answers(robots, path: str) -
             states = prepare(robot, arrays, 100)
             limits = {name: getattr(SETTINGS, name) for name in quantity.settings}
             result = dynamics.run(robot, quantity, states, {**options, **limits})
-            numbers = sum(np.asarray(value).size for value in result.values()
-                          if np.asarray(value).dtype.kind == "f")  # names are sent once
+            numbers = sum(
+                np.asarray(value).size
+                for value in result.values()
+                if np.asarray(value).dtype.kind == "f"
+            )  # names are sent once
             predicted = quantity.answer_size(robot, options, "v" in states.arrays)
             assert numbers == 2 * predicted, (path, robot.id, options, with_v)
 
 
-@pytest.mark.parametrize("shape", [(3,), (70_000,), (5, 40_000), (300, 38, 38), (2, 3, 50_001),
-                                   (1, 2)])
+@pytest.mark.parametrize(
+    "shape", [(3,), (70_000,), (5, 40_000), (300, 38, 38), (2, 3, 50_001), (1, 2)]
+)
 def test_json_pieces_are_the_same_text(monkeypatch, shape) -> None:
     rng = np.random.default_rng(0)
     value = rng.normal(0, 1e3, shape) * rng.choice([1e-12, 1, 1e12], shape)
-    content = {"a": value, "energy": 1.5, "named": [{"j1": 1.0}] * 3000,
-               "trajectories": [[{"j1": 1.0, "j2": -2e-9}] * 1500] * 2, "empty": [],
-               "b": np.ascontiguousarray(value[..., :1])}
+    content = {
+        "a": value,
+        "energy": 1.5,
+        "named": [{"j1": 1.0}] * 3000,
+        "trajectories": [[{"j1": 1.0, "j2": -2e-9}] * 1500] * 2,
+        "empty": [],
+        "b": np.ascontiguousarray(value[..., :1]),
+    }
     assert b"".join(answers.json_pieces(content)) == answers.json_bytes(content)
     monkeypatch.setattr(answers, "PIECE_NUMBERS", 7)
     pieces = answers.json_pieces(content)
@@ -127,8 +144,12 @@ def test_answers_keyed_by_joint_name_count_their_keys(app_factory) -> None:
     ok = client.post("/v1/robots/ur5/gravity", json={"q": q[:fits_named], "joint_names": True})
     assert ok.status_code == 200 and len(ok.content) <= 100_000
     assert client.post("/v1/robots/ur5/gravity", json={"q": q[:fits]}).status_code == 200
-    assert client.post("/v1/robots/ur5/gravity", json={"q": q[:fits_named + 1],
-                                                        "joint_names": True}).status_code == 413
+    assert (
+        client.post(
+            "/v1/robots/ur5/gravity", json={"q": q[: fits_named + 1], "joint_names": True}
+        ).status_code
+        == 413
+    )
 
 
 # -- a real server ---------------------------------------------------------------------------
@@ -173,11 +194,14 @@ def test_a_batch_over_the_budget_is_refused_before_computing(base: str) -> None:
     assert ok.status_code == 200
     assert len(ok.content) <= budget
     assert len(ok.json()["mass_matrix"]) == fits
-    over = httpx.post(base + "/v1/robots/talos/mass-matrix", json={"q": q[:fits + 1]},
-                      timeout=120)
+    over = httpx.post(base + "/v1/robots/talos/mass-matrix", json={"q": q[: fits + 1]}, timeout=120)
     assert over.status_code == 413
-    binary = httpx.post(base + "/v1/robots/talos/mass-matrix", json={"q": q[:fits + 1]},
-                        headers={"accept": BINARY_MEDIA_TYPE}, timeout=300)
+    binary = httpx.post(
+        base + "/v1/robots/talos/mass-matrix",
+        json={"q": q[: fits + 1]},
+        headers={"accept": BINARY_MEDIA_TYPE},
+        timeout=300,
+    )
     assert binary.status_code == 200, binary.text[:300]  # 8 bytes a number: it fits
     assert len(binary.content) >= (fits + 1) * per_state * 8
 
@@ -193,8 +217,10 @@ def test_a_long_simulation_over_the_budget_names_the_steps_that_fit(app_factory)
     assert f"simulate at most {steps:,} steps per request" in r.json()["detail"]
     ok = client.post("/v1/robots/ur5/simulate", json={**start, "steps": steps})
     assert ok.status_code == 200 and len(ok.content) <= 1_000_000
-    assert client.post("/v1/robots/ur5/simulate", json={**start, "steps": steps + 1}
-                       ).status_code == 413
+    assert (
+        client.post("/v1/robots/ur5/simulate", json={**start, "steps": steps + 1}).status_code
+        == 413
+    )
 
 
 # A latency bound measured against the machine: in the slow suite (a loaded 2-core machine
@@ -204,9 +230,14 @@ def test_a_long_simulation_over_the_budget_names_the_steps_that_fit(app_factory)
 def test_health_stays_fast_while_a_large_answer_is_produced(base: str, accept: str) -> None:
     states = 7000 if accept == "application/json" else 20000  # ~120 MB and ~230 MB answers
     body = orjson.dumps({"q": _talos_q(states)})
+
     def post() -> httpx.Response:
-        return httpx.post(base + "/v1/robots/talos/mass-matrix", content=body, timeout=300,
-                          headers={"content-type": "application/json", "accept": accept})
+        return httpx.post(
+            base + "/v1/robots/talos/mass-matrix",
+            content=body,
+            timeout=300,
+            headers={"content-type": "application/json", "accept": accept},
+        )
 
     r, latencies = health_latencies_during(base, post)
     assert r.status_code == 200

@@ -28,8 +28,13 @@ def http_routes(app) -> list[tuple[str, str, str]]:
     for path, operations in app.openapi()["paths"].items():
         for method, operation in operations.items():
             concrete = re.sub(r"\{[^}]+\}", "ur5", path)
-            out.append((method.upper(), concrete, classify(path, method.upper(),
-                                                           operation.get("tags", []))))
+            out.append(
+                (
+                    method.upper(),
+                    concrete,
+                    classify(path, method.upper(), operation.get("tags", [])),
+                )
+            )
     for route in app.routes:
         path = getattr(route, "path", None)
         if path is not None and path not in app.openapi()["paths"]:

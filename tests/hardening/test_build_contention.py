@@ -31,10 +31,12 @@ def heavy_mjcf(i: int, sites: int = 20_000) -> str:
     """A valid one-joint MJCF with `sites` sites (each upload different; 0.75 MB for 20,000):
     on one core about 1.5 s of XML validation and 3–4 s of native parsing."""
     s = "".join(f'<site name="s{k}" pos="{i}.{k} 0 0"/>' for k in range(sites))
-    return (f'<mujoco model="heavy{i}"><compiler angle="radian"/><worldbody><body name="arm">'
-            '<joint name="shoulder" type="hinge" axis="0 -1 0" range="-3 3"/>'
-            f'<inertial pos="1 0 0" mass="2" diaginertia="0.1 0.1 0.1"/>{s}</body></worldbody>'
-            "</mujoco>")
+    return (
+        f'<mujoco model="heavy{i}"><compiler angle="radian"/><worldbody><body name="arm">'
+        '<joint name="shoulder" type="hinge" axis="0 -1 0" range="-3 3"/>'
+        f'<inertial pos="1 0 0" mass="2" diaginertia="0.1 0.1 0.1"/>{s}</body></worldbody>'
+        "</mujoco>"
+    )
 
 
 def _session_processes(session: int) -> list[tuple[int, int, str]]:
@@ -56,8 +58,11 @@ def _session_processes(session: int) -> list[tuple[int, int, str]]:
 def builder_count(server_pid: int) -> int:
     """Builder processes of a server: forked by its forkserver (they share its command line),
     the forkserver itself (a child of the server) not counted."""
-    return sum(1 for pid, ppid, cmd in _session_processes(server_pid)
-               if "forkserver" in cmd and ppid != server_pid)
+    return sum(
+        1
+        for pid, ppid, cmd in _session_processes(server_pid)
+        if "forkserver" in cmd and ppid != server_pid
+    )
 
 
 PROBE = """
@@ -77,8 +82,9 @@ print(json.dumps(latencies))
 
 @pytest.mark.slow  # a latency bound under eight builds: in the slow suite with the other probes
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
-def test_heavy_concurrent_uploads_keep_the_server_live_and_builders_bounded(server_factory,
-                                                                          tmp_path):
+def test_heavy_concurrent_uploads_keep_the_server_live_and_builders_bounded(
+    server_factory, tmp_path
+):
     server = server_factory(catalog="planar_arm").start()
     assert server.proc is not None
     bodies = [{"mjcf": heavy_mjcf(i)} for i in range(8)]
@@ -88,8 +94,9 @@ def test_heavy_concurrent_uploads_keep_the_server_live_and_builders_bounded(serv
     stop.write_text("")
     # /health/live is probed from its own process, so that the uploading threads of this one
     # (encoding bodies, reading answers) cannot delay the probe's own measurement
-    probe = subprocess.Popen([sys.executable, "-c", PROBE, server.base, str(stop)],
-                             stdout=subprocess.PIPE, text=True)
+    probe = subprocess.Popen(
+        [sys.executable, "-c", PROBE, server.base, str(stop)], stdout=subprocess.PIPE, text=True
+    )
 
     def count() -> None:
         nonlocal most_builders
@@ -121,7 +128,8 @@ def test_heavy_concurrent_uploads_keep_the_server_live_and_builders_bounded(serv
     lat = np.array(json.loads(out))
     assert len(lat) > 20
     assert np.percentile(lat, 99) < 0.25 and lat.max() < 0.5, (
-        f"/health/live p99 {np.percentile(lat, 99):.3f} s, max {lat.max():.3f} s")
+        f"/health/live p99 {np.percentile(lat, 99):.3f} s, max {lat.max():.3f} s"
+    )
 
 
 def test_uploads_beyond_the_builders_and_the_wait_are_503_overloaded(tmp_path):
@@ -129,9 +137,11 @@ def test_uploads_beyond_the_builders_and_the_wait_are_503_overloaded(tmp_path):
     registry.load()
     app = create_app(Settings(data_dir=tmp_path), registry=registry)
     with TestClient(app, raise_server_exceptions=False) as client, ThreadPoolExecutor(3) as pool:
-        answers = list(pool.map(lambda i: client.post("/v1/robots",
-                                                      json={"mjcf": heavy_mjcf(i, 8000)}),
-                                range(3)))
+        answers = list(
+            pool.map(
+                lambda i: client.post("/v1/robots", json={"mjcf": heavy_mjcf(i, 8000)}), range(3)
+            )
+        )
     statuses = sorted(r.status_code for r in answers)
     assert statuses[0] == 201 and 503 in statuses, statuses
     for r in answers:

@@ -14,8 +14,19 @@ from tests.hardening.corpus import CASES, Case
 from tests.helpers import planar_arm_closed_form, planar_arm_urdf
 
 SENTINEL = planar_arm_urdf(0.7, 0.5, 1.5, 0.5)
-CATEGORIES = ("malformed", "wrong-root", "structure", "numbers", "physics", "entities",
-              "meshes", "assets", "huge", "unicode", "request")
+CATEGORIES = (
+    "malformed",
+    "wrong-root",
+    "structure",
+    "numbers",
+    "physics",
+    "entities",
+    "meshes",
+    "assets",
+    "huge",
+    "unicode",
+    "request",
+)
 
 
 def test_the_corpus_is_large_and_covers_every_category():
@@ -59,13 +70,15 @@ def corpus_client(tmp_path_factory):
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
 def test_hostile_upload(corpus_client, case):
-    r = corpus_client.post("/v1/robots", content=case.content(),
-                           headers={"content-type": "application/json"})
+    r = corpus_client.post(
+        "/v1/robots", content=case.content(), headers={"content-type": "application/json"}
+    )
     check_answer(case, r)
     if case.status == 201:  # an accepted model computes
         info = r.json()
-        g = corpus_client.post(f"/v1/robots/{info['id']}/gravity",
-                               json={"q": info["neutral_configuration"]})
+        g = corpus_client.post(
+            f"/v1/robots/{info['id']}/gravity", json={"q": info["neutral_configuration"]}
+        )
         assert g.status_code == 200, g.text
     # the service is alive and still serves the earlier upload, correctly
     assert corpus_client.get("/health/live").json() == {"status": "ok"}

@@ -28,8 +28,9 @@ def test_corpus_against_a_real_server(server_factory):
         q = [0.3, -0.2]
         expected, _, _ = planar_arm_closed_form(0.7, 0.5, 1.5, 0.5, np.array(q), np.zeros(2))
         for case in CASES:
-            r = http.post("/v1/robots", content=case.content(),
-                          headers={"content-type": "application/json"})
+            r = http.post(
+                "/v1/robots", content=case.content(), headers={"content-type": "application/json"}
+            )
             check_answer(case, r)
             assert server.alive(), (case.id, server.log_text()[-2000:])
             assert http.get("/health/live").status_code == 200, case.id
@@ -48,14 +49,30 @@ def _health_latencies(base: str, stop: threading.Event, out: list[float]) -> Non
             time.sleep(0.05)
 
 
-@pytest.mark.parametrize("env, fragment", [
-    # nv = 300 passes the (raised) nv cap; createData then needs ~1.7 GB and ~2 s
-    ({"ROBODYN_MAX_NV": "400", "ROBODYN_BUILD_TIMEOUT_S": "1",
-      "ROBODYN_BUILD_MEMORY_MB": "4096"}, "took longer than 1 s"),
-    ({"ROBODYN_MAX_NV": "400", "ROBODYN_BUILD_MEMORY_MB": "512"}, "memory limit of 512 MB"),
-    ({"ROBODYN_MAX_NV": "400", "ROBODYN_BUILD_MEMORY_MB": "4096", "ROBODYN_BUILD_CPU_S": "1"},
-     "CPU limit of 1 s"),
-], ids=["wall-clock", "memory", "cpu"])
+@pytest.mark.parametrize(
+    "env, fragment",
+    [
+        # nv = 300 passes the (raised) nv cap; createData then needs ~1.7 GB and ~2 s
+        (
+            {
+                "ROBODYN_MAX_NV": "400",
+                "ROBODYN_BUILD_TIMEOUT_S": "1",
+                "ROBODYN_BUILD_MEMORY_MB": "4096",
+            },
+            "took longer than 1 s",
+        ),
+        ({"ROBODYN_MAX_NV": "400", "ROBODYN_BUILD_MEMORY_MB": "512"}, "memory limit of 512 MB"),
+        (
+            {
+                "ROBODYN_MAX_NV": "400",
+                "ROBODYN_BUILD_MEMORY_MB": "4096",
+                "ROBODYN_BUILD_CPU_S": "1",
+            },
+            "CPU limit of 1 s",
+        ),
+    ],
+    ids=["wall-clock", "memory", "cpu"],
+)
 def test_builder_limits_keep_the_server_responsive(server_factory, env, fragment):
     server = server_factory(env=env).start()
     latencies: list[float] = []
@@ -63,8 +80,7 @@ def test_builder_limits_keep_the_server_responsive(server_factory, env, fragment
     watcher = threading.Thread(target=_health_latencies, args=(server.base, stop, latencies))
     watcher.start()
     try:
-        r = httpx.post(f"{server.base}/v1/robots", json={"urdf": chain(300, flat=True)},
-                       timeout=60)
+        r = httpx.post(f"{server.base}/v1/robots", json={"urdf": chain(300, flat=True)}, timeout=60)
     finally:
         stop.set()
         watcher.join(30)

@@ -18,9 +18,11 @@ from service.registry.store import ModelStore
 from tests.hardening.raw_http import connect, request
 from tests.servers import running_server
 
-BROKEN_URDF = ("<robot name='broken'><link name='a'/><joint name='j' type='revolute'>"
-               "<parent link='a'/><child link='missing'/><axis xyz='0 0 1'/>"
-               "<limit effort='1' velocity='1' lower='0' upper='1'/></joint></robot>")
+BROKEN_URDF = (
+    "<robot name='broken'><link name='a'/><joint name='j' type='revolute'>"
+    "<parent link='a'/><child link='missing'/><axis xyz='0 0 1'/>"
+    "<limit effort='1' velocity='1' lower='0' upper='1'/></joint></robot>"
+)
 
 
 @pytest.fixture(scope="module")
@@ -28,12 +30,24 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path
     data = tmp_path_factory.mktemp("disconnects")
     # A stored record whose description makes urdfdom print to stderr when it is rebuilt at
     # start-up (as a record written by an older version, or edited by hand, might).
-    ModelStore(data).write({"id": "u-000000000000000000000bad", "format": "urdf",
-                            "description": BROKEN_URDF, "root_joint": "fixed",
-                            "gravity": [0.0, 0.0, -9.81], "name": "broken",
-                            "summary": {"id": "u-000000000000000000000bad", "name": "broken",
-                                        "source": "upload", "nq": 1, "nv": 1,
-                                        "root_joint": "fixed"}})
+    ModelStore(data).write(
+        {
+            "id": "u-000000000000000000000bad",
+            "format": "urdf",
+            "description": BROKEN_URDF,
+            "root_joint": "fixed",
+            "gravity": [0.0, 0.0, -9.81],
+            "name": "broken",
+            "summary": {
+                "id": "u-000000000000000000000bad",
+                "name": "broken",
+                "source": "upload",
+                "nq": 1,
+                "nv": 1,
+                "root_joint": "fixed",
+            },
+        }
+    )
     with running_server(data, catalog="ur5", log_level="info") as url:
         yield url, data / "server.log"
 
@@ -42,8 +56,11 @@ def _count(base: str, route: str, status: int) -> float:
     text = httpx.get(base + "/metrics").text
     total = 0.0
     for line in text.splitlines():
-        if (line.startswith("robodyn_requests_total{") and f'route="{route}"' in line
-                and f'status="{status}"' in line):
+        if (
+            line.startswith("robodyn_requests_total{")
+            and f'route="{route}"' in line
+            and f'status="{status}"' in line
+        ):
             total += float(line.rsplit(" ", 1)[1])
     return total
 
@@ -54,10 +71,13 @@ def _disconnect_mid_body(base: str, path: str) -> None:
         time.sleep(0.2)  # the server is waiting for the rest
 
 
-@pytest.mark.parametrize("path, route", [
-    ("/v1/robots/ur5/gravity", "/v1/robots/{robot_id}/gravity"),  # the lean dynamics path
-    ("/v1/robots", "/v1/robots"),  # a framework route (upload)
-])
+@pytest.mark.parametrize(
+    "path, route",
+    [
+        ("/v1/robots/ur5/gravity", "/v1/robots/{robot_id}/gravity"),  # the lean dynamics path
+        ("/v1/robots", "/v1/robots"),  # a framework route (upload)
+    ],
+)
 def test_a_client_leaving_mid_body_is_a_499_not_a_500(server, path: str, route: str) -> None:
     base, log = server
     before = _count(base, route, 499)

@@ -21,10 +21,23 @@ from tests.helpers import planar_arm_closed_form, planar_arm_urdf
 
 def _record(model_id: str) -> dict:
     # complete by the store's schema (service.registry.records): an incomplete one is skipped
-    return {"id": model_id, "format": "urdf", "description": "<robot/>", "root_joint": "fixed",
-            "gravity": [0, 0, -9.81], "name": model_id, "warnings": [],
-            "summary": {"id": model_id, "name": model_id, "source": "upload", "nq": 0, "nv": 0,
-                        "root_joint": "fixed"}}
+    return {
+        "id": model_id,
+        "format": "urdf",
+        "description": "<robot/>",
+        "root_joint": "fixed",
+        "gravity": [0, 0, -9.81],
+        "name": model_id,
+        "warnings": [],
+        "summary": {
+            "id": model_id,
+            "name": model_id,
+            "source": "upload",
+            "nq": 0,
+            "nv": 0,
+            "root_joint": "fixed",
+        },
+    }
 
 
 def test_a_write_interrupted_before_the_rename_leaves_no_record(tmp_path, monkeypatch):
@@ -100,8 +113,7 @@ def test_sigkill_during_uploads_loses_nothing_acknowledged(server_factory, tmp_p
 
         # every record on disk is complete and matches its name (temporaries of killed writes,
         # named ".tmp-*", are not records: the store never reads them)
-        records = [p for p in (data_dir / "models").glob("*.json")
-                   if not p.name.startswith(".")]
+        records = [p for p in (data_dir / "models").glob("*.json") if not p.name.startswith(".")]
         assert set(ModelStore(data_dir).ids()) == {p.stem for p in records}
         for path in records:
             record = json.loads(path.read_text())

@@ -18,15 +18,17 @@ def client(tmp_path_factory: pytest.TempPathFactory):
     settings = Settings(data_dir=tmp_path_factory.mktemp("floods"), catalog="planar_arm")
     registry = Registry(settings.data_dir, settings.catalog_names(), settings.build_timeout_s)
     registry.load()
-    with TestClient(create_app(settings, registry=registry),
-                    raise_server_exceptions=False) as client:
+    with TestClient(
+        create_app(settings, registry=registry), raise_server_exceptions=False
+    ) as client:
         yield client
 
 
 @pytest.mark.parametrize("flood", FLOODS, ids=[f.id for f in FLOODS])
 def test_a_flood_is_a_small_422_naming_the_first_mistakes(client, flood: Flood):
-    r = client.post(flood.path, content=flood.body(flood.small),
-                    headers={"content-type": flood.content_type})
+    r = client.post(
+        flood.path, content=flood.body(flood.small), headers={"content-type": flood.content_type}
+    )
     assert r.status_code == 422, r.text[:500]
     problem = r.json()
     assert problem["code"] == "validation_error"

@@ -31,8 +31,12 @@ def server(tmp_path_factory: pytest.TempPathFactory):
 def test_a_flood_keeps_the_server_responsive(server, flood: Flood):
     body = flood.body(flood.medium)
     with httpx.Client(base_url=server.base, timeout=120) as http:
-        r, latencies = health_latencies_during(server.base, lambda: http.post(
-            flood.path, content=body, headers={"content-type": flood.content_type}))
+        r, latencies = health_latencies_during(
+            server.base,
+            lambda: http.post(
+                flood.path, content=body, headers={"content-type": flood.content_type}
+            ),
+        )
     assert r.status_code == 422, r.text[:500]
     assert r.json()["code"] == "validation_error" and flood.fragment in r.text
     assert len(r.content) < ANSWER_BYTES
@@ -46,8 +50,12 @@ def test_a_full_size_flood_is_refused_in_seconds(server, flood: Flood):
     body = flood.body(flood.large)
     with httpx.Client(base_url=server.base, timeout=120) as http:
         started = time.perf_counter()
-        r, latencies = health_latencies_during(server.base, lambda: http.post(
-            flood.path, content=body, headers={"content-type": flood.content_type}))
+        r, latencies = health_latencies_during(
+            server.base,
+            lambda: http.post(
+                flood.path, content=body, headers={"content-type": flood.content_type}
+            ),
+        )
         elapsed = time.perf_counter() - started - 0.4  # the probe's margins
         assert http.get("/health/live").status_code == 200
     assert r.status_code == 422 and flood.fragment in r.text, r.text[:500]

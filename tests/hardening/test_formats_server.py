@@ -23,13 +23,15 @@ pytestmark = pytest.mark.slow
 CASES = {
     "xacro CPU bomb": ({"xacro": HOSTILE["CPU bomb"][0]}, "CPU limit"),
     "xacro memory bomb": ({"xacro": HOSTILE["memory bomb"][0]}, "memory limit"),
-    "xacro escape to os.system": ({"xacro": HOSTILE["os.system via an escape"][0]},
-                                  "'os.system'"),
-    "xacro reading /etc/passwd": ({"xacro": HOSTILE["YAML from a system file"][0]},
-                                  "/etc/passwd"),
-    "MJCF dog with its meshes": ({"mjcf": (DM_SUITE / "dog.xml").read_text(),
-                                  "assets": encoded(directory_assets(DM_SUITE, "common",
-                                                                     "dog_assets"))}, None),
+    "xacro escape to os.system": ({"xacro": HOSTILE["os.system via an escape"][0]}, "'os.system'"),
+    "xacro reading /etc/passwd": ({"xacro": HOSTILE["YAML from a system file"][0]}, "/etc/passwd"),
+    "MJCF dog with its meshes": (
+        {
+            "mjcf": (DM_SUITE / "dog.xml").read_text(),
+            "assets": encoded(directory_assets(DM_SUITE, "common", "dog_assets")),
+        },
+        None,
+    ),
 }
 
 

@@ -19,23 +19,35 @@ from tests.hardening.test_request_costs_live import SOLO_Q, contacts_of
 
 @pytest.mark.slow  # a latency bound
 @pytest.mark.parametrize("quantity", ["contact-inverse-dynamics", "simulate"])
-def test_a_long_computation_hands_the_gil_to_the_waiting_thread(catalog_registry,
-                                                                 quantity: str) -> None:
+def test_a_long_computation_hands_the_gil_to_the_waiting_thread(
+    catalog_registry, quantity: str
+) -> None:
     robot = catalog_registry.get("solo12")
     rng = np.random.default_rng(0)
     if quantity == "simulate":
         s = States({"q": np.array([SOLO_Q]), "v": np.zeros((1, robot.nv))}, False)
-        options = {"dt": 1e-4, "steps": 8000, "integrator": "rk4",
-                   "contacts": contacts_of("solo12"), "max_simulation_steps": 10**6,
-                   "max_simulation_work": 10**12}
+        options = {
+            "dt": 1e-4,
+            "steps": 8000,
+            "integrator": "rk4",
+            "contacts": contacts_of("solo12"),
+            "max_simulation_steps": 10**6,
+            "max_simulation_work": 10**12,
+        }
     else:
         n = 20_000
-        s = States({"q": np.tile(np.array(SOLO_Q), (n, 1)),
-                    "v": 0.1 * rng.normal(size=(n, robot.nv)),
-                    "a": 0.1 * rng.normal(size=(n, robot.nv))}, True)
+        s = States(
+            {
+                "q": np.tile(np.array(SOLO_Q), (n, 1)),
+                "v": 0.1 * rng.normal(size=(n, robot.nv)),
+                "a": 0.1 * rng.normal(size=(n, robot.nv)),
+            },
+            True,
+        )
         options = {"contacts": contacts_of("solo12")}
-    worker = threading.Thread(target=run, args=(robot, SPECS[quantity].quantity, s, options,
-                                                lambda: False))
+    worker = threading.Thread(
+        target=run, args=(robot, SPECS[quantity].quantity, s, options, lambda: False)
+    )
     worker.start()
     waits = []
     while worker.is_alive():

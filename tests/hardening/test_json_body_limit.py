@@ -28,16 +28,20 @@ def test_a_json_batch_over_the_json_limit_is_a_413_pointing_to_the_binary_form(a
     q = _ur5_q(200)  # about 23 kB of JSON
     body = orjson.dumps({"q": q.tolist()})
     assert len(body) > LIMIT
-    r = client.post("/v1/robots/ur5/gravity", content=body,
-                    headers={"content-type": "application/json"})
+    r = client.post(
+        "/v1/robots/ur5/gravity", content=body, headers={"content-type": "application/json"}
+    )
     assert r.status_code == 413, r.text
     problem = r.json()
     assert problem["code"] == "payload_too_large"
     assert "ROBODYN_MAX_JSON_BODY_BYTES" in problem["detail"]
     assert BINARY_MEDIA_TYPE in problem["detail"]
     # the same batch in the binary form is answered, and equals the JSON answer of a part
-    binary = client.post("/v1/robots/ur5/gravity", content=encode({"q": q}),
-                         headers={"content-type": BINARY_MEDIA_TYPE, "accept": "application/json"})
+    binary = client.post(
+        "/v1/robots/ur5/gravity",
+        content=encode({"q": q}),
+        headers={"content-type": BINARY_MEDIA_TYPE, "accept": "application/json"},
+    )
     assert binary.status_code == 200, binary.text
     small = client.post("/v1/robots/ur5/gravity", json={"q": q[:20].tolist()})
     assert small.status_code == 200
@@ -47,10 +51,12 @@ def test_a_json_batch_over_the_json_limit_is_a_413_pointing_to_the_binary_form(a
 def test_uploads_keep_their_own_limit(app_factory):
     client = app_factory(catalog="ur5", max_json_body_bytes=LIMIT)
     padding = " " * (2 * LIMIT)
-    urdf = (f'<robot name="p">{padding}<link name="a"/><link name="b"><inertial><mass value="1"/>'
-            '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>'
-            '<joint name="j" type="continuous"><parent link="a"/><child link="b"/></joint>'
-            '</robot>')
+    urdf = (
+        f'<robot name="p">{padding}<link name="a"/><link name="b"><inertial><mass value="1"/>'
+        '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>'
+        '<joint name="j" type="continuous"><parent link="a"/><child link="b"/></joint>'
+        "</robot>"
+    )
     r = client.post("/v1/robots", json={"urdf": urdf})
     assert r.status_code == 201, r.text
 
@@ -71,9 +77,14 @@ def test_health_stays_fast_while_the_largest_json_batch_is_handled(base: str) ->
     states = int(60_000 * (limit - 100) / len(text))
     body = orjson.dumps({"q": q[:states].tolist()})
     assert limit - 200_000 < len(body) <= limit
+
     def post() -> httpx.Response:
-        return httpx.post(base + "/v1/robots/talos/gravity", content=body, timeout=300,
-                          headers={"content-type": "application/json"})
+        return httpx.post(
+            base + "/v1/robots/talos/gravity",
+            content=body,
+            timeout=300,
+            headers={"content-type": "application/json"},
+        )
 
     r, latencies = health_latencies_during(base, post)
     assert r.status_code == 200, r.text[:300]
@@ -85,7 +96,10 @@ def test_health_stays_fast_while_the_largest_json_batch_is_handled(base: str) ->
 def test_a_body_one_byte_over_the_default_json_limit_is_a_413(base: str) -> None:
     limit = 16 * 1024 * 1024  # the default ROBODYN_MAX_JSON_BODY_BYTES
     body = orjson.dumps({"q": [0.0] * 39})
-    over = httpx.post(base + "/v1/robots/talos/gravity",
-                      content=body + b" " * (limit - len(body) + 1),
-                      headers={"content-type": "application/json"}, timeout=60)
+    over = httpx.post(
+        base + "/v1/robots/talos/gravity",
+        content=body + b" " * (limit - len(body) + 1),
+        headers={"content-type": "application/json"},
+        timeout=60,
+    )
     assert over.status_code == 413 and "ROBODYN_MAX_JSON_BODY_BYTES" in over.json()["detail"]

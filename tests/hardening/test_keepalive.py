@@ -32,8 +32,12 @@ MAX_BODY = 65536
 
 @pytest.fixture(scope="module")
 def base(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with running_server(tmp_path_factory.mktemp("keepalive"), catalog="ur5",
-                        max_body_bytes=str(MAX_BODY), max_answer_bytes="100000") as url:
+    with running_server(
+        tmp_path_factory.mktemp("keepalive"),
+        catalog="ur5",
+        max_body_bytes=str(MAX_BODY),
+        max_answer_bytes="100000",
+    ) as url:
         yield url
 
 
@@ -59,9 +63,14 @@ KEPT_ALIVE = {  # errors answered after the whole request was read: the connecti
     "unknown route": (request("GET", "/nope"), 404),
     "method": (request("DELETE", "/v1/robots/ur5/gravity"), 405),
     "media type": (request("POST", "/v1/robots/ur5/gravity", b"q=1", "text/plain"), 415),
-    "answer too large": (request("POST", "/v1/robots/ur5/mass-matrix",
-                                 b'{"q": [' + b",".join([b"[0,0,0,0,0,0]"] * 400) + b"]}"),
-                         413),
+    "answer too large": (
+        request(
+            "POST",
+            "/v1/robots/ur5/mass-matrix",
+            b'{"q": [' + b",".join([b"[0,0,0,0,0,0]"] * 400) + b"]}",
+        ),
+        413,
+    ),
 }
 
 
@@ -82,8 +91,9 @@ def test_a_413_by_content_length_says_close_and_closes_cleanly(base: str) -> Non
     """The body is refused before it is read: the unread rest cannot be taken for the next
     request, so the answer says close; the client that stops sending sees the close."""
     with connect(base) as sock:
-        sock.sendall(request("POST", "/v1/robots/ur5/gravity", b"x" * 100,
-                             content_length=10 * MAX_BODY))
+        sock.sendall(
+            request("POST", "/v1/robots/ur5/gravity", b"x" * 100, content_length=10 * MAX_BODY)
+        )
         answer = read_answer(sock)
         assert answer.status == 413 and answer.json()["code"] == "payload_too_large"
         assert answer.closes
@@ -99,8 +109,9 @@ def test_a_client_that_sends_its_whole_oversized_body_reads_its_413(base: str) -
         assert answer.status == 413 and answer.closes
         assert closed_within(sock, LINGER_S + 3) is not None
     with httpx.Client(base_url=base) as client:  # and as a library client sees it
-        r = client.post("/v1/robots/ur5/gravity", content=body,
-                        headers={"content-type": "application/json"})
+        r = client.post(
+            "/v1/robots/ur5/gravity", content=body, headers={"content-type": "application/json"}
+        )
         assert r.status_code == 413 and r.json()["code"] == "payload_too_large"
         assert client.post("/v1/robots/ur5/gravity", json={"q": [0] * 6}).status_code == 200
 
@@ -119,23 +130,33 @@ def test_an_error_answered_before_the_body_is_sent(base: str) -> None:
 
 def test_expect_100_continue_refused_up_front(base: str) -> None:
     with connect(base) as sock:
-        sock.sendall(request("POST", "/v1/robots/ur5/gravity", None,
-                             content_length=10 * MAX_BODY, headers=("expect: 100-continue",)))
+        sock.sendall(
+            request(
+                "POST",
+                "/v1/robots/ur5/gravity",
+                None,
+                content_length=10 * MAX_BODY,
+                headers=("expect: 100-continue",),
+            )
+        )
         answer = read_answer(sock)
         assert answer.status == 413 and answer.closes
         _assert_usable_or_closed(sock, True, base)
 
 
-@pytest.mark.parametrize("garbage", [
-    b"GARBAGE\r\n\r\n",
-    b"GET / HTTP/1.1\r\nbad header line\r\n\r\n",
-    b"GET / HTTP/1.1\r\nhost: x\r\ncontent-length: -5\r\n\r\n",
-    b"GET /\x00 HTTP/1.1\r\n\r\n",
-    b"GET /\xff HTTP/1.1\r\nhost: x\r\n\r\n",
-    b"POST /v1/robots/ur5/gravity HTTP/1.1\r\ncontent-length: abc\r\n\r\n",
-    b"POST /v1/robots/ur5/gravity HTTP/1.1\r\ntransfer-encoding: chunked\r\n"
-    b"content-type: application/json\r\n\r\nzz\r\n",  # broken chunk framing in the body
-])
+@pytest.mark.parametrize(
+    "garbage",
+    [
+        b"GARBAGE\r\n\r\n",
+        b"GET / HTTP/1.1\r\nbad header line\r\n\r\n",
+        b"GET / HTTP/1.1\r\nhost: x\r\ncontent-length: -5\r\n\r\n",
+        b"GET /\x00 HTTP/1.1\r\n\r\n",
+        b"GET /\xff HTTP/1.1\r\nhost: x\r\n\r\n",
+        b"POST /v1/robots/ur5/gravity HTTP/1.1\r\ncontent-length: abc\r\n\r\n",
+        b"POST /v1/robots/ur5/gravity HTTP/1.1\r\ntransfer-encoding: chunked\r\n"
+        b"content-type: application/json\r\n\r\nzz\r\n",  # broken chunk framing in the body
+    ],
+)
 def test_malformed_requests_get_a_problem_json_400(base: str, garbage: bytes) -> None:
     with connect(base) as sock:
         sock.sendall(garbage)
@@ -152,11 +173,20 @@ def test_httpx_with_one_connection_after_every_kind_of_error(base: str) -> None:
         for _ in range(3):
             assert client.post("/v1/robots/ur5/gravity", json={"q": [0]}).status_code == 422
             assert client.get("/nope").status_code == 404
-            assert client.post("/v1/robots/ur5/gravity", content=b"x" * (2 * MAX_BODY),
-                               headers={"content-type": "application/json"}
-                               ).status_code == 413
-            assert client.post("/v1/robots/ur5/gravity", content=b"q",
-                               headers={"content-type": "text/plain"}).status_code == 415
+            assert (
+                client.post(
+                    "/v1/robots/ur5/gravity",
+                    content=b"x" * (2 * MAX_BODY),
+                    headers={"content-type": "application/json"},
+                ).status_code
+                == 413
+            )
+            assert (
+                client.post(
+                    "/v1/robots/ur5/gravity", content=b"q", headers={"content-type": "text/plain"}
+                ).status_code
+                == 415
+            )
             r = client.post("/v1/robots/ur5/gravity", json={"q": [0] * 6})
             assert r.status_code == 200 and len(r.json()["gravity"]) == 6
 

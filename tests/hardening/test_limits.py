@@ -36,12 +36,15 @@ def test_default_caps_admit_every_catalog_robot():
     assert largest >= 100  # tiago_dual: the cap is not vacuous
 
 
-@pytest.mark.parametrize("setting, value, fragment", [
-    ("max_links", 2, "ROBODYN_MAX_LINKS"),
-    ("max_nv", 1, "ROBODYN_MAX_NV"),
-    ("max_depth", 1, "ROBODYN_MAX_DEPTH"),
-    ("max_xml_elements", 12, "ROBODYN_MAX_XML_ELEMENTS"),
-])
+@pytest.mark.parametrize(
+    "setting, value, fragment",
+    [
+        ("max_links", 2, "ROBODYN_MAX_LINKS"),
+        ("max_nv", 1, "ROBODYN_MAX_NV"),
+        ("max_depth", 1, "ROBODYN_MAX_DEPTH"),
+        ("max_xml_elements", 12, "ROBODYN_MAX_XML_ELEMENTS"),
+    ],
+)
 def test_every_cap_is_a_setting(app_factory, setting, value, fragment):
     client = app_factory(**{setting: value})
     r = client.post("/v1/robots", json={"urdf": ARM})
@@ -53,8 +56,7 @@ def test_every_cap_is_a_setting(app_factory, setting, value, fragment):
 
 def test_the_nv_cap_counts_the_root_joint(app_factory):
     client = app_factory(max_nv=7)  # the arm has nv = 2; a free-flyer adds 6
-    assert client.post("/v1/robots", json={"urdf": ARM, "root_joint": "planar"}
-                       ).status_code == 201
+    assert client.post("/v1/robots", json={"urdf": ARM, "root_joint": "planar"}).status_code == 201
     r = client.post("/v1/robots", json={"urdf": ARM, "root_joint": "free-flyer"})
     assert r.status_code == 422 and "nv = 8" in r.json()["detail"], r.text
     assert "ROBODYN_MAX_NV" in r.json()["detail"]
@@ -103,4 +105,3 @@ def test_rounding_noise_is_not_a_finding_but_real_negatives_are(api):
     romeo = api.get("/v1/robots/romeo_laas_small").json()["warnings"]
     body = [w for w in romeo if w["name"] == "body"]
     assert body[0]["code"] == "negative_principal_moment" and "-0.0213" in body[0]["message"]
-

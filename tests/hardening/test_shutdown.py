@@ -22,16 +22,21 @@ def test_sigterm_lets_in_flight_requests_finish(server_factory, tmp_path):
     results: dict[str, httpx.Response] = {}
 
     def upload() -> None:  # nv = 128 (the cap): about a second to build and check
-        results["upload"] = httpx.post(f"{server.base}/v1/robots",
-                                       json={"urdf": chain(128, flat=True)}, timeout=60)
+        results["upload"] = httpx.post(
+            f"{server.base}/v1/robots", json={"urdf": chain(128, flat=True)}, timeout=60
+        )
 
     # the body is made before the clock starts: encoding it takes longer than the wait below
     q = np.random.default_rng(1).uniform(-1, 1, (80_000, 6))  # about a second in flight
     body = json.dumps({"q": q.tolist()}).encode()
 
     def batch() -> None:
-        results["batch"] = httpx.post(f"{server.base}/v1/robots/ur5/mass-matrix", content=body,
-                                      headers={"content-type": "application/json"}, timeout=60)
+        results["batch"] = httpx.post(
+            f"{server.base}/v1/robots/ur5/mass-matrix",
+            content=body,
+            headers={"content-type": "application/json"},
+            timeout=60,
+        )
 
     threads = [threading.Thread(target=upload), threading.Thread(target=batch)]
     for t in threads:

@@ -27,16 +27,21 @@ STALLED = 200
 
 @pytest.fixture(scope="module")
 def base(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    with running_server(tmp_path_factory.mktemp("slow"), catalog="ur5",
-                        header_timeout_s=str(TIMEOUT_S), body_timeout_s=str(TIMEOUT_S),
-                        send_timeout_s="2", max_connections="400") as url:
+    with running_server(
+        tmp_path_factory.mktemp("slow"),
+        catalog="ur5",
+        header_timeout_s=str(TIMEOUT_S),
+        body_timeout_s=str(TIMEOUT_S),
+        send_timeout_s="2",
+        max_connections="400",
+    ) as url:
         yield url
 
 
 def _partial(kind: int) -> bytes:
     full = request("POST", "/v1/robots/ur5/gravity", b'{"q": [0, 0, 0, 0, 0, 0]}')
     head_end = full.index(b"\r\n\r\n") + 4
-    return [full[:10], full[:head_end - 10], full[:head_end + 5]][kind]  # line, headers, body
+    return [full[:10], full[: head_end - 10], full[: head_end + 5]][kind]  # line, headers, body
 
 
 def _wait_closed(socks: list[socket.socket], seconds: float) -> list[float | None]:
@@ -132,7 +137,7 @@ def test_slow_but_steady_clients_are_not_cut(base: str) -> None:
     raw = good_request()
     with connect(base) as sock:
         for start in range(0, len(raw), 40):
-            sock.sendall(raw[start:start + 40])
+            sock.sendall(raw[start : start + 40])
             time.sleep(TIMEOUT_S / 3)
         assert read_answer(sock).status == 200
 
@@ -154,8 +159,9 @@ def test_a_client_that_does_not_read_its_answer_is_dropped(base: str) -> None:
 
 @pytest.fixture
 def capped(tmp_path) -> Iterator[str]:
-    with running_server(tmp_path, catalog="ur5", max_connections="20",
-                        header_timeout_s="30", body_timeout_s="30") as url:
+    with running_server(
+        tmp_path, catalog="ur5", max_connections="20", header_timeout_s="30", body_timeout_s="30"
+    ) as url:
         yield url
 
 

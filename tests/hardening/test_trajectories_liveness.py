@@ -19,11 +19,17 @@ def test_long_trajectory_work_does_not_stall_health(tmp_path) -> None:
     check = orjson.dumps({"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 16})
     waypoints = np.random.default_rng(0).uniform(-2.0, 2.0, (40, 6)).tolist()
     with running_server(tmp_path, catalog="ur5") as base:
+
         def work() -> list[httpx.Response]:
             with httpx.Client(base_url=base, timeout=300) as client:
-                return [client.post("/v1/robots/ur5/trajectory-check", content=check,
-                                    headers={"content-type": "application/json"}),
-                        client.post("/v1/robots/ur5/retime", json={"waypoints": waypoints})]
+                return [
+                    client.post(
+                        "/v1/robots/ur5/trajectory-check",
+                        content=check,
+                        headers={"content-type": "application/json"},
+                    ),
+                    client.post("/v1/robots/ur5/retime", json={"waypoints": waypoints}),
+                ]
 
         answers, latencies = health_latencies_during(base, work)
     assert [a.status_code for a in answers] == [200, 200], [a.text[:200] for a in answers]
@@ -43,11 +49,17 @@ def test_the_largest_json_check_is_parsed_without_stalling_health(tmp_path) -> N
     check = orjson.dumps({"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2})
     assert len(check) > 10_000_000
     with running_server(tmp_path, catalog="ur5") as base:
+
         def work() -> list[httpx.Response]:
             with httpx.Client(base_url=base, timeout=300) as client:
-                return [client.post("/v1/robots/ur5/trajectory-check", content=check,
-                                    headers={"content-type": "application/json"})
-                        for _ in range(3)]
+                return [
+                    client.post(
+                        "/v1/robots/ur5/trajectory-check",
+                        content=check,
+                        headers={"content-type": "application/json"},
+                    )
+                    for _ in range(3)
+                ]
 
         answers, latencies = health_latencies_during(base, work)
     assert [a.status_code for a in answers] == [200] * 3, [a.text[:200] for a in answers]

@@ -16,8 +16,7 @@ from service.registry.safe_xml import parse_bounded, read_numbers
 from service.registry.urdf_check import Limits, _inertia_findings, check_urdf
 from tests.hardening.corpus import CASES, LIMIT
 
-FAST = settings(max_examples=150, deadline=None,
-                suppress_health_check=[HealthCheck.too_slow])
+FAST = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 def rotation(angles: tuple[float, float, float]) -> np.ndarray:
@@ -34,9 +33,12 @@ def body_inertia(masses: list[float], points: list[tuple[float, float, float]]) 
 
 
 coords = st.floats(-1, 1, allow_nan=False)
-point_sets = st.integers(2, 6).flatmap(lambda n: st.tuples(
-    st.lists(st.floats(0.01, 10), min_size=n, max_size=n),
-    st.lists(st.tuples(coords, coords, coords), min_size=n, max_size=n)))
+point_sets = st.integers(2, 6).flatmap(
+    lambda n: st.tuples(
+        st.lists(st.floats(0.01, 10), min_size=n, max_size=n),
+        st.lists(st.tuples(coords, coords, coords), min_size=n, max_size=n),
+    )
+)
 angles = st.tuples(*[st.floats(-np.pi, np.pi)] * 3)
 
 
@@ -84,18 +86,24 @@ def tree_urdf(parents: list[int], bodies: list[tuple[list[float], list]], axes: 
         links.append(
             f"<link name='l{i}'><inertial><origin xyz='0.1 0 0'/><mass value='{m!r}'/>"
             f"<inertia ixx='{I[0][0]!r}' ixy='{I[0][1]!r}' ixz='{I[0][2]!r}' "
-            f"iyy='{I[1][1]!r}' iyz='{I[1][2]!r}' izz='{I[2][2]!r}'/></inertial></link>")
+            f"iyy='{I[1][1]!r}' iyz='{I[1][2]!r}' izz='{I[2][2]!r}'/></inertial></link>"
+        )
         xyz = " ".join("1" if k == axis else "0" for k in range(3))
-        joints.append(f"<joint name='j{i}' type='revolute'><parent link='l{parent}'/>"
-                      f"<child link='l{i}'/><origin xyz='0 0 0.2'/><axis xyz='{xyz}'/>"
-                      f"{LIMIT}</joint>")
+        joints.append(
+            f"<joint name='j{i}' type='revolute'><parent link='l{parent}'/>"
+            f"<child link='l{i}'/><origin xyz='0 0 0.2'/><axis xyz='{xyz}'/>"
+            f"{LIMIT}</joint>"
+        )
     return f"<robot name='tree'>{''.join(links + joints)}</robot>"
 
 
-trees = st.integers(1, 8).flatmap(lambda n: st.tuples(
-    st.tuples(*[st.integers(0, i) for i in range(n)]),
-    st.lists(point_sets, min_size=n, max_size=n),
-    st.lists(st.integers(0, 2), min_size=n, max_size=n)))
+trees = st.integers(1, 8).flatmap(
+    lambda n: st.tuples(
+        st.tuples(*[st.integers(0, i) for i in range(n)]),
+        st.lists(point_sets, min_size=n, max_size=n),
+        st.lists(st.integers(0, 2), min_size=n, max_size=n),
+    )
+)
 
 
 @settings(max_examples=60, deadline=None)
@@ -151,8 +159,25 @@ def test_plain_decimals_read_exactly(x):
     assert read_numbers(f"{x:.6e}", 1, "x") == [float(f"{x:.6e}")]
 
 
-@given(st.sampled_from(["nan", "NaN", "-inf", "Infinity", "1_0", "0x1", "\u0661", "1e",
-                        "--1", "1.2.3", "", "١٢", "1e99999"]))
+@given(
+    st.sampled_from(
+        [
+            "nan",
+            "NaN",
+            "-inf",
+            "Infinity",
+            "1_0",
+            "0x1",
+            "\u0661",
+            "1e",
+            "--1",
+            "1.2.3",
+            "",
+            "١٢",
+            "1e99999",
+        ]
+    )
+)
 def test_odd_numbers_are_refused(raw):
     with pytest.raises(InvalidModel):
         read_numbers(raw, 1, "x")
@@ -176,4 +201,3 @@ def test_xml_element_cap_is_exact(count, cap):
     else:
         with pytest.raises(InvalidModel, match="XML elements"):
             parse_bounded(text, cap, 8)
-

@@ -69,8 +69,12 @@ def expected(model, quantity: str, q, v, a):
     return "a", pin.aba(model, data, q, v, a)
 
 
-BODY = {"mass-matrix": ("q",), "nonlinear-effects": ("q", "v"),
-        "inverse-dynamics": ("q", "v", "a"), "forward-dynamics": ("q", "v", "tau")}
+BODY = {
+    "mass-matrix": ("q",),
+    "nonlinear-effects": ("q", "v"),
+    "inverse-dynamics": ("q", "v", "a"),
+    "forward-dynamics": ("q", "v", "tau"),
+}
 
 
 def run_mixed_load(base: str, models: dict, rng: np.random.Generator, count: int) -> None:
@@ -93,8 +97,9 @@ def run_mixed_load(base: str, models: dict, rng: np.random.Generator, count: int
     for (name, quantity, q, v, a), r in results:
         assert r.status_code == 200, (name, quantity, r.text)
         key, value = expected(models[name], quantity, q, v, a)
-        np.testing.assert_allclose(r.json()[key], value, rtol=1e-10,
-                                   atol=1e-10 * max(1.0, float(np.abs(value).max())))
+        np.testing.assert_allclose(
+            r.json()[key], value, rtol=1e-10, atol=1e-10 * max(1.0, float(np.abs(value).max()))
+        )
 
 
 def upload_all(base: str, models: dict) -> None:

@@ -40,8 +40,9 @@ PROBE = textwrap.dedent("""
 
 
 def _probe(retain_mb: int) -> tuple[bool, int, int]:
-    out = subprocess.run([sys.executable, "-c", PROBE, str(retain_mb)], capture_output=True,
-                         text=True, check=True).stdout.split()
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, str(retain_mb)], capture_output=True, text=True, check=True
+    ).stdout.split()
     return out[0] == "True", int(out[1]), int(out[2])
 
 

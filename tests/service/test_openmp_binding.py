@@ -44,13 +44,17 @@ def _allowed_cpus(pid: int) -> dict[int, set[int]]:
     return out
 
 
-@pytest.mark.skipif(len(CPUS) < 2 or not Path("/proc/self/task").exists(),
-                    reason="needs Linux and at least 2 CPUs")
+@pytest.mark.skipif(
+    len(CPUS) < 2 or not Path("/proc/self/task").exists(), reason="needs Linux and at least 2 CPUs"
+)
 def test_the_team_is_bound_and_the_event_loop_is_not(tmp_path: Path) -> None:
     with running_server(tmp_path, CATALOG="ur5") as url:
         q = np.tile([0.1, -1.2, 1.3, 0.2, 0.5, -0.3], (200, 1))  # ≥ 64 states: parallel
-        r = httpx.post(f"{url}/v1/robots/ur5/inverse-dynamics",
-                       json={"q": q.tolist(), "v": q.tolist(), "a": q.tolist()}, timeout=60)
+        r = httpx.post(
+            f"{url}/v1/robots/ur5/inverse-dynamics",
+            json={"q": q.tolist(), "v": q.tolist(), "a": q.tolist()},
+            timeout=60,
+        )
         assert r.status_code == 200
         pid = _pid_listening_on(int(url.rsplit(":", 1)[1]))
         allowed = _allowed_cpus(pid)

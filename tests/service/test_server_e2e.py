@@ -38,8 +38,14 @@ def _expected(model, quantity, q, v, a):
     return {"a": pin.aba(model, data, q, v, a)}
 
 
-INPUTS = {"mass-matrix": "q", "gravity": "q", "coriolis": "qv", "nonlinear-effects": "qv",
-          "inverse-dynamics": "qva", "forward-dynamics": "qvt"}
+INPUTS = {
+    "mass-matrix": "q",
+    "gravity": "q",
+    "coriolis": "qv",
+    "nonlinear-effects": "qv",
+    "inverse-dynamics": "qva",
+    "forward-dynamics": "qvt",
+}
 
 
 def test_concurrent_mixed_requests_match_pinocchio(server, catalog_registry):
@@ -57,8 +63,10 @@ def test_concurrent_mixed_requests_match_pinocchio(server, catalog_registry):
         robot, quantity, states = job
         qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
         names = {"q": ("q", qs), "v": ("v", vs), "a": ("a", as_), "t": ("tau", as_)}
-        body = {names[c][0]: (names[c][1] if len(states) > 1 else names[c][1][0]).tolist()
-                for c in INPUTS[quantity]}
+        body = {
+            names[c][0]: (names[c][1] if len(states) > 1 else names[c][1][0]).tolist()
+            for c in INPUTS[quantity]
+        }
         with httpx.Client(timeout=30) as http:
             r = http.post(f"{server}/v1/robots/{robot}/{quantity}", json=body)
         return job, r
@@ -73,13 +81,17 @@ def test_concurrent_mixed_requests_match_pinocchio(server, catalog_registry):
             for key, value in _expected(model, quantity, q, v, a).items():
                 answer = np.asarray(got[key])
                 answer = answer[i] if len(states) > 1 else answer
-                np.testing.assert_allclose(answer, value, rtol=1e-12,
-                                           atol=1e-12 * max(1, np.abs(value).max()))
+                np.testing.assert_allclose(
+                    answer, value, rtol=1e-12, atol=1e-12 * max(1, np.abs(value).max())
+                )
 
 
 def test_real_server_errors_are_problems(server):
-    r = httpx.post(f"{server}/v1/robots/ur5/gravity", content=b'{"q": [0,0,0,0,0,NaN]}',
-                   headers={"content-type": "application/json"})
+    r = httpx.post(
+        f"{server}/v1/robots/ur5/gravity",
+        content=b'{"q": [0,0,0,0,0,NaN]}',
+        headers={"content-type": "application/json"},
+    )
     assert r.status_code == 422 and r.json()["code"] == "validation_error"
     assert r.headers["content-type"] == "application/problem+json"
 
@@ -87,8 +99,9 @@ def test_real_server_errors_are_problems(server):
 def test_real_server_upload_builds_out_of_process(server):
     from tests.helpers import planar_arm_closed_form, planar_arm_urdf
 
-    r = httpx.post(f"{server}/v1/robots", json={"urdf": planar_arm_urdf(1.1, 0.4, 2.0, 1.0)},
-                   timeout=60)
+    r = httpx.post(
+        f"{server}/v1/robots", json={"urdf": planar_arm_urdf(1.1, 0.4, 2.0, 1.0)}, timeout=60
+    )
     assert r.status_code == 201, r.text
     robot_id = r.json()["id"]
     q = [0.4, -0.9]

@@ -28,15 +28,18 @@ BIN = HERE / "node_modules" / ".bin"
 ROOT = HERE.parent.parent
 
 pytestmark = pytest.mark.skipif(
-    shutil.which("node") is None or not (BIN / "tsc").exists()
+    shutil.which("node") is None
+    or not (BIN / "tsc").exists()
     or not (BIN / "openapi-typescript").exists(),
     reason="the TypeScript check needs node and the pinned npm packages: "
-           "`npm ci --prefix tests/typescript` (as .ci/run does)")
+    "`npm ci --prefix tests/typescript` (as .ci/run does)",
+)
 
 
 def _run(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    done = subprocess.run([str(a) for a in args], cwd=HERE, capture_output=True, text=True,
-                          timeout=300, check=False)
+    done = subprocess.run(
+        [str(a) for a in args], cwd=HERE, capture_output=True, text=True, timeout=300, check=False
+    )
     assert done.returncode == 0, f"{args[0]} failed:\n{done.stdout}\n{done.stderr}"
     return done
 
@@ -80,8 +83,9 @@ def test_the_compiled_client_talks_to_a_server(compiled: Path, server: str) -> N
     summary = json.loads(out)
     assert "ur5" in summary["robots"] and summary["nq"] == 6
     assert summary["jointNames"][0] == "shoulder_pan_joint"
-    expected = httpx.post(f"{server}/v1/robots/ur5/mass-matrix",
-                          json={"q": [0, -1.57, 1.57, 0, 0, 0]}).json()["mass_matrix"]
+    expected = httpx.post(
+        f"{server}/v1/robots/ur5/mass-matrix", json={"q": [0, -1.57, 1.57, 0, 0, 0]}
+    ).json()["mass_matrix"]
     assert summary["single"] == expected
     assert summary["batchShape"] == [2, 6, 6]
     assert summary["uploadStatus"] == 201 and summary["uploadId"].startswith("u-")

@@ -39,7 +39,7 @@ def _value_pieces(value: Any, out: list[bytes]) -> None:
         if row <= PIECE_NUMBERS:  # whole rows per piece: the inner text of a slice
             step = PIECE_NUMBERS // row
             for start in range(0, value.shape[0], step):
-                text = orjson.dumps(value[start:start + step], option=_NUMPY)
+                text = orjson.dumps(value[start : start + step], option=_NUMPY)
                 out.append((b"[" if start == 0 else b",") + text[1:-1])
             out.append(b"]")
         else:  # rows larger than a piece (long trajectories): one row at a time
@@ -55,7 +55,7 @@ def _value_pieces(value: Any, out: list[bytes]) -> None:
     elif isinstance(value, list) and len(value) > 1024:  # e.g. answers keyed by joint name
         step = 1024
         for start in range(0, len(value), step):
-            text = orjson.dumps(value[start:start + step], option=_NUMPY)
+            text = orjson.dumps(value[start : start + step], option=_NUMPY)
             out.append((b"[" if start == 0 else b",") + text[1:-1])
         out.append(b"]")
     else:

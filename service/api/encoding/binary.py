@@ -50,8 +50,9 @@ _TENSOR_KEYS = frozenset(("dtype", "shape", "data_offsets"))
 
 
 def _bad(detail: str) -> InvalidInput:
-    return InvalidInput(f"binary body: {detail} (a safetensors file of F64 tensors; format: "
-                        "docs/binary-format.md)")
+    return InvalidInput(
+        f"binary body: {detail} (a safetensors file of F64 tensors; format: docs/binary-format.md)"
+    )
 
 
 def decode(body: bytes | bytearray) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -61,11 +62,10 @@ def decode(body: bytes | bytearray) -> tuple[dict[str, Any], dict[str, np.ndarra
         raise _bad("shorter than its 8-byte header length")
     (header_size,) = _LENGTH.unpack_from(body)
     if header_size > MAX_HEADER_BYTES:
-        raise _bad(f"the header length {header_size} is over the cap of {MAX_HEADER_BYTES} "
-                   "bytes")
+        raise _bad(f"the header length {header_size} is over the cap of {MAX_HEADER_BYTES} bytes")
     if header_size > len(body) - _LENGTH.size:
         raise _bad(f"the header length {header_size} runs past the body")
-    raw = bytes(body[_LENGTH.size:_LENGTH.size + header_size])
+    raw = bytes(body[_LENGTH.size : _LENGTH.size + header_size])
     if not raw.startswith(b"{"):
         raise _bad("the header must be a JSON object")
     try:
@@ -127,21 +127,31 @@ def _arrays(header: dict[str, Any], data: memoryview) -> dict[str, np.ndarray]:
         if not isinstance(descriptor, dict) or set(descriptor) != _TENSOR_KEYS:
             raise _bad(f'tensor {name} needs exactly "dtype", "shape" and "data_offsets"')
         if descriptor["dtype"] != DTYPE:
-            raise _bad(f"tensor {name} has dtype {str(descriptor['dtype'])[:20]!r}; "
-                       f"every tensor is {DTYPE} (float64)")
+            raise _bad(
+                f"tensor {name} has dtype {str(descriptor['dtype'])[:20]!r}; "
+                f"every tensor is {DTYPE} (float64)"
+            )
         shape, offsets = descriptor["shape"], descriptor["data_offsets"]
-        if (not isinstance(shape, list) or len(shape) > MAX_NDIM
-                or not all(type(n) is int and 0 <= n <= MAX_ARRAY_ELEMENTS for n in shape)
-                or math.prod(max(n, 1) for n in shape) > MAX_ARRAY_ELEMENTS):
+        if (
+            not isinstance(shape, list)
+            or len(shape) > MAX_NDIM
+            or not all(type(n) is int and 0 <= n <= MAX_ARRAY_ELEMENTS for n in shape)
+            or math.prod(max(n, 1) for n in shape) > MAX_ARRAY_ELEMENTS
+        ):
             # zeros count as ones: an empty batch [0, n] is a shape, [0, 2**63] is not
-            raise _bad(f"tensor {name}: shape must be a list of at most {MAX_NDIM} "
-                       "non-negative integers whose product (zeros counted as ones) is at "
-                       f"most {MAX_ARRAY_ELEMENTS}")
+            raise _bad(
+                f"tensor {name}: shape must be a list of at most {MAX_NDIM} "
+                "non-negative integers whose product (zeros counted as ones) is at "
+                f"most {MAX_ARRAY_ELEMENTS}"
+            )
         count = math.prod(shape)  # each factor bounded: a small integer
         if count > limit:
             raise _bad(f"tensor {name} has {count} numbers; the body carries {limit}")
-        if (not isinstance(offsets, list) or len(offsets) != 2
-                or not all(type(n) is int for n in offsets)):
+        if (
+            not isinstance(offsets, list)
+            or len(offsets) != 2
+            or not all(type(n) is int for n in offsets)
+        ):
             raise _bad(f"tensor {name}: data_offsets must be [begin, end], two integers")
         spans.append((offsets[0], offsets[1], name, shape, count))
     spans.sort(key=lambda span: (span[0], span[1]))
@@ -149,10 +159,11 @@ def _arrays(header: dict[str, Any], data: memoryview) -> dict[str, np.ndarray]:
     position = 0
     for begin, end, name, shape, count in spans:
         if begin != position or end - begin != 8 * count:
-            raise _bad(f"tensor {name}: data_offsets [{begin}, {end}] must start where the "
-                       f"previous tensor ends ({position}) and span 8 × {count} bytes")
-        arrays[name] = np.frombuffer(data, dtype="<f8", count=count, offset=begin
-                                     ).reshape(shape)
+            raise _bad(
+                f"tensor {name}: data_offsets [{begin}, {end}] must start where the "
+                f"previous tensor ends ({position}) and span 8 × {count} bytes"
+            )
+        arrays[name] = np.frombuffer(data, dtype="<f8", count=count, offset=begin).reshape(shape)
         position = end
     if position != len(data):
         raise _bad(f"the tensors end at byte {position} of the data, which has {len(data)}")
@@ -168,8 +179,11 @@ def header_bytes(fields: Mapping[str, Any], shapes: Mapping[str, tuple[int, ...]
     offset = 0
     for name, shape in shapes.items():
         size = 8 * math.prod(shape)
-        header[name] = {"dtype": DTYPE, "shape": list(shape),
-                        "data_offsets": [offset, offset + size]}
+        header[name] = {
+            "dtype": DTYPE,
+            "shape": list(shape),
+            "data_offsets": [offset, offset + size],
+        }
         offset += size
     text = orjson.dumps(header)
     text += b" " * (-len(text) % 8)

@@ -33,15 +33,23 @@ ANSWER_ALLOWANCE = 4096
 brackets of small answers, the binary header's tensor entries."""
 
 
-def answer_bytes(quantity: Quantity, robot: Any, options: dict[str, Any], with_v: bool,
-                 states: int, binary: bool = False, named: bool = False) -> int:
+def answer_bytes(
+    quantity: Quantity,
+    robot: Any,
+    options: dict[str, Any],
+    with_v: bool,
+    states: int,
+    binary: bool = False,
+    named: bool = False,
+) -> int:
     """An upper bound of the bytes of the answer of `states` states (see the module)."""
     per_state, fixed = _bytes(quantity, robot, options, with_v, binary, named)
     return per_state * states + fixed
 
 
-def _bytes(quantity: Quantity, robot: Any, options: dict[str, Any], with_v: bool,
-           binary: bool, named: bool) -> tuple[int, int]:
+def _bytes(
+    quantity: Quantity, robot: Any, options: dict[str, Any], with_v: bool, binary: bool, named: bool
+) -> tuple[int, int]:
     """(bytes of one state's answer, bytes of the answer besides its states)."""
     numbers = quantity.answer_size(robot, options, with_v)
     keyed = named and bool(quantity.joint_answers)
@@ -54,9 +62,16 @@ def _bytes(quantity: Quantity, robot: Any, options: dict[str, Any], with_v: bool
     return numbers * per_number, fixed
 
 
-def check_answer_size(quantity: Quantity, robot: Any, options: dict[str, Any], with_v: bool,
-                      states: int, limit: int, binary: bool = False, named: bool = False
-                      ) -> int:
+def check_answer_size(
+    quantity: Quantity,
+    robot: Any,
+    options: dict[str, Any],
+    with_v: bool,
+    states: int,
+    limit: int,
+    binary: bool = False,
+    named: bool = False,
+) -> int:
     """The answer's size in bytes (`answer_bytes`); `PayloadTooLarge` when it would exceed
     `limit` bytes, naming the largest batch that fits (or, where the quantity says, what else
     fits)."""
@@ -67,9 +82,11 @@ def check_answer_size(quantity: Quantity, robot: Any, options: dict[str, Any], w
     numbers = quantity.answer_size(robot, options, with_v)
     form = "binary" if binary else "JSON"
     fits = max(limit - fixed, 0) // max(per_state, 1)
-    what = (f"the {quantity.name} answer of {states:,} state{'s' if states != 1 else ''} of robot "
-            f"'{robot.id}' would be about {_megabytes(size)} in {form} ({numbers:,} numbers "
-            f"a state), over the limit of {_megabytes(limit)} (ROBODYN_MAX_ANSWER_BYTES)")
+    what = (
+        f"the {quantity.name} answer of {states:,} state{'s' if states != 1 else ''} of robot "
+        f"'{robot.id}' would be about {_megabytes(size)} in {form} ({numbers:,} numbers "
+        f"a state), over the limit of {_megabytes(limit)} (ROBODYN_MAX_ANSWER_BYTES)"
+    )
     if fits >= 1:
         hint = f"send batches of at most {fits:,} states"
         if not binary:

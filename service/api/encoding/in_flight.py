@@ -57,7 +57,10 @@ class AnswerBytesInFlight:
                     f"large answers of {held / 1e6:,.1f} MB are waiting to be read by their "
                     f"clients; this one ({size / 1e6:,.1f} MB) would pass the limit of "
                     f"{self.limit / 1e6:,.1f} MB (ROBODYN_MAX_ANSWER_BYTES_IN_FLIGHT); retry "
-                    "shortly", answer_bytes=size, answer_bytes_in_flight=held)
+                    "shortly",
+                    answer_bytes=size,
+                    answer_bytes_in_flight=held,
+                )
             self.held += size
         return size
 

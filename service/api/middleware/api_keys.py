@@ -52,15 +52,20 @@ class KeyBeforeBody:
         self.guarded: list[tuple[set[str], re.Pattern[str]]] | None = None
 
     async def __call__(self, scope: Scope, receive: Any, send: Any) -> None:
-        if (scope["type"] == "http" and scope["path"].startswith("/v1/")
-                and scope["app"].state.api_keys):
+        if (
+            scope["type"] == "http"
+            and scope["path"].startswith("/v1/")
+            and scope["app"].state.api_keys
+        ):
             if self.guarded is None:
                 self.guarded = _guarded_routes(scope["app"])
             connection = HTTPConnection(scope)
             try:
                 check_api_key_for_all(connection)
-                if any(scope["method"] in methods and pattern.match(scope["path"])
-                       for methods, pattern in self.guarded):
+                if any(
+                    scope["method"] in methods and pattern.match(scope["path"])
+                    for methods, pattern in self.guarded
+                ):
                     check_api_key(connection)
             except Unauthorized as exc:
                 await error_response(exc)(scope, receive, send)

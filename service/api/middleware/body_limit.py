@@ -23,8 +23,14 @@ class BodyLimitMiddleware:
     arrays), so a JSON batch is kept to a size the event loop can afford, and larger batches
     travel in the binary form, which is read without parsing."""
 
-    def __init__(self, app: Any, limit: int, upload_limit: int | None = None,
-                 upload_path: str = "/v1/robots", json_limit: int | None = None) -> None:
+    def __init__(
+        self,
+        app: Any,
+        limit: int,
+        upload_limit: int | None = None,
+        upload_path: str = "/v1/robots",
+        json_limit: int | None = None,
+    ) -> None:
         self.app, self.limit = app, limit
         self.upload_limit, self.upload_path = upload_limit, upload_path
         self.json_limit = json_limit
@@ -50,9 +56,11 @@ class BodyLimitMiddleware:
         limit, setting = self._limit(scope)
         detail = f"the request body is larger than the limit of {limit} bytes ({setting})"
         if setting == "ROBODYN_MAX_JSON_BODY_BYTES":
-            detail += (f"; send a large batch in the binary form (Content-Type: "
-                       f"{BINARY_MEDIA_TYPE}, a safetensors file, up to {self.limit} bytes, "
-                       "ROBODYN_MAX_BODY_BYTES), or split it")
+            detail += (
+                f"; send a large batch in the binary form (Content-Type: "
+                f"{BINARY_MEDIA_TYPE}, a safetensors file, up to {self.limit} bytes, "
+                "ROBODYN_MAX_BODY_BYTES), or split it"
+            )
         for name, value in scope.get("headers", []):
             if name == b"content-length":
                 try:
@@ -61,7 +69,8 @@ class BodyLimitMiddleware:
                     too_big = False
                 if too_big:
                     await problem("payload_too_large", "Payload too large", detail)(
-                        scope, receive, send)
+                        scope, receive, send
+                    )
                     return
         received = 0
         started = False
@@ -86,7 +95,8 @@ class BodyLimitMiddleware:
         except _TooLarge:  # raised where no handler turned it into an answer
             if not started:
                 await problem("payload_too_large", "Payload too large", detail)(
-                    scope, receive, send)
+                    scope, receive, send
+                )
 
 
 class _TooLarge(HTTPException):

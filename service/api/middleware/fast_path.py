@@ -24,8 +24,10 @@ from service.errors import InvalidInput
 
 _START = PREFIX + "/"
 BINARY_PIECE_BYTES = 1 << 20  # a large binary answer is sent in pieces of this size
-_MEDIA_TYPES = {"application/json": b"application/json",
-                BINARY_MEDIA_TYPE: BINARY_MEDIA_TYPE.encode()}
+_MEDIA_TYPES = {
+    "application/json": b"application/json",
+    BINARY_MEDIA_TYPE: BINARY_MEDIA_TYPE.encode(),
+}
 
 
 class DynamicsFastPath:
@@ -38,7 +40,7 @@ class DynamicsFastPath:
         if scope["type"] == "http" and scope["method"] == "POST":
             path: str = scope["path"]
             if path.startswith(_START):
-                robot_id, _, quantity = path[len(_START):].partition("/")
+                robot_id, _, quantity = path[len(_START) :].partition("/")
                 endpoint = ENDPOINTS.get(quantity)
                 if endpoint is not None and robot_id:
                     scope["path_params"] = {"robot_id": robot_id}
@@ -58,7 +60,8 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
         body = await _body(scope, receive)
         if wants_progress(scope):
             await ProgressAnswer(endpoint.json_content(Request(scope, receive), body))(
-                scope, receive, send)
+                scope, receive, send
+            )
             return
         content, media_type = await endpoint.handle(Request(scope, receive), body)
     except Exception as exc:
@@ -68,14 +71,23 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
         response = await handler(Request(scope, receive), exc)
         await response(scope, receive, send)
         return
-    length = (sum(len(p) for p in content) if isinstance(content, list) else len(content))
-    await send({"type": "http.response.start", "status": 200, "headers": [
-        (b"content-length", str(length).encode()),
-        (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode())]})
+    length = sum(len(p) for p in content) if isinstance(content, list) else len(content)
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 200,
+            "headers": [
+                (b"content-length", str(length).encode()),
+                (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode()),
+            ],
+        }
+    )
     if isinstance(content, bytes) and len(content) > BINARY_PIECE_BYTES:
         view = memoryview(content)  # pieces, so that `send` returns once they are read
-        content = [view[i:i + BINARY_PIECE_BYTES]  # type: ignore[misc]
-                   for i in range(0, len(content), BINARY_PIECE_BYTES)]
+        content = [
+            view[i : i + BINARY_PIECE_BYTES]  # type: ignore[misc]
+            for i in range(0, len(content), BINARY_PIECE_BYTES)
+        ]
     if isinstance(content, list):
         await _send_pieces(send, content)
     else:

@@ -48,12 +48,47 @@ _REQUEST_ID_FORMAT = re.compile(rb"[A-Za-z0-9._~:/+=@-]{1,128}")
 # Routes polled by probes and scrapers: their access lines are logged at DEBUG, not INFO.
 QUIET_ROUTES = frozenset({"/health/live", "/health/ready", "/metrics"})
 
-_LATENCY_BUCKETS = (0.0002, 0.0005, 0.001, 0.002, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5,
-                    1.0, 2.5, 5.0, 10.0, 30.0)
-_COMPUTE_BUCKETS = (0.00001, 0.00002, 0.00005, 0.0001, 0.0002, 0.0005, 0.001, 0.002, 0.005,
-                    0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0)
-_BATCH_BUCKETS = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000, 50000,
-                  100000)
+_LATENCY_BUCKETS = (
+    0.0002,
+    0.0005,
+    0.001,
+    0.002,
+    0.005,
+    0.01,
+    0.025,
+    0.05,
+    0.1,
+    0.25,
+    0.5,
+    1.0,
+    2.5,
+    5.0,
+    10.0,
+    30.0,
+)
+_COMPUTE_BUCKETS = (
+    0.00001,
+    0.00002,
+    0.00005,
+    0.0001,
+    0.0002,
+    0.0005,
+    0.001,
+    0.002,
+    0.005,
+    0.01,
+    0.025,
+    0.05,
+    0.1,
+    0.25,
+    0.5,
+    1.0,
+    2.5,
+    5.0,
+    10.0,
+    30.0,
+)
+_BATCH_BUCKETS = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000, 50000, 100000)
 
 
 class Metrics:
@@ -65,31 +100,48 @@ class Metrics:
 
     def __init__(self) -> None:
         self.registry = CollectorRegistry()
-        self.requests = Counter("robodyn_requests_total", "HTTP requests answered",
-                                ["method", "route", "robot", "status"], registry=self.registry)
+        self.requests = Counter(
+            "robodyn_requests_total",
+            "HTTP requests answered",
+            ["method", "route", "robot", "status"],
+            registry=self.registry,
+        )
         self.latency = Histogram(
             "robodyn_request_duration_seconds",
             "Time from receiving a request to sending the end of its answer, in seconds",
-            ["method", "route", "robot"], registry=self.registry, buckets=_LATENCY_BUCKETS)
+            ["method", "route", "robot"],
+            registry=self.registry,
+            buckets=_LATENCY_BUCKETS,
+        )
         self.compute = Histogram(
             "robodyn_compute_seconds",
             "Time spent computing the dynamics of one request (all its states), in seconds",
-            ["quantity", "robot"], registry=self.registry, buckets=_COMPUTE_BUCKETS)
+            ["quantity", "robot"],
+            registry=self.registry,
+            buckets=_COMPUTE_BUCKETS,
+        )
         self.batch_size = Histogram(
-            "robodyn_batch_size", "States per dynamics request (1 for a single state)",
-            ["quantity"], registry=self.registry, buckets=_BATCH_BUCKETS)
+            "robodyn_batch_size",
+            "States per dynamics request (1 for a single state)",
+            ["quantity"],
+            registry=self.registry,
+            buckets=_BATCH_BUCKETS,
+        )
         self.registry.register(_ConnectionsClosed())
         self.registry.register(_ComputationsStopped())
         self._request_children: dict[tuple[str, str, str, int], tuple[Any, Any]] = {}
         self._compute_children: dict[tuple[str, str], tuple[Any, Any]] = {}
 
-    def observe_request(self, method: str, route: str, robot: str, status: int,
-                        seconds: float) -> None:
+    def observe_request(
+        self, method: str, route: str, robot: str, status: int, seconds: float
+    ) -> None:
         key = (method, route, robot, status)
         children = self._request_children.get(key)
         if children is None:
-            children = (self.requests.labels(method, route, robot, str(status)),
-                        self.latency.labels(method, route, robot))
+            children = (
+                self.requests.labels(method, route, robot, str(status)),
+                self.latency.labels(method, route, robot),
+            )
             self._request_children[key] = children
         children[0].inc()
         children[1].observe(seconds)
@@ -111,8 +163,11 @@ class _ConnectionsClosed(Collector):
 
     def collect(self) -> Iterator[CounterMetricFamily]:
         family = CounterMetricFamily(
-            "robodyn_connections_closed", "Connections closed by the server's HTTP protocol "
-            "for a timeout, the connection cap or malformed HTTP", labels=["reason"])
+            "robodyn_connections_closed",
+            "Connections closed by the server's HTTP protocol "
+            "for a timeout, the connection cap or malformed HTTP",
+            labels=["reason"],
+        )
         for reason, count in CONNECTIONS_CLOSED.items():
             family.add_metric([reason], count)
         yield family
@@ -124,8 +179,11 @@ class _ComputationsStopped(Collector):
 
     def collect(self) -> Iterator[CounterMetricFamily]:
         family = CounterMetricFamily(
-            "robodyn_computations_stopped", "Long computations stopped before their end: "
-            "the request's deadline passed or its client disconnected", labels=["reason"])
+            "robodyn_computations_stopped",
+            "Long computations stopped before their end: "
+            "the request's deadline passed or its client disconnected",
+            labels=["reason"],
+        )
         for reason, count in STOPPED.items():
             family.add_metric([reason], count)
         yield family
@@ -164,9 +222,14 @@ class ObservabilityMiddleware:
                 info = scope.get("robodyn")
                 if info is not None:
                     timing = f"compute;dur={info['compute_seconds'] * 1e3:.3f}, {timing}"
-                message = {**message, "headers": [
-                    *message.get("headers", ()), id_header,
-                    (b"server-timing", timing.encode("ascii"))]}
+                message = {
+                    **message,
+                    "headers": [
+                        *message.get("headers", ()),
+                        id_header,
+                        (b"server-timing", timing.encode("ascii")),
+                    ],
+                }
             await send(message)
 
         try:
@@ -176,17 +239,22 @@ class ObservabilityMiddleware:
             # the service. Counted as 499 (as nginx does), logged without a traceback.
             if status == 0:
                 status = CLIENT_CLOSED_REQUEST
-                error_log.info("the client disconnected before sending its whole request "
-                               "(%s %s)", scope["method"], scope["path"])
+                error_log.info(
+                    "the client disconnected before sending its whole request (%s %s)",
+                    scope["method"],
+                    scope["path"],
+                )
         except Exception:
             if status != 0:  # the answer is cut short: the server must drop the connection
                 raise
             # Answered here, complete (so the connection stays usable) and with the request
             # id; logged once with its traceback, not re-raised to the server.
             error_log.exception("unexpected error on %s %s", scope["method"], scope["path"])
-            answer = problem("internal_error", "Internal error",
-                             "the service failed to answer this request; the failure was "
-                             "logged")
+            answer = problem(
+                "internal_error",
+                "Internal error",
+                "the service failed to answer this request; the failure was logged",
+            )
             with contextlib.suppress(Exception):  # e.g. the client has gone
                 await answer(scope, receive, send_with_headers)
             status = status or 500
@@ -206,20 +274,30 @@ class ObservabilityMiddleware:
         self.metrics.observe_request(method, route, robot, status, seconds)
         info = scope.get("robodyn")
         if info is not None:
-            self.metrics.observe_compute(info["quantity"], robot, info["compute_seconds"],
-                                         info["batch_size"])
+            self.metrics.observe_compute(
+                info["quantity"], robot, info["compute_seconds"], info["batch_size"]
+            )
         level = logging.DEBUG if route in QUIET_ROUTES else logging.INFO
         if not access_log.isEnabledFor(level):
             return
-        fields = {"request_id": request_id, "method": method, "route": route,
-                  "robot": robot_id, "quantity": None, "batch_size": None, "status": status,
-                  "duration_ms": round(seconds * 1e3, 3), "compute_ms": None}
+        fields = {
+            "request_id": request_id,
+            "method": method,
+            "route": route,
+            "robot": robot_id,
+            "quantity": None,
+            "batch_size": None,
+            "status": status,
+            "duration_ms": round(seconds * 1e3, 3),
+            "compute_ms": None,
+        }
         if info is not None:
             fields["quantity"], fields["batch_size"] = info["quantity"], info["batch_size"]
             fields["compute_ms"] = round(info["compute_seconds"] * 1e3, 3)
         handler = sole_json_handler(access_log)
         if handler is not None:  # the fast path, same line (service/logs.py)
-            handler.write_fields(logging.getLevelName(level).lower(), access_log.name,
-                                 "request", fields)
+            handler.write_fields(
+                logging.getLevelName(level).lower(), access_log.name, "request", fields
+            )
         else:
             access_log.log(level, "request", extra={"fields": fields})

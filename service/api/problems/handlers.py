@@ -45,19 +45,32 @@ STATUS_BY_CODE: dict[str, int] = {
 }
 assert all(e.code in STATUS_BY_CODE for e in ALL_ERRORS)
 
-_HTTP_CODES = {400: ("bad_request", "Bad request"), 404: ("not_found", "Not found"),
-               405: ("method_not_allowed", "Method not allowed"),
-               415: ("unsupported_media_type", "Unsupported media type"),
-               413: ("payload_too_large", "Payload too large")}
+_HTTP_CODES = {
+    400: ("bad_request", "Bad request"),
+    404: ("not_found", "Not found"),
+    405: ("method_not_allowed", "Method not allowed"),
+    415: ("unsupported_media_type", "Unsupported media type"),
+    413: ("payload_too_large", "Payload too large"),
+}
 
 
-def problem(code: str, title: str, detail: str, headers: dict[str, str] | None = None,
-            status: int | None = None, **extra: Any) -> Response:
+def problem(
+    code: str,
+    title: str,
+    detail: str,
+    headers: dict[str, str] | None = None,
+    status: int | None = None,
+    **extra: Any,
+) -> Response:
     """A problem+json response with the status of `code` (or an explicit `status`)."""
     status = status or STATUS_BY_CODE[code]
     body = problem_document(code, title, status, detail, **extra)
-    return Response(orjson.dumps(body), status_code=status, headers=headers,
-                    media_type="application/problem+json")
+    return Response(
+        orjson.dumps(body),
+        status_code=status,
+        headers=headers,
+        media_type="application/problem+json",
+    )
 
 
 def error_response(exc: RobodynError) -> Response:
@@ -79,11 +92,15 @@ async def _on_validation_error(request: Request, exc: Exception) -> Response:
     content_type = request.headers.get("content-type", "")
     media_type = content_type.split(";")[0].strip()
     if media_type and "json" not in media_type and media_type != BINARY_MEDIA_TYPE:
-        return problem("unsupported_media_type", "Unsupported media type",
-                       "send the body as JSON with 'Content-Type: application/json' "
-                       "(with curl: --json '{...}')")
-    return problem("validation_error", "Invalid request",
-                   **validation_details(exc, *_body_schema(request)))
+        return problem(
+            "unsupported_media_type",
+            "Unsupported media type",
+            "send the body as JSON with 'Content-Type: application/json' "
+            "(with curl: --json '{...}')",
+        )
+    return problem(
+        "validation_error", "Invalid request", **validation_details(exc, *_body_schema(request))
+    )
 
 
 def _body_schema(request: Request) -> tuple[dict[str, Any] | None, dict[str, Any]]:
@@ -99,12 +116,15 @@ def _body_schema(request: Request) -> tuple[dict[str, Any] | None, dict[str, Any
     return schema, doc.get("components", {}).get("schemas", {})
 
 
-def validation_details(exc: RequestValidationError, schema: dict[str, Any] | None = None,
-                       schemas: dict[str, Any] | None = None) -> dict[str, Any]:
+def validation_details(
+    exc: RequestValidationError,
+    schema: dict[str, Any] | None = None,
+    schemas: dict[str, Any] | None = None,
+) -> dict[str, Any]:
     """`detail` (the first mistake, located) and `errors` (up to 20, one per mistake) of a
     validation failure (`service.api.problems.validation_errors`; `schema`: the body's JSON
     schema)."""
-    raw = list(exc.errors()[:MAX_ERRORS_READ + 1])  # bounded by `pydantic_errors` upstream
+    raw = list(exc.errors()[: MAX_ERRORS_READ + 1])  # bounded by `pydantic_errors` upstream
     count = next((e["ctx"]["count"] for e in raw if e.get("type") == TOO_MANY), None)
     errors = user_errors([e for e in raw if e.get("type") != TOO_MANY], schema, schemas)
     first = errors[0] if errors else {"loc": "body", "msg": "invalid request"}
@@ -114,8 +134,7 @@ def validation_details(exc: RequestValidationError, schema: dict[str, Any] | Non
         detail += f" (and {more} more)"
     shown = errors[:20]
     if count is not None:
-        shown.append({"loc": "body", "msg": f"has {count} mistakes in all (the first are "
-                      "listed)"})
+        shown.append({"loc": "body", "msg": f"has {count} mistakes in all (the first are listed)"})
     return {"detail": detail, "errors": shown}
 
 
@@ -125,8 +144,10 @@ def problem_body(code: str, title: str, detail: str, **extra: Any) -> dict[str, 
 
 
 _BODY_PARSE_FAILURE = "There was an error parsing the body"  # FastAPI's 400 for a JSON body
-_UNPARSABLE = {RecursionError: "the JSON body is nested too deeply to be read",
-               UnicodeDecodeError: "the JSON body is not UTF-8 text"}
+_UNPARSABLE = {
+    RecursionError: "the JSON body is nested too deeply to be read",
+    UnicodeDecodeError: "the JSON body is not UTF-8 text",
+}
 
 
 async def _on_http_error(request: Request, exc: Exception) -> Response:
@@ -136,11 +157,16 @@ async def _on_http_error(request: Request, exc: Exception) -> Response:
     if exc.status_code == 400 and exc.detail == _BODY_PARSE_FAILURE:
         # A body FastAPI could not read as JSON (too deeply nested, not UTF-8, ...) is a
         # request the schema refuses, like any other malformed JSON: 422, not 400.
-        reason = next((text for kind, text in _UNPARSABLE.items()
-                       if isinstance(exc.__cause__, kind)), "the body is not valid JSON")
+        reason = next(
+            (text for kind, text in _UNPARSABLE.items() if isinstance(exc.__cause__, kind)),
+            "the body is not valid JSON",
+        )
         return problem("validation_error", "Invalid request", f"body: {reason}")
-    fallback = ("bad_request", "Bad request") if exc.status_code < 500 else (
-        "internal_error", "Internal error")
+    fallback = (
+        ("bad_request", "Bad request")
+        if exc.status_code < 500
+        else ("internal_error", "Internal error")
+    )
     code, title = _HTTP_CODES.get(exc.status_code, fallback)
     if code == "not_found":
         detail = "no such route; see /openapi.json or /docs for the API"
@@ -156,8 +182,11 @@ async def _on_http_error(request: Request, exc: Exception) -> Response:
 
 async def _on_unexpected(request: Request, exc: Exception) -> Response:
     log.exception("unexpected error on %s %s", request.method, request.url.path)
-    return problem("internal_error", "Internal error",
-                   "the service failed to answer this request; the failure was logged")
+    return problem(
+        "internal_error",
+        "Internal error",
+        "the service failed to answer this request; the failure was logged",
+    )
 
 
 def handler_for(app: Any, exc: Exception) -> Any:

@@ -56,42 +56,74 @@ def problem_schema() -> dict[str, Any]:
         "title": "Problem",
         "type": "object",
         "description": "RFC 9457 problem details with a stable machine-readable `code`. Besides "
-                       "the members below, a problem may carry others; clients should ignore "
-                       "members they do not know.",
+        "the members below, a problem may carry others; clients should ignore "
+        "members they do not know.",
         "required": ["title", "status", "detail", "code"],
         "properties": {
             "type": {"type": "string", "default": "about:blank"},
             "title": {"type": "string", "description": "A short summary of the code."},
             "status": {"type": "integer", "description": "The HTTP status of the answer."},
-            "detail": {"type": "string", "description": "What is wrong, for a person: the "
-                       "field, the expected value, where to find valid names."},
-            "code": {"type": "string", "enum": codes,
-                     "description": f"The error code and its HTTP status: {listed}."},
-            "errors": {"type": "array", "description": "validation_error: one entry per "
-                       "mistake in the request (at most 20).",
-                       "items": {"type": "object", "required": ["loc", "msg"], "properties": {
-                           "loc": {"type": "string", "description": "Where in the body, e.g. "
-                                   "`q[2]` or `external_forces[0].wrench`."},
-                           "msg": {"type": "string", "description": "What is wrong there."}}}},
-            "missing": {**names, "description": "dimension_mismatch of an input keyed by "
-                        "joint name: the joints it does not name."},
-            "unknown": {**names, "description": "dimension_mismatch of an input keyed by "
-                        "joint name: the names that are not joints of the robot."},
-            "state": {"type": "integer", "description": "In a batch: the index of the state "
-                      "at fault."},
-            "smallest_singular_value": {"type": "number", "description": "singular_"
-                                        "configuration: σ_min of the task matrix."},
-            "largest_singular_value": {"type": "number", "description": "singular_"
-                                       "configuration: σ_max of the task matrix."},
-            "condition_number": {"type": ["number", "null"], "description": "singular_"
-                                 "configuration: σ_max / σ_min; null when σ_min is 0."},
+            "detail": {
+                "type": "string",
+                "description": "What is wrong, for a person: the "
+                "field, the expected value, where to find valid names.",
+            },
+            "code": {
+                "type": "string",
+                "enum": codes,
+                "description": f"The error code and its HTTP status: {listed}.",
+            },
+            "errors": {
+                "type": "array",
+                "description": "validation_error: one entry per "
+                "mistake in the request (at most 20).",
+                "items": {
+                    "type": "object",
+                    "required": ["loc", "msg"],
+                    "properties": {
+                        "loc": {
+                            "type": "string",
+                            "description": "Where in the body, e.g. "
+                            "`q[2]` or `external_forces[0].wrench`.",
+                        },
+                        "msg": {"type": "string", "description": "What is wrong there."},
+                    },
+                },
+            },
+            "missing": {
+                **names,
+                "description": "dimension_mismatch of an input keyed by "
+                "joint name: the joints it does not name.",
+            },
+            "unknown": {
+                **names,
+                "description": "dimension_mismatch of an input keyed by "
+                "joint name: the names that are not joints of the robot.",
+            },
+            "state": {
+                "type": "integer",
+                "description": "In a batch: the index of the state at fault.",
+            },
+            "smallest_singular_value": {
+                "type": "number",
+                "description": "singular_configuration: σ_min of the task matrix.",
+            },
+            "largest_singular_value": {
+                "type": "number",
+                "description": "singular_configuration: σ_max of the task matrix.",
+            },
+            "condition_number": {
+                "type": ["number", "null"],
+                "description": "singular_configuration: σ_max / σ_min; null when σ_min is 0.",
+            },
         },
         "additionalProperties": True,
     }
 
 
-def problem_openapi(app: FastAPI, described: Sequence[BaseRoute] = (),
-                    twins: Sequence[BaseRoute] = ()) -> dict[str, Any]:
+def problem_openapi(
+    app: FastAPI, described: Sequence[BaseRoute] = (), twins: Sequence[BaseRoute] = ()
+) -> dict[str, Any]:
     """The app's OpenAPI document, rewritten as the module docstring says (computed once).
     `described`: routes documented but served by other (lean) routes of the app; they are
     the dynamics routes, which also speak the binary form. `twins`: other lean routes'
@@ -99,8 +131,12 @@ def problem_openapi(app: FastAPI, described: Sequence[BaseRoute] = (),
     through its `openapi_extra`, a JSON answer; the upload: JSON)."""
     if app.openapi_schema:
         return app.openapi_schema
-    doc = get_openapi(title=app.title, version=app.version, description=app.description,
-                      routes=[*app.routes, *described, *twins])
+    doc = get_openapi(
+        title=app.title,
+        version=app.version,
+        description=app.description,
+        routes=[*app.routes, *described, *twins],
+    )
     schemas = doc.setdefault("components", {}).setdefault("schemas", {})
     for name in ("HTTPValidationError", "ValidationError"):
         schemas.pop(name, None)
@@ -111,8 +147,9 @@ def problem_openapi(app: FastAPI, described: Sequence[BaseRoute] = (),
         for operation in _operations(operations):
             _problem_responses(operation)
     _binary_content(paths, described)
-    _progress_content(paths, [*described, *(r for r in twins
-                                            if getattr(r, "name", "") == "identify")])
+    _progress_content(
+        paths, [*described, *(r for r in twins if getattr(r, "name", "") == "identify")]
+    )
     _optional_defaults(doc)
     app.openapi_schema = doc
     return doc
@@ -144,16 +181,23 @@ def _problem_responses(operation: dict[str, Any]) -> None:
             response["content"] = problem
             if int(status) == 422 and response.get("description") == "Validation Error":
                 response["description"] = "validation_error"
-    responses.setdefault("default", {"description": "An error (see the `code`)",
-                                     "content": problem})
+    responses.setdefault(
+        "default", {"description": "An error (see the `code`)", "content": problem}
+    )
 
 
 def _binary_content(paths: dict[str, Any], described: Sequence[BaseRoute]) -> None:
     """Declare the binary form beside JSON on the dynamics routes' bodies and answers."""
-    binary = {BINARY_MEDIA_TYPE: {"schema": {
-        "type": "string", "format": "binary",
-        "description": "The same members as the JSON form, arrays as float64 tensors "
-                       "(see docs/binary-format.md)."}}}
+    binary = {
+        BINARY_MEDIA_TYPE: {
+            "schema": {
+                "type": "string",
+                "format": "binary",
+                "description": "The same members as the JSON form, arrays as float64 tensors "
+                "(see docs/binary-format.md).",
+            }
+        }
+    }
     for route in described:
         if not isinstance(route, APIRoute):
             continue
@@ -172,12 +216,17 @@ def _binary_content(paths: dict[str, Any], described: Sequence[BaseRoute]) -> No
 def _progress_content(paths: dict[str, Any], routes: Sequence[BaseRoute]) -> None:
     """Declare the progress stream beside JSON on the answers of the dynamics routes and
     identify (asked for with `Accept: application/x-ndjson`)."""
-    stream = {PROGRESS_MEDIA_TYPE: {"schema": {
-        "type": "string",
-        "description": "Newline-delimited JSON: {\"progress\": {\"done\", \"total\", \"unit\", "
-                       "\"stage\"}} lines, then {\"answer\": <the JSON answer>} or "
-                       "{\"problem\": <a problem object>} (see docs/http-api.md, \"Progress "
-                       "of long requests\")."}}}
+    stream = {
+        PROGRESS_MEDIA_TYPE: {
+            "schema": {
+                "type": "string",
+                "description": 'Newline-delimited JSON: {"progress": {"done", "total", "unit", '
+                '"stage"}} lines, then {"answer": <the JSON answer>} or '
+                '{"problem": <a problem object>} (see docs/http-api.md, "Progress '
+                'of long requests").',
+            }
+        }
+    }
     for route in routes:
         if not isinstance(route, APIRoute):
             continue
@@ -218,10 +267,8 @@ def _optional_defaults(doc: dict[str, Any]) -> None:
     example (see the module docstring); it is never in `required` anyway."""
     schemas = doc["components"]["schemas"]
     operations = [op for item in doc.get("paths", {}).values() for op in _operations(item)]
-    inputs = _reachable((n for op in operations for n in _refs(op.get("requestBody", {}))),
-                        schemas)
-    outputs = _reachable((n for op in operations for n in _refs(op.get("responses", {}))),
-                         schemas)
+    inputs = _reachable((n for op in operations for n in _refs(op.get("requestBody", {}))), schemas)
+    outputs = _reachable((n for op in operations for n in _refs(op.get("responses", {}))), schemas)
     for name in inputs - outputs:
         for prop in schemas[name].get("properties", {}).values():
             if "default" not in prop:

@@ -38,31 +38,46 @@ _PREFIX_BYTES = 64 * 1024
 _CUT_OFF = frozenset(("missing", "too_short"))  # what a body's prefix lacks by being cut
 
 
-def pydantic_errors(exc: ValidationError, model: type[BaseModel] | None = None,
-                    data: Callable[[], Any] | None = None, partial: bool = False
-                    ) -> list[dict[str, Any]]:
+def pydantic_errors(
+    exc: ValidationError,
+    model: type[BaseModel] | None = None,
+    data: Callable[[], Any] | None = None,
+    partial: bool = False,
+) -> list[dict[str, Any]]:
     """pydantic's error objects of `exc` (loc, type, msg; no input, context or URL), at most
     about `MAX_ERRORS_READ`: with more, the errors of a truncated view of the body (`data()`,
     validated by `model`) and one last entry giving the count. `partial`: `data()` is only the
     beginning of the body (`json_prefix`), so members and items it cut off are not errors."""
     count = exc.error_count()
     if count <= MAX_ERRORS_READ:
-        return [dict(e) for e in exc.errors(include_url=False, include_context=False,
-                                            include_input=False)]
+        return [
+            dict(e)
+            for e in exc.errors(include_url=False, include_context=False, include_input=False)
+        ]
     sample: list[dict[str, Any]] = []
     if model is not None and data is not None:
         try:
             model.model_validate(_truncated(data(), _field_names(model)))
         except ValidationError as again:
             if again.error_count() <= MAX_ERRORS_READ:
-                sample = [dict(e) for e in again.errors(include_url=False, include_context=False,
-                                                        include_input=False)
-                          if not (partial and e["type"] in _CUT_OFF)]
+                sample = [
+                    dict(e)
+                    for e in again.errors(
+                        include_url=False, include_context=False, include_input=False
+                    )
+                    if not (partial and e["type"] in _CUT_OFF)
+                ]
         except Exception:
             sample = []
-    return [*sample[:MAX_ERRORS_READ], {"loc": (), "type": TOO_MANY, "ctx": {"count": count},
-                                        "msg": f"has {count} mistakes in all (the first are "
-                                        "listed)"}]
+    return [
+        *sample[:MAX_ERRORS_READ],
+        {
+            "loc": (),
+            "type": TOO_MANY,
+            "ctx": {"count": count},
+            "msg": f"has {count} mistakes in all (the first are listed)",
+        },
+    ]
 
 
 def json_prefix(body: bytes | bytearray | str) -> Any:
@@ -72,15 +87,17 @@ def json_prefix(body: bytes | bytearray | str) -> Any:
     pydantic's JSON parser refuses it."""
     head = bytes(body[:_PREFIX_BYTES]) if not isinstance(body, str) else body[:_PREFIX_BYTES]
     if len(body) > _PREFIX_BYTES:
-        comma, bracket, brace = (",", "]", "}") if isinstance(head, str) else (b",", b"]", b"}")
-        end = max(head.rfind(comma), head.rfind(bracket) + 1,  # type: ignore[arg-type]
-                  head.rfind(brace) + 1)  # type: ignore[arg-type]
-        head = head[:max(end, 0)]
+        if isinstance(head, str):
+            end = max(head.rfind(","), head.rfind("]") + 1, head.rfind("}") + 1)
+        else:
+            end = max(head.rfind(b","), head.rfind(b"]") + 1, head.rfind(b"}") + 1)
+        head = head[: max(end, 0)]
     return from_json(head, allow_partial=True, allow_inf_nan=False)
 
 
-def prefix_errors(model: type[BaseModel], body: bytes | bytearray | str
-                  ) -> list[dict[str, Any]] | None:
+def prefix_errors(
+    model: type[BaseModel], body: bytes | bytearray | str
+) -> list[dict[str, Any]] | None:
     """The errors a truncated view of the beginning of a large JSON `body` (`json_prefix`)
     already shows for `model`, when none of them can come from the cut (a member or item
     missing, an array too short) or be counted short by it (unknown members): those of the
@@ -93,8 +110,10 @@ def prefix_errors(model: type[BaseModel], body: bytes | bytearray | str
     except ValidationError as exc:
         if exc.error_count() > MAX_ERRORS_READ:
             return None
-        errors = [dict(e) for e in exc.errors(include_url=False, include_context=False,
-                                              include_input=False)]
+        errors = [
+            dict(e)
+            for e in exc.errors(include_url=False, include_context=False, include_input=False)
+        ]
         uncertain = _CUT_OFF | {"extra_forbidden"}  # (unknown members are counted in all)
         return None if any(e["type"] in uncertain for e in errors) else errors
     except Exception:
@@ -146,15 +165,32 @@ def _truncated(value: Any, keep: frozenset[str], depth: int = 0) -> Any:
         return [_truncated(v, keep, depth + 1) for v in value[:_VIEW_ITEMS]]
     return value
 
+
 # pydantic's names of union members: types (`float`, `list[float]`, `constrained-str`,
 # `function-after[...]`, ...) as opposed to field names, keys and indices.
-_MEMBER = re.compile(r"^(float|int|str|bool|bytes|none|list|dict|set|tuple|union|literal|model|"
-                     r"nullable|tagged-union|lax-or-strict|json-or-python|is-instance|"
-                     r"constrained-\w+|function-\w+|JointState)(\[.*\])?$")
-_KINDS = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true or false",
-          "none": "null", "list": "an array", "dict": "an object", "tuple": "an array"}
-_PLURALS = {"a number": "numbers", "an integer": "integers", "a string": "strings",
-            "true or false": "booleans", "an object": "objects", "an array": "arrays"}
+_MEMBER = re.compile(
+    r"^(float|int|str|bool|bytes|none|list|dict|set|tuple|union|literal|model|"
+    r"nullable|tagged-union|lax-or-strict|json-or-python|is-instance|"
+    r"constrained-\w+|function-\w+|JointState)(\[.*\])?$"
+)
+_KINDS = {
+    "float": "a number",
+    "int": "an integer",
+    "str": "a string",
+    "bool": "true or false",
+    "none": "null",
+    "list": "an array",
+    "dict": "an object",
+    "tuple": "an array",
+}
+_PLURALS = {
+    "a number": "numbers",
+    "an integer": "integers",
+    "a string": "strings",
+    "true or false": "booleans",
+    "an object": "objects",
+    "an array": "arrays",
+}
 _NOT_ITS_MEMBERS = ("missing", "extra_forbidden")
 _REWORDED = {"extra_forbidden": "is not a field of this request"}
 
@@ -171,8 +207,9 @@ class _Error:
         return self.type.endswith("_type") or self.type == "union_type"
 
 
-def user_errors(raw: list[Any], schema: dict[str, Any] | None = None,
-                schemas: dict[str, Any] | None = None) -> list[dict[str, str]]:
+def user_errors(
+    raw: list[Any], schema: dict[str, Any] | None = None, schemas: dict[str, Any] | None = None
+) -> list[dict[str, str]]:
     """`{"loc", "msg"}` entries, one per mistake, of pydantic's `errors()` list. With the
     request body's JSON `schema` (and the OpenAPI `schemas` its `$ref`s point into), an unknown
     member gets the close matches among the members allowed where it was sent."""
@@ -191,19 +228,19 @@ def _body_path(loc: tuple[Any, ...]) -> tuple[Any, ...]:
     return loc[1:] if loc[:1] == ("body",) else loc
 
 
-def _members(schema: dict[str, Any], schemas: dict[str, Any], path: tuple[Any, ...]
-             ) -> list[str]:
+def _members(schema: dict[str, Any], schemas: dict[str, Any], path: tuple[Any, ...]) -> list[str]:
     """The member names the object schema at `path` of `schema` allows ([] when unsure)."""
     nodes = [schema]
     for part in path:
-        nodes = [child for node in _alternatives_of(nodes, schemas)
-                 for child in _children(node, part)]
-    return [name for node in _alternatives_of(nodes, schemas)
-            for name in node.get("properties", {})]
+        nodes = [
+            child for node in _alternatives_of(nodes, schemas) for child in _children(node, part)
+        ]
+    return [
+        name for node in _alternatives_of(nodes, schemas) for name in node.get("properties", {})
+    ]
 
 
-def _alternatives_of(nodes: list[dict[str, Any]], schemas: dict[str, Any]
-                     ) -> list[dict[str, Any]]:
+def _alternatives_of(nodes: list[dict[str, Any]], schemas: dict[str, Any]) -> list[dict[str, Any]]:
     """`nodes` with `$ref`s resolved and `anyOf`/`oneOf`/`allOf` members flattened."""
     out: list[dict[str, Any]] = []
     todo = list(nodes)
@@ -251,7 +288,7 @@ def _resolve(errors: list[_Error]) -> list[_Error]:
             out.append(e)
             continue
         member = unions.setdefault(e.loc[:at], {}).setdefault(e.loc[at], [])
-        member.append(_Error(e.loc[:at] + e.loc[at + 1:], e.type, e.msg))
+        member.append(_Error(e.loc[:at] + e.loc[at + 1 :], e.type, e.msg))
     for prefix, members in unions.items():
         resolved = {name: _resolve(errs) for name, errs in members.items()}
         out.extend(_best(prefix, resolved))
@@ -260,18 +297,28 @@ def _resolve(errors: list[_Error]) -> list[_Error]:
 
 def _best(prefix: tuple[Any, ...], members: dict[str, list[_Error]]) -> list[_Error]:
     """The errors of the member matching best, or one error listing what the field takes."""
+
     def misfit(errs: list[_Error]) -> bool:  # the value itself is not of the member's type
-        return any((e.wrong_type and len(e.loc) == len(prefix))  # (nor an object lacking a
-                   or (e.type == "missing" and len(e.loc) == len(prefix) + 1)  # model's field)
-                   for e in errs)
+        return any(
+            (e.wrong_type and len(e.loc) == len(prefix))  # (nor an object lacking a
+            or (e.type == "missing" and len(e.loc) == len(prefix) + 1)  # model's field)
+            for e in errs
+        )
 
     fitting = {name: errs for name, errs in members.items() if not misfit(errs)}
     if not fitting:
         accepted = _alternatives([_describe(name) for name in members])
         return [_Error(prefix, "union_type", f"must be {accepted}")]
-    best = min(fitting.values(), key=lambda errs: (  # a member missing, or not having, a
-        sum(e.wrong_type or e.type in _NOT_ITS_MEMBERS for e in errs),  # model's field fits less
-        -max(len(e.loc) for e in errs), len(errs)))
+    best = min(
+        fitting.values(),
+        key=lambda errs: (  # a member missing, or not having, a
+            sum(
+                e.wrong_type or e.type in _NOT_ITS_MEMBERS for e in errs
+            ),  # model's field fits less
+            -max(len(e.loc) for e in errs),
+            len(errs),
+        ),
+    )
     return best
 
 

@@ -48,8 +48,11 @@ INLINE_BODY_BYTES = 64 * 1024
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
     404: {"model": Problem, "description": "robot_not_found"},
     415: {"model": Problem, "description": "unsupported_media_type"},
-    422: {"model": Problem, "description": "validation_error, dimension_mismatch, "
-          "invalid_configuration, non_finite_result (and the quantity's own codes)"},
+    422: {
+        "model": Problem,
+        "description": "validation_error, dimension_mismatch, "
+        "invalid_configuration, non_finite_result (and the quantity's own codes)",
+    },
     503: {"model": Problem, "description": "not_ready, overloaded"},
     504: {"model": Problem, "description": "deadline_exceeded"},
 }
@@ -62,8 +65,9 @@ async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) ->
     shed load (503 overloaded) past `max_pending_batches` computed or waiting."""
     state = request.app.state
     if state.batches_in_flight >= state.settings.max_pending_batches:
-        raise Overloaded(f"{state.batches_in_flight} large batches are already being computed; "
-                         "retry shortly")
+        raise Overloaded(
+            f"{state.batches_in_flight} large batches are already being computed; retry shortly"
+        )
     state.batches_in_flight += 1  # only touched on the event loop: no lock needed
     try:
         async with state.off_loop_slots:  # a few at once: the loop keeps its share of the GIL
@@ -101,13 +105,15 @@ def _media_types(headers: list[tuple[bytes, bytes]]) -> tuple[str, str]:
     return content_type or "", accept or ""
 
 
-def _invalid(exc: ValidationError, model: type[BaseModel], data: Callable[[], Any],
-             partial: bool = False) -> RequestValidationError:
+def _invalid(
+    exc: ValidationError, model: type[BaseModel], data: Callable[[], Any], partial: bool = False
+) -> RequestValidationError:
     """The request error of a failed validation by `model`, with at most a few hundred error
     objects built whatever the number of mistakes (`pydantic_errors`; `data()`: the body, or
     with `partial` its beginning, as decoded JSON, read again only then)."""
-    return RequestValidationError([{**e, "loc": ("body", *e["loc"])}
-                                   for e in pydantic_errors(exc, model, data, partial)])
+    return RequestValidationError(
+        [{**e, "loc": ("body", *e["loc"])} for e in pydantic_errors(exc, model, data, partial)]
+    )
 
 
 class Endpoint:
@@ -115,25 +121,30 @@ class Endpoint:
 
     def __init__(self, spec: Spec) -> None:
         self.quantity = quantity = spec.quantity
-        self.route = Route(f"{PREFIX}/{{robot_id}}/{quantity.name}", self.answer,
-                           methods=["POST"], name=quantity.name)
+        self.route = Route(
+            f"{PREFIX}/{{robot_id}}/{quantity.name}",
+            self.answer,
+            methods=["POST"],
+            name=quantity.name,
+        )
         self.model = spec.request
         self.joint_inputs = (*quantity.inputs, *quantity.optional)
         fields: dict[str, Any] = {
-            name: (info.annotation, info) for name, info in self.model.model_fields.items()
-            if name not in self.joint_inputs}
+            name: (info.annotation, info)
+            for name, info in self.model.model_fields.items()
+            if name not in self.joint_inputs
+        }
         self.options_model = create_model(  # the non-array fields, for binary bodies
-            f"{self.model.__name__}Options", __base__=StrictRequest, **fields)
+            f"{self.model.__name__}Options", __base__=StrictRequest, **fields
+        )
 
-    def parse_json(self, body: bytes | bytearray | str
-                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+    def parse_json(self, body: bytes | bytearray | str) -> tuple[dict[str, Any], dict[str, Any]]:
         """(joint-space arrays, options) of a JSON body. A large body whose beginning already
         shows mistakes is refused with them, before the whole of it is validated."""
         if len(body) > INLINE_BODY_BYTES:
             errors = prefix_errors(self.model, body)
             if errors:
-                raise RequestValidationError([{**e, "loc": ("body", *e["loc"])}
-                                              for e in errors])
+                raise RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in errors])
         try:
             parsed = self.model.model_validate_json(body)
         except ValidationError as exc:
@@ -142,8 +153,9 @@ class Endpoint:
         self.refuse_repeated_names(body, arrays, options)
         return arrays, options
 
-    def refuse_repeated_names(self, body: bytes | bytearray | str, arrays: dict[str, Any],
-                              options: dict[str, Any]) -> None:
+    def refuse_repeated_names(
+        self, body: bytes | bytearray | str, arrays: dict[str, Any], options: dict[str, Any]
+    ) -> None:
         """422 for a joint named twice in a name-keyed input of the JSON `body` (checked only
         when some input is keyed by name)."""
         if inputs.names_keyed(self.quantity, arrays, options):
@@ -153,8 +165,10 @@ class Endpoint:
         """(joint-space arrays, options) of an already decoded JSON object."""
         many = many_unknown_members(self.model.model_fields, body)  # counted, not listed
         if many is not None:
-            raise InvalidInput(f"the message has {many[0]} members that are not fields of "
-                               f"{self.quantity.name} (the first: {many[1]!r})")
+            raise InvalidInput(
+                f"the message has {many[0]} members that are not fields of "
+                f"{self.quantity.name} (the first: {many[1]!r})"
+            )
         try:
             parsed = self.model.model_validate(body)
         except ValidationError as exc:
@@ -162,36 +176,43 @@ class Endpoint:
         return self._split(parsed)
 
     def _split(self, parsed: BaseModel) -> tuple[dict[str, Any], dict[str, Any]]:
-        arrays = {n: getattr(parsed, n) for n in self.joint_inputs if getattr(parsed, n, None)
-                  is not None}
+        arrays = {
+            n: getattr(parsed, n) for n in self.joint_inputs if getattr(parsed, n, None) is not None
+        }
         given = parsed.model_fields_set.difference(self.joint_inputs)
         return arrays, (parsed.model_dump(include=given) if given else {})
 
-    def parse_binary(self, fields: dict[str, Any], arrays: dict[str, Any]
-                     ) -> tuple[dict[str, Any], dict[str, Any]]:
+    def parse_binary(
+        self, fields: dict[str, Any], arrays: dict[str, Any]
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
         """(joint-space arrays, options) of a decoded binary body (`binary.decode`). An option
         of one number per sample (`Quantity.tensor_options`) may come as a 1-D tensor."""
         for name in self.quantity.tensor_options:
             if name in arrays:
                 tensor = arrays.pop(name)  # (`binary.decode` refuses it in both places)
                 if tensor.ndim != 1:
-                    raise InvalidInput(f"binary body: tensor {name} has shape "
-                                       f"{list(tensor.shape)}; it must be 1-D, one number per "
-                                       "sample")
+                    raise InvalidInput(
+                        f"binary body: tensor {name} has shape "
+                        f"{list(tensor.shape)}; it must be 1-D, one number per "
+                        "sample"
+                    )
                 fields = {**fields, name: tensor.tolist()}
         unknown = sorted(set(arrays) - set(self.joint_inputs))
         missing = [n for n in self.quantity.inputs if n not in arrays]
         if unknown or missing:
-            wrong = (f"unknown array {unknown[0]!r}" if unknown else
-                     f"missing array {missing[0]!r}")
-            raise InvalidInput(f"binary body: {wrong}; {self.quantity.name} takes "
-                               f"the arrays {', '.join(self.joint_inputs)}")
+            wrong = f"unknown array {unknown[0]!r}" if unknown else f"missing array {missing[0]!r}"
+            raise InvalidInput(
+                f"binary body: {wrong}; {self.quantity.name} takes "
+                f"the arrays {', '.join(self.joint_inputs)}"
+            )
         allowed = self.options_model.model_fields
         many = many_unknown_members(allowed, fields)  # counted, not one error each
         if many is not None:
-            raise InvalidInput(f"binary body: __metadata__ has {many[0]} names that are not "
-                               f"fields of this request (the first: {many[1]!r}); "
-                               f"{self.quantity.name} takes {', '.join(allowed)}")
+            raise InvalidInput(
+                f"binary body: __metadata__ has {many[0]} names that are not "
+                f"fields of this request (the first: {many[1]!r}); "
+                f"{self.quantity.name} takes {', '.join(allowed)}"
+            )
         try:
             options = self.options_model.model_validate(fields)
         except ValidationError as exc:
@@ -199,8 +220,14 @@ class Endpoint:
         given = options.model_fields_set
         return arrays, (options.model_dump(include=given) if given else {})
 
-    async def compute(self, request: HTTPConnection, robot: Any, arrays: dict[str, Any],
-                      options: dict[str, Any], as_binary: bool = False) -> dict[str, Any]:
+    async def compute(
+        self,
+        request: HTTPConnection,
+        robot: Any,
+        arrays: dict[str, Any],
+        options: dict[str, Any],
+        as_binary: bool = False,
+    ) -> dict[str, Any]:
         """Validate the states, check the answer's size against the budget
         (`service.api.encoding.budget`, for the form asked for) and compute: inline when
         small, in a worker thread when large, stoppable there by the request's deadline and
@@ -225,51 +252,82 @@ class Endpoint:
         large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
         if large:
             async with cancellable(request, self.quantity.name) as stop:
-                states, result = await off_loop(request, self._prepare_and_run, robot, arrays,
-                                                 options, settings.max_batch, sizing, fill,
-                                                 stop)
+                states, result = await off_loop(
+                    request,
+                    self._prepare_and_run,
+                    robot,
+                    arrays,
+                    options,
+                    settings.max_batch,
+                    sizing,
+                    fill,
+                    stop,
+                )
         else:
             states = inputs.prepare_states(robot, arrays, settings.max_batch, fill)
             self._check_size(robot, states, options, sizing)
-            large = (states.count * robot.nv if work is None else work(robot, states, options)
-                     ) > INLINE_WORK
+            large = (
+                states.count * robot.nv if work is None else work(robot, states, options)
+            ) > INLINE_WORK
             if large:
                 async with cancellable(request, self.quantity.name) as stop:
-                    result = await off_loop(request, dynamics.run, robot, self.quantity,
-                                             states, options, stop)
+                    result = await off_loop(
+                        request, dynamics.run, robot, self.quantity, states, options, stop
+                    )
             else:
                 result = dynamics.run(robot, self.quantity, states, options)
         request.scope["robodyn"] = {
-            "robot": robot.id, "quantity": self.quantity.name, "batch_size": states.count,
-            "compute_seconds": time.perf_counter() - started, "large": large}
+            "robot": robot.id,
+            "quantity": self.quantity.name,
+            "batch_size": states.count,
+            "compute_seconds": time.perf_counter() - started,
+            "large": large,
+        }
         if named:
             keyed = inputs.joint_layout if as_binary else inputs.by_name
             result = keyed(robot, result, self.quantity.joint_answers)
         return result
 
-    def _prepare_and_run(self, robot: Any, arrays: dict[str, Any], options: dict[str, Any],
-                         max_batch: int, sizing: "_Sizing", fill: str | None = None,
-                         should_stop: Any = None) -> tuple[Any, dict[str, Any]]:
+    def _prepare_and_run(
+        self,
+        robot: Any,
+        arrays: dict[str, Any],
+        options: dict[str, Any],
+        max_batch: int,
+        sizing: "_Sizing",
+        fill: str | None = None,
+        should_stop: Any = None,
+    ) -> tuple[Any, dict[str, Any]]:
         states = inputs.prepare_states(robot, arrays, max_batch, fill)
         self._check_size(robot, states, options, sizing)
         return states, dynamics.run(robot, self.quantity, states, options, should_stop)
 
-    def _check_size(self, robot: Any, states: Any, options: dict[str, Any],
-                    sizing: "_Sizing") -> None:
+    def _check_size(
+        self, robot: Any, states: Any, options: dict[str, Any], sizing: "_Sizing"
+    ) -> None:
         """413 before computing an answer over `ROBODYN_MAX_ANSWER_BYTES`, and 503 when a large
         answer would pass the bytes of answers in flight (`encoding.in_flight`; reserved in
         the request's scope, released once sent). Single states of fixed-size quantities are
         far below both: not checked, the hot path stays as it was."""
         if states.count > 1 or self.quantity.work is not None:
-            size = check_answer_size(self.quantity, robot, options, "v" in states.arrays,
-                                     states.count, sizing.limit, sizing.binary, sizing.named)
+            size = check_answer_size(
+                self.quantity,
+                robot,
+                options,
+                "v" in states.arrays,
+                states.count,
+                sizing.limit,
+                sizing.binary,
+                sizing.named,
+            )
             scope = sizing.connection.scope
             if scope.get("type") == "http" and not scope.get(ANSWER_BYTES):
                 in_flight = sizing.connection.app.state.answers_in_flight
                 scope[ANSWER_BYTES] = in_flight.reserve(size)
 
-    async def handle(self, request: HTTPConnection, body: bytes | bytearray,
-                     json_only: bool = False) -> tuple[bytes | list[bytes], str]:
+    async def handle(
+        self, request: HTTPConnection, body: bytes | bytearray, json_only: bool = False
+    ) -> tuple[bytes | list[bytes], str]:
         """The answer to `body` (JSON or binary, as `Accept` asks; JSON whatever it asks with
         `json_only`) as (content, media type), content in pieces for a large JSON answer;
         domain errors and validation errors are raised for the app's exception handlers."""
@@ -281,10 +339,12 @@ class Endpoint:
         elif content_type and "json" not in content_type.split(";")[0]:
             raise UnsupportedMediaType(
                 "send the body as JSON ('Content-Type: application/json') or in the binary "
-                f"form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+                f"form ('Content-Type: {binary.BINARY_MEDIA_TYPE}')"
+            )
         elif len(body) > ISOLATED_JSON_BYTES:  # parsing holds the GIL: in another process
-            arrays, options = await off_loop(request, parse_isolated, parse_json_compact,
-                                             self.quantity.name, body)
+            arrays, options = await off_loop(
+                request, parse_isolated, parse_json_compact, self.quantity.name, body
+            )
         elif len(body) > INLINE_BODY_BYTES:
             arrays, options = await off_loop(request, self.parse_json, body)
         else:
@@ -301,16 +361,18 @@ class Endpoint:
         else:
             content = binary.encode(result) if as_binary else json_bytes(result)
         if request.scope.get(ANSWER_BYTES):  # from the estimate to what is really held
-            sent = (sum(len(p) for p in content) if isinstance(content, list) else len(content))
+            sent = sum(len(p) for p in content) if isinstance(content, list) else len(content)
             request.app.state.answers_in_flight.resize(request.scope, ANSWER_BYTES, sent)
         return content, media_type
 
     def json_content(self, request: HTTPConnection, body: bytes | bytearray) -> Produce:
         """The JSON answer to `body` as the progress stream computes it
         (`service.api.progress`: the `Accept` header asks for the stream, not the binary form)."""
+
         async def produce() -> bytes | list[bytes]:
             content, _ = await self.handle(request, body, json_only=True)
             return content
+
         return produce
 
     async def answer(self, request: Request) -> Response | ProgressAnswer:
@@ -322,16 +384,18 @@ class Endpoint:
             content, media_type = await self.handle(request, await request.body())
         finally:
             release_answer_bytes(request.scope, request.app)
-        return Response(content if isinstance(content, bytes) else b"".join(content),
-                        media_type=media_type)
+        return Response(
+            content if isinstance(content, bytes) else b"".join(content), media_type=media_type
+        )
 
 
 # Built once: an endpoint holds no per-app state (it reads the app from each request).
 ENDPOINTS: dict[str, Endpoint] = {name: Endpoint(spec) for name, spec in SPECS.items()}
 
 
-def parse_json_compact(quantity: str, body: bytes | bytearray
-                       ) -> tuple[dict[str, Any], dict[str, Any]]:
+def parse_json_compact(
+    quantity: str, body: bytes | bytearray
+) -> tuple[dict[str, Any], dict[str, Any]]:
     """`parse_json` of `quantity`'s endpoint with its joint-space inputs as float64 arrays (as
     the helper process of large bodies sends them back, `service.api.json_bodies`)."""
     arrays, options = ENDPOINTS[quantity].parse_json(body)
@@ -349,10 +413,15 @@ def openapi_routes() -> APIRouter:
     for spec in SPECS.values():
         quantity = spec.quantity
         router.add_api_route(
-            f"/{{robot_id}}/{quantity.name}", _describe(spec), methods=["POST"],
-            response_model=spec.answer, responses=_PROBLEMS,
-            summary=quantity.summary, name=quantity.name,
-            openapi_extra={"x-binary-media-type": binary.BINARY_MEDIA_TYPE})
+            f"/{{robot_id}}/{quantity.name}",
+            _describe(spec),
+            methods=["POST"],
+            response_model=spec.answer,
+            responses=_PROBLEMS,
+            summary=quantity.summary,
+            name=quantity.name,
+            openapi_extra={"x-binary-media-type": binary.BINARY_MEDIA_TYPE},
+        )
     return router
 
 
@@ -363,7 +432,9 @@ def _describe(spec: Spec) -> Any:
         raise NotImplementedError  # documentation only: Endpoint serves the route
 
     endpoint.__name__ = quantity.name.replace("-", "_")
-    endpoint.__doc__ = (f"{quantity.compute.__doc__}\n\nThe body may also be sent, and the answer "
-                        f"asked for, in the binary form ({binary.BINARY_MEDIA_TYPE}, see "
-                        "docs/binary-format.md).")
+    endpoint.__doc__ = (
+        f"{quantity.compute.__doc__}\n\nThe body may also be sent, and the answer "
+        f"asked for, in the binary form ({binary.BINARY_MEDIA_TYPE}, see "
+        "docs/binary-format.md)."
+    )
     return endpoint

@@ -19,15 +19,24 @@ from service.dynamics.equations.cache import EquationsCache
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 
 
-@router.get("/{robot_id}/equations", response_model=Equations, name="equations",
-            responses={404: {"model": Problem, "description": "robot_not_found"},
-                       422: {"model": Problem, "description": "unsupported_model: a floating "
-                             "base, a joint other than revolute or prismatic, more than 6 "
-                             "moving joints, or a derivation past its time limit"},
-                       503: {"model": Problem, "description": "not_ready, overloaded"}},
-            summary="The equations of motion in explicit form: M(q), C(q, q̇), g(q), the "
-            "Christoffel symbols and the energies as SymPy text and LaTeX, with the structure "
-            "of M and g")
+@router.get(
+    "/{robot_id}/equations",
+    response_model=Equations,
+    name="equations",
+    responses={
+        404: {"model": Problem, "description": "robot_not_found"},
+        422: {
+            "model": Problem,
+            "description": "unsupported_model: a floating "
+            "base, a joint other than revolute or prismatic, more than 6 "
+            "moving joints, or a derivation past its time limit",
+        },
+        503: {"model": Problem, "description": "not_ready, overloaded"},
+    },
+    summary="The equations of motion in explicit form: M(q), C(q, q̇), g(q), the "
+    "Christoffel symbols and the energies as SymPy text and LaTeX, with the structure "
+    "of M and g",
+)
 async def equations(robot_id: str, request: Request, registry: RegistryDep) -> Response:
     """M(q) q̈ + C(q, q̇) q̇ + g(q) = τ in closed form, derived symbolically from the model's
     own joint placements, axes and inertias (exact decimals), for a fixed-base robot with at

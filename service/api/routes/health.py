@@ -14,29 +14,51 @@ from service.api.schemas.health import Liveness, Readiness
 router = APIRouter(tags=["operations"])
 
 
-@router.get("/health/live", response_model=Liveness, name="health_live",
-            summary="200 whenever the process answers")
+@router.get(
+    "/health/live",
+    response_model=Liveness,
+    name="health_live",
+    summary="200 whenever the process answers",
+)
 async def live() -> Response:
     return JSONAnswer({"status": "ok"})
 
 
-@router.get("/health/ready", response_model=Readiness, name="health_ready",
-            responses={503: {"model": Problem, "description": "not_ready"}},
-            summary="200 once the catalog is loaded; 503 before")
+@router.get(
+    "/health/ready",
+    response_model=Readiness,
+    name="health_ready",
+    responses={503: {"model": Problem, "description": "not_ready"}},
+    summary="200 once the catalog is loaded; 503 before",
+)
 async def ready(request: Request) -> Response:
     registry = request.app.state.registry
     if not registry.ready:
-        return problem("not_ready", "Not ready", "the robot catalog is still loading",
-                       {"Retry-After": "1"})
-    return JSONAnswer({"status": "ready", "robots": len(registry.catalog),
-                       "unavailable": sorted(registry.catalog_failures)})
+        return problem(
+            "not_ready", "Not ready", "the robot catalog is still loading", {"Retry-After": "1"}
+        )
+    return JSONAnswer(
+        {
+            "status": "ready",
+            "robots": len(registry.catalog),
+            "unavailable": sorted(registry.catalog_failures),
+        }
+    )
 
 
-@router.get("/metrics", response_class=PlainTextResponse,
-            responses={200: {"description": "Prometheus text exposition format "
-                             f"({CONTENT_TYPE_LATEST}): request counts, latencies, compute "
-                             "time and batch sizes by route, robot and quantity"}},
-            summary="Prometheus metrics: requests and latency by route and robot")
+@router.get(
+    "/metrics",
+    response_class=PlainTextResponse,
+    responses={
+        200: {
+            "description": "Prometheus text exposition format "
+            f"({CONTENT_TYPE_LATEST}): request counts, latencies, compute "
+            "time and batch sizes by route, robot and quantity"
+        }
+    },
+    summary="Prometheus metrics: requests and latency by route and robot",
+)
 async def metrics(request: Request) -> Response:
-    return Response(generate_latest(request.app.state.metrics.registry),
-                    media_type=CONTENT_TYPE_LATEST)
+    return Response(
+        generate_latest(request.app.state.metrics.registry), media_type=CONTENT_TYPE_LATEST
+    )

@@ -44,24 +44,38 @@ from service.registry.variants import Fitted
 router = APIRouter(prefix=PREFIX, tags=["identification"])
 
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
-    401: {"model": Problem, "description": "unauthorized (identify stores a model: it needs "
-          "a key where keys are set, like an upload)"},
+    401: {
+        "model": Problem,
+        "description": "unauthorized (identify stores a model: it needs "
+        "a key where keys are set, like an upload)",
+    },
     404: {"model": Problem, "description": "robot_not_found"},
     413: {"model": Problem, "description": "payload_too_large"},
-    415: {"model": Problem, "description": "unsupported_media_type (neither JSON nor the "
-          "binary form)"},
-    422: {"model": Problem, "description": "validation_error (NaN, non-increasing t, too few "
-          "samples, a motion that reveals too little, over the time limit), "
-          "dimension_mismatch, invalid_configuration, unknown_frame (payload), "
-          "unsupported_model (a free-flyer or planar base, a multi-DoF joint)"},
-    503: {"model": Problem, "description": "not_ready, overloaded (identifications already "
-          "running, or the machine too busy to finish within the time limit)"},
+    415: {
+        "model": Problem,
+        "description": "unsupported_media_type (neither JSON nor the binary form)",
+    },
+    422: {
+        "model": Problem,
+        "description": "validation_error (NaN, non-increasing t, too few "
+        "samples, a motion that reveals too little, over the time limit), "
+        "dimension_mismatch, invalid_configuration, unknown_frame (payload), "
+        "unsupported_model (a free-flyer or planar base, a multi-DoF joint)",
+    },
+    503: {
+        "model": Problem,
+        "description": "not_ready, overloaded (identifications already "
+        "running, or the machine too busy to finish within the time limit)",
+    },
 }
 
 
-@router.get("/{robot_id}/inertial-parameters", response_model=InertialParameters,
-            responses={404: _PROBLEMS[404]},
-            summary="The inertial parameters π of every body (10 per body, joint order)")
+@router.get(
+    "/{robot_id}/inertial-parameters",
+    response_model=InertialParameters,
+    responses={404: _PROBLEMS[404]},
+    summary="The inertial parameters π of every body (10 per body, joint order)",
+)
 async def inertial_parameters(robot_id: str, registry: RegistryDep) -> Response:
     """π = [m, m cx, m cy, m cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] per body, in its joint's frame
     (inertia about the joint origin), stacked in joint order: τ = Y(q, v, a) π + armature ∘ a
@@ -83,10 +97,13 @@ def worker_of(request: Request) -> IdentificationWorker:
 LOG_ARRAYS = ("t", "q", "tau", "v", "a")  # the log's arrays: tensors in the binary form
 _REQUIRED_ARRAYS = ("t", "q", "tau")
 _OPTION_FIELDS: dict[str, Any] = {
-    name: (info.annotation, info) for name, info in IdentifyRequest.model_fields.items()
-    if name not in LOG_ARRAYS}
+    name: (info.annotation, info)
+    for name, info in IdentifyRequest.model_fields.items()
+    if name not in LOG_ARRAYS
+}
 _Options = create_model(  # the other members of IdentifyRequest: `__metadata__` in binary
-    "IdentifyOptions", __base__=StrictRequest, **_OPTION_FIELDS)
+    "IdentifyOptions", __base__=StrictRequest, **_OPTION_FIELDS
+)
 
 
 def _invalid(exc: ValidationError) -> RequestValidationError:
@@ -100,14 +117,18 @@ def _log_arrays(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     for name, array in arrays.items():
         ndim, shape = (1, "[N]") if name == "t" else (2, "[N, nq]" if name == "q" else "[N, nv]")
         if array.ndim != ndim:
-            raise InvalidInput(f"binary body: tensor {name} has shape {list(array.shape)}; it "
-                               f"must be {shape} (one {'time' if ndim == 1 else 'row'} per "
-                               "sample)")
+            raise InvalidInput(
+                f"binary body: tensor {name} has shape {list(array.shape)}; it "
+                f"must be {shape} (one {'time' if ndim == 1 else 'row'} per "
+                "sample)"
+            )
         bad = np.flatnonzero(~np.isfinite(array.reshape(-1)))
         if bad.size:
             where = np.unravel_index(int(bad[0]), array.shape)
-            raise InvalidInput(f"binary body: {name}[{', '.join(str(int(i)) for i in where)}] "
-                               f"is {array[where]}; every number must be finite")
+            raise InvalidInput(
+                f"binary body: {name}[{', '.join(str(int(i)) for i in where)}] "
+                f"is {array[where]}; every number must be finite"
+            )
     return arrays
 
 
@@ -120,15 +141,18 @@ def _parse_binary(body: bytes) -> IdentifyRequest:
     missing = [name for name in _REQUIRED_ARRAYS if name not in arrays]
     takes = "identify takes the tensors t, q, tau and optional v, a (F64)"
     if misplaced:
-        raise InvalidInput(f"binary body: {misplaced[0]} is in __metadata__; it goes as a "
-                           f"tensor ({takes})")
+        raise InvalidInput(
+            f"binary body: {misplaced[0]} is in __metadata__; it goes as a tensor ({takes})"
+        )
     if unknown or missing:
         wrong = f"unknown tensor {unknown[0]!r}" if unknown else f"missing tensor {missing[0]!r}"
         raise InvalidInput(f"binary body: {wrong}; {takes}")
     many = many_unknown_members(_Options.model_fields, fields)  # counted, not one error each
     if many is not None:
-        raise InvalidInput(f"binary body: __metadata__ has {many[0]} names that are not fields "
-                           f"of identify (the first: {many[1]!r})")
+        raise InvalidInput(
+            f"binary body: __metadata__ has {many[0]} names that are not fields "
+            f"of identify (the first: {many[1]!r})"
+        )
     try:
         options = _Options.model_validate(fields)
     except ValidationError as exc:
@@ -151,8 +175,13 @@ def _parse_json_log(body: bytes) -> IdentifyRequest:
     bodies sends them back, `service.api.json_bodies`)."""
     parsed = _parse_json(body)
     values = {name: getattr(parsed, name) for name in IdentifyRequest.model_fields}
-    values.update({name: np.asarray(values[name], dtype=np.float64) for name in LOG_ARRAYS
-                   if values[name] is not None})
+    values.update(
+        {
+            name: np.asarray(values[name], dtype=np.float64)
+            for name in LOG_ARRAYS
+            if values[name] is not None
+        }
+    )
     return IdentifyRequest.model_construct(parsed.model_fields_set, **values)
 
 
@@ -164,68 +193,93 @@ def _parse(body: bytes, max_samples: int, content_type: str = "") -> IdentifyReq
     elif media_type and "json" not in media_type.split(";")[0]:
         raise UnsupportedMediaType(
             "send the log as JSON ('Content-Type: application/json') or in the binary form "
-            f"('Content-Type: {binary.BINARY_MEDIA_TYPE}')")
+            f"('Content-Type: {binary.BINARY_MEDIA_TYPE}')"
+        )
     elif len(body) > ISOLATED_JSON_BYTES:  # parsing holds the GIL: in another process
         parsed = parse_isolated(_parse_json_log, body)
     else:
         parsed = _parse_json(body)
     if len(parsed.t) > max_samples:
-        raise DimensionMismatch(f"the log has {len(parsed.t)} samples; the limit is "
-                                f"{max_samples} (ROBODYN_MAX_IDENTIFY_SAMPLES): send a "
-                                "shorter log or one sampled less often")
+        raise DimensionMismatch(
+            f"the log has {len(parsed.t)} samples; the limit is "
+            f"{max_samples} (ROBODYN_MAX_IDENTIFY_SAMPLES): send a "
+            "shorter log or one sampled less often"
+        )
     return parsed
 
 
 def _inputs(parsed: IdentifyRequest) -> dict[str, Any]:
     inputs: dict[str, Any] = {
-        "t": parsed.t, "q": parsed.q, "tau": parsed.tau, "friction": parsed.friction,
-        "method": parsed.method, "weighted": parsed.weighted,
-        "validation_fraction": parsed.validation_fraction, "filter_hz": parsed.filter_hz,
-        "payload_frame": None if parsed.payload is None else parsed.payload.frame}
+        "t": parsed.t,
+        "q": parsed.q,
+        "tau": parsed.tau,
+        "friction": parsed.friction,
+        "method": parsed.method,
+        "weighted": parsed.weighted,
+        "validation_fraction": parsed.validation_fraction,
+        "filter_hz": parsed.filter_hz,
+        "payload_frame": None if parsed.payload is None else parsed.payload.frame,
+    }
     for name in ("v", "a"):
         if getattr(parsed, name) is not None:
             inputs[name] = getattr(parsed, name)
     return inputs
 
 
-def identification_answer(result: Any, robot_info: dict[str, Any] | None,
-                          include_series: bool, not_stored: str | None = None
-                          ) -> dict[str, Any]:
+def identification_answer(
+    result: Any,
+    robot_info: dict[str, Any] | None,
+    include_series: bool,
+    not_stored: str | None = None,
+) -> dict[str, Any]:
     """The IdentifyAnswer document of an `Identification` (an infinite condition number is
     null)."""
     condition = float(result.condition_number)
-    answer = {"not_stored": not_stored,
-        "parameters": result.parameters, "bodies": result.bodies, "friction": result.friction,
+    answer = {
+        "not_stored": not_stored,
+        "parameters": result.parameters,
+        "bodies": result.bodies,
+        "friction": result.friction,
         "base_parameters": result.base_parameters,
         "condition_number": condition if np.isfinite(condition) else None,
-        "physically_consistent": result.physically_consistent, "rmse": result.rmse,
-        "filter_hz": result.filter_hz, "samples": result.samples, "robot": robot_info,
-        "payload": result.payload}
+        "physically_consistent": result.physically_consistent,
+        "rmse": result.rmse,
+        "filter_hz": result.filter_hz,
+        "samples": result.samples,
+        "robot": robot_info,
+        "payload": result.payload,
+    }
     if include_series:
         answer["validation_series"] = result.validation
     return answer
 
 
-def _store(registry: Registry, robot: Robot, result: Any
-           ) -> tuple[dict[str, Any] | None, str | None]:
+def _store(
+    registry: Registry, robot: Robot, result: Any
+) -> tuple[dict[str, Any] | None, str | None]:
     """Store the identified robot as a variant of `robot`: (its RobotInfo, None), or (None,
     why it was not stored) when the fit is not a physically possible robot."""
     friction = Fitted.from_dict({"friction": result.friction}).friction
     if result.payload is None:
         if not result.physically_consistent:
-            return None, ("not stored: these least-squares parameters are not physically "
-                          "consistent (a pseudo-inertia has a negative eigenvalue); method "
-                          "'physically-consistent' gives parameters that can be stored")
+            return None, (
+                "not stored: these least-squares parameters are not physically "
+                "consistent (a pseudo-inertia has a negative eigenvalue); method "
+                "'physically-consistent' gives parameters that can be stored"
+            )
         fitted = Fitted(tuple(float(x) for x in result.parameters), friction)
-        stored, _ = registry.variant(robot.id, fitted=fitted,
-                                     name=f"{robot.name} (identified)")
+        stored, _ = registry.variant(robot.id, fitted=fitted, name=f"{robot.name} (identified)")
         return stored.info(), None
     try:
         payloads = check_payloads(robot, [result.payload])
     except InvalidInput as exc:
         return None, f"not stored: the identified payload is not physically possible ({exc})"
-    stored, _ = registry.variant(robot.id, payloads=payloads, fitted=Fitted(None, friction),
-                                 name=f"{robot.name} (identified payload)")
+    stored, _ = registry.variant(
+        robot.id,
+        payloads=payloads,
+        fitted=Fitted(None, friction),
+        name=f"{robot.name} (identified payload)",
+    )
     return stored.info(), None
 
 
@@ -238,31 +292,43 @@ async def identify(request: Request) -> Response | ProgressAnswer:
     robot = registry.get(request.path_params["robot_id"])
     body = await request.body()
     if wants_progress(request.scope):
+
         async def produce() -> bytes:
             return json_bytes(await _identification(request, registry, robot, body))
+
         return ProgressAnswer(produce)
     return JSONAnswer(await _identification(request, registry, robot, body))
 
 
-async def _identification(request: Request, registry: Registry, robot: Robot, body: bytes
-                          ) -> dict[str, Any]:
+async def _identification(
+    request: Request, registry: Registry, robot: Robot, body: bytes
+) -> dict[str, Any]:
     """The IdentifyAnswer document of `body`: parsed off the loop, fitted in the worker
     process (its stages reported to the request's progress channel, if any), stored."""
-    parsed = await off_loop(request, _parse, body, request.app.state.settings.max_identify_samples,
-                            request.headers.get("content-type", ""))
+    parsed = await off_loop(
+        request,
+        _parse,
+        body,
+        request.app.state.settings.max_identify_samples,
+        request.headers.get("content-type", ""),
+    )
     channel = progress_channel(request.scope)
-    fit = functools.partial(worker_of(request).identify, robot,
-                            None if channel is None else channel.report, **_inputs(parsed))
+    fit = functools.partial(
+        worker_of(request).identify,
+        robot,
+        None if channel is None else channel.report,
+        **_inputs(parsed),
+    )
     result = await off_loop(request, fit)
-    info, not_stored = (await run_in_threadpool(_store, registry, robot, result)
-                        if parsed.store else (None, None))
+    info, not_stored = (
+        await run_in_threadpool(_store, registry, robot, result) if parsed.store else (None, None)
+    )
     return identification_answer(result, info, parsed.include_series, not_stored)
 
 
 def routes() -> list[Route]:
     """The lean serving route of identify."""
-    return [Route(f"{PREFIX}/{{robot_id}}/identify", identify, methods=["POST"],
-                  name="identify")]
+    return [Route(f"{PREFIX}/{{robot_id}}/identify", identify, methods=["POST"], name="identify")]
 
 
 def openapi_routes() -> APIRouter:
@@ -281,15 +347,27 @@ def openapi_routes() -> APIRouter:
         raise NotImplementedError  # documentation only: `identify` serves the route
 
     describe_identify.__doc__ = (describe_identify.__doc__ or "").replace(
-        "{media_type}", binary.BINARY_MEDIA_TYPE)
-    binary_body = {"schema": {
-        "type": "string", "format": "binary",
-        "description": "The same members as the JSON form: t, q, tau, v, a as float64 tensors, "
-                       "the others in __metadata__ (see docs/binary-format.md)."}}
-    twin.add_api_route("/{robot_id}/identify", describe_identify, methods=["POST"],
-                       response_model=IdentifyAnswer, responses=_PROBLEMS, name="identify",
-                       summary="Identify inertial parameters and friction from a logged motion",
-                       openapi_extra={"x-binary-media-type": binary.BINARY_MEDIA_TYPE,
-                                      "requestBody": {"content": {
-                                          binary.BINARY_MEDIA_TYPE: binary_body}}})
+        "{media_type}", binary.BINARY_MEDIA_TYPE
+    )
+    binary_body = {
+        "schema": {
+            "type": "string",
+            "format": "binary",
+            "description": "The same members as the JSON form: t, q, tau, v, a as float64 tensors, "
+            "the others in __metadata__ (see docs/binary-format.md).",
+        }
+    }
+    twin.add_api_route(
+        "/{robot_id}/identify",
+        describe_identify,
+        methods=["POST"],
+        response_model=IdentifyAnswer,
+        responses=_PROBLEMS,
+        name="identify",
+        summary="Identify inertial parameters and friction from a logged motion",
+        openapi_extra={
+            "x-binary-media-type": binary.BINARY_MEDIA_TYPE,
+            "requestBody": {"content": {binary.BINARY_MEDIA_TYPE: binary_body}},
+        },
+    )
     return twin

@@ -34,34 +34,51 @@ SWAGGER_DIR = Path(str(swagger_ui_path))
 
 _JS = "text/javascript; charset=utf-8"
 # name → media type of every file the pages may load; anything else is a 404.
-EXPLORER_FILES = {"explorer.js": _JS,
-                  "explorer.css": "text/css; charset=utf-8",
-                  "vendor/uplot/uPlot.min.css": "text/css; charset=utf-8",
-                  "favicon.svg": "image/svg+xml"}
+EXPLORER_FILES = {
+    "explorer.js": _JS,
+    "explorer.css": "text/css; charset=utf-8",
+    "vendor/uplot/uPlot.min.css": "text/css; charset=utf-8",
+    "favicon.svg": "image/svg+xml",
+}
 # ES modules the explorer imports (not named by index.html itself): its 3-D view, its
 # trajectory tab, the vendored three.js files it uses (each module's own relative imports
 # included) and the vendored uPlot (service/web/vendor/uplot/README.md).
 THREE_DIR = "vendor/three/"
-MODULE_FILES = {name: _JS for name in [
-    "view3d.js", "view_panel.js", "joint_coordinates.js",
-    "mass_matrix_view.js", "http.js", "tabs.js", "payload_panel.js", "equations_view.js",
-    "trajectory_view.js", "vendor/uplot/uPlot.esm.js", "view_identification.js",
-    THREE_DIR + "build/three.module.min.js",
-    THREE_DIR + "examples/jsm/controls/OrbitControls.js",
-    THREE_DIR + "examples/jsm/loaders/STLLoader.js",
-    THREE_DIR + "examples/jsm/loaders/ColladaLoader.js",
-    THREE_DIR + "examples/jsm/loaders/TGALoader.js",
-    THREE_DIR + "examples/jsm/loaders/OBJLoader.js",
-    THREE_DIR + "examples/jsm/loaders/GLTFLoader.js",
-    THREE_DIR + "examples/jsm/utils/BufferGeometryUtils.js",
-]}
+MODULE_FILES = {
+    name: _JS
+    for name in [
+        "view3d.js",
+        "view_panel.js",
+        "joint_coordinates.js",
+        "mass_matrix_view.js",
+        "http.js",
+        "tabs.js",
+        "payload_panel.js",
+        "equations_view.js",
+        "trajectory_view.js",
+        "vendor/uplot/uPlot.esm.js",
+        "view_identification.js",
+        THREE_DIR + "build/three.module.min.js",
+        THREE_DIR + "examples/jsm/controls/OrbitControls.js",
+        THREE_DIR + "examples/jsm/loaders/STLLoader.js",
+        THREE_DIR + "examples/jsm/loaders/ColladaLoader.js",
+        THREE_DIR + "examples/jsm/loaders/TGALoader.js",
+        THREE_DIR + "examples/jsm/loaders/OBJLoader.js",
+        THREE_DIR + "examples/jsm/loaders/GLTFLoader.js",
+        THREE_DIR + "examples/jsm/utils/BufferGeometryUtils.js",
+    ]
+}
 # KaTeX (vendored, see its README), loaded by the "Equations" view on first use: its script,
 # stylesheet and the woff2 fonts the stylesheet names.
 KATEX_DIR = "vendor/katex/"
-KATEX_FILES = {KATEX_DIR + "katex.min.js": _JS,
-               KATEX_DIR + "katex.min.css": "text/css; charset=utf-8",
-               **{KATEX_DIR + "fonts/" + font.name: "font/woff2"
-                  for font in sorted((WEB_DIR / KATEX_DIR / "fonts").glob("*.woff2"))}}
+KATEX_FILES = {
+    KATEX_DIR + "katex.min.js": _JS,
+    KATEX_DIR + "katex.min.css": "text/css; charset=utf-8",
+    **{
+        KATEX_DIR + "fonts/" + font.name: "font/woff2"
+        for font in sorted((WEB_DIR / KATEX_DIR / "fonts").glob("*.woff2"))
+    },
+}
 STATIC_FILES = {**EXPLORER_FILES, **MODULE_FILES, **KATEX_FILES}
 
 
@@ -70,39 +87,51 @@ def _inline_script_hashes(html: str) -> str:
     scripts = re.findall(r"<script[^>]*>(.*?)</script>", html, flags=re.DOTALL)
     return " ".join(
         f"'sha256-{base64.b64encode(hashlib.sha256(body.encode()).digest()).decode()}'"
-        for body in scripts if body.strip())
+        for body in scripts
+        if body.strip()
+    )
 
-DOCS_FILES = {"swagger-ui-bundle.js": "text/javascript; charset=utf-8",
-              "swagger-ui.css": "text/css; charset=utf-8",
-              "favicon-32x32.png": "image/png"}
+
+DOCS_FILES = {
+    "swagger-ui-bundle.js": "text/javascript; charset=utf-8",
+    "swagger-ui.css": "text/css; charset=utf-8",
+    "favicon-32x32.png": "image/png",
+}
 
 # The browser enforces "nothing from elsewhere": scripts, styles, images, fonts and fetches
 # only from this origin (images also as data: URIs, which Swagger UI's CSS uses for icons).
 # The one inline script is the import map, admitted by its hash.
-EXPLORER_CSP = ("default-src 'self'; "
-                f"script-src 'self' {_inline_script_hashes((WEB_DIR / 'index.html').read_text())}; "
-                "img-src 'self' data:; object-src 'none'; "
-                "base-uri 'none'; frame-ancestors 'none'; form-action 'none'")
+EXPLORER_CSP = (
+    "default-src 'self'; "
+    f"script-src 'self' {_inline_script_hashes((WEB_DIR / 'index.html').read_text())}; "
+    "img-src 'self' data:; object-src 'none'; "
+    "base-uri 'none'; frame-ancestors 'none'; form-action 'none'"
+)
 # FastAPI's docs page starts Swagger UI with an inline script; Swagger UI sets inline styles.
-DOCS_CSP = ("default-src 'self'; script-src 'self' 'unsafe-inline'; "
-            "style-src 'self' 'unsafe-inline'; img-src 'self' data:; object-src 'none'; "
-            "base-uri 'none'; frame-ancestors 'none'")
+DOCS_CSP = (
+    "default-src 'self'; script-src 'self' 'unsafe-inline'; "
+    "style-src 'self' 'unsafe-inline'; img-src 'self' data:; object-src 'none'; "
+    "base-uri 'none'; frame-ancestors 'none'"
+)
 _REVALIDATE = "no-cache"  # files change with the installed version; ETags make it cheap
 
 
 def _file(directory: Path, name: str, allowed: dict[str, str]) -> FileResponse:
     if name not in allowed:
         raise HTTPException(404)  # answered as problem+json `not_found` by the handlers
-    return FileResponse(directory / name, media_type=allowed[name],
-                        headers={"Cache-Control": _REVALIDATE})
+    return FileResponse(
+        directory / name, media_type=allowed[name], headers={"Cache-Control": _REVALIDATE}
+    )
 
 
 @router.get("/")
 async def explorer_page() -> FileResponse:
     """The explorer: choose a robot, move its joints, see M(q), g(q) and C(q, v) v."""
-    return FileResponse(WEB_DIR / "index.html", media_type="text/html; charset=utf-8",
-                        headers={"Cache-Control": _REVALIDATE,
-                                 "Content-Security-Policy": EXPLORER_CSP})
+    return FileResponse(
+        WEB_DIR / "index.html",
+        media_type="text/html; charset=utf-8",
+        headers={"Cache-Control": _REVALIDATE, "Content-Security-Policy": EXPLORER_CSP},
+    )
 
 
 @router.get("/static/{name:path}")
@@ -122,7 +151,8 @@ async def api_docs(request: Request) -> HTMLResponse:
         swagger_css_url=f"{root}/docs/assets/swagger-ui.css",
         swagger_favicon_url=f"{root}/docs/assets/favicon-32x32.png",
         # validatorUrl None: no badge fetched from validator.swagger.io.
-        swagger_ui_parameters={**swagger_ui_default_parameters, "validatorUrl": None})
+        swagger_ui_parameters={**swagger_ui_default_parameters, "validatorUrl": None},
+    )
     page.headers["Content-Security-Policy"] = DOCS_CSP
     return page
 

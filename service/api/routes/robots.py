@@ -33,30 +33,42 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 @router.get("", response_model=RobotList, summary="List catalog robots and uploaded models")
 async def list_robots(registry: RegistryDep) -> Response:
     summaries = await run_in_threadpool(registry.summaries)  # reads the store's directory
-    return JSONAnswer({"robots": summaries,
-                       "unavailable": registry.catalog_failures})
+    return JSONAnswer({"robots": summaries, "unavailable": registry.catalog_failures})
 
 
-@router.get("/{robot_id}", response_model=RobotInfo, responses=_PROBLEMS,
-            summary="A robot's joint layout, limits, configurations and findings")
+@router.get(
+    "/{robot_id}",
+    response_model=RobotInfo,
+    responses=_PROBLEMS,
+    summary="A robot's joint layout, limits, configurations and findings",
+)
 async def robot_info(robot_id: str, registry: RegistryDep) -> Response:
     return JSONAnswer(registry.get(robot_id).info())
 
 
-@router.get("/{robot_id}/inertias", response_model=Inertias,
-            responses={404: _PROBLEMS[404]},
-            summary="Every body's mass, centre of mass, inertia (at the centre of mass and at "
-            "the joint) and principal moments and axes")
+@router.get(
+    "/{robot_id}/inertias",
+    response_model=Inertias,
+    responses={404: _PROBLEMS[404]},
+    summary="Every body's mass, centre of mass, inertia (at the centre of mass and at "
+    "the joint) and principal moments and axes",
+)
 async def robot_inertias(robot_id: str, registry: RegistryDep) -> Response:
     """Inertial parameters of every body, each in the frame of the joint that moves it."""
     return JSONAnswer(body_inertias(registry.get(robot_id)))
 
 
 _UPLOAD: dict[str, Any] = dict(
-    response_model=RobotInfo, status_code=201,
-    responses={200: {"model": RobotInfo, "description": "the model was already stored"},
-               401: {"model": Problem}, 413: {"model": Problem}, **_PROBLEMS},
-    summary="Upload a URDF, xacro or MJCF: 201 for a new model, 200 for one already stored")
+    response_model=RobotInfo,
+    status_code=201,
+    responses={
+        200: {"model": RobotInfo, "description": "the model was already stored"},
+        401: {"model": Problem},
+        413: {"model": Problem},
+        **_PROBLEMS,
+    },
+    summary="Upload a URDF, xacro or MJCF: 201 for a new model, 200 for one already stored",
+)
 
 
 @router.post("", include_in_schema=False, dependencies=[Depends(require_api_key)], **_UPLOAD)
@@ -70,17 +82,33 @@ async def upload_robot(request: Request, registry: RegistryDep) -> Response:
     else:
         settings = request.app.state.settings
         outcome = await run_in_threadpool(
-            read_upload_isolated, body, content_type, registry.build_slots,
-            settings.build_timeout_s, settings.build_cpu_s)
+            read_upload_isolated,
+            body,
+            content_type,
+            registry.build_slots,
+            settings.build_timeout_s,
+            settings.build_cpu_s,
+        )
     del body
     upload = upload_request(outcome)
     robot, created = await run_in_threadpool(
-        registry.upload, urdf=upload.urdf, mjcf=upload.mjcf, root_joint=upload.root_joint,
-        gravity=upload.gravity, name=upload.name, inertia_check=upload.inertia_check,
-        locked_joints=upload.locked_joints, assets=upload.assets, xacro=upload.xacro,
-        xacro_args=upload.xacro_args)
-    return JSONAnswer(robot.info(), status_code=201 if created else 200,
-                      headers={"Location": f"/v1/robots/{robot.id}"})
+        registry.upload,
+        urdf=upload.urdf,
+        mjcf=upload.mjcf,
+        root_joint=upload.root_joint,
+        gravity=upload.gravity,
+        name=upload.name,
+        inertia_check=upload.inertia_check,
+        locked_joints=upload.locked_joints,
+        assets=upload.assets,
+        xacro=upload.xacro,
+        xacro_args=upload.xacro_args,
+    )
+    return JSONAnswer(
+        robot.info(),
+        status_code=201 if created else 200,
+        headers={"Location": f"/v1/robots/{robot.id}"},
+    )
 
 
 def openapi_routes() -> APIRouter:
@@ -94,34 +122,55 @@ def openapi_routes() -> APIRouter:
     return described
 
 
-@router.post("/{robot_id}/reduce", response_model=RobotInfo, status_code=201,
-             responses={200: {"model": RobotInfo, "description": "the model was already stored"},
-                        401: {"model": Problem},
-                        404: {"model": Problem, "description": "robot_not_found"},
-                        422: {"model": Problem, "description": "validation_error (unknown "
-                              "joint, wrong value size), invalid_configuration (outside limits, "
-                              "non-unit quaternion), invalid_model (nothing left to move)"}},
-             dependencies=[Depends(require_api_key)],
-             summary="Store a reduced model of any robot, some joints locked: 201 new, 200 stored")
+@router.post(
+    "/{robot_id}/reduce",
+    response_model=RobotInfo,
+    status_code=201,
+    responses={
+        200: {"model": RobotInfo, "description": "the model was already stored"},
+        401: {"model": Problem},
+        404: {"model": Problem, "description": "robot_not_found"},
+        422: {
+            "model": Problem,
+            "description": "validation_error (unknown "
+            "joint, wrong value size), invalid_configuration (outside limits, "
+            "non-unit quaternion), invalid_model (nothing left to move)",
+        },
+    },
+    dependencies=[Depends(require_api_key)],
+    summary="Store a reduced model of any robot, some joints locked: 201 new, 200 stored",
+)
 async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep) -> Response:
     """Lock `locked_joints` of robot `robot_id` (catalog or upload) at the given positions and
     store the reduced model under a new content-derived id (`r-` + 24 hex digits)."""
-    robot, created = await run_in_threadpool(registry.reduce, robot_id, body.locked_joints,
-                                             body.name)
-    return JSONAnswer(robot.info(), status_code=201 if created else 200,
-                      headers={"Location": f"/v1/robots/{robot.id}"})
+    robot, created = await run_in_threadpool(
+        registry.reduce, robot_id, body.locked_joints, body.name
+    )
+    return JSONAnswer(
+        robot.info(),
+        status_code=201 if created else 200,
+        headers={"Location": f"/v1/robots/{robot.id}"},
+    )
 
 
-@router.post("/{robot_id}/variants", response_model=RobotInfo, status_code=201,
-             responses={200: {"model": RobotInfo, "description": "the variant was already stored"},
-                        401: {"model": Problem},
-                        404: {"model": Problem, "description": "robot_not_found"},
-                        422: {"model": Problem, "description": "validation_error (a bad payload, "
-                              "named by its index; an unknown joint; no modification), "
-                              "unknown_frame, invalid_configuration, invalid_model"}},
-             dependencies=[Depends(require_api_key)],
-             summary="Store a variant of any robot (payloads and/or locked joints): 201 new, "
-             "200 stored")
+@router.post(
+    "/{robot_id}/variants",
+    response_model=RobotInfo,
+    status_code=201,
+    responses={
+        200: {"model": RobotInfo, "description": "the variant was already stored"},
+        401: {"model": Problem},
+        404: {"model": Problem, "description": "robot_not_found"},
+        422: {
+            "model": Problem,
+            "description": "validation_error (a bad payload, "
+            "named by its index; an unknown joint; no modification), "
+            "unknown_frame, invalid_configuration, invalid_model",
+        },
+    },
+    dependencies=[Depends(require_api_key)],
+    summary="Store a variant of any robot (payloads and/or locked joints): 201 new, 200 stored",
+)
 async def create_variant(robot_id: str, body: VariantRequest, registry: RegistryDep) -> Response:
     """Store robot `robot_id` (catalog, upload or variant) carrying `payloads`, then with
     `locked_joints` locked, under an id derived from the parent's id and the modifications
@@ -131,16 +180,28 @@ async def create_variant(robot_id: str, body: VariantRequest, registry: Registry
     requested = [p.model_dump() for p in body.payloads or ()]
     placed = check_payloads(parent, requested) if requested else ()
     robot, created = await run_in_threadpool(
-        lambda: registry.variant(robot_id, payloads=placed, locked_joints=body.locked_joints,
-                                 name=body.name))
-    return JSONAnswer(robot.info(), status_code=201 if created else 200,
-                      headers={"Location": f"/v1/robots/{robot.id}"})
+        lambda: registry.variant(
+            robot_id, payloads=placed, locked_joints=body.locked_joints, name=body.name
+        )
+    )
+    return JSONAnswer(
+        robot.info(),
+        status_code=201 if created else 200,
+        headers={"Location": f"/v1/robots/{robot.id}"},
+    )
 
 
-@router.delete("/{robot_id}", status_code=204, dependencies=[Depends(require_api_key)],
-               responses={401: {"model": Problem}, 404: {"model": Problem},
-                          409: {"model": Problem, "description": "catalog_robot"}},
-               summary="Delete an uploaded model")
+@router.delete(
+    "/{robot_id}",
+    status_code=204,
+    dependencies=[Depends(require_api_key)],
+    responses={
+        401: {"model": Problem},
+        404: {"model": Problem},
+        409: {"model": Problem, "description": "catalog_robot"},
+    },
+    summary="Delete an uploaded model",
+)
 async def delete_robot(robot_id: str, registry: RegistryDep) -> Response:
     await run_in_threadpool(registry.delete, robot_id)  # it sweeps unnamed asset files
     return Response(status_code=204)

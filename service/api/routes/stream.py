@@ -38,8 +38,9 @@ CLOSE_ROBOT_NOT_FOUND = 4404
 def _endpoint(quantity: Any) -> Endpoint:
     endpoint = ENDPOINTS.get(quantity) if isinstance(quantity, str) else None
     if endpoint is None:
-        raise InvalidInput(f"quantity must be one of {', '.join(ENDPOINTS)}; "
-                           f"got {str(quantity)[:40]!r}")
+        raise InvalidInput(
+            f"quantity must be one of {', '.join(ENDPOINTS)}; got {str(quantity)[:40]!r}"
+        )
     return endpoint
 
 
@@ -67,8 +68,9 @@ async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) 
         arrays, options = endpoint.parse_binary(fields, arrays)
         result = await endpoint.compute(websocket, robot, arrays, options, as_binary=True)
         large = websocket.scope["robodyn"]["large"]
-        await websocket.send_bytes(await off_loop(websocket, binary.encode, result) if large
-                                   else binary.encode(result))
+        await websocket.send_bytes(
+            await off_loop(websocket, binary.encode, result) if large else binary.encode(result)
+        )
         return
     text = message.get("text") or ""
     if len(text) > INLINE_BODY_BYTES:
@@ -91,8 +93,9 @@ async def stream(websocket: WebSocket) -> None:
             await websocket.send_denial_response(error_response(exc))  # 404 or 401
             return
         await websocket.accept()  # servers without the denial extension: problem, then close
-        await websocket.send_text(orjson.dumps(
-            problem_body(exc.code, exc.title, exc.detail)).decode())
+        await websocket.send_text(
+            orjson.dumps(problem_body(exc.code, exc.title, exc.detail)).decode()
+        )
         await websocket.close(CLOSE_ROBOT_NOT_FOUND)
         return
     await websocket.accept()
@@ -108,13 +111,14 @@ async def stream(websocket: WebSocket) -> None:
         except RobodynError as exc:
             problem = problem_body(exc.code, exc.title, exc.detail, **exc.extra)
         except RequestValidationError as exc:
-            problem = problem_body("validation_error", "Invalid request",
-                                   **validation_details(exc))
+            problem = problem_body("validation_error", "Invalid request", **validation_details(exc))
         except Exception:
             log.exception("unexpected error on the stream of %s", robot.id)
-            problem = problem_body("internal_error", "Internal error",
-                                   "the service failed to answer this message; the failure "
-                                   "was logged")
+            problem = problem_body(
+                "internal_error",
+                "Internal error",
+                "the service failed to answer this message; the failure was logged",
+            )
         else:
             continue
         await websocket.send_text(orjson.dumps(problem).decode())

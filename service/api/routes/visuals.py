@@ -35,8 +35,12 @@ from service.registry.visuals import ensure_visuals
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 
-MEDIA_TYPES = {".stl": "model/stl", ".obj": "model/obj", ".dae": "model/vnd.collada+xml",
-               ".glb": "model/gltf-binary"}
+MEDIA_TYPES = {
+    ".stl": "model/stl",
+    ".obj": "model/obj",
+    ".dae": "model/vnd.collada+xml",
+    ".glb": "model/gltf-binary",
+}
 MAX_AGE_S = 7 * 24 * 3600  # a week; the ETag makes a revalidation cheap after that
 _SHOWN = 64
 CHUNK_BYTES = 256 * 1024  # a mesh is sent from its file this many bytes at a time
@@ -108,10 +112,14 @@ async def _with_visuals(registry: Registry, robot_id: str) -> Robot:
     return robot
 
 
-@router.get("/{robot_id}/visuals", response_model=Visuals, name="visuals",
-            responses={404: {"model": Problem, "description": "robot_not_found"}},
-            summary="Every visual element of a robot: mesh or primitive, placement in its "
-            "link's body frame, scale and colour")
+@router.get(
+    "/{robot_id}/visuals",
+    response_model=Visuals,
+    name="visuals",
+    responses={404: {"model": Problem, "description": "robot_not_found"}},
+    summary="Every visual element of a robot: mesh or primitive, placement in its "
+    "link's body frame, scale and colour",
+)
 async def visuals(robot_id: str, registry: RegistryDep) -> Response:
     """The robot's visual elements as its description gives them. Each is attached to the
     body frame `frame` of its link: its world placement is that frame's placement (from
@@ -121,13 +129,19 @@ async def visuals(robot_id: str, registry: RegistryDep) -> Response:
     return JSONAnswer({"visuals": robot.visuals})
 
 
-@router.get("/{robot_id}/assets/{path:path}", name="asset",
-            responses={200: {"content": {t: {} for t in MEDIA_TYPES.values()},
-                             "description": "the mesh file's bytes"},
-                       304: {"description": "not modified (If-None-Match)"},
-                       404: {"model": Problem,
-                             "description": "robot_not_found, asset_not_found"}},
-            summary="A mesh file the robot's visuals reference")
+@router.get(
+    "/{robot_id}/assets/{path:path}",
+    name="asset",
+    responses={
+        200: {
+            "content": {t: {} for t in MEDIA_TYPES.values()},
+            "description": "the mesh file's bytes",
+        },
+        304: {"description": "not modified (If-None-Match)"},
+        404: {"model": Problem, "description": "robot_not_found, asset_not_found"},
+    },
+    summary="A mesh file the robot's visuals reference",
+)
 async def asset(robot_id: str, path: str, request: Request, registry: RegistryDep) -> Response:
     """The bytes of the mesh named `path` (exactly a visual's `asset` string), with its media
     type, an ETag and `Cache-Control`. Any other path is a 404 `asset_not_found`."""
@@ -135,13 +149,16 @@ async def asset(robot_id: str, path: str, request: Request, registry: RegistryDe
     file = robot.asset_paths.get(path)
     if file is None:
         shown = path if len(path) <= _SHOWN and path.isprintable() else "of that name"
-        raise AssetNotFound(f"robot '{robot.id}' has no asset '{shown}'; the mesh files it "
-                            f"serves are the `asset`s of GET /v1/robots/{robot.id}/visuals")
+        raise AssetNotFound(
+            f"robot '{robot.id}' has no asset '{shown}'; the mesh files it "
+            f"serves are the `asset`s of GET /v1/robots/{robot.id}/visuals"
+        )
     try:
         return await _file_answer(request, file, path)
     except OSError:  # gone since the robot was loaded (a deleted upload, say)
-        raise AssetNotFound(f"the asset '{path[:_SHOWN]}' of robot '{robot.id}' is no longer "
-                            "available") from None
+        raise AssetNotFound(
+            f"the asset '{path[:_SHOWN]}' of robot '{robot.id}' is no longer available"
+        ) from None
 
 
 async def _file_answer(request: Request, file: Path, path: str) -> Response:
@@ -156,5 +173,8 @@ async def _file_answer(request: Request, file: Path, path: str) -> Response:
     if if_none_match and _matches(if_none_match, etag):
         fh.close()
         return Response(status_code=304, headers={**headers, "ETag": etag})
-    return StreamingResponse(_chunks(fh), media_type=media_type(path),
-                             headers={**headers, "ETag": etag, "Content-Length": str(size)})
+    return StreamingResponse(
+        _chunks(fh),
+        media_type=media_type(path),
+        headers={**headers, "ETag": etag, "Content-Length": str(size)},
+    )

@@ -27,23 +27,30 @@ JointsByName = dict[JointName, Number | list[Number]]
 
 
 def joint_field(desc: str, default: Any = ...) -> Any:
-    return Field(default, description=desc + " A 1-D array is one state; a 2-D array [N][n] is "
-                 "a batch of N states, and every answer then gains a leading axis of length N. "
-                 "Instead of an array, an object keyed by joint name (every joint named once, "
-                 "or some left out with `fill`; a number or a 1-list for a 1-dof joint, the "
-                 "angle θ or [cos θ, sin θ] for a continuous joint's q, the joint's entries "
-                 "for others), or a list of such objects for a batch; or a ROS JointState "
-                 "as JSON ({\"name\": [...], \"position\": [...], \"velocity\": [...], "
-                 "\"effort\": [...]}: q takes its positions, v its velocities, τ its efforts).")
+    return Field(
+        default,
+        description=desc + " A 1-D array is one state; a 2-D array [N][n] is "
+        "a batch of N states, and every answer then gains a leading axis of length N. "
+        "Instead of an array, an object keyed by joint name (every joint named once, "
+        "or some left out with `fill`; a number or a 1-list for a 1-dof joint, the "
+        "angle θ or [cos θ, sin θ] for a continuous joint's q, the joint's entries "
+        "for others), or a list of such objects for a batch; or a ROS JointState "
+        'as JSON ({"name": [...], "position": [...], "velocity": [...], '
+        '"effort": [...]}: q takes its positions, v its velocities, τ its efforts).',
+    )
 
 
-Q_DESC = ("Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "
-          "free-flyer base takes [x, y, z, qx, qy, qz, qw] (m, unit quaternion, scalar last), a "
-          "continuous joint [cos θ, sin θ]. For a model uploaded as MJCF, q is MuJoCo's qpos "
-          "(ball and free joint quaternions w first). GET /v1/robots/{id} gives each joint's "
-          "idx_q.")
-V_DESC = ("Velocity v, length nv: rad/s or m/s; a free-flyer base takes 6 entries first "
-          "(linear then angular, in the base frame).")
+Q_DESC = (
+    "Configuration q, length nq: rad for revolute joints, m for prismatic ones; a "
+    "free-flyer base takes [x, y, z, qx, qy, qz, qw] (m, unit quaternion, scalar last), a "
+    "continuous joint [cos θ, sin θ]. For a model uploaded as MJCF, q is MuJoCo's qpos "
+    "(ball and free joint quaternions w first). GET /v1/robots/{id} gives each joint's "
+    "idx_q."
+)
+V_DESC = (
+    "Velocity v, length nv: rad/s or m/s; a free-flyer base takes 6 entries first "
+    "(linear then angular, in the base frame)."
+)
 A_DESC = "Acceleration a, length nv: rad/s² or m/s² (free-flyer: linear then angular)."
 TAU_DESC = "Generalized force τ, length nv: N·m for revolute joints, N for prismatic ones."
 
@@ -75,8 +82,9 @@ class StrictRequest(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
 
     @classmethod
-    def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler
-                                     ) -> core_schema.CoreSchema:
+    def __get_pydantic_core_schema__(
+        cls, source: Any, handler: GetCoreSchemaHandler
+    ) -> core_schema.CoreSchema:
         schema = handler(source)
         fail_fast(schema)
         return schema
@@ -111,7 +119,8 @@ def _refuse_many_unknown(fields: frozenset[str], data: Any) -> Any:
         raise PydanticCustomError(
             "too_many_unknown_members",
             "has {count} members that are not fields of this request (the first: '{first}')",
-            {"count": many[0], "first": many[1]})
+            {"count": many[0], "first": many[1]},
+        )
     return data
 
 
@@ -140,8 +149,14 @@ class JointState(StrictRequest):
     header: dict[str, Any] | None = Field(None, description="The message's header: ignored.")
 
 
-JointArray = (list[Number] | list[list[Number]] | JointState | JointsByName | list[JointState]
-              | list[JointsByName])
+JointArray = (
+    list[Number]
+    | list[list[Number]]
+    | JointState
+    | JointsByName
+    | list[JointState]
+    | list[JointsByName]
+)
 
 
 class QRequest(StrictRequest):
@@ -168,10 +183,16 @@ class OptionalVRequest(StrictRequest):
 Matrix = list[list[float]] | list[list[list[float]]]
 Vector = list[float] | list[list[float]]
 _NamedVector = dict[str, float | list[float]]
-JointVector = (list[float] | list[list[float]] | list[list[list[float]]] | _NamedVector
-               | list[_NamedVector] | list[list[_NamedVector]])
+JointVector = (
+    list[float]
+    | list[list[float]]
+    | list[list[list[float]]]
+    | _NamedVector
+    | list[_NamedVector]
+    | list[list[_NamedVector]]
+)
 """A joint-space answer: an array, or with `"joint_names": true` objects keyed by joint name."""
-BY_NAME = " With \"joint_names\": true, an object keyed by joint name (a list for a batch)."
+BY_NAME = ' With "joint_names": true, an object keyed by joint name (a list for a batch).'
 
 
 class Problem(BaseModel):
@@ -193,15 +214,32 @@ def with_common_options(model: type[BaseModel]) -> type[BaseModel]:
     from service.api.schemas.payloads import Payload, payloads_field
 
     return create_model(  # type: ignore[call-overload, no-any-return]
-        model.__name__, __base__=model, __module__=model.__module__, __doc__=model.__doc__,
-        joint_names=(bool, Field(False, description="Answer joint-space vectors (τ, a, g, "
-                                 "C v, h; simulate's q and v) as objects keyed by joint name: "
-                                 "a number for a 1-dof joint, a list for others; a list of "
-                                 "objects for a batch or trajectory. Matrices stay arrays.")),
-        fill=(str | None, Field(None, max_length=256, description="For joint-space inputs "
-                                "keyed by joint name: joints left out take their q from this "
-                                "configuration — \"neutral\" or one of the robot's "
-                                "reference_configurations — and zero v, a and τ. Without it "
-                                "every joint must be named (a ROS JointState without its "
-                                "gripper is then a 422 listing the missing joints).")),
-        payloads=(list[Payload] | None, payloads_field()))
+        model.__name__,
+        __base__=model,
+        __module__=model.__module__,
+        __doc__=model.__doc__,
+        joint_names=(
+            bool,
+            Field(
+                False,
+                description="Answer joint-space vectors (τ, a, g, "
+                "C v, h; simulate's q and v) as objects keyed by joint name: "
+                "a number for a 1-dof joint, a list for others; a list of "
+                "objects for a batch or trajectory. Matrices stay arrays.",
+            ),
+        ),
+        fill=(
+            str | None,
+            Field(
+                None,
+                max_length=256,
+                description="For joint-space inputs "
+                "keyed by joint name: joints left out take their q from this "
+                'configuration — "neutral" or one of the robot\'s '
+                "reference_configurations — and zero v, a and τ. Without it "
+                "every joint must be named (a ROS JointState without its "
+                "gripper is then a 422 listing the missing joints).",
+            ),
+        ),
+        payloads=(list[Payload] | None, payloads_field()),
+    )

@@ -6,30 +6,36 @@ from pydantic import BaseModel, Field
 
 from service.api.schemas.common import Matrix, Vector
 
-_TANGENT = ("∂/∂q is on the tangent space: nv columns, the derivative along "
-            "q ⊕ δq = integrate(q, δq) (for a free-flyer, δq's first 6 entries are a linear then "
-            "angular displacement in the base frame).")
+_TANGENT = (
+    "∂/∂q is on the tangent space: nv columns, the derivative along "
+    "q ⊕ δq = integrate(q, δq) (for a free-flyer, δq's first 6 entries are a linear then "
+    "angular displacement in the base frame)."
+)
 
 
 class InverseDynamicsDerivativesAnswer(BaseModel):
-    dtau_dq: Matrix = Field(description="∂τ/∂q, nv×nv, N·m/rad or N/m; " + _TANGENT +
-                            " (N, nv, nv) for a batch.")
+    dtau_dq: Matrix = Field(
+        description="∂τ/∂q, nv×nv, N·m/rad or N/m; " + _TANGENT + " (N, nv, nv) for a batch."
+    )
     dtau_dv: Matrix = Field(description="∂τ/∂v, nv×nv, N·m·s/rad or N·s/m.")
     dtau_da: Matrix = Field(description="∂τ/∂a = M(q), nv×nv symmetric, kg·m² or kg.")
 
 
 class ForwardDynamicsDerivativesAnswer(BaseModel):
-    da_dq: Matrix = Field(description="∂a/∂q, nv×nv, 1/s² (rad/s² per rad); " + _TANGENT +
-                          " (N, nv, nv) for a batch.")
+    da_dq: Matrix = Field(
+        description="∂a/∂q, nv×nv, 1/s² (rad/s² per rad); " + _TANGENT + " (N, nv, nv) for a batch."
+    )
     da_dv: Matrix = Field(description="∂a/∂v, nv×nv, 1/s.")
     da_dtau: Matrix = Field(description="∂a/∂τ = M(q)⁻¹, nv×nv symmetric, 1/(kg·m²) or 1/kg.")
 
 
 class CentroidalAnswer(BaseModel):
-    momentum: Vector = Field(description="Centroidal momentum h_G = A_G(q) v, 6 entries: linear "
-                             "momentum m ċ (kg·m/s) then angular momentum about the centre of "
-                             "mass (kg·m²/s), world-aligned axes; (N, 6) for a batch.")
-    momentum_matrix: Matrix = Field(description="Centroidal momentum matrix A_G(q), 6×nv "
-                                    "(h_G = A_G v); (N, 6, nv) for a batch.")
+    momentum: Vector = Field(
+        description="Centroidal momentum h_G = A_G(q) v, 6 entries: linear "
+        "momentum m ċ (kg·m/s) then angular momentum about the centre of "
+        "mass (kg·m²/s), world-aligned axes; (N, 6) for a batch."
+    )
+    momentum_matrix: Matrix = Field(
+        description="Centroidal momentum matrix A_G(q), 6×nv (h_G = A_G v); (N, 6, nv) for a batch."
+    )
     center_of_mass: Vector = Field(description="Centre of mass c(q), 3 entries, m, world frame.")
-

@@ -18,9 +18,12 @@ from service.api.schemas.external_forces import ExternalForce, forces_field
 
 class InverseDynamicsRequest(QVARequest):
     external_forces: list[ExternalForce] | None = forces_field()
-    friction: bool = Field(False, description="Add the joints' friction torque, offset + "
-                           "coulomb sign(v) + viscous v: for a robot stored by identification "
-                           "(its RobotInfo lists `friction`); any other robot is a 422.")
+    friction: bool = Field(
+        False,
+        description="Add the joints' friction torque, offset + "
+        "coulomb sign(v) + viscous v: for a robot stored by identification "
+        "(its RobotInfo lists `friction`); any other robot is a 422.",
+    )
 
 
 class ForwardDynamicsRequest(QVTauRequest):
@@ -28,31 +31,37 @@ class ForwardDynamicsRequest(QVTauRequest):
 
 
 class MassMatrixAnswer(BaseModel):
-    mass_matrix: Matrix = Field(description="M(q), nv×nv symmetric positive definite, kg·m² "
-                                "(kg for prismatic rows); (N, nv, nv) for a batch.")
+    mass_matrix: Matrix = Field(
+        description="M(q), nv×nv symmetric positive definite, kg·m² "
+        "(kg for prismatic rows); (N, nv, nv) for a batch."
+    )
 
 
 class GravityAnswer(BaseModel):
-    gravity: JointVector = Field(description="g(q), length nv, N·m or N: generalized gravity "
-                                 "torques, the gradient of the potential energy." + BY_NAME)
+    gravity: JointVector = Field(
+        description="g(q), length nv, N·m or N: generalized gravity "
+        "torques, the gradient of the potential energy." + BY_NAME
+    )
 
 
 class CoriolisAnswer(BaseModel):
     coriolis_matrix: Matrix = Field(description="C(q, v), nv×nv, with Ṁ = C + Cᵀ; N·m·s.")
-    coriolis_forces: JointVector = Field(description="C(q, v) v, length nv, N·m or N."
-                                         + BY_NAME)
+    coriolis_forces: JointVector = Field(description="C(q, v) v, length nv, N·m or N." + BY_NAME)
 
 
 class NonlinearEffectsAnswer(BaseModel):
-    nonlinear_effects: JointVector = Field(description="C(q, v) v + g(q), length nv, N·m or N."
-                                           + BY_NAME)
+    nonlinear_effects: JointVector = Field(
+        description="C(q, v) v + g(q), length nv, N·m or N." + BY_NAME
+    )
 
 
 class InverseDynamicsAnswer(BaseModel):
-    tau: JointVector = Field(description="τ = M(q) a + C(q, v) v + g(q), length nv, N·m or N."
-                             + BY_NAME)
+    tau: JointVector = Field(
+        description="τ = M(q) a + C(q, v) v + g(q), length nv, N·m or N." + BY_NAME
+    )
 
 
 class ForwardDynamicsAnswer(BaseModel):
-    a: JointVector = Field(description="a = M(q)⁻¹ (τ − C(q, v) v − g(q)), length nv, rad/s² or "
-                           "m/s²." + BY_NAME)
+    a: JointVector = Field(
+        description="a = M(q)⁻¹ (τ − C(q, v) v − g(q)), length nv, rad/s² or m/s²." + BY_NAME
+    )

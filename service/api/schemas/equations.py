@@ -9,8 +9,10 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-_TEXT = ("text SymPy parses (names q1…, dq1…, sin, cos, numbers to round-trip precision); "
-         "LaTeX in `latex`, same shape")
+_TEXT = (
+    "text SymPy parses (names q1…, dq1…, sin, cos, numbers to round-trip precision); "
+    "LaTeX in `latex`, same shape"
+)
 
 
 class ScalarExpression(BaseModel):
@@ -30,13 +32,16 @@ class MatrixExpressions(BaseModel):
 
 class TensorExpressions(BaseModel):
     expressions: list[list[list[str]]] = Field(
-        description=f"nv×nv×nv expressions, [i][j][k] = c_ijk: {_TEXT}.")
+        description=f"nv×nv×nv expressions, [i][j][k] = c_ijk: {_TEXT}."
+    )
     latex: list[list[list[str]]] = Field(description="The same nv×nv×nv expressions in LaTeX.")
 
 
 class EntryStructure(BaseModel):
-    depends_on: list[str] = Field(description="The coordinates (q1, …) the entry depends on, "
-                                  "in order; empty for a constant entry.")
+    depends_on: list[str] = Field(
+        description="The coordinates (q1, …) the entry depends on, "
+        "in order; empty for a constant entry."
+    )
     constant: bool = Field(description="True when `depends_on` is empty.")
     zero: bool = Field(description="True when the entry is identically 0.")
 
@@ -47,23 +52,30 @@ class EquationsStructure(BaseModel):
 
 
 class Equations(BaseModel):
-    joints: list[str] = Field(description="The moving joints, in the order of q: coordinate "
-                              "q<i> is joint i's position (rad, or m for a prismatic joint).")
+    joints: list[str] = Field(
+        description="The moving joints, in the order of q: coordinate "
+        "q<i> is joint i's position (rad, or m for a prismatic joint)."
+    )
     coordinates: list[str] = Field(description="The coordinate names q1 … qn (nv of them).")
     velocities: list[str] = Field(description="The velocity names dq1 … dqn (rad/s or m/s).")
     mass_matrix: MatrixExpressions = Field(
         description="M(q), nv×nv, symmetric, kg·m² (kg on prismatic rows and columns), the "
-        "armature on its diagonal; T = ½ q̇ᵀ M q̇.")
+        "armature on its diagonal; T = ½ q̇ᵀ M q̇."
+    )
     gravity: VectorExpressions = Field(description="g(q) = ∂U/∂q, nv, N·m or N.")
     coriolis_matrix: MatrixExpressions = Field(
         description="C(q, q̇), nv×nv: C_ij = Σ_k c_ijk dq_k, so that Ṁ = C + Cᵀ (the C of the "
-        "coriolis route); N·m·s (N·s on prismatic rows).")
+        "coriolis route); N·m·s (N·s on prismatic rows)."
+    )
     christoffel: TensorExpressions = Field(
         description="Christoffel symbols of the first kind, nv×nv×nv: c_ijk = ½(∂M_ij/∂q_k + "
-        "∂M_ik/∂q_j − ∂M_jk/∂q_i), symmetric in j and k.")
+        "∂M_ik/∂q_j − ∂M_jk/∂q_i), symmetric in j and k."
+    )
     kinetic_energy: ScalarExpression = Field(description="T(q, q̇) = ½ q̇ᵀ M q̇, J.")
     potential_energy: ScalarExpression = Field(
-        description="U(q), J, zero at the world origin: U = −Σ m g₀·c over the bodies.")
+        description="U(q), J, zero at the world origin: U = −Σ m g₀·c over the bodies."
+    )
     structure: EquationsStructure = Field(
         description="Per entry of M and g: the coordinates it depends on, whether it is "
-        "constant, whether it is zero.")
+        "constant, whether it is zero."
+    )

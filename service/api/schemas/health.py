@@ -8,13 +8,16 @@ from pydantic import BaseModel, Field
 
 
 class Liveness(BaseModel):
-    status: Literal["ok"] = Field(description="Always \"ok\": the process answers.")
+    status: Literal["ok"] = Field(description='Always "ok": the process answers.')
 
 
 class Readiness(BaseModel):
-    status: Literal["ready"] = Field(description="\"ready\": the catalog is loaded and the "
-                                     "service computes (before that the answer is a 503 "
-                                     "problem with code not_ready).")
+    status: Literal["ready"] = Field(
+        description='"ready": the catalog is loaded and the '
+        "service computes (before that the answer is a 503 "
+        "problem with code not_ready)."
+    )
     robots: int = Field(description="How many catalog robots are served.")
-    unavailable: list[str] = Field(description="Catalog robots this server could not load "
-                                   "(GET /v1/robots says why).")
+    unavailable: list[str] = Field(
+        description="Catalog robots this server could not load (GET /v1/robots says why)."
+    )

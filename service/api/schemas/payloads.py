@@ -35,48 +35,70 @@ MAX_FRAME_NAME = 256
 class Payload(StrictRequest):
     """A rigid body held by a frame, added to the body that carries the frame."""
 
-    frame: str = Field(json_schema_extra={"minLength": 1, "maxLength": MAX_FRAME_NAME},
-                       description="A frame of the robot (link, joint or fixed frame; the "
-                       "`frames` of GET /v1/robots/{id}). An unknown name is a 422 "
-                       "`unknown_frame`.")
+    frame: str = Field(
+        json_schema_extra={"minLength": 1, "maxLength": MAX_FRAME_NAME},
+        description="A frame of the robot (link, joint or fixed frame; the "
+        "`frames` of GET /v1/robots/{id}). An unknown name is a 422 "
+        "`unknown_frame`.",
+    )
     mass: Number = Field(json_schema_extra={"exclusiveMinimum": 0}, description="kg, > 0.")
     center_of_mass: list[Number] | None = Field(
-        None, json_schema_extra={"minItems": 3, "maxItems": 3}, description="The payload's "
-        "centre of mass in the frame's axes, from the frame's origin, m. Default [0, 0, 0].")
+        None,
+        json_schema_extra={"minItems": 3, "maxItems": 3},
+        description="The payload's "
+        "centre of mass in the frame's axes, from the frame's origin, m. Default [0, 0, 0].",
+    )
     inertia: list[list[Number]] | None = Field(
-        None, json_schema_extra={"minItems": 3, "maxItems": 3}, description="3×3 rotational "
+        None,
+        json_schema_extra={"minItems": 3, "maxItems": 3},
+        description="3×3 rotational "
         "inertia about the payload's own centre of mass, in the frame's axes, kg·m²: symmetric, "
         "positive semidefinite, principal moments with λ₁ + λ₂ ≥ λ₃. Default zero (a point "
-        "mass).")
+        "mass).",
+    )
 
 
 def payloads_field() -> Any:
-    return Field(None, max_length=MAX_PAYLOADS, description=(
-        f"Rigid bodies the robot holds (at most {MAX_PAYLOADS}), each added to the body that "
-        "carries its frame (inertias[frame.parentJoint] += frame.placement · Inertia(m, c, I)): "
-        "every answer is that of the robot carrying them. A bad payload is a 422 naming it "
-        "(`validation_error`, with `payload`: its index, and `field`; or `unknown_frame`)."))
+    return Field(
+        None,
+        max_length=MAX_PAYLOADS,
+        description=(
+            f"Rigid bodies the robot holds (at most {MAX_PAYLOADS}), each added to the body that "
+            "carries its frame "
+            "(inertias[frame.parentJoint] += frame.placement · Inertia(m, c, I)): "
+            "every answer is that of the robot carrying them. A bad payload is a 422 naming it "
+            "(`validation_error`, with `payload`: its index, and `field`; or `unknown_frame`)."
+        ),
+    )
 
 
 class PayloadCapacityRequest(QRequest):
-    v: JointArray | None = joint_field("Optional, default zero (holding still). " + V_DESC,
-                                       None)
+    v: JointArray | None = joint_field("Optional, default zero (holding still). " + V_DESC, None)
     a: JointArray | None = joint_field("Optional, default zero. " + A_DESC, None)
-    frame: str = Field(json_schema_extra={"minLength": 1, "maxLength": MAX_FRAME_NAME},
-                       description="The frame holding the point mass (a link, joint or fixed "
-                       "frame of the robot).")
+    frame: str = Field(
+        json_schema_extra={"minLength": 1, "maxLength": MAX_FRAME_NAME},
+        description="The frame holding the point mass (a link, joint or fixed frame of the robot).",
+    )
     center_of_mass: list[Number] | None = Field(
-        None, min_length=3, max_length=3, description="Where the point mass is, in the frame's "
-        "axes from its origin, m. Default [0, 0, 0].")
+        None,
+        min_length=3,
+        max_length=3,
+        description="Where the point mass is, in the frame's "
+        "axes from its origin, m. Default [0, 0, 0].",
+    )
     effort_limits: list[Number] | dict[str, Number | list[Number]] | None = Field(
-        None, json_schema_extra={"minimum": 0}, description="nv numbers ≥ 0, N·m or N (or an "
+        None,
+        json_schema_extra={"minimum": 0},
+        description="nv numbers ≥ 0, N·m or N (or an "
         "object keyed by joint name, every joint named), replacing the model's effort limits; "
-        "0 means no limit. A floating root's rows are never limits.")
+        "0 means no limit. A floating root's rows are never limits.",
+    )
 
 
 class CapacityMinimum(BaseModel):
-    mass: float | None = Field(description="The smallest capacity over the batch, kg; null "
-                               "when nothing limits any state.")
+    mass: float | None = Field(
+        description="The smallest capacity over the batch, kg; null when nothing limits any state."
+    )
     state: int | None = Field(description="The first state (index) that has it.")
     limiting_joint: str | None = Field(description="Its limiting joint.")
 
@@ -85,25 +107,40 @@ class PayloadCapacityAnswer(BaseModel):
     mass: float | list[float | None] | None = Field(
         description="The heaviest point mass the frame can hold, kg (one per state for a "
         "batch); 0 when a joint is over its limit with no payload; null when no joint limits "
-        "it (a frame fixed to the world, no effort limits).")
+        "it (a frame fixed to the world, no effort limits)."
+    )
     limiting_joint: str | list[str | None] | None = Field(
         description="The joint whose limit sets it (where several are over their limit with "
-        "no payload, the one furthest over); null when nothing limits.")
+        "no payload, the one furthest over); null when nothing limits."
+    )
     mass_per_joint: list[float | None] | list[list[float | None]] = Field(
         description="nv numbers, kg: the largest mass each velocity coordinate alone allows; "
         "null where it never limits (no effort limit, a floating root's rows, a joint the "
-        "mass does not load), 0 where it is over its limit with no payload.")
-    tau: JointVector = Field(description="τ at that mass, nv numbers, N·m or N (τ₀ where "
-                             "nothing limits)." + BY_NAME)
-    minimum: CapacityMinimum | None = Field(None, description="For a batch only: the "
-                                            "smallest capacity, where it occurs and its joint.")
+        "mass does not load), 0 where it is over its limit with no payload."
+    )
+    tau: JointVector = Field(
+        description="τ at that mass, nv numbers, N·m or N (τ₀ where nothing limits)." + BY_NAME
+    )
+    minimum: CapacityMinimum | None = Field(
+        None, description="For a batch only: the smallest capacity, where it occurs and its joint."
+    )
 
 
 class VariantRequest(RoutedRequest):
-    payloads: list[Payload] | None = Field(None, max_length=MAX_PAYLOADS, description=(
-        f"Rigid bodies the variant carries (at most {MAX_PAYLOADS}), added to the bodies "
-        "that carry their frames before any joint is locked."))
+    payloads: list[Payload] | None = Field(
+        None,
+        max_length=MAX_PAYLOADS,
+        description=(
+            f"Rigid bodies the variant carries (at most {MAX_PAYLOADS}), added to the bodies "
+            "that carry their frames before any joint is locked."
+        ),
+    )
     locked_joints: dict[str, LockedJointValue] | None = Field(
-        None, max_length=1000, description=LOCKED_DESC)
-    name: str | None = Field(None, max_length=200, description="Optional label; defaults to "
-                             "the parent's name + ' (variant)'. Not part of the id.")
+        None, max_length=1000, description=LOCKED_DESC
+    )
+    name: str | None = Field(
+        None,
+        max_length=200,
+        description="Optional label; defaults to "
+        "the parent's name + ' (variant)'. Not part of the id.",
+    )

@@ -21,28 +21,46 @@ Scale = Number
 
 
 def _scale(what: str) -> Scale:
-    return Field(1.0, gt=0, description=f"Fraction of the model's {what} limits to use "
-                 "(1 = the limits themselves; must be > 0).")
+    return Field(
+        1.0,
+        gt=0,
+        description=f"Fraction of the model's {what} limits to use "
+        "(1 = the limits themselves; must be > 0).",
+    )
 
 
 class TrajectoryCheckRequest(QRequest):
     """Samples of a motion: q [N][nq] at times t, optionally v and a [N][nv]."""
 
-    t: list[Number] = Field(max_length=1_000_000, description="Sample times, s: N ≥ 2 "
-                            "numbers, strictly increasing, one per row of q.")
-    v: JointArray | None = joint_field("Optional. " + V_DESC + " Without v and a they are the "
-                                       "derivatives of the not-a-knot cubic spline through "
-                                       "(t, q) (robots with nq = nv only).", None)
+    t: list[Number] = Field(
+        max_length=1_000_000,
+        description="Sample times, s: N ≥ 2 numbers, strictly increasing, one per row of q.",
+    )
+    v: JointArray | None = joint_field(
+        "Optional. " + V_DESC + " Without v and a they are the "
+        "derivatives of the not-a-knot cubic spline through "
+        "(t, q) (robots with nq = nv only).",
+        None,
+    )
     a: JointArray | None = joint_field("Optional. " + A_DESC, None)
     effort_scale: Scale = _scale("effort")
     velocity_scale: Scale = _scale("velocity")
-    friction: bool = Field(False, description="Add the joints' friction torque to τ, offset + "
-                           "coulomb ∘ sign(v) + viscous ∘ v: only for a robot stored by "
-                           "identification (its RobotInfo lists `friction`); any other robot "
-                           "is a 422.")
-    samples_per_interval: int = Field(4, ge=1, le=64, description=(
-        "k: with the spline (v and a absent), the check also evaluates k − 1 evenly spaced "
-        "points inside every interval, so that a limit broken between samples is found."))
+    friction: bool = Field(
+        False,
+        description="Add the joints' friction torque to τ, offset + "
+        "coulomb ∘ sign(v) + viscous ∘ v: only for a robot stored by "
+        "identification (its RobotInfo lists `friction`); any other robot "
+        "is a 422.",
+    )
+    samples_per_interval: int = Field(
+        4,
+        ge=1,
+        le=64,
+        description=(
+            "k: with the spline (v and a absent), the check also evaluates k − 1 evenly spaced "
+            "points inside every interval, so that a limit broken between samples is found."
+        ),
+    )
 
 
 class JointCheck(BaseModel):
@@ -78,27 +96,33 @@ class TrajectoryCheckAnswer(BaseModel):
     tau: JointVector = Field(description="τ at the samples, [N][nv], N·m or N.")
     v: JointVector = Field(description="v at the samples (given, or the spline's), [N][nv].")
     joints: list[JointCheck] = Field(description="Every 1-DoF joint, in model order.")
-    violations: list[Violation] = Field(description="Every run of evaluated points beyond a "
-                                        "limit, by start time.")
+    violations: list[Violation] = Field(
+        description="Every run of evaluated points beyond a limit, by start time."
+    )
     work: Work
 
 
 class RetimeLimits(StrictRequest):
     velocity_scale: Scale = _scale("velocity")
     effort_scale: Scale = _scale("effort")
-    acceleration: list[Number] | None = Field(None, description="Joint acceleration limits, "
-                                              "nv numbers > 0, rad/s² or m/s²; null: none.")
+    acceleration: list[Number] | None = Field(
+        None, description="Joint acceleration limits, nv numbers > 0, rad/s² or m/s²; null: none."
+    )
 
 
 class RetimeRequest(StrictRequest):
     """A path through waypoints [K][nq] to time."""
 
-    waypoints: JointArray = Field(description=(
-        "K ≥ 2 configurations (at most 1000), each nq numbers (rad or m), or objects keyed by "
-        "joint name: the path is the clamped cubic spline through them, parameterised by the "
-        "cumulative joint-space distance; the motion starts and ends at rest."))
-    limits: RetimeLimits | None = Field(None, description="Limits beyond the model's: scales "
-                                        "and optional acceleration limits.")
+    waypoints: JointArray = Field(
+        description=(
+            "K ≥ 2 configurations (at most 1000), each nq numbers (rad or m), or objects keyed by "
+            "joint name: the path is the clamped cubic spline through them, parameterised by the "
+            "cumulative joint-space distance; the motion starts and ends at rest."
+        )
+    )
+    limits: RetimeLimits | None = Field(
+        None, description="Limits beyond the model's: scales and optional acceleration limits."
+    )
     sample_dt: Number = Field(0.01, gt=0, description="Time between answer samples, s.")
 
 
@@ -107,7 +131,9 @@ class RetimeAnswer(BaseModel):
     t: list[float] = Field(description="Sample times, every sample_dt from 0, and the end, s.")
     q: JointVector = Field(description="Configurations at the samples, [M][nq].")
     v: JointVector = Field(description="Velocities, [M][nv], rad/s or m/s.")
-    a: JointVector = Field(description="Accelerations, [M][nv], rad/s² or m/s² (they jump "
-                           "where the path acceleration of TOPP-RA's intervals does).")
+    a: JointVector = Field(
+        description="Accelerations, [M][nv], rad/s² or m/s² (they jump "
+        "where the path acceleration of TOPP-RA's intervals does)."
+    )
     tau: JointVector = Field(description="Joint torques, [M][nv], N·m or N.")
     check: TrajectoryCheckAnswer = Field(description="The trajectory check of the samples.")

@@ -33,8 +33,7 @@ def _print(value: Any, printer: Callable[[sp.Expr], str]) -> Any:
 def printed_entry(value: Any, n: int) -> dict[str, Any]:
     """{"expressions": SymPy's text, "latex": SymPy's LaTeX} of a Series or nested lists."""
     exprs = _convert(value)
-    return {"expressions": _print(exprs, text),
-            "latex": _print(exprs, lambda e: latex(e, n))}
+    return {"expressions": _print(exprs, text), "latex": _print(exprs, lambda e: latex(e, n))}
 
 
 def entry_structure(series: Series) -> dict[str, Any]:

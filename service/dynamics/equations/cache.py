@@ -40,8 +40,14 @@ FORMAT_VERSION = "v1"  # the directory of the files on disk; a new answer format
 class EquationsCache:
     """See the module docstring. `time_limit_s` bounds one derivation."""
 
-    def __init__(self, data_dir: Path | None, time_limit_s: float, slots: BuildSlots,
-                 max_bytes: int = 256 * 1024 * 1024, memory_mb: int = MEMORY_MB) -> None:
+    def __init__(
+        self,
+        data_dir: Path | None,
+        time_limit_s: float,
+        slots: BuildSlots,
+        max_bytes: int = 256 * 1024 * 1024,
+        memory_mb: int = MEMORY_MB,
+    ) -> None:
         self.dir = None if data_dir is None else Path(data_dir) / "equations" / FORMAT_VERSION
         self.time_limit_s = time_limit_s
         self.memory_mb = memory_mb

@@ -47,7 +47,8 @@ def deadline_check(deadline: float | None, limit_s: float | None) -> Check:
         if deadline is not None and time.monotonic() > deadline:
             raise UnsupportedModel(
                 f"the derivation of the equations did not finish within its time limit of "
-                f"{limit_s:g} s; the model is too large for the explicit form")
+                f"{limit_s:g} s; the model is too large for the explicit form"
+            )
 
     return check
 
@@ -143,13 +144,13 @@ def body_inertia(joint: Joint, n: int) -> tuple[Decimal, SVec, SMat]:
     """(m, h = m c, I_O = I_c + m (|c|² 1 − c cᵀ)) of the body joint `joint` carries."""
     m, c, ic = joint.mass, joint.lever, joint.inertia
     c2 = sum((x * x for x in c), Decimal(0))
-    io = [[ic[r][k] + m * ((c2 if r == k else 0) - c[r] * c[k]) for k in range(3)]
-          for r in range(3)]
+    io = [
+        [ic[r][k] + m * ((c2 if r == k else 0) - c[r] * c[k]) for k in range(3)] for r in range(3)
+    ]
     return m, [_const(n, m * x) for x in c], [[_const(n, x) for x in row] for row in io]
 
 
-def move_inertia(m: Decimal, h: SVec, io: SMat, rot: SMat, p: SVec,
-                 n: int) -> tuple[SVec, SMat]:
+def move_inertia(m: Decimal, h: SVec, io: SMat, rot: SMat, p: SVec, n: int) -> tuple[SVec, SMat]:
     """A body's (h, I_O) in the parent frame, the body frame being at (rot, p) there:
     h' = R h + m p, I_O' = R I_O Rᵀ − [p]×[Rh]× − [Rh]×[p]× − m [p]×[p]×, with
     [a]×[b]× = b aᵀ − (a·b) 1."""
@@ -177,15 +178,17 @@ def move_inertia(m: Decimal, h: SVec, io: SMat, rot: SMat, p: SVec,
     return h2, io2
 
 
-def mass_matrix_and_potential(joints: list[Joint], gravity: Vec3,
-                              check: Check) -> tuple[list[list[Series]], Series]:
+def mass_matrix_and_potential(
+    joints: list[Joint], gravity: Vec3, check: Check
+) -> tuple[list[list[Series]], Series]:
     """(M(q) as nv×nv Series, symmetric; U(q)), exact. See the module docstring."""
     with localcontext(prec=PRECISION):
         return _mass_matrix_and_potential(joints, gravity, check)
 
 
-def _mass_matrix_and_potential(joints: list[Joint], gravity: Vec3,
-                               check: Check) -> tuple[list[list[Series]], Series]:
+def _mass_matrix_and_potential(
+    joints: list[Joint], gravity: Vec3, check: Check
+) -> tuple[list[list[Series]], Series]:
     n = len(joints)
     placements = [parent_placement(j, i, n) for i, j in enumerate(joints)]
     mass = [j.mass for j in joints]
@@ -209,8 +212,10 @@ def _mass_matrix_and_potential(joints: list[Joint], gravity: Vec3,
             continue
         mass[parent] += mass[i]
         first[parent] = [x + y for x, y in zip(first[parent], h2, strict=True)]
-        rot_inertia[parent] = [[x + y for x, y in zip(ra, rb, strict=True)]
-                               for ra, rb in zip(rot_inertia[parent], io2, strict=True)]
+        rot_inertia[parent] = [
+            [x + y for x, y in zip(ra, rb, strict=True)]
+            for ra, rb in zip(rot_inertia[parent], io2, strict=True)
+        ]
     M: list[list[Series]] = [[Series(n) for _ in range(n)] for _ in range(n)]
     for j, joint in enumerate(joints):
         check()

@@ -69,7 +69,7 @@ def derive_equations(model: Any, time_limit_s: float | None = None) -> Equations
     with localcontext(prec=PRECISION):
         M, U = mass_matrix_and_potential(joints, gravity(model), check)
         flat = _without_noise([M[i][j] for i in range(n) for j in range(n)])
-        M = [flat[i * n:(i + 1) * n] for i in range(n)]
+        M = [flat[i * n : (i + 1) * n] for i in range(n)]
         U = _without_noise([U])[0]
         g = [U.derivative(i) for i in range(n)]
         check()
@@ -95,9 +95,16 @@ def derive_equations(model: Any, time_limit_s: float | None = None) -> Equations
                 weight = HALF if i == j else Decimal(1)
                 T = T + (M[i][j] * dq[i] * dq[j]).scale(weight)
     return Equations(
-        joints=[j.name for j in joints], kinds=[j.kind for j in joints], mass_matrix=M,
-        gravity=g, christoffel=c3, coriolis_matrix=C, kinetic_energy=T, potential_energy=U,
-        seconds=time.monotonic() - start)
+        joints=[j.name for j in joints],
+        kinds=[j.kind for j in joints],
+        mass_matrix=M,
+        gravity=g,
+        christoffel=c3,
+        coriolis_matrix=C,
+        kinetic_energy=T,
+        potential_energy=U,
+        seconds=time.monotonic() - start,
+    )
 
 
 def _sum_products(a: list[Series], b: list[Series], n: int) -> Series:

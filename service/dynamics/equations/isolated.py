@@ -63,24 +63,33 @@ def _child_derive(conn: Any, raw_model: bytes, time_limit_s: float, memory_mb: i
     except UnsupportedModel as exc:
         conn.send(("unsupported", exc.detail))
     except MemoryError:
-        conn.send(("unsupported", f"the derivation of the equations needed more than its "
-                                  f"memory limit of {memory_mb} MB"))
+        conn.send(
+            (
+                "unsupported",
+                f"the derivation of the equations needed more than its "
+                f"memory limit of {memory_mb} MB",
+            )
+        )
     finally:
         conn.close()
 
 
 def _past_limit(time_limit_s: float) -> UnsupportedModel:
-    return UnsupportedModel(f"the derivation of the equations did not finish within its time "
-                            f"limit of {time_limit_s:g} s; the model is too large for the "
-                            "explicit form")
+    return UnsupportedModel(
+        f"the derivation of the equations did not finish within its time "
+        f"limit of {time_limit_s:g} s; the model is too large for the "
+        "explicit form"
+    )
 
 
 def _death(exitcode: int | None, time_limit_s: float) -> UnsupportedModel:
     if exitcode is not None and -exitcode in (signal.SIGXCPU, signal.SIGKILL):
         return _past_limit(time_limit_s)
     log.error("equations child ended without an answer (exit code %s)", exitcode)
-    return UnsupportedModel("the derivation of the equations failed on this model "
-                            f"(the deriving process ended with code {exitcode})")
+    return UnsupportedModel(
+        "the derivation of the equations failed on this model "
+        f"(the deriving process ended with code {exitcode})"
+    )
 
 
 def derive_isolated(model: Any, time_limit_s: float, memory_mb: int = MEMORY_MB) -> bytes:
@@ -89,8 +98,11 @@ def derive_isolated(model: Any, time_limit_s: float, memory_mb: int = MEMORY_MB)
     the event loop."""
     ctx = forkserver_context()
     parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child_derive, daemon=True,
-                       args=(child, model_to_binary(model), time_limit_s, memory_mb))
+    proc = ctx.Process(
+        target=_child_derive,
+        daemon=True,
+        args=(child, model_to_binary(model), time_limit_s, memory_mb),
+    )
     started = time.monotonic()
     try:
         proc.start()
@@ -103,9 +115,11 @@ def derive_isolated(model: Any, time_limit_s: float, memory_mb: int = MEMORY_MB)
         if not parent.poll(max(0.0, time_limit_s + GRACE_S - (time.monotonic() - started))):
             cpu = cpu_seconds(proc.pid)
             if cpu is not None and cpu < STARVED_CPU_FRACTION * time_limit_s:
-                raise Overloaded(f"the derivation got only {cpu:.1f} s of CPU time in its "
-                                 f"{time_limit_s:g} s: the server is too busy right now; "
-                                 "retry shortly")
+                raise Overloaded(
+                    f"the derivation got only {cpu:.1f} s of CPU time in its "
+                    f"{time_limit_s:g} s: the server is too busy right now; "
+                    "retry shortly"
+                )
             raise _past_limit(time_limit_s)
         answer = parent.recv()
     except (EOFError, OSError):

@@ -106,29 +106,42 @@ def moving_joints(model: Any) -> list[Joint]:
         if kind in ("free_flyer", "planar") and model.parents[jid] == 0:
             raise UnsupportedModel(
                 f"the robot has a {kind.replace('_', '-')} root joint ('{name}'); the "
-                "equations in explicit form are derived for fixed-base robots only")
+                "equations in explicit form are derived for fixed-base robots only"
+            )
         if kind == "continuous":
             raise UnsupportedModel(
                 f"joint '{name}' is continuous (two numbers in q: cos and sin of its angle); "
                 "the equations in explicit form need revolute or prismatic joints with one "
-                "number each")
+                "number each"
+            )
         if kind not in ("revolute", "prismatic") or jm.nq != 1 or jm.nv != 1:
             raise UnsupportedModel(
                 f"joint '{name}' is of type {kind} ({jm.nv} degrees of freedom); the equations "
-                "in explicit form need revolute or prismatic joints with one degree of freedom")
+                "in explicit form need revolute or prismatic joints with one degree of freedom"
+            )
         placement = model.jointPlacements[jid]
         body = model.inertias[jid]
-        joints.append(Joint(
-            name=name, kind=kind, axis=_axis(jm), parent=int(model.parents[jid]) - 1,
-            rotation=_mat(placement.rotation, direction), translation=_vec(placement.translation),
-            mass=exact(body.mass), lever=_vec(body.lever), inertia=_mat(body.inertia),
-            armature=exact(model.armature[jm.idx_v])))
+        joints.append(
+            Joint(
+                name=name,
+                kind=kind,
+                axis=_axis(jm),
+                parent=int(model.parents[jid]) - 1,
+                rotation=_mat(placement.rotation, direction),
+                translation=_vec(placement.translation),
+                mass=exact(body.mass),
+                lever=_vec(body.lever),
+                inertia=_mat(body.inertia),
+                armature=exact(model.armature[jm.idx_v]),
+            )
+        )
     if not joints:
         raise UnsupportedModel("the robot has no moving joint: there are no equations of motion")
     if len(joints) > MAX_JOINTS:
         raise UnsupportedModel(
             f"the robot has {len(joints)} moving joints; the equations in explicit form are "
-            f"derived for at most {MAX_JOINTS}")
+            f"derived for at most {MAX_JOINTS}"
+        )
     return joints
 
 

@@ -29,7 +29,7 @@ import sympy as sp
 from service.dynamics.equations.series import COS, Series, unpack_key
 
 FLOAT_DIGITS = 17
-_EXACT_INTEGERS = 2 ** 53
+_EXACT_INTEGERS = 2**53
 
 
 @functools.lru_cache(maxsize=64)

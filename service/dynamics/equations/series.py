@@ -239,4 +239,3 @@ class Series:
     def without_terms_below(self, bound: Decimal) -> Series:
         """The series less its terms whose coefficient is at most `bound` in magnitude."""
         return Series(self.n, {key: c for key, c in self.terms.items() if c.copy_abs() > bound})
-

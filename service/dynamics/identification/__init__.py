@@ -26,13 +26,24 @@ from service.dynamics.identification.regressor import (
     regressor,
 )
 
-__all__ = ["FRICTION_MODELS", "LAYOUT", "REGRESSOR", "Identification", "body_names",
-           "friction_torque", "identify", "inertial_parameters", "pseudo_inertia", "regressor",
-           "with_inertial_parameters"]
+__all__ = [
+    "FRICTION_MODELS",
+    "LAYOUT",
+    "REGRESSOR",
+    "Identification",
+    "body_names",
+    "friction_torque",
+    "identify",
+    "inertial_parameters",
+    "pseudo_inertia",
+    "regressor",
+    "with_inertial_parameters",
+]
 
 
 def __getattr__(name: str) -> Any:
     if name in ("identify", "Identification"):
         from service.dynamics.identification import pipeline
+
         return getattr(pipeline, name)
     raise AttributeError(name)

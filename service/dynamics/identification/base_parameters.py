@@ -67,14 +67,18 @@ class BaseParameters:
                     continue
                 sign = "-" if c < 0 else "+"
                 size = abs(c)
-                text += f" {sign} {self.names[col]}" if abs(size - 1.0) < 1e-9 else \
-                    f" {sign} {size:.6g} {self.names[col]}"
+                text += (
+                    f" {sign} {self.names[col]}"
+                    if abs(size - 1.0) < 1e-9
+                    else f" {sign} {size:.6g} {self.names[col]}"
+                )
             out.append(text)
         return out
 
 
-def base_parameters(columns: Callable[[np.random.Generator, int], np.ndarray],
-                    names: list[str], states: int) -> BaseParameters:
+def base_parameters(
+    columns: Callable[[np.random.Generator, int], np.ndarray], names: list[str], states: int
+) -> BaseParameters:
     """The base parameters of a regressor: `columns(rng, count)` gives the regressor stacked
     over `count` random states, shape (rows, n) with n = len(names)."""
     rng = np.random.default_rng(RANDOM_STATES_SEED)
@@ -97,8 +101,9 @@ def base_parameters(columns: Callable[[np.random.Generator, int], np.ndarray],
     if heads.size and dependent.size:
         combination = scipy.linalg.lstsq(stack[:, heads], stack[:, dependent])[0]
         combination[np.abs(combination) < COEFFICIENT_ZERO] = 0.0
-    return BaseParameters(names=list(names), independent=heads, dependent=dependent,
-                          combination=combination)
+    return BaseParameters(
+        names=list(names), independent=heads, dependent=dependent, combination=combination
+    )
 
 
 def random_states_count(columns: int, nv: int) -> int:

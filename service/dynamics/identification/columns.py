@@ -59,13 +59,17 @@ class Columns:
             return
         fid = self.robot.frame_ids.get(self.payload_frame)
         if fid is None:
-            raise UnknownFrame(f"frame '{self.payload_frame}' is not a frame of robot "
-                               f"'{self.robot.id}'"
-                               f"{did_you_mean(self.payload_frame, self.robot.frame_ids)}")
+            raise UnknownFrame(
+                f"frame '{self.payload_frame}' is not a frame of robot "
+                f"'{self.robot.id}'"
+                f"{did_you_mean(self.payload_frame, self.robot.frame_ids)}"
+            )
         frame = model.frames[fid]
         if frame.parentJoint == 0:
-            raise UnknownFrame(f"frame '{self.payload_frame}' is fixed to the world: a payload "
-                               "there moves no joint and cannot be identified")
+            raise UnknownFrame(
+                f"frame '{self.payload_frame}' is fixed to the world: a payload "
+                "there moves no joint and cannot be identified"
+            )
         self._body = int(frame.parentJoint)
         self._transform = transform_parameters(frame.placement)
         self.names = [f"payload.{name}" for name in LAYOUT] + friction
@@ -76,8 +80,9 @@ class Columns:
     def inertial_count(self) -> int:
         return PER_BODY * self.bodies
 
-    def __call__(self, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                 select: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(
+        self, q: np.ndarray, v: np.ndarray, a: np.ndarray, select: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(columns (n, nv, m or len(select)), known torques (n, nv)) for states q (n, nq)
         in Pinocchio's order, v, a (n, nv)."""
         count = q.shape[0]
@@ -100,8 +105,9 @@ class Columns:
         """The robot's π (10 · bodies,) for fitted θ: θ's own, or for a payload the model's
         with the payload added to the body that carries its frame."""
         if self._transform is None:
-            return theta[:self.inertial_count].copy()
+            return theta[: self.inertial_count].copy()
         out = self._pi0.copy()
-        out[PER_BODY * (self._body - 1):PER_BODY * self._body] += \
+        out[PER_BODY * (self._body - 1) : PER_BODY * self._body] += (
             self._transform @ theta[:PER_BODY]
+        )
         return out

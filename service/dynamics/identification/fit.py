@@ -61,15 +61,24 @@ def prior_scale(pi0: np.ndarray, friction_count: int) -> np.ndarray:
     out = []
     for body in pi0.reshape(-1, PER_BODY):
         mass = max(float(body[0]), MIN_MASS_SCALE)
-        length = max(float(np.linalg.norm(body[1:4])) / max(float(body[0]), 1e-12),
-                     MIN_LENGTH_SCALE)
-        out.append([mass] + [mass * length] * 3 + [mass * length ** 2] * 6)
+        length = max(
+            float(np.linalg.norm(body[1:4])) / max(float(body[0]), 1e-12), MIN_LENGTH_SCALE
+        )
+        out.append([mass] + [mass * length] * 3 + [mass * length**2] * 6)
     return np.concatenate([np.ravel(out), np.full(friction_count, FRICTION_SCALE)])
 
 
-def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
-        scale: np.ndarray, bodies: int, consistent: bool, weighted: bool = True,
-        still: str = "") -> Fit:
+def fit(
+    A: np.ndarray,
+    b: np.ndarray,
+    base: BaseParameters,
+    theta0: np.ndarray,
+    scale: np.ndarray,
+    bodies: int,
+    consistent: bool,
+    weighted: bool = True,
+    still: str = "",
+) -> Fit:
     """Fit θ (see the module docstring): A (n, nv, r), b (n, nv); θ₀ and `scale` (len(θ),);
     the first `bodies` blocks of 10 of θ are bodies (constrained when `consistent`).
     `weighted` False: ordinary least squares (every joint's rows weighted by the one pooled
@@ -81,9 +90,9 @@ def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
     ordinary = np.linalg.lstsq(flat_a, flat_b, rcond=None)[0]
     residual = (flat_b - flat_a @ ordinary).reshape(count, nv)
     dof = max(count - r / nv, 1.0)
-    noise = np.sqrt((residual ** 2).sum(axis=0) / dof)
+    noise = np.sqrt((residual**2).sum(axis=0) / dof)
     if not weighted:
-        noise = np.full(nv, float(np.sqrt(np.mean(noise ** 2))))
+        noise = np.full(nv, float(np.sqrt(np.mean(noise**2))))
     top = float(noise.max())
     if top > 1e-12 * max(float(np.abs(flat_b).max(initial=0.0)), 1.0):
         noise = np.maximum(noise, WEIGHT_RANGE * top)  # no joint outweighs another 1000:1
@@ -102,22 +111,28 @@ def fit(A: np.ndarray, b: np.ndarray, base: BaseParameters, theta0: np.ndarray,
             f"the logged motion does not excite every base parameter (condition number "
             f"{condition:.3g}{where}); log a richer motion (every joint moving, at varied "
             "speeds and accelerations) or use method 'physically-consistent', which falls back "
-            "on the model's values where the log says nothing")
+            "on the model's values where the log says nothing"
+        )
     covariance_root = np.linalg.pinv(rr)
     beta_wls = covariance_root @ target
     rows = weighted_b.size
     sigma2 = float(np.sum((weighted_b - weighted_a @ beta_wls) ** 2)) / max(rows - r, 1)
-    std = np.sqrt(sigma2 * np.sum(covariance_root ** 2, axis=1))
+    std = np.sqrt(sigma2 * np.sum(covariance_root**2, axis=1))
     projection = base.projection()
     if consistent:
         # the posterior's: data and prior (where the log says little, the prior's spread)
-        prior = projection @ ((scale ** 2)[:, np.newaxis] * projection.T)
+        prior = projection @ ((scale**2)[:, np.newaxis] * projection.T)
         std = _posterior_std(rr, sigma2, prior)
         theta = _consistent(rr @ projection, target, theta0, scale, bodies)
     else:
         theta = _closest(projection, beta_wls, theta0, scale)
-    return Fit(theta=theta, beta=projection @ theta, beta_std=std, condition_number=condition,
-               joint_noise=noise)
+    return Fit(
+        theta=theta,
+        beta=projection @ theta,
+        beta_std=std,
+        condition_number=condition,
+        joint_noise=noise,
+    )
 
 
 def _posterior_std(rr: np.ndarray, sigma2: float, prior: np.ndarray) -> np.ndarray:
@@ -130,15 +145,16 @@ def _posterior_std(rr: np.ndarray, sigma2: float, prior: np.ndarray) -> np.ndarr
     root = vectors * np.sqrt(np.clip(eigenvalues, 0.0, None))
     _, singular, vt = np.linalg.svd(rr @ root)
     singular = np.concatenate([singular, np.zeros(vt.shape[0] - singular.size)])
-    total = sigma2 + singular ** 2
+    total = sigma2 + singular**2
     weights = np.divide(sigma2, total, out=np.ones_like(total), where=total > 0)
     return np.asarray(np.sqrt(((root @ vt.T) ** 2) @ weights))
 
 
-def _closest(projection: np.ndarray, beta: np.ndarray, theta0: np.ndarray,
-             scale: np.ndarray) -> np.ndarray:
+def _closest(
+    projection: np.ndarray, beta: np.ndarray, theta0: np.ndarray, scale: np.ndarray
+) -> np.ndarray:
     """θ closest to θ₀ (scaled) with P θ = β."""
-    s2p = (scale ** 2)[:, np.newaxis] * projection.T
+    s2p = (scale**2)[:, np.newaxis] * projection.T
     step = scipy.linalg.lstsq(projection @ s2p, beta - projection @ theta0)[0]
     return np.asarray(theta0 + s2p @ step)
 
@@ -160,8 +176,9 @@ def pseudo_inertia_map() -> np.ndarray:
     return out
 
 
-def _consistent(data_map: np.ndarray, target: np.ndarray, theta0: np.ndarray,
-                scale: np.ndarray, bodies: int) -> np.ndarray:
+def _consistent(
+    data_map: np.ndarray, target: np.ndarray, theta0: np.ndarray, scale: np.ndarray, bodies: int
+) -> np.ndarray:
     """The semidefinite program of the module docstring, in the scaled step
     δ = (θ − θ₀) / scale."""
     import cvxpy as cp  # (seconds to import: only when a consistent fit is asked for)
@@ -171,12 +188,11 @@ def _consistent(data_map: np.ndarray, target: np.ndarray, theta0: np.ndarray,
     lmap = pseudo_inertia_map()
     constraints = []
     for body in range(bodies):
-        block = theta[PER_BODY * body:PER_BODY * (body + 1)]
+        block = theta[PER_BODY * body : PER_BODY * (body + 1)]
         pseudo = cp.Variable((4, 4), PSD=True)
         constraints.append(cp.vec(pseudo, order="C") == lmap @ block)
     residual = data_map @ theta - target
-    problem = cp.Problem(cp.Minimize(cp.sum_squares(residual) + cp.sum_squares(step)),
-                         constraints)
+    problem = cp.Problem(cp.Minimize(cp.sum_squares(residual) + cp.sum_squares(step)), constraints)
     for solver in (cp.CLARABEL, cp.SCS):
         try:
             problem.solve(solver=solver)
@@ -184,6 +200,8 @@ def _consistent(data_map: np.ndarray, target: np.ndarray, theta0: np.ndarray,
             continue
         if problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and step.value is not None:
             return np.asarray(theta0 + scale * step.value)
-    raise InvalidInput("the physically consistent fit did not converge for this log (the "
-                       f"solver ended with status '{problem.status}'); method "
-                       "'least-squares' gives the unconstrained fit")
+    raise InvalidInput(
+        "the physically consistent fit did not converge for this log (the "
+        f"solver ended with status '{problem.status}'); method "
+        "'least-squares' gives the unconstrained fit"
+    )

@@ -107,7 +107,8 @@ def check_robot(robot: Robot) -> None:
             base = " (a floating base)" if kind in ("free_flyer", "planar") else ""
             raise UnsupportedModel(
                 f"identification needs a fixed-base robot whose joints are revolute, prismatic "
-                f"or continuous; joint '{name}' of robot '{robot.id}' is {kind}{base}")
+                f"or continuous; joint '{name}' of robot '{robot.id}' is {kind}{base}"
+            )
 
 
 def _coordinates(robot: Robot, q: np.ndarray) -> np.ndarray:
@@ -137,33 +138,48 @@ def joint_configurations(robot: Robot, x: np.ndarray) -> np.ndarray:
     return out
 
 
-def _signal(name: str, value: Any, rows: int, width: int, width_name: str, robot: Robot
-            ) -> np.ndarray:
-    arr = as_array(name, value, "(one entry per sample)" if width == 0 else
-                   f"(one row of {width_name} entries per sample)")
+def _signal(
+    name: str, value: Any, rows: int, width: int, width_name: str, robot: Robot
+) -> np.ndarray:
+    arr = as_array(
+        name,
+        value,
+        "(one entry per sample)" if width == 0 else f"(one row of {width_name} entries per sample)",
+    )
     if width == 0:
         if arr.ndim != 1:
             raise InvalidInput(f"{name} must be 1-D (one time per sample)")
         return arr
     if arr.ndim != 2 or arr.shape[1] != width:
         got = arr.shape[1] if arr.ndim == 2 else "1-D"
-        raise DimensionMismatch(f"each row of {name} must have {width} entries (robot "
-                                f"'{robot.id}' has {width_name} = {width}); it has {got}")
+        raise DimensionMismatch(
+            f"each row of {name} must have {width} entries (robot "
+            f"'{robot.id}' has {width_name} = {width}); it has {got}"
+        )
     if arr.shape[0] != rows:
         raise DimensionMismatch(f"{name} has {arr.shape[0]} rows; t has {rows} samples")
     return arr
 
 
-def motion_log(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = None,
-               filter_hz: float | None = None,
-               validation_fraction: float = DEFAULT_VALIDATION_FRACTION) -> MotionLog:
+def motion_log(
+    robot: Robot,
+    t: Any,
+    q: Any,
+    tau: Any,
+    v: Any = None,
+    a: Any = None,
+    filter_hz: float | None = None,
+    validation_fraction: float = DEFAULT_VALIDATION_FRACTION,
+) -> MotionLog:
     """Check a log and prepare its training and validation parts (see the module docstring).
     q in the API's order (a MuJoCo-qpos robot's quaternions are converted)."""
     check_robot(robot)
     times = _signal("t", t, 0, 0, "", robot)
     if times.size < 4:
-        raise InvalidInput(f"t has {times.size} samples; identification needs a log of "
-                           "hundreds of samples at least")
+        raise InvalidInput(
+            f"t has {times.size} samples; identification needs a log of "
+            "hundreds of samples at least"
+        )
     steps = np.diff(times)
     if not (steps > 0).all():
         i = int(np.flatnonzero(steps <= 0)[0])
@@ -171,18 +187,27 @@ def motion_log(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = N
     n = times.size
     positions = configurations(robot, _signal("q", q, n, robot.nq, "nq", robot))
     torques = _signal("tau", tau, n, robot.nv, "nv", robot)
-    given = {name: _signal(name, value, n, robot.nv, "nv", robot)
-             for name, value in (("v", v), ("a", a)) if value is not None}
+    given = {
+        name: _signal(name, value, n, robot.nv, "nv", robot)
+        for name, value in (("v", v), ("a", a))
+        if value is not None
+    }
     if not 0.0 < validation_fraction <= 0.5:
-        raise InvalidInput("validation_fraction must be > 0 and ≤ 0.5 (the held-out end of "
-                           "the log, as a fraction of its duration)")
+        raise InvalidInput(
+            "validation_fraction must be > 0 and ≤ 0.5 (the held-out end of "
+            "the log, as a fraction of its duration)"
+        )
     lowpass = None
     if filter_hz is not None or len(given) < 2:
         lowpass = _lowpass(steps, filter_hz)
     split = times[0] + (1.0 - validation_fraction) * (times[-1] - times[0])
     train = times < split
-    parts = [_part(robot, times[m], positions[m], torques[m],
-                   {k: x[m] for k, x in given.items()}, lowpass) for m in (train, ~train)]
+    parts = [
+        _part(
+            robot, times[m], positions[m], torques[m], {k: x[m] for k, x in given.items()}, lowpass
+        )
+        for m in (train, ~train)
+    ]
     return MotionLog(train=parts[0], validation=parts[1], lowpass=lowpass)
 
 
@@ -192,16 +217,24 @@ def _lowpass(steps: np.ndarray, filter_hz: float | None) -> LowPass:
     if filter_hz is None:
         cutoff = min(DEFAULT_FILTER_HZ, 0.2 * rate)
     elif not (math.isfinite(filter_hz) and 0.0 < filter_hz < 0.9 * nyquist):
-        raise InvalidInput(f"filter_hz must be > 0 and below 0.9 × the log's Nyquist "
-                           f"frequency ({nyquist:.6g} Hz at its median sample rate)")
+        raise InvalidInput(
+            f"filter_hz must be > 0 and below 0.9 × the log's Nyquist "
+            f"frequency ({nyquist:.6g} Hz at its median sample rate)"
+        )
     else:
         cutoff = float(filter_hz)
     sos = scipy.signal.butter(FILTER_ORDER, cutoff, btype="low", fs=rate, output="sos")
     return LowPass(cutoff_hz=cutoff, sample_rate=rate, sos=np.asarray(sos))
 
 
-def _part(robot: Robot, t: np.ndarray, q: np.ndarray, tau: np.ndarray,
-          given: dict[str, np.ndarray], lowpass: LowPass | None) -> Part:
+def _part(
+    robot: Robot,
+    t: np.ndarray,
+    q: np.ndarray,
+    tau: np.ndarray,
+    given: dict[str, np.ndarray],
+    lowpass: LowPass | None,
+) -> Part:
     if lowpass is None:
         return Part(t=t, q=q, v=given["v"], a=given["a"], tau=tau, keep=slice(None))
     step = 1.0 / lowpass.sample_rate
@@ -211,13 +244,15 @@ def _part(robot: Robot, t: np.ndarray, q: np.ndarray, tau: np.ndarray,
             f"the log's sampling is too irregular to resample: at its median interval "
             f"({step:.3g} s) its duration would take {count:.3g} samples, more than "
             f"{RESAMPLING_GROWTH} times the {t.size} it has; send v and a (then it is used as "
-            "it is), or a log sampled more evenly")
+            "it is), or a log sampled more evenly"
+        )
     grid = t[0] + step * np.arange(count) if t.size else t
     padlen = 3 * (2 * len(lowpass.sos) + 1)
     if grid.size <= max(padlen, 2 * lowpass.margin + 1):  # too short to filter: no samples
         zero = np.zeros((0, tau.shape[1]))
-        return Part(t=grid[:0], q=np.zeros((0, q.shape[1])), v=zero, a=zero, tau=zero,
-                    keep=slice(None))
+        return Part(
+            t=grid[:0], q=np.zeros((0, q.shape[1])), v=zero, a=zero, tau=zero, keep=slice(None)
+        )
 
     def resampled(x: np.ndarray) -> np.ndarray:
         out = np.empty((grid.size, x.shape[1]))
@@ -229,8 +264,14 @@ def _part(robot: Robot, t: np.ndarray, q: np.ndarray, tau: np.ndarray,
     v = lowpass(resampled(given["v"])) if "v" in given else np.gradient(x, step, axis=0)
     a = lowpass(resampled(given["a"])) if "a" in given else np.gradient(v, step, axis=0)
     margin = lowpass.margin
-    return Part(t=grid, q=joint_configurations(robot, x), v=v, a=a,
-                tau=lowpass(resampled(tau)), keep=slice(margin, grid.size - margin))
+    return Part(
+        t=grid,
+        q=joint_configurations(robot, x),
+        v=v,
+        a=a,
+        tau=lowpass(resampled(tau)),
+        keep=slice(margin, grid.size - margin),
+    )
 
 
 def joint_ranges(robot: Robot, log: MotionLog) -> np.ndarray:
@@ -260,12 +301,15 @@ def barely_moving(robot: Robot, log: MotionLog) -> dict[str, float]:
 
 
 def describe_ranges(robot: Robot, ranges: dict[str, float]) -> str:
-    """"shoulder_pan_joint 0.0013 rad, slider 0.0002 m" for `barely_moving`'s answer."""
+    """ "shoulder_pan_joint 0.0013 rad, slider 0.0002 m" for `barely_moving`'s answer."""
+
     def unit(name: str) -> str:
         return "m" if robot.joint_types[name] == "prismatic" else "rad"
 
-    return ", ".join(f"{name} {extent if extent > 1e-12 else 0.0:.2g} {unit(name)}"
-                     for name, extent in ranges.items())  # (filtering leaves ~1e-17 of 0)
+    return ", ".join(
+        f"{name} {extent if extent > 1e-12 else 0.0:.2g} {unit(name)}"
+        for name, extent in ranges.items()
+    )  # (filtering leaves ~1e-17 of 0)
 
 
 def check_motion(robot: Robot, log: MotionLog) -> None:
@@ -285,4 +329,5 @@ def check_motion(robot: Robot, log: MotionLog) -> None:
         f"or {MIN_RANGE_PRISMATIC:g} m if prismatic, and much more to be identified well). "
         "A still robot's torques show only gravity at one configuration: excite every joint, "
         "moving each through a good part of its range at varied speeds and accelerations "
-        "(e.g. a sum of sine waves)")
+        "(e.g. a sum of sine waves)"
+    )

@@ -27,8 +27,7 @@ import numpy as np
 
 from service.registry.variants import with_parameters
 
-LAYOUT: tuple[str, ...] = ("m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz",
-                           "Izz")
+LAYOUT: tuple[str, ...] = ("m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 PER_BODY = len(LAYOUT)
 
 
@@ -38,15 +37,19 @@ def body_names(model: Any) -> list[str]:
 
 
 def parameter_names(model: Any) -> list[str]:
-    """"<joint>.<layout name>" for each of the 10 · bodies entries of π."""
+    """ "<joint>.<layout name>" for each of the 10 · bodies entries of π."""
     return [f"{body}.{name}" for body in body_names(model) for name in LAYOUT]
 
 
 def inertial_parameters(model: Any) -> np.ndarray:
     """π of the model, shape (10 · bodies,), in the layout above (Pinocchio's
     `Inertia.toDynamicParameters`, body after body in joint order)."""
-    return np.concatenate([np.asarray(model.inertias[j].toDynamicParameters(), dtype=float)
-                           for j in range(1, model.njoints)])
+    return np.concatenate(
+        [
+            np.asarray(model.inertias[j].toDynamicParameters(), dtype=float)
+            for j in range(1, model.njoints)
+        ]
+    )
 
 
 def rotational_inertia(pi_body: np.ndarray) -> np.ndarray:
@@ -78,10 +81,16 @@ def body_summary(name: str, pi_body: np.ndarray) -> dict[str, Any]:
     I_c = Ī − m (‖c‖² 1 − c cᵀ) (3×3, kg·m², joint frame axes)."""
     mass = float(pi_body[0])
     com = pi_body[1:4] / mass if mass != 0.0 else np.zeros(3)
-    at_com = rotational_inertia(pi_body) - mass * (float(com @ com) * np.eye(3)
-                                                   - np.outer(com, com))
-    return {"name": name, "mass": mass, "center_of_mass": com, "inertia": at_com,
-            "pseudo_inertia_min_eigenvalue": float(np.linalg.eigvalsh(pseudo_inertia(pi_body))[0])}
+    at_com = rotational_inertia(pi_body) - mass * (
+        float(com @ com) * np.eye(3) - np.outer(com, com)
+    )
+    return {
+        "name": name,
+        "mass": mass,
+        "center_of_mass": com,
+        "inertia": at_com,
+        "pseudo_inertia_min_eigenvalue": float(np.linalg.eigvalsh(pseudo_inertia(pi_body))[0]),
+    }
 
 
 def with_inertial_parameters(model: Any, pi: np.ndarray) -> Any:
@@ -119,8 +128,19 @@ def _moved(pi_body: np.ndarray, rotation: np.ndarray, p: np.ndarray) -> np.ndarr
     mass, h = pi_body[0], pi_body[1:4]
     rh = rotation @ h
     sp, srh = _skew(p), _skew(rh)
-    inertia = (rotation @ rotational_inertia(pi_body) @ rotation.T - mass * sp @ sp
-               - sp @ srh - srh @ sp)
+    inertia = (
+        rotation @ rotational_inertia(pi_body) @ rotation.T - mass * sp @ sp - sp @ srh - srh @ sp
+    )
     h_new = rh + mass * p
-    return np.array([mass, *h_new, inertia[0, 0], inertia[0, 1], inertia[1, 1], inertia[0, 2],
-                     inertia[1, 2], inertia[2, 2]])
+    return np.array(
+        [
+            mass,
+            *h_new,
+            inertia[0, 0],
+            inertia[0, 1],
+            inertia[1, 1],
+            inertia[0, 2],
+            inertia[1, 2],
+            inertia[2, 2],
+        ]
+    )

@@ -113,20 +113,23 @@ def _filtered(lowpass: LowPass | None, x: np.ndarray) -> np.ndarray:
     return out.reshape(x.shape)
 
 
-def _rows(part: Part, columns: Columns, base: BaseParameters, lowpass: LowPass | None
-          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _rows(
+    part: Part, columns: Columns, base: BaseParameters, lowpass: LowPass | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A (n, nv, r), known (n, nv), measured τ (n, nv)) on the kept samples of a part."""
     if part.t.size == 0:
-        return (np.zeros((0, part.tau.shape[1], base.count)), np.zeros((0, part.tau.shape[1])),
-                np.zeros((0, part.tau.shape[1])))
+        return (
+            np.zeros((0, part.tau.shape[1], base.count)),
+            np.zeros((0, part.tau.shape[1])),
+            np.zeros((0, part.tau.shape[1])),
+        )
     A, known = columns(part.q, part.v, part.a, base.independent)
     A, known = _filtered(lowpass, A)[part.keep], _filtered(lowpass, known)[part.keep]
     return A, known, part.tau[part.keep]
 
 
 def _rmse(error: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.mean(error ** 2, axis=0)) if error.size else np.full(error.shape[1],
-                                                                           np.nan)
+    return np.sqrt(np.mean(error**2, axis=0)) if error.size else np.full(error.shape[1], np.nan)
 
 
 def _required_samples(log: MotionLog, needed_fit: int, fraction: float) -> int:
@@ -138,17 +141,29 @@ def _required_samples(log: MotionLog, needed_fit: int, fraction: float) -> int:
 
 def _stages(progress: Progress | None) -> Callable[[str], None]:
     """`stage(name)`: tell `progress` that the stages before `name` are done."""
+
     def stage(name: str) -> None:
         if progress is not None:
             progress(STAGES.index(name), len(STAGES), "stage", name)
+
     return stage
 
 
-def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = None,
-             friction: str = DEFAULT_FRICTION, method: str = DEFAULT_METHOD,
-             validation_fraction: float = DEFAULT_VALIDATION_FRACTION,
-             filter_hz: float | None = None, payload_frame: str | None = None,
-             weighted: bool = True, progress: Progress | None = None) -> Identification:
+def identify(
+    robot: Robot,
+    t: Any,
+    q: Any,
+    tau: Any,
+    v: Any = None,
+    a: Any = None,
+    friction: str = DEFAULT_FRICTION,
+    method: str = DEFAULT_METHOD,
+    validation_fraction: float = DEFAULT_VALIDATION_FRACTION,
+    filter_hz: float | None = None,
+    payload_frame: str | None = None,
+    weighted: bool = True,
+    progress: Progress | None = None,
+) -> Identification:
     """Identify the robot (or a payload at `payload_frame`) from a log: see the module
     docstring; t (N,) s, q (N, nq), tau (N, nv) measured, v, a (N, nv) optional.
     `progress(done, total, "stage", name)` (optional) is told as each of the STAGES after the
@@ -161,8 +176,11 @@ def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = Non
     check_motion(robot, log)
     columns = Columns(robot, friction, payload_frame)
     stage("base parameters")
-    base = base_parameters(random_rows(robot, columns), columns.names,
-                           random_states_count(len(columns.names), robot.nv))
+    base = base_parameters(
+        random_rows(robot, columns),
+        columns.names,
+        random_states_count(len(columns.names), robot.nv),
+    )
     stage("regressor")
     A, known, measured = _rows(log.train, columns, base, log.lowpass)
     needed = math.ceil(2 * base.count / robot.nv) + 1
@@ -174,64 +192,127 @@ def identify(robot: Robot, t: Any, q: Any, tau: Any, v: Any = None, a: Any = Non
             f"robot '{robot.id}' (friction '{friction}') needs at least "
             f"{_required_samples(log, needed, validation_fraction)} at this sample rate: "
             f"{needed} fit samples in the training part"
-            + ("" if log.lowpass is None else
-               f" after dropping {log.lowpass.margin / log.lowpass.sample_rate:.3g} s at both "
-               "ends of each part and "
-               f"keeping one sample in {log.decimation} (filter at {log.lowpass.cutoff_hz:.3g} "
-               "Hz)") + ", and at least one in the validation part")
-    scale = (prior_scale(columns.theta0[:columns.inertial_count], len(columns.names)
-                         - columns.inertial_count) if payload_frame is None else
-             np.concatenate([PAYLOAD_SCALE, prior_scale(np.zeros(0), len(columns.names)
-                                                        - PER_BODY)]))
+            + (
+                ""
+                if log.lowpass is None
+                else " after dropping "
+                f"{log.lowpass.margin / log.lowpass.sample_rate:.3g} s at both "
+                "ends of each part and "
+                f"keeping one sample in {log.decimation} (filter at {log.lowpass.cutoff_hz:.3g} "
+                "Hz)"
+            )
+            + ", and at least one in the validation part"
+        )
+    scale = (
+        prior_scale(
+            columns.theta0[: columns.inertial_count], len(columns.names) - columns.inertial_count
+        )
+        if payload_frame is None
+        else np.concatenate(
+            [PAYLOAD_SCALE, prior_scale(np.zeros(0), len(columns.names) - PER_BODY)]
+        )
+    )
     still = barely_moving(robot, log)
     stage("fit")
-    result = fit(A[fit_rows], (measured - known)[fit_rows], base, columns.theta0, scale,
-                 columns.bodies, method == "physically-consistent", weighted,
-                 still=describe_ranges(robot, still))
+    result = fit(
+        A[fit_rows],
+        (measured - known)[fit_rows],
+        base,
+        columns.theta0,
+        scale,
+        columns.bodies,
+        method == "physically-consistent",
+        weighted,
+        still=describe_ranges(robot, still),
+    )
     stage("validation")
-    answer = _answer(robot, columns, base, result, log, terms,
-                     (A, known, measured), (val_A, val_known, val_measured))
+    answer = _answer(
+        robot,
+        columns,
+        base,
+        result,
+        log,
+        terms,
+        (A, known, measured),
+        (val_A, val_known, val_measured),
+    )
     numbers = [answer.parameters, result.beta, result.beta_std, *answer.rmse.values()]
     if not all(np.isfinite(x).all() for x in numbers):
-        raise NonFiniteResult("identify: the fit is not finite for this log (are its torques "
-                              "or positions extreme?)")
+        raise NonFiniteResult(
+            "identify: the fit is not finite for this log (are its torques or positions extreme?)"
+        )
     return answer
 
 
-def _answer(robot: Robot, columns: Columns, base: BaseParameters, result: Fit, log: MotionLog,
-            terms: tuple[str, ...], train: tuple[np.ndarray, ...],
-            validation: tuple[np.ndarray, ...]) -> Identification:
+def _answer(
+    robot: Robot,
+    columns: Columns,
+    base: BaseParameters,
+    result: Fit,
+    log: MotionLog,
+    terms: tuple[str, ...],
+    train: tuple[np.ndarray, ...],
+    validation: tuple[np.ndarray, ...],
+) -> Identification:
     beta0 = base.projection() @ columns.theta0
     predicted_train = train[0] @ result.beta + train[1]
     predicted = validation[0] @ result.beta + validation[1]
     before = validation[0] @ beta0 + validation[1]
     pi = columns.robot_parameters(result.theta)
     names = body_names(robot.model)
-    bodies = [body_summary(name, pi[PER_BODY * i:PER_BODY * (i + 1)])
-              for i, name in enumerate(names)]
-    fitted = result.theta[columns.inertial_count:].reshape(robot.nv, len(terms))
-    friction = [{"joint": joint, "coulomb": 0.0, "viscous": 0.0, "offset": 0.0,
-                 **{term: float(fitted[j, k]) for k, term in enumerate(terms)}}
-                for j, joint in enumerate(names)]
+    bodies = [
+        body_summary(name, pi[PER_BODY * i : PER_BODY * (i + 1)]) for i, name in enumerate(names)
+    ]
+    fitted = result.theta[columns.inertial_count :].reshape(robot.nv, len(terms))
+    friction = [
+        {
+            "joint": joint,
+            "coulomb": 0.0,
+            "viscous": 0.0,
+            "offset": 0.0,
+            **{term: float(fitted[j, k]) for k, term in enumerate(terms)},
+        }
+        for j, joint in enumerate(names)
+    ]
     payload = None
-    own = result.theta[:PER_BODY * columns.bodies]
+    own = result.theta[: PER_BODY * columns.bodies]
     if columns.payload_frame is not None:
         summary = body_summary("payload", result.theta[:PER_BODY])
-        payload = {"frame": columns.payload_frame, "mass": summary["mass"],
-                   "center_of_mass": summary["center_of_mass"], "inertia": summary["inertia"]}
+        payload = {
+            "frame": columns.payload_frame,
+            "mass": summary["mass"],
+            "center_of_mass": summary["center_of_mass"],
+            "inertia": summary["inertia"],
+        }
     consistent = bool((pseudo_inertia_min_eigenvalues(own) >= -CONSISTENCY_TOLERANCE).all())
     valid_t = log.validation.t[log.validation.keep]
     return Identification(
-        parameters=pi, bodies=bodies, friction=friction,
-        base_parameters={"expressions": base.expressions(), "values": result.beta,
-                         "standard_deviation": result.beta_std},
-        condition_number=result.condition_number, physically_consistent=consistent,
-        rmse={"train": _rmse(predicted_train - train[2]),
-              "validation": _rmse(predicted - validation[2]),
-              "validation_before": _rmse(before - validation[2])},
+        parameters=pi,
+        bodies=bodies,
+        friction=friction,
+        base_parameters={
+            "expressions": base.expressions(),
+            "values": result.beta,
+            "standard_deviation": result.beta_std,
+        },
+        condition_number=result.condition_number,
+        physically_consistent=consistent,
+        rmse={
+            "train": _rmse(predicted_train - train[2]),
+            "validation": _rmse(predicted - validation[2]),
+            "validation_before": _rmse(before - validation[2]),
+        },
         payload=payload,
-        validation={"t": valid_t, "measured": validation[2], "predicted": predicted,
-                    "before": before},
+        validation={
+            "t": valid_t,
+            "measured": validation[2],
+            "predicted": predicted,
+            "before": before,
+        },
         filter_hz=None if log.lowpass is None else log.lowpass.cutoff_hz,
-        samples={"train": int(train[0].shape[0]), "validation": int(validation[0].shape[0]),
-                 "fit": int(train[0][::log.decimation].shape[0])})
+        samples={
+            "train": int(train[0].shape[0]),
+            "validation": int(validation[0].shape[0]),
+            "fit": int(train[0][:: log.decimation].shape[0]),
+        },
+    )

@@ -50,12 +50,18 @@ def friction_terms(friction: str) -> tuple[str, ...]:
 
 
 def friction_names(joints: list[str], friction: str) -> list[str]:
-    """"<joint>.<term>" for each friction parameter, joint after joint."""
+    """ "<joint>.<term>" for each friction parameter, joint after joint."""
     return [f"{joint}.{term}" for joint in joints for term in friction_terms(friction)]
 
 
-def joint_torque_regressor(model: Any, data: Any, q: np.ndarray, v: np.ndarray,
-                           a: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
+def joint_torque_regressor(
+    model: Any,
+    data: Any,
+    q: np.ndarray,
+    v: np.ndarray,
+    a: np.ndarray,
+    columns: np.ndarray | None = None,
+) -> np.ndarray:
     """Y for N states: q (N, nq), v and a (N, nv) → (N, nv, 10 · bodies), or only the given
     `columns` of it (N, nv, len(columns)). SI units: τ = Y π in N·m (N for prismatic joints)."""
     count = q.shape[0]
@@ -100,8 +106,9 @@ def friction_columns(v: np.ndarray, friction: str) -> np.ndarray:
     return out
 
 
-def friction_torque(v: np.ndarray, coulomb: np.ndarray, viscous: np.ndarray,
-                    offset: np.ndarray) -> np.ndarray:
+def friction_torque(
+    v: np.ndarray, coulomb: np.ndarray, viscous: np.ndarray, offset: np.ndarray
+) -> np.ndarray:
     """τ_f = offset + coulomb ∘ sign(v) + viscous ∘ v for velocities v (N, nv) or (nv,)."""
     return offset + coulomb * np.sign(v) + viscous * v
 
@@ -109,13 +116,20 @@ def friction_torque(v: np.ndarray, coulomb: np.ndarray, viscous: np.ndarray,
 def inertial_parameters_answer(robot: Robot) -> dict[str, Any]:
     """`{"bodies", "layout", "parameters"}`: the bodies (joint names, joint order), the names
     of the 10 numbers per body, and π (10 · bodies,) of the robot's model."""
-    return {"bodies": body_names(robot.model), "layout": list(LAYOUT),
-            "parameters": inertial_parameters(robot.model)}
+    return {
+        "bodies": body_names(robot.model),
+        "layout": list(LAYOUT),
+        "parameters": inertial_parameters(robot.model),
+    }
 
 
 REGRESSOR = (
-    Quantity("regressor", ("q", "v", "a"), joint_torque_regressors,
-             "Joint torque regressor Y(q, v, a), linear in the inertial parameters: "
-             "τ = Y π + armature ∘ a",
-             answer_size=lambda r, o, v: r.nv * PER_BODY * (r.model.njoints - 1)),
+    Quantity(
+        "regressor",
+        ("q", "v", "a"),
+        joint_torque_regressors,
+        "Joint torque regressor Y(q, v, a), linear in the inertial parameters: "
+        "τ = Y π + armature ∘ a",
+        answer_size=lambda r, o, v: r.nv * PER_BODY * (r.model.njoints - 1),
+    ),
 )

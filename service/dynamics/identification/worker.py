@@ -57,12 +57,19 @@ def _serve(conn: Any, memory_mb: int) -> None:
 
             def progress(*event: Any) -> None:
                 conn.send(("progress", *event))
+
             conn.send(("ok", identify(robot, **arrays, **options, progress=progress)))
         except errors.RobodynError as exc:
             conn.send(("error", type(exc).__name__, exc.detail))
         except MemoryError:
-            conn.send(("error", "InvalidInput", f"the identification needed more than its "
-                       f"memory limit of {memory_mb} MB: send a shorter log"))
+            conn.send(
+                (
+                    "error",
+                    "InvalidInput",
+                    f"the identification needed more than its "
+                    f"memory limit of {memory_mb} MB: send a shorter log",
+                )
+            )
         except Exception as exc:  # a bug: reported as such, without a traceback
             conn.send(("failed", type(exc).__name__))
 
@@ -70,8 +77,9 @@ def _serve(conn: Any, memory_mb: int) -> None:
 class IdentificationWorker:
     """A worker process for `identify` (see the module docstring). Thread-safe."""
 
-    def __init__(self, timeout_s: float = 120.0, memory_mb: int = 4096,
-                 max_waiting: int = 1) -> None:
+    def __init__(
+        self, timeout_s: float = 120.0, memory_mb: int = 4096, max_waiting: int = 1
+    ) -> None:
         self.timeout_s = timeout_s
         self.memory_mb = memory_mb
         self.max_waiting = max_waiting
@@ -84,21 +92,24 @@ class IdentificationWorker:
     def _start(self) -> None:
         ctx = mp.get_context("spawn")
         parent, child = ctx.Pipe()
-        proc = ctx.Process(target=_serve, args=(child, self.memory_mb), daemon=True,
-                           name="robodyn-identification")
+        proc = ctx.Process(
+            target=_serve, args=(child, self.memory_mb), daemon=True, name="robodyn-identification"
+        )
         try:
             proc.start()
         except OSError:
             parent.close()
-            raise errors.Overloaded("could not start an identification worker; retry "
-                                    "shortly") from None
+            raise errors.Overloaded(
+                "could not start an identification worker; retry shortly"
+            ) from None
         finally:
             child.close()
         self._proc, self._conn = proc, parent
         if not parent.poll(60.0) or parent.recv() != ("ready",):
             self._stop()
-            raise errors.Overloaded("the identification worker did not start in time; retry "
-                                    "shortly")
+            raise errors.Overloaded(
+                "the identification worker did not start in time; retry shortly"
+            )
 
     def _stop(self) -> None:
         if self._conn is not None:
@@ -113,15 +124,17 @@ class IdentificationWorker:
         with self._lock:
             self._stop()
 
-    def identify(self, robot: Robot, progress: Progress | None = None, **inputs: Any
-                 ) -> Identification:
+    def identify(
+        self, robot: Robot, progress: Progress | None = None, **inputs: Any
+    ) -> Identification:
         """`identify(robot, **inputs)` in the worker (t, q, tau, v, a as arrays; the other
         options as `identify` takes them); `progress` (optional) hears its stages, from this
         thread."""
         with self._count_lock:
             if self._queued > self.max_waiting:
-                raise errors.Overloaded("identifications are already running and waiting; "
-                                        "retry when they are done")
+                raise errors.Overloaded(
+                    "identifications are already running and waiting; retry when they are done"
+                )
             self._queued += 1
         try:
             with self._lock:
@@ -130,14 +143,20 @@ class IdentificationWorker:
             with self._count_lock:
                 self._queued -= 1
 
-    def _run(self, robot: Robot, inputs: dict[str, Any], progress: Progress | None
-             ) -> Identification:
+    def _run(
+        self, robot: Robot, inputs: dict[str, Any], progress: Progress | None
+    ) -> Identification:
         if self._proc is None or not self._proc.is_alive():
             self._stop()
             self._start()
         arrays = {k: inputs.pop(k) for k in ("t", "q", "tau", "v", "a") if k in inputs}
-        meta = {"id": robot.id, "name": robot.name, "source": robot.source,
-                "root_joint": robot.root_joint, "mujoco_qpos": robot.mujoco_qpos}
+        meta = {
+            "id": robot.id,
+            "name": robot.name,
+            "source": robot.source,
+            "root_joint": robot.root_joint,
+            "mujoco_qpos": robot.mujoco_qpos,
+        }
         started_cpu = cpu_seconds(self._proc.pid)
         start = time.monotonic()
         try:
@@ -155,7 +174,8 @@ class IdentificationWorker:
             self._stop()
             raise errors.InvalidInput(
                 f"the identification worker stopped on this log (over its memory limit of "
-                f"{self.memory_mb} MB?): send a shorter log") from None
+                f"{self.memory_mb} MB?): send a shorter log"
+            ) from None
         if answer[0] == "ok":
             result: Identification = answer[1]
             return result
@@ -166,11 +186,16 @@ class IdentificationWorker:
     def _timed_out(self, started_cpu: float | None, elapsed: float) -> errors.RobodynError:
         cpu = cpu_seconds(self._proc.pid) if self._proc is not None else None
         self._stop()
-        if cpu is not None and started_cpu is not None and \
-                cpu - started_cpu < STARVED_CPU_FRACTION * elapsed:
+        if (
+            cpu is not None
+            and started_cpu is not None
+            and cpu - started_cpu < STARVED_CPU_FRACTION * elapsed
+        ):
             return errors.Overloaded(
                 f"the identification got only {cpu - started_cpu:.1f} s of CPU time in its "
-                f"{self.timeout_s:g} s limit: the server is too busy right now; retry shortly")
+                f"{self.timeout_s:g} s limit: the server is too busy right now; retry shortly"
+            )
         return errors.InvalidInput(
             f"the identification took longer than its limit of {self.timeout_s:g} s: send a "
-            "shorter log or one sampled less often")
+            "shorter log or one sampled less often"
+        )

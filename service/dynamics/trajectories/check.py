@@ -59,8 +59,14 @@ class TrajectoryCheck:
     def answer(self) -> dict[str, Any]:
         """The contract's answer — feasible, tau, joints, violations, work — and the velocities
         `v` at the samples (as given, or the spline's)."""
-        return {"feasible": self.feasible, "tau": self.tau, "v": self.v, "joints": self.joints,
-                "violations": self.violations, "work": self.work}
+        return {
+            "feasible": self.feasible,
+            "tau": self.tau,
+            "v": self.v,
+            "joints": self.joints,
+            "violations": self.violations,
+            "work": self.work,
+        }
 
 
 def evaluation_times(t: np.ndarray, k: int) -> np.ndarray:
@@ -71,10 +77,18 @@ def evaluation_times(t: np.ndarray, k: int) -> np.ndarray:
     return np.concatenate([inner, t[-1:]])
 
 
-def check_trajectory(robot: Robot, t: Any, q: Any, v: Any = None, a: Any = None, *,
-                     effort_scale: float = 1.0, velocity_scale: float = 1.0,
-                     samples_per_interval: int = 4,
-                     friction: Friction | None = None) -> TrajectoryCheck:
+def check_trajectory(
+    robot: Robot,
+    t: Any,
+    q: Any,
+    v: Any = None,
+    a: Any = None,
+    *,
+    effort_scale: float = 1.0,
+    velocity_scale: float = 1.0,
+    samples_per_interval: int = 4,
+    friction: Friction | None = None,
+) -> TrajectoryCheck:
     """Check the motion (t, q[, v, a]) of `robot` against its effort, velocity and position
     limits (effort and velocity limits × `effort_scale`, `velocity_scale`). q is in the API's
     order (`Robot.pinocchio_q`). `friction(v)`, where given, adds a friction torque to τ.
@@ -84,16 +98,32 @@ def check_trajectory(robot: Robot, t: Any, q: Any, v: Any = None, a: Any = None,
     qs = configurations(robot, samples("q", q, n, robot.nq, "nq", "t"))
     vs = None if v is None else samples("v", v, n, robot.nv, "nv", "t")
     acc = None if a is None else samples("a", a, n, robot.nv, "nv", "t")
-    return check_samples(robot, times, qs, vs, acc, effort_scale=effort_scale,
-                         velocity_scale=velocity_scale,
-                         samples_per_interval=samples_per_interval, friction=friction)
+    return check_samples(
+        robot,
+        times,
+        qs,
+        vs,
+        acc,
+        effort_scale=effort_scale,
+        velocity_scale=velocity_scale,
+        samples_per_interval=samples_per_interval,
+        friction=friction,
+    )
 
 
-def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarray | None,
-                  acc: np.ndarray | None, *, effort_scale: float = 1.0,
-                  velocity_scale: float = 1.0, samples_per_interval: int = 4,
-                  friction: Friction | None = None,
-                  should_stop: ShouldStop | None = None) -> TrajectoryCheck:
+def check_samples(
+    robot: Robot,
+    times: np.ndarray,
+    qs: np.ndarray,
+    vs: np.ndarray | None,
+    acc: np.ndarray | None,
+    *,
+    effort_scale: float = 1.0,
+    velocity_scale: float = 1.0,
+    samples_per_interval: int = 4,
+    friction: Friction | None = None,
+    should_stop: ShouldStop | None = None,
+) -> TrajectoryCheck:
     """`check_trajectory` of checked samples: times (N,) strictly increasing, qs (N, nq) in
     Pinocchio's order, vs and acc (N, nv) or None. `should_stop()` (optional) is asked
     between batches of RNEA_BATCH evaluated points (`service.dynamics.stopping`)."""
@@ -107,7 +137,8 @@ def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarra
             raise InvalidInput(
                 f"v and a are required for robot '{robot.id}': its configuration has nq = "
                 f"{robot.nq} numbers and its velocity nv = {robot.nv}, so v and a cannot be "
-                "derivatives of a spline through q")
+                "derivatives of a spline through q"
+            )
         spline = CubicSpline(times, qs, bc_type="not-a-knot", axis=0)
         if vs is None:
             vs = spline(times, 1)
@@ -115,8 +146,10 @@ def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarra
             acc = spline(times, 2)
     if given_v is None and given_a is None and k > 1:
         if (n - 1) * k + 1 > MAX_EVALUATED_POINTS:
-            raise InvalidInput(f"samples_per_interval: {n} samples × {k} points per interval "
-                               f"exceed the {MAX_EVALUATED_POINTS} points one check evaluates")
+            raise InvalidInput(
+                f"samples_per_interval: {n} samples × {k} points per interval "
+                f"exceed the {MAX_EVALUATED_POINTS} points one check evaluates"
+            )
         t_eval = evaluation_times(times, k)
         q_eval, v_eval, a_eval = spline(t_eval), spline(t_eval, 1), spline(t_eval, 2)
         q_eval[::k], v_eval[::k], a_eval[::k] = qs, vs, acc  # the samples exactly as given
@@ -124,32 +157,55 @@ def check_samples(robot: Robot, times: np.ndarray, qs: np.ndarray, vs: np.ndarra
     else:
         t_eval, q_eval, v_eval, a_eval = times, qs, vs, acc
         at_samples = slice(None)
-    stop = Stopper(should_stop, "the trajectory check", "evaluated point",
-                   total=q_eval.shape[0], stage="inverse dynamics")
+    stop = Stopper(
+        should_stop,
+        "the trajectory check",
+        "evaluated point",
+        total=q_eval.shape[0],
+        stage="inverse dynamics",
+    )
     tau_eval = np.empty((q_eval.shape[0], robot.nv))
     for start in range(0, q_eval.shape[0], RNEA_BATCH):
         stop.poll(start)
         end = start + RNEA_BATCH
-        tau_eval[start:end] = rnea.inverse_dynamics(robot, q_eval[start:end],
-                                                    v_eval[start:end], a_eval[start:end])
+        tau_eval[start:end] = rnea.inverse_dynamics(
+            robot, q_eval[start:end], v_eval[start:end], a_eval[start:end]
+        )
     if friction is not None:
         tau_eval = tau_eval + friction(v_eval)
-    joints, violations = _against_limits(robot, t_eval, q_eval, v_eval, tau_eval,
-                                         effort_scale, velocity_scale)
+    joints, violations = _against_limits(
+        robot, t_eval, q_eval, v_eval, tau_eval, effort_scale, velocity_scale
+    )
     power = np.einsum("ij,ij->i", tau_eval, v_eval)
-    work = {"positive": float(np.trapezoid(np.maximum(power, 0.0), t_eval)),
-            "negative": float(np.trapezoid(np.minimum(power, 0.0), t_eval))}
+    work = {
+        "positive": float(np.trapezoid(np.maximum(power, 0.0), t_eval)),
+        "negative": float(np.trapezoid(np.minimum(power, 0.0), t_eval)),
+    }
     tau = np.ascontiguousarray(tau_eval[at_samples])  # (orjson writes C-contiguous arrays)
-    return TrajectoryCheck(feasible=not violations, tau=tau, v=vs, a=acc, joints=joints,
-                           violations=violations, work=work, t_eval=t_eval, q_eval=q_eval,
-                           v_eval=v_eval, tau_eval=tau_eval)
+    return TrajectoryCheck(
+        feasible=not violations,
+        tau=tau,
+        v=vs,
+        a=acc,
+        joints=joints,
+        violations=violations,
+        work=work,
+        t_eval=t_eval,
+        q_eval=q_eval,
+        v_eval=v_eval,
+        tau_eval=tau_eval,
+    )
 
 
 def _samples_per_interval(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (
-            1 <= value <= MAX_SAMPLES_PER_INTERVAL):
-        raise InvalidInput("samples_per_interval must be an integer from 1 to "
-                           f"{MAX_SAMPLES_PER_INTERVAL}")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, np.integer))
+        or not (1 <= value <= MAX_SAMPLES_PER_INTERVAL)
+    ):
+        raise InvalidInput(
+            f"samples_per_interval must be an integer from 1 to {MAX_SAMPLES_PER_INTERVAL}"
+        )
     return int(value)
 
 
@@ -157,9 +213,15 @@ def _ratio(peak: float, limit: float | None) -> float | None:
     return None if limit is None else peak / limit
 
 
-def _against_limits(robot: Robot, t: np.ndarray, q: np.ndarray, v: np.ndarray,
-                    tau: np.ndarray, effort_scale: float, velocity_scale: float
-                    ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+def _against_limits(
+    robot: Robot,
+    t: np.ndarray,
+    q: np.ndarray,
+    v: np.ndarray,
+    tau: np.ndarray,
+    effort_scale: float,
+    velocity_scale: float,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Per 1-DoF joint: peaks, extremes, ratios (peak ÷ limit) and violations, sorted by
     start time."""
     joints, violations = [], []
@@ -167,18 +229,25 @@ def _against_limits(robot: Robot, t: np.ndarray, q: np.ndarray, v: np.ndarray,
         effort, speed = tau[:, lim.iv], v[:, lim.iv]
         peak_effort, peak_velocity = float(np.abs(effort).max()), float(np.abs(speed).max())
         position = q[:, lim.iq] if lim.positioned else None
-        joints.append({
-            "name": lim.name, "effort_limit": lim.effort, "peak_effort": peak_effort,
-            "effort_ratio": _ratio(peak_effort, lim.effort), "velocity_limit": lim.velocity,
-            "peak_velocity": peak_velocity, "velocity_ratio": _ratio(peak_velocity, lim.velocity),
-            "lower": lim.lower, "upper": lim.upper,
-            "min_position": None if position is None else float(position.min()),
-            "max_position": None if position is None else float(position.max())})
+        joints.append(
+            {
+                "name": lim.name,
+                "effort_limit": lim.effort,
+                "peak_effort": peak_effort,
+                "effort_ratio": _ratio(peak_effort, lim.effort),
+                "velocity_limit": lim.velocity,
+                "peak_velocity": peak_velocity,
+                "velocity_ratio": _ratio(peak_velocity, lim.velocity),
+                "lower": lim.lower,
+                "upper": lim.upper,
+                "min_position": None if position is None else float(position.min()),
+                "max_position": None if position is None else float(position.max()),
+            }
+        )
         if lim.effort is not None:
             violations += spans_over(lim.name, "effort", t, effort, -lim.effort, lim.effort)
         if lim.velocity is not None:
-            violations += spans_over(lim.name, "velocity", t, speed, -lim.velocity,
-                                     lim.velocity)
+            violations += spans_over(lim.name, "velocity", t, speed, -lim.velocity, lim.velocity)
         if position is not None:
             violations += spans_over(lim.name, "position", t, position, lim.lower, lim.upper)
     violations.sort(key=lambda x: (x["t_start"], x["joint"], x["kind"]))

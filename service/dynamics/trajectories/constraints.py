@@ -46,12 +46,12 @@ class Family:
     lower: np.ndarray | None
 
     def values(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """f at every point for path speeds² x and accelerations u of shape (N, p): (N, p, J).
-        """
+        """f at every point for path speeds² x and accelerations u of shape (N, p): (N, p, J)."""
         return self.A * u[..., None] + self.B * x[..., None] + self.C
 
-    def rows(self, theta: np.ndarray, deltas: np.ndarray, tightening: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def rows(
+        self, theta: np.ndarray, deltas: np.ndarray, tightening: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The solver's rows a u + b x + c ≤ 1 per stage: arrays (N + 1, R), the limits × the
         per-joint `tightening` [J]. Stage N (the last gridpoint) gets the rows of its own
         point, repeated (θ = 0 of a zero-length interval)."""

@@ -36,8 +36,9 @@ class PathSamples:
     C: np.ndarray
 
 
-def sample_path(robot: Robot, path: WaypointPath, gridpoints: np.ndarray,
-                points: int) -> PathSamples:
+def sample_path(
+    robot: Robot, path: WaypointPath, gridpoints: np.ndarray, points: int
+) -> PathSamples:
     """Evaluate the path at `points` + 1 evenly spaced points of every interval of
     `gridpoints` (the points shared by neighbouring intervals computed once)."""
     theta = np.linspace(0.0, 1.0, points + 1)
@@ -47,12 +48,14 @@ def sample_path(robot: Robot, path: WaypointPath, gridpoints: np.ndarray,
     q, dq, ddq = path(flat), path(flat, 1), path(flat, 2)
     A, B, C = rnea.path_coefficients(robot, q, dq, ddq)
     index = np.arange(n)[:, None] * points + np.arange(points + 1)[None, :]
-    return PathSamples(theta, flat[index], q[index], dq[index], ddq[index], A[index], B[index],
-                       C[index])
+    return PathSamples(
+        theta, flat[index], q[index], dq[index], ddq[index], A[index], B[index], C[index]
+    )
 
 
-def families(samples: PathSamples, limits: list[JointLimit],
-             acceleration: np.ndarray | None) -> list[Family]:
+def families(
+    samples: PathSamples, limits: list[JointLimit], acceleration: np.ndarray | None
+) -> list[Family]:
     """The velocity, acceleration (where `acceleration` [nv] is given) and effort families of
     the joints that have those limits."""
     out = []
@@ -60,28 +63,60 @@ def families(samples: PathSamples, limits: list[JointLimit],
     moving = [lim for lim in limits if lim.velocity is not None]
     if moving:
         iv = [lim.iv for lim in moving]
-        out.append(Family("velocity", [lim.name for lim in moving], zero[..., iv],
-                          samples.dq[..., iv] ** 2, zero[..., iv],
-                          np.array([lim.velocity for lim in moving]) ** 2, None))
+        out.append(
+            Family(
+                "velocity",
+                [lim.name for lim in moving],
+                zero[..., iv],
+                samples.dq[..., iv] ** 2,
+                zero[..., iv],
+                np.array([lim.velocity for lim in moving]) ** 2,
+                None,
+            )
+        )
     if acceleration is not None:
         iv = [lim.iv for lim in limits]
-        out.append(Family("acceleration", [lim.name for lim in limits], samples.dq[..., iv],
-                          samples.ddq[..., iv], zero[..., iv], acceleration[iv],
-                          -acceleration[iv]))
+        out.append(
+            Family(
+                "acceleration",
+                [lim.name for lim in limits],
+                samples.dq[..., iv],
+                samples.ddq[..., iv],
+                zero[..., iv],
+                acceleration[iv],
+                -acceleration[iv],
+            )
+        )
     strong = [lim for lim in limits if lim.effort is not None]
     if strong:
         iv = [lim.iv for lim in strong]
         effort = np.array([lim.effort for lim in strong])
-        out.append(Family("effort", [lim.name for lim in strong], samples.A[..., iv],
-                          samples.B[..., iv], samples.C[..., iv], effort, -effort))
+        out.append(
+            Family(
+                "effort",
+                [lim.name for lim in strong],
+                samples.A[..., iv],
+                samples.B[..., iv],
+                samples.C[..., iv],
+                effort,
+                -effort,
+            )
+        )
     return out
 
 
 def subsample(family: Family, every: int) -> Family:
     """The family on every `every`-th point of each interval (the solver's points)."""
     pick = slice(None, None, every)
-    return Family(family.kind, family.joints, family.A[:, pick], family.B[:, pick],
-                  family.C[:, pick], family.upper, family.lower)
+    return Family(
+        family.kind,
+        family.joints,
+        family.A[:, pick],
+        family.B[:, pick],
+        family.C[:, pick],
+        family.upper,
+        family.lower,
+    )
 
 
 def ratios(family: Family, profile: Profile, theta: np.ndarray) -> np.ndarray:
@@ -96,8 +131,7 @@ def ratios(family: Family, profile: Profile, theta: np.ndarray) -> np.ndarray:
     return worst
 
 
-def slowdown(family: Family, profile: Profile, theta: np.ndarray, target: float
-             ) -> np.ndarray:
+def slowdown(family: Family, profile: Profile, theta: np.ndarray, target: float) -> np.ndarray:
     """Per joint, the time-scaling factor λ ≥ 1 that brings the family within `target` × its
     limit everywhere: f = D + C with D = A u + B x scaling as 1/λ² (`Profile.slowed`), so
     D/λ² + C + margin ≤ target·limit needs λ² ≥ D / (target·limit − C − margin) where D > 0
@@ -107,8 +141,10 @@ def slowdown(family: Family, profile: Profile, theta: np.ndarray, target: float
     D = family.values(x, u) - family.C
     margin = upper_envelope(D)[:, None, :] - D.max(axis=1)[:, None, :]  # curvature, ≥ 0
     need = np.ones(len(family.joints))
-    for sign, bound in ((1.0, family.upper), (-1.0, None if family.lower is None
-                                               else -family.lower)):
+    for sign, bound in (
+        (1.0, family.upper),
+        (-1.0, None if family.lower is None else -family.lower),
+    ):
         if bound is None:
             continue
         room = target * bound - sign * family.C - margin

@@ -15,8 +15,9 @@ def _array(name: str, value: Any, ndim: int) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (ValueError, TypeError):
-        raise InvalidInput(f"{name} must be an array of numbers"
-                           + (" (one row per sample)" if ndim == 2 else "")) from None
+        raise InvalidInput(
+            f"{name} must be an array of numbers" + (" (one row per sample)" if ndim == 2 else "")
+        ) from None
     if arr.ndim != ndim:
         shape = "1-D" if ndim == 1 else "2-D (one row per sample)"
         raise InvalidInput(f"{name} must be {shape}, not {arr.ndim}-D")
@@ -34,21 +35,24 @@ def sample_times(name: str, value: Any) -> np.ndarray:
     bad = np.flatnonzero(~(steps > 0))
     if bad.size:
         i = int(bad[0])
-        raise InvalidInput(f"{name} must be strictly increasing: {name}[{i + 1}] is not "
-                           f"after {name}[{i}]")
+        raise InvalidInput(
+            f"{name} must be strictly increasing: {name}[{i + 1}] is not after {name}[{i}]"
+        )
     return t
 
 
-def samples(name: str, value: Any, count: int, width: int, width_name: str,
-            count_name: str) -> np.ndarray:
+def samples(
+    name: str, value: Any, count: int, width: int, width_name: str, count_name: str
+) -> np.ndarray:
     """A 2-D array of `count` rows (one per entry of `count_name`) of `width` numbers each
     (the robot's `width_name`: nq or nv)."""
     arr = _array(name, value, 2)
     if arr.shape[0] != count:
         raise DimensionMismatch(f"{name} has {arr.shape[0]} rows; {count_name} has {count}")
     if arr.shape[1] != width:
-        raise DimensionMismatch(f"each row of {name} has {arr.shape[1]} entries; the robot "
-                                f"has {width_name} = {width}")
+        raise DimensionMismatch(
+            f"each row of {name} has {arr.shape[1]} entries; the robot has {width_name} = {width}"
+        )
     return arr
 
 
@@ -66,8 +70,9 @@ def positive_vector(name: str, value: Any, width: int, width_name: str) -> np.nd
     """A vector of `width` finite numbers > 0 (per-joint limits)."""
     arr = _array(name, value, 1)
     if arr.shape[0] != width:
-        raise DimensionMismatch(f"{name} has {arr.shape[0]} entries; the robot has "
-                                f"{width_name} = {width}")
+        raise DimensionMismatch(
+            f"{name} has {arr.shape[0]} entries; the robot has {width_name} = {width}"
+        )
     bad = np.flatnonzero(~(arr > 0))
     if bad.size:
         raise InvalidInput(f"{name} must be greater than 0; entry {int(bad[0])} is not")

@@ -48,8 +48,9 @@ class JointLimit:
     positioned: bool
 
 
-def joint_limits(robot: Robot, effort_scale: float = 1.0,
-                 velocity_scale: float = 1.0) -> list[JointLimit]:
+def joint_limits(
+    robot: Robot, effort_scale: float = 1.0, velocity_scale: float = 1.0
+) -> list[JointLimit]:
     """The limits of every 1-DoF joint of `robot`, in model order; effort limits × effort_scale,
     velocity limits × velocity_scale (fractions of the model's limits)."""
     m = robot.model
@@ -62,13 +63,18 @@ def joint_limits(robot: Robot, effort_scale: float = 1.0,
         positioned = joint.nq == 1 and joint_type(joint) != "continuous"
         lower, upper = float(m.lowerPositionLimit[iq]), float(m.upperPositionLimit[iq])
         bounded = positioned and lower < upper  # equal bounds: URDF's unset <limit> (0, 0)
-        out.append(JointLimit(
-            name=str(m.names[jid]), iq=iq, iv=iv,
-            effort=_magnitude_limit(float(m.effortLimit[iv]), effort_scale),
-            velocity=_magnitude_limit(float(m.velocityLimit[iv]), velocity_scale),
-            lower=_position_bound(lower) if bounded else None,
-            upper=_position_bound(upper) if bounded else None,
-            positioned=positioned))
+        out.append(
+            JointLimit(
+                name=str(m.names[jid]),
+                iq=iq,
+                iv=iv,
+                effort=_magnitude_limit(float(m.effortLimit[iv]), effort_scale),
+                velocity=_magnitude_limit(float(m.velocityLimit[iv]), velocity_scale),
+                lower=_position_bound(lower) if bounded else None,
+                upper=_position_bound(upper) if bounded else None,
+                positioned=positioned,
+            )
+        )
     return out
 
 
@@ -82,8 +88,14 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
-def spans_over(joint: str, kind: str, t: np.ndarray, values: np.ndarray,
-               lower: float | None, upper: float | None) -> list[dict[str, Any]]:
+def spans_over(
+    joint: str,
+    kind: str,
+    t: np.ndarray,
+    values: np.ndarray,
+    lower: float | None,
+    upper: float | None,
+) -> list[dict[str, Any]]:
     """The violations of lower ≤ values ≤ upper by a series `values` [n] at times `t` [n] (s):
     one entry per run of consecutive evaluated points beyond a bound (by more than
     VIOLATION_TOLERANCE relative), with `t_start`/`t_end` the times of the run's first and last
@@ -95,8 +107,16 @@ def spans_over(joint: str, kind: str, t: np.ndarray, values: np.ndarray,
         slack = VIOLATION_TOLERANCE * max(abs(bound), 1e-12)
         over = sign * (values - bound) > slack
         for first, last in _runs(over):
-            run = values[first:last + 1]
+            run = values[first : last + 1]
             worst = run[np.argmax(sign * run)]
-            out.append({"joint": joint, "kind": kind, "t_start": float(t[first]),
-                        "t_end": float(t[last]), "worst": float(worst), "limit": float(bound)})
+            out.append(
+                {
+                    "joint": joint,
+                    "kind": kind,
+                    "t_start": float(t[first]),
+                    "t_end": float(t[last]),
+                    "worst": float(worst),
+                    "limit": float(bound),
+                }
+            )
     return out

@@ -28,16 +28,16 @@ class WaypointPath:
     def __init__(self, waypoints: Any, nq: int) -> None:
         count = _count(waypoints)
         if count > MAX_WAYPOINTS:
-            raise InvalidInput(f"waypoints has {count} rows; at most {MAX_WAYPOINTS} are timed "
-                               "in one request")
+            raise InvalidInput(
+                f"waypoints has {count} rows; at most {MAX_WAYPOINTS} are timed in one request"
+            )
         w = samples("waypoints", waypoints, count, nq, "nq", "waypoints")
         if w.shape[0] < 2:
             raise InvalidInput(f"waypoints has {w.shape[0]} row(s); a path needs at least 2")
         steps = np.linalg.norm(np.diff(w, axis=0), axis=1)
         keep = np.concatenate([[True], steps > _SAME_POINT])
         if keep.sum() < 2:
-            raise InvalidInput("waypoints are all the same configuration: there is no path "
-                               "to time")
+            raise InvalidInput("waypoints are all the same configuration: there is no path to time")
         self.waypoints = w
         self.indices = np.flatnonzero(keep)  # the caller's index of each knot
         self.knots = np.concatenate([[0.0], np.cumsum(steps[keep[1:]])])

@@ -35,8 +35,9 @@ class Profile:
     def times(self) -> np.ndarray:
         """The time at each gridpoint, [N + 1] (s); t_0 = 0."""
         speed = np.sqrt(self.x)
-        return np.concatenate([[0.0], np.cumsum(2.0 * np.diff(self.gridpoints)
-                                                / (speed[:-1] + speed[1:]))])
+        return np.concatenate(
+            [[0.0], np.cumsum(2.0 * np.diff(self.gridpoints) / (speed[:-1] + speed[1:]))]
+        )
 
     @property
     def duration(self) -> float:
@@ -54,8 +55,9 @@ class Profile:
         i = np.clip(np.searchsorted(grid_t, t, side="right") - 1, 0, len(u) - 1)
         dt = t - grid_t[i]
         sd = np.maximum(speed[i] + u[i] * dt, 0.0)
-        s = np.minimum(self.gridpoints[i] + speed[i] * dt + 0.5 * u[i] * dt**2,
-                       self.gridpoints[i + 1])
+        s = np.minimum(
+            self.gridpoints[i] + speed[i] * dt + 0.5 * u[i] * dt**2, self.gridpoints[i + 1]
+        )
         return s, sd, u[i]
 
     def on_intervals(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -27,10 +27,17 @@ from service.states import States
 JSON_BYTES_PER_NUMBER = 25  # as the answer budget counts a number in JSON
 
 
-def trajectory_check(robot: Robot, s: States, *, t: Any, effort_scale: float = 1.0,
-                     velocity_scale: float = 1.0, samples_per_interval: int = 4,
-                     friction: bool = False,
-                     should_stop: ShouldStop | None = None) -> dict[str, Any]:
+def trajectory_check(
+    robot: Robot,
+    s: States,
+    *,
+    t: Any,
+    effort_scale: float = 1.0,
+    velocity_scale: float = 1.0,
+    samples_per_interval: int = 4,
+    friction: bool = False,
+    should_stop: ShouldStop | None = None,
+) -> dict[str, Any]:
     """Check the motion sampled at times `t` [N] (s, strictly increasing, N ≥ 2) with
     configurations q [N][nq] and optional velocities v and accelerations a [N][nv] against the
     robot's effort, velocity and position limits (effort and velocity limits × effort_scale,
@@ -48,13 +55,26 @@ def trajectory_check(robot: Robot, s: States, *, t: Any, effort_scale: float = 1
     q = s["q"]
     if q.shape[0] != times.shape[0]:
         raise DimensionMismatch(f"q has {q.shape[0]} samples; t has {times.shape[0]}")
-    result = check_samples(robot, times, q, s.arrays.get("v"), s.arrays.get("a"),
-                           effort_scale=effort_scale, velocity_scale=velocity_scale,
-                           samples_per_interval=samples_per_interval,
-                           friction=joint_friction(robot) if friction else None,
-                           should_stop=should_stop)
-    return {"feasible": result.feasible, "tau": result.tau, "v": result.v,
-            "joints": result.joints, "violations": result.violations, "work": result.work}
+    result = check_samples(
+        robot,
+        times,
+        q,
+        s.arrays.get("v"),
+        s.arrays.get("a"),
+        effort_scale=effort_scale,
+        velocity_scale=velocity_scale,
+        samples_per_interval=samples_per_interval,
+        friction=joint_friction(robot) if friction else None,
+        should_stop=should_stop,
+    )
+    return {
+        "feasible": result.feasible,
+        "tau": result.tau,
+        "v": result.v,
+        "joints": result.joints,
+        "violations": result.violations,
+        "work": result.work,
+    }
 
 
 def check_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
@@ -70,9 +90,15 @@ def check_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
     return 2 * robot.nv
 
 
-def retime(robot: Robot, s: States, *, limits: dict[str, Any] | None = None,
-           sample_dt: float = 0.01, max_answer_bytes: int | None = None,
-           should_stop: ShouldStop | None = None) -> dict[str, Any]:
+def retime(
+    robot: Robot,
+    s: States,
+    *,
+    limits: dict[str, Any] | None = None,
+    sample_dt: float = 0.01,
+    max_answer_bytes: int | None = None,
+    should_stop: ShouldStop | None = None,
+) -> dict[str, Any]:
     """The time-optimal motion along the cubic spline through `waypoints` [K][nq] (K ≥ 2;
     clamped: zero derivative at both ends; parameterised by the cumulative joint-space
     distance between waypoints), from rest to rest, under the joint velocity limits ×
@@ -90,22 +116,32 @@ def retime(robot: Robot, s: States, *, limits: dict[str, Any] | None = None,
     if max_answer_bytes is not None:
         max_samples = min(max_samples, max_answer_bytes // (numbers * JSON_BYTES_PER_NUMBER))
     try:
-        result = retiming.retime(robot, s["waypoints"], sample_dt=sample_dt,
-                                 velocity_scale=options.get("velocity_scale", 1.0),
-                                 effort_scale=options.get("effort_scale", 1.0),
-                                 acceleration=options.get("acceleration"),
-                                 max_samples=max_samples, should_stop=should_stop)
+        result = retiming.retime(
+            robot,
+            s["waypoints"],
+            sample_dt=sample_dt,
+            velocity_scale=options.get("velocity_scale", 1.0),
+            effort_scale=options.get("effort_scale", 1.0),
+            acceleration=options.get("acceleration"),
+            max_samples=max_samples,
+            should_stop=should_stop,
+        )
     except retiming.TooManySamples as exc:
         if max_samples == retiming.MAX_SAMPLES:
             raise InvalidInput(str(exc)) from None
-        raise PayloadTooLarge(f"{exc} (the answer would exceed ROBODYN_MAX_ANSWER_BYTES)"
-                              ) from None
+        raise PayloadTooLarge(f"{exc} (the answer would exceed ROBODYN_MAX_ANSWER_BYTES)") from None
     # The check is a nested object: its arrays as lists (the binary form carries only the
     # top-level arrays as tensors, and everything else as JSON).
-    check = {k: v.tolist() if hasattr(v, "tolist") else v
-             for k, v in result.check.answer().items()}
-    return {"duration": result.duration, "t": result.t, "q": robot.api_q(result.q),
-            "v": result.v, "a": result.a, "tau": result.tau, "check": check}
+    check = {k: v.tolist() if hasattr(v, "tolist") else v for k, v in result.check.answer().items()}
+    return {
+        "duration": result.duration,
+        "t": result.t,
+        "q": robot.api_q(result.q),
+        "v": result.v,
+        "a": result.a,
+        "tau": result.tau,
+        "check": check,
+    }
 
 
 def retime_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
@@ -120,14 +156,26 @@ def retime_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
 
 
 TRAJECTORIES = (
-    Quantity("trajectory-check", ("q",), trajectory_check,
-             "Check a sampled motion against the robot's effort, velocity and position limits",
-             optional=("v", "a"), joint_answers=("tau", "v"), work=check_work,
-             tensor_options=("t",),
-             answer_size=check_size),
-    Quantity("retime", ("waypoints",), retime,
-             "Time a path through waypoints optimally under velocity, acceleration and torque "
-             "limits, every limit kept between samples too",
-             joint_answers=("q", "v", "a", "tau"), settings=("max_answer_bytes",),
-             work=retime_work, answer_size=retime_size),
+    Quantity(
+        "trajectory-check",
+        ("q",),
+        trajectory_check,
+        "Check a sampled motion against the robot's effort, velocity and position limits",
+        optional=("v", "a"),
+        joint_answers=("tau", "v"),
+        work=check_work,
+        tensor_options=("t",),
+        answer_size=check_size,
+    ),
+    Quantity(
+        "retime",
+        ("waypoints",),
+        retime,
+        "Time a path through waypoints optimally under velocity, acceleration and torque "
+        "limits, every limit kept between samples too",
+        joint_answers=("q", "v", "a", "tau"),
+        settings=("max_answer_bytes",),
+        work=retime_work,
+        answer_size=retime_size,
+    ),
 )

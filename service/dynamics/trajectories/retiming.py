@@ -85,8 +85,15 @@ class Retimed:
     profile: Profile = field(repr=False)
 
     def answer(self) -> dict[str, Any]:
-        return {"duration": self.duration, "t": self.t, "q": self.q, "v": self.v, "a": self.a,
-                "tau": self.tau, "check": self.check.answer()}
+        return {
+            "duration": self.duration,
+            "t": self.t,
+            "q": self.q,
+            "v": self.v,
+            "a": self.a,
+            "tau": self.tau,
+            "check": self.check.answer(),
+        }
 
 
 def gridpoints(path: WaypointPath, intervals: int = INTERVALS) -> np.ndarray:
@@ -104,24 +111,38 @@ class TooManySamples(InvalidInput):
     """The motion, sampled every sample_dt, would have more samples than allowed."""
 
 
-def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
-           effort_scale: float = 1.0, acceleration: Any = None, sample_dt: float = 0.01,
-           intervals: int = INTERVALS, max_samples: int = MAX_SAMPLES,
-           should_stop: ShouldStop | None = None) -> Retimed:
+def retime(
+    robot: Robot,
+    waypoints: Any,
+    *,
+    velocity_scale: float = 1.0,
+    effort_scale: float = 1.0,
+    acceleration: Any = None,
+    sample_dt: float = 0.01,
+    intervals: int = INTERVALS,
+    max_samples: int = MAX_SAMPLES,
+    should_stop: ShouldStop | None = None,
+) -> Retimed:
     """Time the path through `waypoints` [K, nq] (K ≥ 2) as fast as the limits allow: the
     model's velocity limits × `velocity_scale`, effort limits × `effort_scale`, and the joint
     accelerations `acceleration` [nv] where given; from rest to rest. Raises UnsupportedModel
     (a joint other than revolute or prismatic), InfeasiblePath, InvalidInput. `should_stop()`
     (optional, `service.dynamics.stopping`) is asked between its steps."""
-    odd = sorted({kind for kind in robot.joint_types.values()
-                  if kind not in ("revolute", "prismatic")})
+    odd = sorted(
+        {kind for kind in robot.joint_types.values() if kind not in ("revolute", "prismatic")}
+    )
     if odd:
-        raise UnsupportedModel(f"retime needs joints that are all revolute or prismatic; robot "
-                               f"'{robot.id}' has {', '.join(odd)} joints")
+        raise UnsupportedModel(
+            f"retime needs joints that are all revolute or prismatic; robot "
+            f"'{robot.id}' has {', '.join(odd)} joints"
+        )
     velocity_scale = positive("limits.velocity_scale", velocity_scale)
     effort_scale = positive("limits.effort_scale", effort_scale)
-    accel = None if acceleration is None else positive_vector(
-        "limits.acceleration", acceleration, robot.nv, "nv")
+    accel = (
+        None
+        if acceleration is None
+        else positive_vector("limits.acceleration", acceleration, robot.nv, "nv")
+    )
     sample_dt = positive("sample_dt", sample_dt)
     path = WaypointPath(waypoints, robot.nq)
     limits = joint_limits(robot, effort_scale, velocity_scale)
@@ -134,8 +155,9 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     _require_followable(robot, path, dense, limits)
     fams = families(dense, limits, accel)
     if not fams:
-        raise InvalidInput(f"robot '{robot.id}' has no velocity or effort limits; give "
-                           "limits.acceleration")
+        raise InvalidInput(
+            f"robot '{robot.id}' has no velocity or effort limits; give limits.acceleration"
+        )
     profile, toppra_duration, resolves = _solve_and_correct(path, grid, dense, fams, limits)
     factor = 1.0
     worst = max(float(ratios(f, profile, dense.theta).max()) for f in fams)
@@ -144,19 +166,22 @@ def retime(robot: Robot, waypoints: Any, *, velocity_scale: float = 1.0,
     stop.stage = "samples and their check"
     stop.poll(2)
     t, q, v, a, tau = _samples(robot, path, profile, sample_dt, max_samples)
-    check = check_trajectory(robot, t, q, v, a, effort_scale=effort_scale,
-                             velocity_scale=velocity_scale)
-    return Retimed(profile.duration, t, q, v, a, tau, check, toppra_duration, resolves,
-                   factor, worst, profile)
+    check = check_trajectory(
+        robot, t, q, v, a, effort_scale=effort_scale, velocity_scale=velocity_scale
+    )
+    return Retimed(
+        profile.duration, t, q, v, a, tau, check, toppra_duration, resolves, factor, worst, profile
+    )
 
 
 def _where(path: WaypointPath, s: float) -> str:
     k, fraction = path.where(s)
-    return (f"at path fraction {fraction:.4g} (between waypoints {k} and {k + 1})")
+    return f"at path fraction {fraction:.4g} (between waypoints {k} and {k + 1})"
 
 
-def _require_followable(robot: Robot, path: WaypointPath, dense: PathSamples,
-                        limits: list[JointLimit]) -> None:
+def _require_followable(
+    robot: Robot, path: WaypointPath, dense: PathSamples, limits: list[JointLimit]
+) -> None:
     """InfeasiblePath at the first place along the path where it leaves a joint's position
     limits, or gravity alone needs more than a joint's torque limit (estimated over each
     interval by its envelope, so a crossing between points is found too)."""
@@ -166,8 +191,10 @@ def _require_followable(robot: Robot, path: WaypointPath, dense: PathSamples,
         if lim.effort is not None:
             series.append(("effort", dense.C[..., lim.iv], -lim.effort, lim.effort))
         for kind, f, lower, upper in series:
-            for bound, sign, envelope in ((upper, 1.0, upper_envelope(f)),
-                                          (lower, -1.0, lower_envelope(f))):
+            for bound, sign, envelope in (
+                (upper, 1.0, upper_envelope(f)),
+                (lower, -1.0, lower_envelope(f)),
+            ):
                 if bound is None:
                     continue
                 beyond = np.flatnonzero(sign * (envelope - bound) >= 0)
@@ -183,17 +210,24 @@ def _require_followable(robot: Robot, path: WaypointPath, dense: PathSamples,
     unit = "N" if robot.joint_types.get(lim.name) == "prismatic" else "N·m"
     low = "-inf" if lim.lower is None else f"{lim.lower:.6g}"
     high = "inf" if lim.upper is None else f"{lim.upper:.6g}"
-    what = (f"leaves its position limits [{low}, {high}]"
-            if kind == "position" else
-            f"needs {abs(value):.4g} {unit} against gravity alone, more than its torque limit "
-            f"{lim.effort:.4g} {unit}")
-    raise InfeasiblePath(f"no timing can follow this path: joint '{lim.name}' {what} "
-                         f"{_where(path, s)}", joint=lim.name, waypoint=k,
-                         path_fraction=fraction, kind=kind)
+    what = (
+        f"leaves its position limits [{low}, {high}]"
+        if kind == "position"
+        else f"needs {abs(value):.4g} {unit} against gravity alone, more than its torque limit "
+        f"{lim.effort:.4g} {unit}"
+    )
+    raise InfeasiblePath(
+        f"no timing can follow this path: joint '{lim.name}' {what} {_where(path, s)}",
+        joint=lim.name,
+        waypoint=k,
+        path_fraction=fraction,
+        kind=kind,
+    )
 
 
-def _toppra(path: WaypointPath, grid: np.ndarray, fams: list[Family],
-            tightening: list[np.ndarray]) -> tuple[np.ndarray | None, np.ndarray]:
+def _toppra(
+    path: WaypointPath, grid: np.ndarray, fams: list[Family], tightening: list[np.ndarray]
+) -> tuple[np.ndarray | None, np.ndarray]:
     """Run TOPP-RA with every family's rows at the solver's points; (x at the gridpoints, or
     None when it finds no timing; the controllable sets K)."""
     import toppra  # here, not at import: it imports matplotlib (see toppra_rows)
@@ -204,27 +238,32 @@ def _toppra(path: WaypointPath, grid: np.ndarray, fams: list[Family],
     every = VERIFY_POINTS // SOLVE_POINTS
     theta = np.linspace(0.0, 1.0, SOLVE_POINTS + 1)
     deltas = np.diff(grid)
-    rows = [subsample(f, every).rows(theta, deltas, t) for f, t in zip(fams, tightening,
-                                                                        strict=True)]
+    rows = [
+        subsample(f, every).rows(theta, deltas, t) for f, t in zip(fams, tightening, strict=True)
+    ]
     a, b, c = (np.concatenate([r[i] for r in rows], axis=1) for i in range(3))
-    toppra_path = toppra.SplineInterpolator(path.knots, path.spline(path.knots),
-                                            bc_type="clamped")
+    toppra_path = toppra.SplineInterpolator(path.knots, path.spline(path.knots), bc_type="clamped")
     # Rows in groups of at most ROW_GROUP: toppra's seidel solver multiplies each constraint's
     # rows by its F (here the identity, R × R); at R ≥ ~50 numpy's BLAS runs that product on
     # every thread, which on a busy machine took 30–90 ms instead of well under 1 ms.
-    parts = [SampledRows(a[:, i:i + ROW_GROUP], b[:, i:i + ROW_GROUP], c[:, i:i + ROW_GROUP])
-             for i in range(0, a.shape[1], ROW_GROUP)]
-    instance = toppra.algorithm.TOPPRA(parts, toppra_path, gridpoints=grid,
-                                       solver_wrapper="seidel")
+    parts = [
+        SampledRows(a[:, i : i + ROW_GROUP], b[:, i : i + ROW_GROUP], c[:, i : i + ROW_GROUP])
+        for i in range(0, a.shape[1], ROW_GROUP)
+    ]
+    instance = toppra.algorithm.TOPPRA(parts, toppra_path, gridpoints=grid, solver_wrapper="seidel")
     _, sd, _, K = instance.compute_parameterization(0.0, 0.0, return_data=True)
     if sd is None or not np.isfinite(sd).all():
         return None, K
     return np.asarray(sd) ** 2, K
 
 
-def _solve_and_correct(path: WaypointPath, grid: np.ndarray, dense: PathSamples,
-                       fams: list[Family], limits: list[JointLimit]
-                       ) -> tuple[Profile, float, int]:
+def _solve_and_correct(
+    path: WaypointPath,
+    grid: np.ndarray,
+    dense: PathSamples,
+    fams: list[Family],
+    limits: list[JointLimit],
+) -> tuple[Profile, float, int]:
     """TOPP-RA, then re-runs with the overshooting joints' limits tightened (step 5).
     Returns (the last profile, TOPP-RA's first duration, the number of re-runs)."""
     tightening = [np.full(len(f.joints), 1.0 - INITIAL_MARGIN) for f in fams]
@@ -232,16 +271,19 @@ def _solve_and_correct(path: WaypointPath, grid: np.ndarray, dense: PathSamples,
     if x is None:
         raise _no_timing(path, dense, K, limits)
     if x.max() > MAX_PATH_SPEED2:
-        raise InvalidInput("the limits do not bound the speed along this path (a joint that "
-                           "moves has no velocity limit): give limits.acceleration")
+        raise InvalidInput(
+            "the limits do not bound the speed along this path (a joint that "
+            "moves has no velocity limit): give limits.acceleration"
+        )
     profile = Profile(grid, x)
     first = profile.duration
     for attempt in range(MAX_RESOLVES):
         over = [ratios(f, profile, dense.theta) for f in fams]
         if max(float(r.max()) for r in over) <= RESOLVE_ABOVE:
             return profile, first, attempt
-        tightening = [t - np.maximum(r - 1.0, 0.0) * 1.5 for t, r in zip(tightening, over,
-                                                                          strict=True)]
+        tightening = [
+            t - np.maximum(r - 1.0, 0.0) * 1.5 for t, r in zip(tightening, over, strict=True)
+        ]
         x, _ = _toppra(path, grid, fams, tightening)
         if x is None:  # tightened too far: keep the last timing and slow it down
             return profile, first, attempt + 1
@@ -249,8 +291,13 @@ def _solve_and_correct(path: WaypointPath, grid: np.ndarray, dense: PathSamples,
     return profile, first, MAX_RESOLVES
 
 
-def _slow_down(path: WaypointPath, profile: Profile, dense: PathSamples, fams: list[Family],
-               limits: list[JointLimit]) -> tuple[Profile, float, float]:
+def _slow_down(
+    path: WaypointPath,
+    profile: Profile,
+    dense: PathSamples,
+    fams: list[Family],
+    limits: list[JointLimit],
+) -> tuple[Profile, float, float]:
     """Slow the whole motion by the smallest factor that brings every family within its
     limits (step 5's last resort); (profile, factor, worst ratio)."""
     factor = 1.0
@@ -258,8 +305,11 @@ def _slow_down(path: WaypointPath, profile: Profile, dense: PathSamples, fams: l
         needs = [slowdown(f, profile, dense.theta, 1.0 - 1e-9) for f in fams]
         need = max(float(n.max()) for n in needs)
         if not np.isfinite(need):  # gravity alone is at the limit somewhere: no slower fixes it
-            family, j = next((f, int(np.argmax(~np.isfinite(n)))) for f, n in
-                             zip(fams, needs, strict=True) if not np.isfinite(n).all())
+            family, j = next(
+                (f, int(np.argmax(~np.isfinite(n))))
+                for f, n in zip(fams, needs, strict=True)
+                if not np.isfinite(n).all()
+            )
             lim = next(x for x in limits if x.name == family.joints[j])
             spare = (lim.effort or np.inf) - np.abs(dense.C[..., lim.iv]).max(axis=1)
             raise _stuck(path, dense, int(np.argmin(spare)), [lim])
@@ -271,42 +321,51 @@ def _slow_down(path: WaypointPath, profile: Profile, dense: PathSamples, fams: l
     raise _stuck(path, dense, 0, limits)
 
 
-def _no_timing(path: WaypointPath, dense: PathSamples, K: np.ndarray,
-               limits: list[JointLimit]) -> InfeasiblePath:
+def _no_timing(
+    path: WaypointPath, dense: PathSamples, K: np.ndarray, limits: list[JointLimit]
+) -> InfeasiblePath:
     """The InfeasiblePath for a path TOPP-RA finds no timing for: where its controllable
     sets end (the last gridpoint from which it could not reach the end)."""
     failed = np.flatnonzero(~np.isfinite(np.asarray(K, dtype=float)).all(axis=1))
     return _stuck(path, dense, int(failed.max()) if failed.size else 0, limits)
 
 
-def _stuck(path: WaypointPath, dense: PathSamples, i: int, limits: list[JointLimit]
-           ) -> InfeasiblePath:
+def _stuck(
+    path: WaypointPath, dense: PathSamples, i: int, limits: list[JointLimit]
+) -> InfeasiblePath:
     """The InfeasiblePath at interval i of the grid: the joint (of `limits`) with the least
     torque to spare against gravity there."""
     i = min(max(i, 0), dense.s.shape[0] - 1)
     strong = [lim for lim in limits if lim.effort is not None]
     joint = None
     if strong:
-        spare = [(lim.effort - np.abs(dense.C[i, :, lim.iv]).max()) / lim.effort
-                 for lim in strong]
+        spare = [(lim.effort - np.abs(dense.C[i, :, lim.iv]).max()) / lim.effort for lim in strong]
         joint = strong[int(np.argmin(spare))].name
     s = float(dense.s[i, 0])
     k, fraction = path.where(s)
     named = f"joint '{joint}' " if joint else ""
-    return InfeasiblePath(f"no timing can follow this path within the limits: {named}cannot "
-                          f"be held and moved {_where(path, s)}", joint=joint, waypoint=k,
-                          path_fraction=fraction, kind="effort")
+    return InfeasiblePath(
+        f"no timing can follow this path within the limits: {named}cannot "
+        f"be held and moved {_where(path, s)}",
+        joint=joint,
+        waypoint=k,
+        path_fraction=fraction,
+        kind="effort",
+    )
 
 
-def _samples(robot: Robot, path: WaypointPath, profile: Profile, dt: float,
-             max_samples: int) -> tuple[np.ndarray, ...]:
+def _samples(
+    robot: Robot, path: WaypointPath, profile: Profile, dt: float, max_samples: int
+) -> tuple[np.ndarray, ...]:
     """The motion every dt from 0, and at its end: t, q, v = q' ṡ, a = q' s̈ + q'' ṡ², τ."""
     duration = profile.duration
     count = int(np.floor(duration / dt)) + 1
     if count + 1 > max_samples:
-        raise TooManySamples(f"sample_dt: the motion lasts {duration:.6g} s, so this step "
-                             f"gives more than {max_samples} samples; give a larger "
-                             "sample_dt")
+        raise TooManySamples(
+            f"sample_dt: the motion lasts {duration:.6g} s, so this step "
+            f"gives more than {max_samples} samples; give a larger "
+            "sample_dt"
+        )
     t = np.arange(count) * dt
     if duration - t[-1] > 1e-9 * max(duration, 1.0):
         t = np.append(t, duration)

@@ -32,8 +32,9 @@ def inverse_dynamics(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) 
     return finite("the motion's torques", tau=out)["tau"]
 
 
-def path_coefficients(robot: Robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def path_coefficients(
+    robot: Robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The torque along a path q(s) as a function of the path speed and acceleration:
 
         τ(s) = A(s) s̈ + B(s) ṡ² + C(s),   A = M q',  B = M q'' + C(q, q') q',  C = g(q)
@@ -43,7 +44,11 @@ def path_coefficients(robot: Robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarr
     with path derivatives dq = q'(s), ddq = q''(s) (n, nv). Each returned array is (n, nv)."""
     n = q.shape[0]
     zeros = np.zeros_like(dq)
-    tau = inverse_dynamics(robot, np.concatenate([q, q, q]), np.concatenate([zeros, zeros, dq]),
-                           np.concatenate([zeros, dq, ddq]))
+    tau = inverse_dynamics(
+        robot,
+        np.concatenate([q, q, q]),
+        np.concatenate([zeros, zeros, dq]),
+        np.concatenate([zeros, dq, ddq]),
+    )
     gravity = tau[:n]
-    return tau[n:2 * n] - gravity, tau[2 * n:] - gravity, gravity
+    return tau[n : 2 * n] - gravity, tau[2 * n :] - gravity, gravity

@@ -31,8 +31,9 @@ class SampledRows(LinearConstraint):  # type: ignore[misc]
         self.F = np.eye(rows)
         self.g = np.ones(rows)
 
-    def compute_constraint_params(self, path: Any, gridpoints: np.ndarray, *args: Any,
-                                  **kwargs: Any) -> tuple[Any, ...]:
+    def compute_constraint_params(
+        self, path: Any, gridpoints: np.ndarray, *args: Any, **kwargs: Any
+    ) -> tuple[Any, ...]:
         if len(gridpoints) != self.a.shape[0]:
             raise ValueError("the rows were made for another grid")
         return self.a, self.b, self.c, self.F, self.g, None, None

@@ -15,51 +15,73 @@ from typing import Any
 import numpy as np
 
 PREFIX = "/v1/robots/{robot_id}/"
-INERTIAL = ('<inertial><origin xyz="0.1 0.05 -0.2"/><mass value="1.5"/><inertia ixx="0.1" '
-            'ixy="0" ixz="0" iyy="0.12" iyz="0" izz="0.08"/></inertial>')
+INERTIAL = (
+    '<inertial><origin xyz="0.1 0.05 -0.2"/><mass value="1.5"/><inertia ixx="0.1" '
+    'ixy="0" ixz="0" iyy="0.12" iyz="0" izz="0.08"/></inertial>'
+)
 LIMIT = '<limit lower="-2" upper="2" effort="10" velocity="5"/>'
 
 
 def _one_joint(kind: str, link: str = "arm", joint: str = "j", name: str = "one") -> str:
-    return (f'<robot name="{name}"><link name="base"/><link name="{link}">{INERTIAL}</link>'
-            f'<joint name="{joint}" type="{kind}"><parent link="base"/><child link="{link}"/>'
-            f'<axis xyz="0.3 0.4 0.5"/>{LIMIT}</joint></robot>')
+    return (
+        f'<robot name="{name}"><link name="base"/><link name="{link}">{INERTIAL}</link>'
+        f'<joint name="{joint}" type="{kind}"><parent link="base"/><child link="{link}"/>'
+        f'<axis xyz="0.3 0.4 0.5"/>{LIMIT}</joint></robot>'
+    )
 
 
 def _mjcf(joint: str) -> str:
-    return ('<mujoco model="m"><worldbody><body name="b" pos="0 0 1">'
-            f'{joint}<inertial pos="0 0 -0.3" mass="2" diaginertia="0.1 0.2 0.3"/>'
-            '<site name="tip" pos="0 0 -0.5"/></body></worldbody></mujoco>')
+    return (
+        '<mujoco model="m"><worldbody><body name="b" pos="0 0 1">'
+        f'{joint}<inertial pos="0 0 -0.3" mass="2" diaginertia="0.1 0.2 0.3"/>'
+        '<site name="tip" pos="0 0 -0.5"/></body></worldbody></mujoco>'
+    )
 
 
 LONG = "n" * 256
 ODD_UPLOADS: dict[str, dict[str, Any]] = {
-    **{f"one-{kind}": {"urdf": _one_joint(kind)}
-       for kind in ("revolute", "continuous", "prismatic", "floating", "planar")},
-    "one-link-free-flyer": {"urdf": f'<robot name="box"><link name="box">{INERTIAL}</link>'
-                                    "</robot>", "root_joint": "free-flyer"},
-    "one-link-planar-root": {"urdf": f'<robot name="box"><link name="box">{INERTIAL}</link>'
-                                     "</robot>", "root_joint": "planar"},
+    **{
+        f"one-{kind}": {"urdf": _one_joint(kind)}
+        for kind in ("revolute", "continuous", "prismatic", "floating", "planar")
+    },
+    "one-link-free-flyer": {
+        "urdf": f'<robot name="box"><link name="box">{INERTIAL}</link></robot>',
+        "root_joint": "free-flyer",
+    },
+    "one-link-planar-root": {
+        "urdf": f'<robot name="box"><link name="box">{INERTIAL}</link></robot>',
+        "root_joint": "planar",
+    },
     "fixed-only": {"urdf": _one_joint("fixed")},
     "same-name-link-joint": {"urdf": _one_joint("revolute", link="arm", joint="arm")},
     "long-names": {"urdf": _one_joint("revolute", link=LONG, joint=LONG[:-1] + "j", name=LONG)},
     "pendulum-free-flyer-root": {"urdf": _one_joint("revolute"), "root_joint": "free-flyer"},
-    **{f"mjcf-{kind}": {"mjcf": _mjcf(joint)} for kind, joint in {
-        "hinge": '<joint name="h" type="hinge" axis="0 1 0"/>',
-        "slide": '<joint name="s" type="slide" axis="0 0 1"/>',
-        "ball": '<joint name="b" type="ball"/>',
-        "free": '<freejoint name="f"/>'}.items()},
+    **{
+        f"mjcf-{kind}": {"mjcf": _mjcf(joint)}
+        for kind, joint in {
+            "hinge": '<joint name="h" type="hinge" axis="0 1 0"/>',
+            "slide": '<joint name="s" type="slide" axis="0 0 1"/>',
+            "ball": '<joint name="b" type="ball"/>',
+            "free": '<freejoint name="f"/>',
+        }.items()
+    },
 }
 
 
 def post_routes(app: Any) -> list[str]:
     """Every POST route under /v1/robots/{robot_id}/ of the app: its own routes (the lean
     dynamics routes) and those of its routers (as the OpenAPI document lists them)."""
-    out = [route.path for route in app.routes
-           if "POST" in (getattr(route, "methods", None) or ())
-           and getattr(route, "path", "").startswith(PREFIX)]
-    out += [path for path, methods in app.openapi()["paths"].items()
-            if "post" in methods and path.startswith(PREFIX)]
+    out = [
+        route.path
+        for route in app.routes
+        if "POST" in (getattr(route, "methods", None) or ())
+        and getattr(route, "path", "").startswith(PREFIX)
+    ]
+    out += [
+        path
+        for path, methods in app.openapi()["paths"].items()
+        if "post" in methods and path.startswith(PREFIX)
+    ]
     return list(dict.fromkeys(out))
 
 
@@ -88,10 +110,10 @@ def random_configuration(info: dict[str, Any], rng: np.random.Generator) -> list
             q[i] = float(rng.uniform(lo, hi)) if hi > lo else q[i]
         elif kind in ("continuous", "planar"):
             t = rng.uniform(-math.pi, math.pi)
-            q[i + joint["nq"] - 2:i + joint["nq"]] = [math.cos(t), math.sin(t)]
+            q[i + joint["nq"] - 2 : i + joint["nq"]] = [math.cos(t), math.sin(t)]
         elif kind in ("free_flyer", "spherical"):
             quat = rng.normal(size=4)
-            q[i + joint["nq"] - 4:i + joint["nq"]] = list(quat / np.linalg.norm(quat))
+            q[i + joint["nq"] - 4 : i + joint["nq"]] = list(quat / np.linalg.norm(quat))
     return q
 
 
@@ -104,10 +126,12 @@ class Bodies:
         self.frames = [f["name"] for f in info["frames"]]
         self.joints = [j["name"] for j in info["joints"]]
 
-    def _value(self, name: str, schema: dict[str, Any], rng: np.random.Generator,
-               batch: int | None) -> Any:
+    def _value(
+        self, name: str, schema: dict[str, Any], rng: np.random.Generator, batch: int | None
+    ) -> Any:
         def states(make: Callable[[], list[float]]) -> Any:
             return make() if batch is None else [make() for _ in range(batch)]
+
         if name == "q":
             return states(lambda: random_configuration(self.info, rng))
         if name in ("v", "a", "tau"):
@@ -121,14 +145,16 @@ class Bodies:
         if name == "steps":
             return int(rng.integers(1, 4))
         if name == "external_forces":
-            return [{"frame": str(rng.choice(self.frames)),
-                     "wrench": rng.normal(size=6).tolist()}]
+            return [{"frame": str(rng.choice(self.frames)), "wrench": rng.normal(size=6).tolist()}]
         if name == "locked_joints":
             if not self.joints:
                 return {"no-joint": [0.0]}
             joint = self.info["joints"][int(rng.integers(len(self.joints)))]
-            return {joint["name"]: self.info["neutral_configuration"][
-                joint["idx_q"]:joint["idx_q"] + joint["nq"]]}
+            return {
+                joint["name"]: self.info["neutral_configuration"][
+                    joint["idx_q"] : joint["idx_q"] + joint["nq"]
+                ]
+            }
         if name in ("controller", "name"):
             return None
         return _from_schema(_resolve(self.openapi, schema), rng)
@@ -162,8 +188,9 @@ def _from_schema(schema: dict[str, Any], rng: np.random.Generator) -> Any:
     if kind == "string":
         return "x"
     if kind == "array":
-        return [_from_schema(schema.get("items", {}), rng) for _ in range(schema.get(
-            "minItems", 0))]
+        return [
+            _from_schema(schema.get("items", {}), rng) for _ in range(schema.get("minItems", 0))
+        ]
     return None
 
 
@@ -217,28 +244,45 @@ def _binary_variants(body: dict[str, Any]) -> Iterator[Request]:
     yield "binary-valid", binary_body(fields, arrays), BINARY
     first = next(iter(arrays))
     for label, replaced in (
-            ("nan", np.full_like(arrays[first], np.nan)),
-            ("3d", arrays[first][np.newaxis, np.newaxis]),
-            ("empty-rows", np.zeros((0, arrays[first].shape[-1]))),
-            ("scalar", np.zeros(())),
-            ("wide", np.zeros((1, 10_000)))):
-        yield (f"binary-{first}-{label}", binary_body(fields, {**arrays, first: replaced}),
-               BINARY)
+        ("nan", np.full_like(arrays[first], np.nan)),
+        ("3d", arrays[first][np.newaxis, np.newaxis]),
+        ("empty-rows", np.zeros((0, arrays[first].shape[-1]))),
+        ("scalar", np.zeros(())),
+        ("wide", np.zeros((1, 10_000))),
+    ):
+        yield (f"binary-{first}-{label}", binary_body(fields, {**arrays, first: replaced}), BINARY)
     yield "binary-unknown-array", binary_body(fields, {**arrays, "zzz": np.zeros(3)}), BINARY
     yield "binary-missing-array", binary_body(fields, {}), BINARY
 
 
 def hostile(body: dict[str, Any]) -> Iterator[Request]:
     """Broken variants of a valid body: every way a client can get it wrong."""
-    for number, label in ((math.nan, "nan"), (math.inf, "inf"), (-math.inf, "-inf"),
-                          (1e308, "huge"), (-1e200, "-huge"), (1e-320, "denormal")):
+    for number, label in (
+        (math.nan, "nan"),
+        (math.inf, "inf"),
+        (-math.inf, "-inf"),
+        (1e308, "huge"),
+        (-1e200, "-huge"),
+        (1e-320, "denormal"),
+    ):
         yield _json(f"all-numbers-{label}", _numbers_replaced(body, number))
     for name, value in body.items():
-        for label, bad in (("null", None), ("string", "abc"), ("bool", True), ("int", 7),
-                           ("object", {"zz": 1}), ("empty-list", []), ("empty-object", {}),
-                           ("list-of-strings", ["a", "b"]), ("deep", [[[1.0]]]),
-                           ("huge-number", 1e200), ("negative", -1.0), ("zero", 0),
-                           ("huge-int", 10**30), ("long-string", "s" * 5000)):
+        for label, bad in (
+            ("null", None),
+            ("string", "abc"),
+            ("bool", True),
+            ("int", 7),
+            ("object", {"zz": 1}),
+            ("empty-list", []),
+            ("empty-object", {}),
+            ("list-of-strings", ["a", "b"]),
+            ("deep", [[[1.0]]]),
+            ("huge-number", 1e200),
+            ("negative", -1.0),
+            ("zero", 0),
+            ("huge-int", 10**30),
+            ("long-string", "s" * 5000),
+        ):
             yield _json(f"{name}-{label}", {**body, name: bad})
         if isinstance(value, list) and value:
             yield _json(f"{name}-one-more", {**body, name: [*value, value[-1]]})
@@ -268,6 +312,9 @@ def hostile(body: dict[str, Any]) -> Iterator[Request]:
     binary = BINARY
     yield ("binary-garbage", b"RDY1\x10\x00\x00\x00" + b"\xff" * 40, binary)
     header = json.dumps({"fields": {}, "arrays": {"q": {"shape": [0, 2**63], "offset": 0}}})
-    yield ("binary-huge-shape", b"RDY1" + len(header).to_bytes(4, "little")
-           + header.encode() + b"\0" * 64, binary)
+    yield (
+        "binary-huge-shape",
+        b"RDY1" + len(header).to_bytes(4, "little") + header.encode() + b"\0" * 64,
+        binary,
+    )
     yield ("binary-short", b"RDY", binary)

@@ -16,15 +16,20 @@ from tests.service.api.problems.test_errors import assert_problem
 HEADER = {"seq": 3, "stamp": {"secs": 1700000000, "nsecs": 5}, "frame_id": ""}
 
 
-def joint_state(info: dict, q: np.ndarray, v: np.ndarray, tau: np.ndarray,
-                order: np.ndarray | None = None) -> dict:
+def joint_state(
+    info: dict, q: np.ndarray, v: np.ndarray, tau: np.ndarray, order: np.ndarray | None = None
+) -> dict:
     """What rosbridge (or json.dumps of the message) gives for a robot of 1-dof joints."""
-    joints = [info["joints"][i] for i in (order if order is not None
-                                          else range(len(info["joints"])))]
-    return {"header": HEADER, "name": [j["name"] for j in joints],
-            "position": [float(q[j["idx_q"]]) for j in joints],
-            "velocity": [float(v[j["idx_v"]]) for j in joints],
-            "effort": [float(tau[j["idx_v"]]) for j in joints]}
+    joints = [
+        info["joints"][i] for i in (order if order is not None else range(len(info["joints"])))
+    ]
+    return {
+        "header": HEADER,
+        "name": [j["name"] for j in joints],
+        "position": [float(q[j["idx_q"]]) for j in joints],
+        "velocity": [float(v[j["idx_v"]]) for j in joints],
+        "effort": [float(tau[j["idx_v"]]) for j in joints],
+    }
 
 
 @pytest.fixture(scope="module")
@@ -39,13 +44,15 @@ def test_a_joint_state_is_q_v_and_tau_as_pinocchio_computes_them(api, ur5):
     q, v, tau = random_state(model, rng)
     message = joint_state(info, q, v, tau, order=rng.permutation(len(info["joints"])))
     data = model.createData()
-    r = api.post("/v1/robots/ur5/forward-dynamics", json={"q": message, "v": message,
-                                                          "tau": message})
+    r = api.post(
+        "/v1/robots/ur5/forward-dynamics", json={"q": message, "v": message, "tau": message}
+    )
     assert r.status_code == 200, r.text
     np.testing.assert_allclose(r.json()["a"], pin.aba(model, data, q, v, tau), atol=1e-9)
     r = api.post("/v1/robots/ur5/gravity", json={"q": message})
-    np.testing.assert_allclose(r.json()["gravity"],
-                               pin.computeGeneralizedGravity(model, data, q), atol=1e-9)
+    np.testing.assert_allclose(
+        r.json()["gravity"], pin.computeGeneralizedGravity(model, data, q), atol=1e-9
+    )
 
 
 def test_a_list_of_joint_states_is_a_batch(api, ur5):
@@ -64,16 +71,21 @@ def test_a_joint_state_without_some_joints_needs_fill(api, ur5):
     model, info = ur5
     q = pin.neutral(model) + 0.3
     message = joint_state(info, q, np.zeros(6), np.zeros(6))
-    partial = {key: value[:4] if isinstance(value, list) else value
-               for key, value in message.items()}
-    problem = assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": partial}), 422,
-                             "dimension_mismatch")
+    partial = {
+        key: value[:4] if isinstance(value, list) else value for key, value in message.items()
+    }
+    problem = assert_problem(
+        api.post("/v1/robots/ur5/gravity", json={"q": partial}), 422, "dimension_mismatch"
+    )
     assert problem["missing"] == ["wrist_2_joint", "wrist_3_joint"]
     r = api.post("/v1/robots/ur5/gravity", json={"q": partial, "fill": "neutral"})
     assert r.status_code == 200, r.text
     filled = np.concatenate([q[:4], pin.neutral(model)[4:]])
-    np.testing.assert_allclose(r.json()["gravity"], pin.computeGeneralizedGravity(
-        model, model.createData(), filled), atol=1e-9)
+    np.testing.assert_allclose(
+        r.json()["gravity"],
+        pin.computeGeneralizedGravity(model, model.createData(), filled),
+        atol=1e-9,
+    )
 
 
 def test_simulate_takes_a_joint_state_as_its_torque(api, ur5):
@@ -88,12 +100,15 @@ def test_simulate_takes_a_joint_state_as_its_torque(api, ur5):
     assert by_state.json() == by_array.json()
 
 
-@pytest.mark.parametrize(("body", "code", "fragment"), [
-    ({"position": [0.0] * 6}, "dimension_mismatch", "unknown names: position"),  # no names
-    ({"position": [0.0] * 5}, "dimension_mismatch", "5 for 6 names"),
-    ({"position": [0.0] * 6, "name": "twice"}, "validation_error", "twice"),
-    ({"position": [0.0] * 6, "velocity": ["fast"] * 6}, "validation_error", "velocity[0]"),
-])
+@pytest.mark.parametrize(
+    ("body", "code", "fragment"),
+    [
+        ({"position": [0.0] * 6}, "dimension_mismatch", "unknown names: position"),  # no names
+        ({"position": [0.0] * 5}, "dimension_mismatch", "5 for 6 names"),
+        ({"position": [0.0] * 6, "name": "twice"}, "validation_error", "twice"),
+        ({"position": [0.0] * 6, "velocity": ["fast"] * 6}, "validation_error", "velocity[0]"),
+    ],
+)
 def test_a_wrong_joint_state_is_a_422_naming_what(api, ur5, body, code, fragment):
     _, info = ur5
     names = [j["name"] for j in info["joints"]]
@@ -102,16 +117,20 @@ def test_a_wrong_joint_state_is_a_422_naming_what(api, ur5, body, code, fragment
         message["name"] = [*names[:5], names[0]]
     elif "name" not in body and list(body) == ["position"] and len(body["position"]) == 6:
         message.pop("name")
-    problem = assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": message}), 422,
-                             code)
+    problem = assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": message}), 422, code)
     assert fragment in problem["detail"], problem
 
 
 def test_acceleration_is_not_taken_from_a_joint_state(api, ur5):
     model, info = ur5
     message = joint_state(info, pin.neutral(model), np.zeros(6), np.zeros(6))
-    problem = assert_problem(api.post("/v1/robots/ur5/inverse-dynamics", json={
-        "q": message, "v": message, "a": message}), 422, "validation_error")
+    problem = assert_problem(
+        api.post(
+            "/v1/robots/ur5/inverse-dynamics", json={"q": message, "v": message, "a": message}
+        ),
+        422,
+        "validation_error",
+    )
     assert problem["detail"].startswith("a cannot be given as a JointState")
 
 
@@ -127,8 +146,13 @@ def test_a_joint_named_twice_in_a_name_keyed_object_is_a_422(api, ur5, path):
             ws.send_text(text[:-1] + ', "quantity": "gravity"}')
             problem = json.loads(ws.receive_text())
     else:
-        problem = assert_problem(api.post("/v1/robots/ur5/gravity", content=text, headers={
-            "content-type": "application/json"}), 422, "validation_error")
+        problem = assert_problem(
+            api.post(
+                "/v1/robots/ur5/gravity", content=text, headers={"content-type": "application/json"}
+            ),
+            422,
+            "validation_error",
+        )
     assert problem["code"] == "validation_error"
     assert "'elbow_joint' is given twice" in problem["detail"]
 
@@ -136,8 +160,9 @@ def test_a_joint_named_twice_in_a_name_keyed_object_is_a_422(api, ur5, path):
 def test_keys_repeated_outside_name_keyed_inputs_are_not_scanned(api):
     """Plain-array bodies pay no second parse (JSON keeps the last `q`, as before)."""
     text = '{"q": [0, 0, 0, 0, 0, 0], "q": [0, -1, 1, 0, 0, 0]}'
-    r = api.post("/v1/robots/ur5/gravity", content=text,
-                 headers={"content-type": "application/json"})
+    r = api.post(
+        "/v1/robots/ur5/gravity", content=text, headers={"content-type": "application/json"}
+    )
     assert r.status_code == 200
 
 

@@ -55,12 +55,14 @@ def test_validation_errors_of_a_large_body_are_the_same(api, monkeypatch) -> Non
     body = _check_body()
     body["q"][20_000][3] = "x"
     body["velocity_scale"] = -1
-    isolated, inline = _both(api, monkeypatch, "/v1/robots/ur5/trajectory-check",
-                             orjson.dumps(body))
+    isolated, inline = _both(
+        api, monkeypatch, "/v1/robots/ur5/trajectory-check", orjson.dumps(body)
+    )
     assert isolated.status_code == 422 and isolated.json()["code"] == "validation_error"
     assert isolated.json() == inline.json()
     assert "q[20000][3]" in isolated.json()["detail"] or any(
-        "q[20000][3]" in e["loc"] for e in isolated.json()["errors"])
+        "q[20000][3]" in e["loc"] for e in isolated.json()["errors"]
+    )
 
 
 def test_domain_errors_of_a_large_body_are_the_same(api, monkeypatch) -> None:
@@ -97,30 +99,36 @@ def test_inputs_that_are_not_rows_of_numbers_stay_as_they_are(value: Any) -> Non
     assert compact is value
 
 
-def test_a_large_identify_log_parsed_in_the_helper_fits_the_same(small_app_factory,
-                                                                  monkeypatch) -> None:
+def test_a_large_identify_log_parsed_in_the_helper_fits_the_same(
+    small_app_factory, monkeypatch
+) -> None:
     from service.api.routes import identification as identification_routes
     from tests.service.dynamics.identification_logs import synthetic_log
 
     api = small_app_factory(catalog="ur5")
     model = api.app.state.registry.get("ur5").model
     log = synthetic_log(model, seed=2, duration=16.0, rate=1000.0, noise=0.05)
-    body = {"t": log.t.tolist(), "q": log.q.tolist(), "tau": log.tau.tolist(),
-            "method": "least-squares", "store": False}
+    body = {
+        "t": log.t.tolist(),
+        "q": log.q.tolist(),
+        "tau": log.tau.tolist(),
+        "method": "least-squares",
+        "store": False,
+    }
     raw = orjson.dumps(body)
     assert len(raw) > json_bodies.ISOLATED_JSON_BYTES
     calls: list[Any] = []
     real = json_bodies.parse_isolated
-    monkeypatch.setattr(identification_routes, "parse_isolated",
-                        lambda *args: calls.append(args[0]) or real(*args))
+    monkeypatch.setattr(
+        identification_routes, "parse_isolated", lambda *args: calls.append(args[0]) or real(*args)
+    )
     isolated = api.post("/v1/robots/ur5/identify", content=raw, headers=JSON)
     body["tau"][5000][2] = "NaN"
     refused = api.post("/v1/robots/ur5/identify", content=orjson.dumps(body), headers=JSON)
     assert len(calls) == 2
     monkeypatch.setattr(identification_routes, "ISOLATED_JSON_BYTES", 1 << 40)
     inline = api.post("/v1/robots/ur5/identify", content=raw, headers=JSON)
-    refused_inline = api.post("/v1/robots/ur5/identify", content=orjson.dumps(body),
-                              headers=JSON)
+    refused_inline = api.post("/v1/robots/ur5/identify", content=orjson.dumps(body), headers=JSON)
     assert len(calls) == 2
     assert isolated.status_code == 200, isolated.text[:300]
     assert isolated.json() == inline.json()

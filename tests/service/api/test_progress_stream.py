@@ -69,8 +69,7 @@ def test_a_request_refused_before_computing_is_a_plain_problem(api) -> None:
     assert response.status_code == 422
     assert response.headers["content-type"] == "application/problem+json"
     assert response.json()["code"] == "dimension_mismatch"
-    missing = api.post("/v1/robots/nope/trajectory-check", json=_motion(50, 6),
-                       headers=STREAM)
+    missing = api.post("/v1/robots/nope/trajectory-check", json=_motion(50, 6), headers=STREAM)
     assert missing.status_code == 404 and missing.json()["code"] == "robot_not_found"
 
 
@@ -89,7 +88,8 @@ def test_a_chunked_batch_streams_its_states(api) -> None:
     assert progress and all(p["total"] == 30_000 and p["unit"] == "state" for p in progress)
     np.testing.assert_array_equal(
         np.array(lines[-1]["answer"]["tau"]),
-        np.array(api.post("/v1/robots/ur5/inverse-dynamics", json=body).json()["tau"]))
+        np.array(api.post("/v1/robots/ur5/inverse-dynamics", json=body).json()["tau"]),
+    )
 
 
 def test_a_failure_once_streaming_is_the_last_line_with_its_status(small) -> None:
@@ -105,10 +105,10 @@ def test_a_failure_once_streaming_is_the_last_line_with_its_status(small) -> Non
 
 def test_identify_streams_its_stages_then_the_same_answer(small, catalog_registry) -> None:
     client = small()
-    log = synthetic_log(catalog_registry.get("ur5").model, seed=4, duration=8.0, rate=200.0,
-                        noise=0.05)
-    body = {"t": log.t.tolist(), "q": log.q.tolist(), "tau": log.tau.tolist(),
-            "store": False}
+    log = synthetic_log(
+        catalog_registry.get("ur5").model, seed=4, duration=8.0, rate=200.0, noise=0.05
+    )
+    body = {"t": log.t.tolist(), "q": log.q.tolist(), "tau": log.tau.tolist(), "store": False}
     plain = client.post("/v1/robots/ur5/identify", json=body)
     assert plain.status_code == 200, plain.text[:300]
     lines = _lines(client.post("/v1/robots/ur5/identify", json=body, headers=STREAM))
@@ -121,26 +121,34 @@ def test_identify_streams_its_stages_then_the_same_answer(small, catalog_registr
     assert answer["parameters"] == plain.json()["parameters"]
     assert answer["rmse"] == plain.json()["rmse"]
     # the log is checked before any progress: a log refused is a plain problem
-    refused = client.post("/v1/robots/ur5/identify", json={**body, "tau": body["tau"][:-1]},
-                          headers=STREAM)
+    refused = client.post(
+        "/v1/robots/ur5/identify", json={**body, "tau": body["tau"][:-1]}, headers=STREAM
+    )
     assert refused.status_code == 422 and refused.json()["code"] == "dimension_mismatch"
     assert refused.headers["content-type"] == "application/problem+json"
 
 
-@pytest.mark.parametrize("accept", [f"{PROGRESS_MEDIA_TYPE}, application/vnd.robodyn.safetensors",
-                                    "application/vnd.robodyn.safetensors, " + PROGRESS_MEDIA_TYPE])
+@pytest.mark.parametrize(
+    "accept",
+    [
+        f"{PROGRESS_MEDIA_TYPE}, application/vnd.robodyn.safetensors",
+        "application/vnd.robodyn.safetensors, " + PROGRESS_MEDIA_TYPE,
+    ],
+)
 def test_a_stream_asked_beside_the_binary_form_carries_json(api, accept) -> None:
     """The stream is lines of JSON: asked for with the binary form too, its answer is JSON."""
     plain = api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6})
-    lines = _lines(api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6},
-                            headers={"Accept": accept}))
+    lines = _lines(
+        api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6}, headers={"Accept": accept})
+    )
     assert lines == [{"answer": plain.json()}]
 
 
-@pytest.mark.parametrize("accept", [f"{PROGRESS_MEDIA_TYPE};q=0, application/json",
-                                    "application/json", "application/x-ndjsonx"])
+@pytest.mark.parametrize(
+    "accept",
+    [f"{PROGRESS_MEDIA_TYPE};q=0, application/json", "application/json", "application/x-ndjsonx"],
+)
 def test_a_stream_not_asked_for_is_not_sent(api, accept) -> None:
-    response = api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6},
-                        headers={"Accept": accept})
+    response = api.post("/v1/robots/ur5/gravity", json={"q": [0.0] * 6}, headers={"Accept": accept})
     assert response.status_code == 200
     assert response.headers["content-type"] == "application/json"

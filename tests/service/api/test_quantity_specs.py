@@ -21,8 +21,9 @@ from service.main import create_app
 from service.settings import Settings
 
 ROOT = Path(__file__).resolve().parents[3]
-OPERATIONS = json.loads((Path(__file__).parent / "fixtures" / "openapi_operations.json")
-                        .read_text())
+OPERATIONS = json.loads(
+    (Path(__file__).parent / "fixtures" / "openapi_operations.json").read_text()
+)
 
 
 @pytest.fixture(scope="module")
@@ -47,22 +48,31 @@ def test_every_quantity_has_one_spec_with_one_request_and_one_answer_model() -> 
 
 
 def test_the_served_routes_are_the_specs(app, document: dict) -> None:
-    served = {route.path for route in app.router.routes
-              if getattr(route, "methods", None) == {"POST"}
-              and route.path.startswith(f"{PREFIX}/{{robot_id}}/")}
+    served = {
+        route.path
+        for route in app.router.routes
+        if getattr(route, "methods", None) == {"POST"}
+        and route.path.startswith(f"{PREFIX}/{{robot_id}}/")
+    }
     # identify is a lean route of its own (a log, not a batch of states: not a quantity)
     assert served - {f"{PREFIX}/{{robot_id}}/identify"} == {
-        f"{PREFIX}/{{robot_id}}/{name}" for name in SPECS}
+        f"{PREFIX}/{{robot_id}}/{name}" for name in SPECS
+    }
     assert set(ENDPOINTS) == set(SPECS)
-    described = {path.rsplit("/", 1)[-1] for path, item in document["paths"].items()
-                 if path.startswith(f"{PREFIX}/{{robot_id}}/") and "post" in item}
+    described = {
+        path.rsplit("/", 1)[-1]
+        for path, item in document["paths"].items()
+        if path.startswith(f"{PREFIX}/{{robot_id}}/") and "post" in item
+    }
     assert described - {"reduce", "variants", "identify"} == set(SPECS)
 
 
 def test_openapi_lists_the_same_operations_with_the_same_ids(document: dict) -> None:
-    operations = sorted([method.upper(), path, op["operationId"]]
-                        for path, item in document["paths"].items()
-                        for method, op in item.items())
+    operations = sorted(
+        [method.upper(), path, op["operationId"]]
+        for path, item in document["paths"].items()
+        for method, op in item.items()
+    )
     assert operations == OPERATIONS
 
 

@@ -22,18 +22,26 @@ from tests.service.api.problems.test_errors import assert_problem
 from tests.service.dynamics.test_contacts import contacts_of
 
 UR5_Q = [0.1, -1.0, 1.2, 0.3, 0.5, -0.2]
-SOLO_Q = [0, 0, 0.235, 0, 0, 0, 1,
-          0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
+SOLO_Q = [0, 0, 0.235, 0, 0, 0, 1, 0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
 # Each takes seconds on one core (measured: 2-10 s), far past the deadlines set below.
 LONG = {
-    "simulate": ("ur5", {"q": UR5_Q, "v": [0.0] * 6, "dt": 1e-4, "steps": 100_000,
-                         "integrator": "rk4"}),
-    "contact-dynamics": ("solo12", {"q": [SOLO_Q] * 60_000, "v": [[0.0] * 18] * 60_000,
-                                    "tau": [[0.0] * 18] * 60_000,
-                                    "contacts": contacts_of("solo12")}),
-    "forward-dynamics-derivatives": ("ur5", {"q": [UR5_Q] * 90_000,
-                                             "v": [[0.1] * 6] * 90_000,
-                                             "tau": [[0.0] * 6] * 90_000}),
+    "simulate": (
+        "ur5",
+        {"q": UR5_Q, "v": [0.0] * 6, "dt": 1e-4, "steps": 100_000, "integrator": "rk4"},
+    ),
+    "contact-dynamics": (
+        "solo12",
+        {
+            "q": [SOLO_Q] * 60_000,
+            "v": [[0.0] * 18] * 60_000,
+            "tau": [[0.0] * 18] * 60_000,
+            "contacts": contacts_of("solo12"),
+        },
+    ),
+    "forward-dynamics-derivatives": (
+        "ur5",
+        {"q": [UR5_Q] * 90_000, "v": [[0.1] * 6] * 90_000, "tau": [[0.0] * 6] * 90_000},
+    ),
 }
 
 
@@ -43,14 +51,16 @@ def bodies() -> dict[str, bytes]:
 
 
 @pytest.mark.parametrize("quantity", list(LONG))
-def test_a_long_computation_stops_at_the_request_deadline(small_app_factory, bodies,
-                                                          quantity):
+def test_a_long_computation_stops_at_the_request_deadline(small_app_factory, bodies, quantity):
     api = small_app_factory(catalog="ur5,solo12", request_deadline_s=0.2)
     robot = LONG[quantity][0]
     before = STOPPED["deadline"]
     started = time.perf_counter()
-    r = api.post(f"/v1/robots/{robot}/{quantity}", content=bodies[quantity],
-                 headers={"content-type": "application/json"})
+    r = api.post(
+        f"/v1/robots/{robot}/{quantity}",
+        content=bodies[quantity],
+        headers={"content-type": "application/json"},
+    )
     elapsed = time.perf_counter() - started
     problem = assert_problem(r, 504, "deadline_exceeded")
     assert "retry-after" not in r.headers  # the same request would stop again
@@ -66,8 +76,9 @@ def test_a_short_computation_is_not_concerned_by_the_deadline(small_app_factory)
     assert len(r.json()["q"]) == 2_001
     rng = np.random.default_rng(7)
     q, v, a = (rng.uniform(-2, 2, (30_000, 6)) for _ in range(3))
-    chunked = api.post("/v1/robots/ur5/inverse-dynamics", json={
-        "q": q.tolist(), "v": v.tolist(), "a": a.tolist()})
+    chunked = api.post(
+        "/v1/robots/ur5/inverse-dynamics", json={"q": q.tolist(), "v": v.tolist(), "a": a.tolist()}
+    )
     assert chunked.status_code == 200  # computed in chunks of 8,333 states, each in its place
     tau = np.array(chunked.json()["tau"])
     assert tau.shape == (30_000, 6)
@@ -79,12 +90,24 @@ def test_a_short_computation_is_not_concerned_by_the_deadline(small_app_factory)
 
 
 def _scope(path: str, body: bytes) -> dict:
-    return {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1",
-            "method": "POST", "scheme": "http", "path": path, "raw_path": path.encode(),
-            "root_path": "", "query_string": b"", "server": ("testserver", 80),
-            "client": ("127.0.0.1", 5000), "headers": [
-                (b"host", b"testserver"), (b"content-type", b"application/json"),
-                (b"content-length", str(len(body)).encode())]}
+    return {
+        "type": "http",
+        "asgi": {"version": "3.0"},
+        "http_version": "1.1",
+        "method": "POST",
+        "scheme": "http",
+        "path": path,
+        "raw_path": path.encode(),
+        "root_path": "",
+        "query_string": b"",
+        "server": ("testserver", 80),
+        "client": ("127.0.0.1", 5000),
+        "headers": [
+            (b"host", b"testserver"),
+            (b"content-type", b"application/json"),
+            (b"content-length", str(len(body)).encode()),
+        ],
+    }
 
 
 async def _call_then_disconnect(app, path: str, body: bytes, after_s: float) -> tuple:
@@ -118,8 +141,9 @@ def test_a_disconnect_stops_the_computation(small_app_factory, bodies, quantity)
     api = small_app_factory(catalog="ur5,solo12")  # the default deadline: 60 s
     robot = LONG[quantity][0]
     before = STOPPED["disconnect"]
-    elapsed, sent = asyncio.run(_call_then_disconnect(
-        api.app, f"/v1/robots/{robot}/{quantity}", bodies[quantity], 0.3))
+    elapsed, sent = asyncio.run(
+        _call_then_disconnect(api.app, f"/v1/robots/{robot}/{quantity}", bodies[quantity], 0.3)
+    )
     assert STOPPED["disconnect"] == before + 1  # asked while computing: it had not finished
     assert elapsed < 10.0, elapsed
     assert api.app.state.batches_in_flight == 0 and api.app.state.answers_in_flight.held == 0
@@ -136,8 +160,9 @@ def test_answer_bytes_in_flight_are_bounded_in_total(small_app_factory):
     small = {"q": [UR5_Q] * 2_000}  # ~1.8 MB
     held = in_flight.reserve(limit - LARGE_ANSWER_BYTES)  # answers not read by their clients
     try:
-        problem = assert_problem(api.post("/v1/robots/ur5/mass-matrix", json=small), 503,
-                                 "overloaded")
+        problem = assert_problem(
+            api.post("/v1/robots/ur5/mass-matrix", json=small), 503, "overloaded"
+        )
         assert "ROBODYN_MAX_ANSWER_BYTES_IN_FLIGHT" in problem["detail"]
         assert problem["answer_bytes_in_flight"] == held
         assert problem["answer_bytes"] >= 2_000 * 36 * 20  # at least 20 bytes a number
@@ -158,27 +183,43 @@ def test_a_refused_work_names_what_fits_and_that_passes(small_app_factory):
     plain_api = small_app_factory(catalog="solo12", max_simulation_work=20_000)
     start = {"q": SOLO_Q, "v": [0.0] * 18, "dt": 1e-3, "integrator": "rk4"}
     for api, extra, limit in (
-            (contact_api, {"contacts": contacts_of("solo12")}, "ROBODYN_MAX_WORK"),
-            (plain_api, {}, "ROBODYN_MAX_SIMULATION_WORK")):
+        (contact_api, {"contacts": contacts_of("solo12")}, "ROBODYN_MAX_WORK"),
+        (plain_api, {}, "ROBODYN_MAX_SIMULATION_WORK"),
+    ):
         body = {**start, **extra, "steps": 50_000}
-        problem = assert_problem(api.post("/v1/robots/solo12/simulate", json=body), 422,
-                                 "validation_error")
+        problem = assert_problem(
+            api.post("/v1/robots/solo12/simulate", json=body), 422, "validation_error"
+        )
         fits = problem["largest_steps"]
         assert limit in problem["detail"] and f"at most {fits:,} steps" in problem["detail"]
         assert 1 <= fits < 50_000 and problem["work"] > problem["max_work"]
         ok = api.post("/v1/robots/solo12/simulate", json={**body, "steps": fits})
         assert ok.status_code == 200, ok.text[:300]
-        assert api.post("/v1/robots/solo12/simulate", json={**body, "steps": fits + 1}
-                        ).status_code == 422
-    batch = {"q": [SOLO_Q] * 5_000, "v": [[0.0] * 18] * 5_000, "tau": [[0.0] * 18] * 5_000,
-             "contacts": contacts_of("solo12")}
-    problem = assert_problem(contact_api.post("/v1/robots/solo12/contact-dynamics",
-                                              json=batch), 422, "validation_error")
+        assert (
+            api.post("/v1/robots/solo12/simulate", json={**body, "steps": fits + 1}).status_code
+            == 422
+        )
+    batch = {
+        "q": [SOLO_Q] * 5_000,
+        "v": [[0.0] * 18] * 5_000,
+        "tau": [[0.0] * 18] * 5_000,
+        "contacts": contacts_of("solo12"),
+    }
+    problem = assert_problem(
+        contact_api.post("/v1/robots/solo12/contact-dynamics", json=batch), 422, "validation_error"
+    )
     fits = problem["largest_batch"]
     assert 1 <= fits < 5_000 and f"at most {fits:,} states" in problem["detail"]
-    assert contact_api.post("/v1/robots/solo12/contact-dynamics", json={
-        k: v[:fits] if isinstance(v, list) and k != "contacts" else v for k, v in batch.items()
-    }).status_code == 200
+    assert (
+        contact_api.post(
+            "/v1/robots/solo12/contact-dynamics",
+            json={
+                k: v[:fits] if isinstance(v, list) and k != "contacts" else v
+                for k, v in batch.items()
+            },
+        ).status_code
+        == 200
+    )
 
 
 def test_a_100000_state_contact_batch_is_refused_at_once(api, catalog_registry):
@@ -188,13 +229,21 @@ def test_a_100000_state_contact_batch_is_refused_at_once(api, catalog_registry):
     solo = catalog_registry.catalog["solo12"]
     n = 100_000
     q = np.repeat(np.array(SOLO_Q, dtype=float)[None], n, 0)
-    six_d = [{"frame": f.name, "type": "6d"} for f in solo.model.frames
-             if f.type == pin.FrameType.BODY and f.parentJoint > 1]
-    body = encode_request({"q": q, "v": np.zeros((n, 18)), "tau": np.zeros((n, 18))},
-                          {"contacts": (six_d * 16)[:16], "damping": 0.1})
+    six_d = [
+        {"frame": f.name, "type": "6d"}
+        for f in solo.model.frames
+        if f.type == pin.FrameType.BODY and f.parentJoint > 1
+    ]
+    body = encode_request(
+        {"q": q, "v": np.zeros((n, 18)), "tau": np.zeros((n, 18))},
+        {"contacts": (six_d * 16)[:16], "damping": 0.1},
+    )
     started = time.perf_counter()
-    r = api.post("/v1/robots/solo12/contact-dynamics", content=body,
-                 headers={"content-type": BIN, "accept": BIN})
+    r = api.post(
+        "/v1/robots/solo12/contact-dynamics",
+        content=body,
+        headers={"content-type": BIN, "accept": BIN},
+    )
     problem = assert_problem(r, 422, "validation_error")
     assert "ROBODYN_MAX_WORK" in problem["detail"] and "100000 states" in problem["detail"]
     assert 0 < problem["largest_batch"] < 100_000 and problem["work"] > problem["max_work"]

@@ -66,8 +66,9 @@ def sweep_robots(client: TestClient, registry: Registry) -> list[str]:
     return ids
 
 
-def cases(client: TestClient, ids: list[str], rng: np.random.Generator, valid_per_route: int
-          ) -> Iterator[tuple[str, str, Request]]:
+def cases(
+    client: TestClient, ids: list[str], rng: np.random.Generator, valid_per_route: int
+) -> Iterator[tuple[str, str, Request]]:
     """(robot id, route path, request) for every robot × route: valid bodies, then each
     hostile variant of the first."""
     openapi = client.app.openapi()
@@ -78,16 +79,18 @@ def cases(client: TestClient, ids: list[str], rng: np.random.Generator, valid_pe
         for path in routes:
             valid = [bodies.valid(path, rng) for _ in range(valid_per_route)]
             for k, body in enumerate(valid):
-                yield robot_id, path, (f"valid-{k}", json.dumps(body).encode(),
-                                       {"Content-Type": "application/json"})
+                yield (
+                    robot_id,
+                    path,
+                    (f"valid-{k}", json.dumps(body).encode(), {"Content-Type": "application/json"}),
+                )
             for request in hostile(valid[0]):
                 yield robot_id, path, request
 
 
 def _send(client: TestClient, robot_id: str, path: str, request: Request) -> None:
     label, content, headers = request
-    answer = client.post(path.replace("{robot_id}", robot_id), content=content,
-                         headers=headers)
+    answer = client.post(path.replace("{robot_id}", robot_id), content=content, headers=headers)
     check(answer, f"{path} {robot_id} {label}")
 
 
@@ -99,8 +102,9 @@ def test_sampled_sweep_never_answers_5xx(tmp_path):
         rng = np.random.default_rng(16)
         everything = list(cases(client, ids, rng, valid_per_route=1))
         picked = rng.choice(len(everything), size=400, replace=False)
-        valid = [everything[i] for i in range(len(everything))
-                 if everything[i][2][0].startswith("valid")]
+        valid = [
+            everything[i] for i in range(len(everything)) if everything[i][2][0].startswith("valid")
+        ]
         for i in picked:
             _send(client, *everything[i])
         ok = 0
@@ -137,8 +141,11 @@ def test_sampled_sweep_over_the_stream_never_answers_internal_errors(tmp_path):
                     except (ValueError, RecursionError):
                         ws.send_text(content.decode("utf-8", "replace"))
                     else:
-                        message = ({**body, "quantity": path.rsplit("/", 1)[-1]}
-                                   if isinstance(body, dict) else body)
+                        message = (
+                            {**body, "quantity": path.rsplit("/", 1)[-1]}
+                            if isinstance(body, dict)
+                            else body
+                        )
                         ws.send_text(json.dumps(message, allow_nan=True))
                     answer = orjson.loads(ws.receive_text())
                     assert answer.get("code") != "internal_error", (robot_id, path, label)
@@ -151,7 +158,7 @@ def _binary_message(content: bytes, quantity: str) -> bytes:
     whose header cannot be read are sent as they are)."""
     try:
         size = int.from_bytes(content[4:8], "little")
-        header = json.loads(content[8:8 + size])
+        header = json.loads(content[8 : 8 + size])
         header["fields"]["quantity"] = quantity
     except (ValueError, KeyError, TypeError):
         return content
@@ -174,6 +181,7 @@ def test_full_sweep_never_answers_5xx(tmp_path):
             except AssertionError as exc:  # collected: one run shows every kind of failure
                 failures.append(str(exc).split("\n", 1)[0][:300])
             count += 1
-        assert not failures, f"{len(failures)} of {count}: " + "\n".join(sorted(set(
-            f.split(" ", 3)[0] + " " + f.split(" ", 3)[-1][:200] for f in failures))[:40])
+        assert not failures, f"{len(failures)} of {count}: " + "\n".join(
+            sorted(set(f.split(" ", 3)[0] + " " + f.split(" ", 3)[-1][:200] for f in failures))[:40]
+        )
         assert count > 10_000

@@ -11,8 +11,10 @@ import numpy as np
 def post(api: Any, robot: str, quantity: str, status: int = 200, **body: Any) -> dict[str, Any]:
     """POST a dynamics request; arrays in the body may be numpy. The answer as numpy arrays
     (or the problem object for an expected error status)."""
-    payload = {k: np.asarray(x).tolist() if isinstance(x, np.ndarray | list) else x
-               for k, x in body.items()}
+    payload = {
+        k: np.asarray(x).tolist() if isinstance(x, np.ndarray | list) else x
+        for k, x in body.items()
+    }
     r = api.post(f"/v1/robots/{robot}/{quantity}", json=payload)
     assert r.status_code == status, r.text
     if status != 200:

@@ -23,7 +23,8 @@ def perturbed_parameters(model, rng: np.random.Generator, spread: float = 0.15) 
     out = []
     for j in range(1, model.njoints):
         body = pin.Inertia.FromDynamicParameters(
-            model.inertias[j].toDynamicParameters() * (1.0 + rng.uniform(-spread, spread)))
+            model.inertias[j].toDynamicParameters() * (1.0 + rng.uniform(-spread, spread))
+        )
         mass = max(0.05, rng.uniform(0.05, 0.2) * model.inertias[j].mass)
         sides = rng.uniform(0.02, 0.08, 3)
         box = pin.Inertia.FromBox(mass, *sides)
@@ -33,9 +34,15 @@ def perturbed_parameters(model, rng: np.random.Generator, spread: float = 0.15) 
     return np.concatenate(out)
 
 
-def fourier_trajectory(model, t: np.ndarray, rng: np.random.Generator, base_hz: float = 0.2,
-                       harmonics: int = 5, amplitude: float = 1.0, speed: float = 1.5
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def fourier_trajectory(
+    model,
+    t: np.ndarray,
+    rng: np.random.Generator,
+    base_hz: float = 0.2,
+    harmonics: int = 5,
+    amplitude: float = 1.0,
+    speed: float = 1.5,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q (N, nq), v, a (N, nv) of a Fourier-series excitation of a robot whose joints are 1-DoF:
     joint j's coordinate x_j = x0_j + Σ_k (α_jk sin(k ω t) + β_jk cos(k ω t)) / (k ω), scaled so
     that each joint stays within `amplitude` (rad or m, and 80 % of its half range) of the middle of
@@ -46,7 +53,7 @@ def fourier_trajectory(model, t: np.ndarray, rng: np.random.Generator, base_hz: 
     alpha, beta = rng.normal(size=(2, nv, harmonics))
     angle = omega * np.outer(t, k)  # (N, K)
     sin, cos = np.sin(angle), np.cos(angle)
-    q = (sin @ (alpha / (k * omega)).T + cos @ (beta / (k * omega)).T)
+    q = sin @ (alpha / (k * omega)).T + cos @ (beta / (k * omega)).T
     v = cos @ alpha.T - sin @ beta.T
     a = -(sin @ (alpha * k * omega).T + cos @ (beta * k * omega).T)
     lower, upper = np.full(nv, -np.inf), np.full(nv, np.inf)
@@ -58,8 +65,9 @@ def fourier_trajectory(model, t: np.ndarray, rng: np.random.Generator, base_hz: 
     with np.errstate(invalid="ignore"):
         middle = np.where(np.isfinite(lower + upper), 0.5 * (lower + upper), 0.0)
         half = np.where(np.isfinite(upper - lower), 0.4 * (upper - lower), amplitude)
-    gain = np.minimum(np.minimum(amplitude, half) / np.abs(q).max(axis=0),
-                      speed / np.abs(v).max(axis=0))
+    gain = np.minimum(
+        np.minimum(amplitude, half) / np.abs(q).max(axis=0), speed / np.abs(v).max(axis=0)
+    )
     return configuration(model, middle + gain * q), gain * v, gain * a
 
 
@@ -91,9 +99,16 @@ class SyntheticLog:
     noise: float
 
 
-def synthetic_log(model, seed: int = 0, duration: float = 20.0, rate: float = 200.0,
-                  noise: float = 0.05, irregular: bool = False, pi: np.ndarray | None = None,
-                  friction: bool = True) -> SyntheticLog:
+def synthetic_log(
+    model,
+    seed: int = 0,
+    duration: float = 20.0,
+    rate: float = 200.0,
+    noise: float = 0.05,
+    irregular: bool = False,
+    pi: np.ndarray | None = None,
+    friction: bool = True,
+) -> SyntheticLog:
     """A logged motion of the perturbed `model` (see the module docstring); the joint torques
     τ = RNEA(true model) + friction + N(0, noise²) (N·m). `irregular`: sample times jittered
     by up to ±30 % of the interval. `pi` replaces the perturbed true parameters."""
@@ -114,8 +129,18 @@ def synthetic_log(model, seed: int = 0, duration: float = 20.0, rate: float = 20
     viscous = rng.uniform(0.2, 1.0, nv) if friction else np.zeros(nv)
     offset = rng.uniform(-0.3, 0.3, nv) if friction else np.zeros(nv)
     tau += offset + coulomb * np.sign(v) + viscous * v + rng.normal(0.0, noise, tau.shape)
-    return SyntheticLog(t=t, q=q, v=v, a=a, tau=tau, pi=truth, coulomb=coulomb,
-                        viscous=viscous, offset=offset, noise=noise)
+    return SyntheticLog(
+        t=t,
+        q=q,
+        v=v,
+        a=a,
+        tau=tau,
+        pi=truth,
+        coulomb=coulomb,
+        viscous=viscous,
+        offset=offset,
+        noise=noise,
+    )
 
 
 def loaded_parameters(model, frame_name: str, payload) -> np.ndarray:

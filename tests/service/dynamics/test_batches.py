@@ -8,8 +8,14 @@ import pytest
 
 from tests.helpers import random_state, record_off_loop
 
-INPUTS = {"mass-matrix": "q", "gravity": "q", "coriolis": "qv", "nonlinear-effects": "qv",
-          "inverse-dynamics": "qva", "forward-dynamics": "qvt"}
+INPUTS = {
+    "mass-matrix": "q",
+    "gravity": "q",
+    "coriolis": "qv",
+    "nonlinear-effects": "qv",
+    "inverse-dynamics": "qva",
+    "forward-dynamics": "qvt",
+}
 
 
 def _body(inputs, q, v, a):
@@ -28,8 +34,9 @@ def test_batch_equals_single_states(api, catalog_registry, robot, quantity):
     assert r.status_code == 200, r.text
     batch = r.json()
     for i in range(4):
-        single = api.post(f"/v1/robots/{robot}/{quantity}",
-                          json=_body(INPUTS[quantity], qs[i], vs[i], as_[i])).json()
+        single = api.post(
+            f"/v1/robots/{robot}/{quantity}", json=_body(INPUTS[quantity], qs[i], vs[i], as_[i])
+        ).json()
         assert set(single) == set(batch)
         for key in single:
             # bit-identical: the same computation, one state at a time
@@ -53,8 +60,10 @@ def test_large_batch_runs_off_the_event_loop_and_matches(api, catalog_registry):
     rng = np.random.default_rng(3)
     states = [random_state(model, rng) for _ in range(200)]
     qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
-    r = api.post("/v1/robots/talos/inverse-dynamics",
-                 json={"q": qs.tolist(), "v": vs.tolist(), "a": as_.tolist()})
+    r = api.post(
+        "/v1/robots/talos/inverse-dynamics",
+        json={"q": qs.tolist(), "v": vs.tolist(), "a": as_.tolist()},
+    )
     tau = np.asarray(r.json()["tau"])
     import pinocchio as pin
 
@@ -79,15 +88,16 @@ def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api
     calls.clear()
     small = api.post("/v1/robots/ur5/mass-matrix", json={"q": q[:3].tolist()})
     assert calls == [] and small.status_code == 200
-    np.testing.assert_array_equal(np.array(small.json()["mass_matrix"]),
-                                  np.array(big.json()["mass_matrix"])[:3])
+    np.testing.assert_array_equal(
+        np.array(small.json()["mass_matrix"]), np.array(big.json()["mass_matrix"])[:3]
+    )
 
 
-@pytest.mark.parametrize("quantity", ["gravity", "nonlinear-effects", "inverse-dynamics",
-                                      "forward-dynamics"])
+@pytest.mark.parametrize(
+    "quantity", ["gravity", "nonlinear-effects", "inverse-dynamics", "forward-dynamics"]
+)
 @pytest.mark.parametrize("robot", ["talos", "solo12", "double_pendulum_continuous"])
-def test_parallel_batches_give_the_bits_of_single_states(api, catalog_registry, robot,
-                                                         quantity):
+def test_parallel_batches_give_the_bits_of_single_states(api, catalog_registry, robot, quantity):
     """Batches of 64 states or more run on every core (rneaInParallel / abaInParallel); each
     state of such a batch is bit for bit its single-state answer."""
     from service.dynamics import QUANTITIES
@@ -97,17 +107,18 @@ def test_parallel_batches_give_the_bits_of_single_states(api, catalog_registry, 
     rng = np.random.default_rng(11)
     states = [random_state(model, rng) for _ in range(QUANTITIES[quantity].parallel_from + 6)]
     qs, vs, as_ = (np.stack(x) for x in zip(*states, strict=True))
-    batch = api.post(f"/v1/robots/{robot}/{quantity}",
-                     json=_body(INPUTS[quantity], qs, vs, as_)).json()
+    batch = api.post(
+        f"/v1/robots/{robot}/{quantity}", json=_body(INPUTS[quantity], qs, vs, as_)
+    ).json()
     (key,) = batch
     for i in (0, 17, len(states) - 1):
-        single = api.post(f"/v1/robots/{robot}/{quantity}",
-                          json=_body(INPUTS[quantity], qs[i], vs[i], as_[i])).json()
+        single = api.post(
+            f"/v1/robots/{robot}/{quantity}", json=_body(INPUTS[quantity], qs[i], vs[i], as_[i])
+        ).json()
         np.testing.assert_array_equal(np.asarray(batch[key])[i], np.asarray(single[key]))
 
 
-def test_generalized_gravity_is_rnea_at_rest_bit_for_bit_on_every_catalog_robot(
-        catalog_registry):
+def test_generalized_gravity_is_rnea_at_rest_bit_for_bit_on_every_catalog_robot(catalog_registry):
     """Why gravity batches may use rneaInParallel(q, 0, 0): Pinocchio's
     computeGeneralizedGravity gives exactly the same bits as rnea(q, 0, 0)."""
     import pinocchio as pin
@@ -118,13 +129,16 @@ def test_generalized_gravity_is_rnea_at_rest_bit_for_bit_on_every_catalog_robot(
         data, zero = model.createData(), np.zeros(model.nv)
         for _ in range(3):
             q, _, _ = random_state(model, rng)
-            np.testing.assert_array_equal(pin.computeGeneralizedGravity(model, data, q).copy(),
-                                          pin.rnea(model, data, q, zero, zero).copy(),
-                                          err_msg=name)
+            np.testing.assert_array_equal(
+                pin.computeGeneralizedGravity(model, data, q).copy(),
+                pin.rnea(model, data, q, zero, zero).copy(),
+                err_msg=name,
+            )
 
 
-def test_large_name_keyed_batches_are_converted_off_the_event_loop(api, catalog_registry,
-                                                                   monkeypatch):
+def test_large_name_keyed_batches_are_converted_off_the_event_loop(
+    api, catalog_registry, monkeypatch
+):
     from service.api.routes import dynamics as routes
 
     calls = record_off_loop(monkeypatch, routes)
@@ -139,15 +153,18 @@ def test_large_name_keyed_batches_are_converted_off_the_event_loop(api, catalog_
 
 @pytest.mark.parametrize("robot", ["talos", "solo12", "ur5"])
 def test_batched_mass_matrices_are_exactly_symmetric_and_equal_single_states(
-        api, catalog_registry, robot):
+    api, catalog_registry, robot
+):
     """Every mass matrix of a batch is symmetric to the bit (Pinocchio's Python `crba` copies
     its upper triangle down; the service relies on that) and equals its single-state answer."""
     model = catalog_registry.catalog[robot].model
     rng = np.random.default_rng(7)
-    q = np.stack([pin.integrate(model, pin.neutral(model), rng.normal(0, 0.5, model.nv))
-                  for _ in range(40)])
-    M = np.asarray(api.post(f"/v1/robots/{robot}/mass-matrix",
-                            json={"q": q.tolist()}).json()["mass_matrix"])
+    q = np.stack(
+        [pin.integrate(model, pin.neutral(model), rng.normal(0, 0.5, model.nv)) for _ in range(40)]
+    )
+    M = np.asarray(
+        api.post(f"/v1/robots/{robot}/mass-matrix", json={"q": q.tolist()}).json()["mass_matrix"]
+    )
     np.testing.assert_array_equal(M, np.swapaxes(M, 1, 2))
     single = api.post(f"/v1/robots/{robot}/mass-matrix", json={"q": q[17].tolist()}).json()
     np.testing.assert_array_equal(np.asarray(single["mass_matrix"]), M[17])

@@ -16,13 +16,11 @@ NAMES = [e.name for e in catalog_entries() if "urdf" in e.spec]
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_derivatives_centroidal_and_simulate_on_every_catalog_robot(api, catalog_registry,
-                                                                     name):
+def test_derivatives_centroidal_and_simulate_on_every_catalog_robot(api, catalog_registry, name):
     robot = catalog_registry.catalog[name]
     model = robot.model
     rng = np.random.default_rng(sum(map(ord, name)))
-    q, v, a = (np.array(x) for x in zip(*(random_state(model, rng) for _ in range(2)),
-                                        strict=True))
+    q, v, a = (np.array(x) for x in zip(*(random_state(model, rng) for _ in range(2)), strict=True))
     M = post(api, name, "mass-matrix", q=q)["mass_matrix"]
 
     # ∂τ/∂a is M itself, ∂τ/∂q and ∂τ/∂v are nv × nv (tangent space)
@@ -32,12 +30,14 @@ def test_derivatives_centroidal_and_simulate_on_every_catalog_robot(api, catalog
 
     # centroidal momentum h = A_g(q) v, about the centre of mass, which is Pinocchio's
     c = post(api, name, "centroidal", q=q, v=v)
-    np.testing.assert_allclose(np.einsum("nij,nj->ni", c["momentum_matrix"], v), c["momentum"],
-                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(
+        np.einsum("nij,nj->ni", c["momentum_matrix"], v), c["momentum"], rtol=1e-9, atol=1e-9
+    )
     data = model.createData()
     for i in range(2):
-        np.testing.assert_allclose(c["center_of_mass"][i], pin.centerOfMass(model, data, q[i]),
-                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            c["center_of_mass"][i], pin.centerOfMass(model, data, q[i]), rtol=1e-12, atol=1e-12
+        )
 
     # a short torque-free rollout: finite, q stays a valid configuration (unit quaternions)
     massless = any(w["code"] == "massless_subtree" for w in robot.warnings)

@@ -15,8 +15,9 @@ SDF_ONLY = {e.name for e in catalog_entries() if "urdf" not in e.spec}
 
 
 def _post(api, robot, quantity, **body):
-    r = api.post(f"/v1/robots/{robot}/{quantity}",
-                 json={k: np.asarray(x).tolist() for k, x in body.items()})
+    r = api.post(
+        f"/v1/robots/{robot}/{quantity}", json={k: np.asarray(x).tolist() for k, x in body.items()}
+    )
     assert r.status_code == 200, r.text
     return {k: np.asarray(x) for k, x in r.json().items()}
 
@@ -33,8 +34,23 @@ def test_catalog_is_loaded(catalog_registry):
     assert set(catalog_registry.catalog_failures) <= SDF_ONLY
     for reason in catalog_registry.catalog_failures.values():
         assert "SDF" in reason
-    assert {"ur5", "talos", "panda", "solo12", "anymal", "hyq", "go1", "double_pendulum",
-            "talos_arm", "talos_legs", "icub", "romeo", "tiago", "kinova", "z1"} <= loaded
+    assert {
+        "ur5",
+        "talos",
+        "panda",
+        "solo12",
+        "anymal",
+        "hyq",
+        "go1",
+        "double_pendulum",
+        "talos_arm",
+        "talos_legs",
+        "icub",
+        "romeo",
+        "tiago",
+        "kinova",
+        "z1",
+    } <= loaded
 
 
 def test_unavailable_robot_is_a_clear_404(api, catalog_registry):
@@ -76,8 +92,9 @@ def test_identities_and_pinocchio_agreement(api, catalog_registry, name):
     _close(tau, M @ a + C @ v + g)
     _close(Cv, C @ v)
     _close(h, Cv + g)
-    _close(_post(api, name, "inverse-dynamics", q=q, v=np.zeros_like(v),
-                 a=np.zeros_like(a))["tau"], g)
+    _close(
+        _post(api, name, "inverse-dynamics", q=q, v=np.zeros_like(v), a=np.zeros_like(a))["tau"], g
+    )
 
     # Ṁ = C + Cᵀ, with Ṁ by central finite differences along v on the configuration manifold.
     eps = 1e-6

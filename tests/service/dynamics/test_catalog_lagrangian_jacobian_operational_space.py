@@ -27,23 +27,26 @@ def _states(model, name):
 def _end_frame(model) -> str:
     """The link moved by the last joint of the model."""
     last = model.njoints - 1
-    return next(f.name for f in model.frames
-                if f.parentJoint == last and f.type == pin.FrameType.BODY)
+    return next(
+        f.name for f in model.frames if f.parentJoint == last and f.type == pin.FrameType.BODY
+    )
 
 
 def _single_equals_batch(api, name, quantity, batch, **inputs):
     """Each state sent alone gives the batch's row, bit for bit."""
     for i in range(STATES):
-        single = post(api, name, quantity, **{k: (x[i] if k in ("q", "v") else x)
-                                              for k, x in inputs.items()})
+        single = post(
+            api, name, quantity, **{k: (x[i] if k in ("q", "v") else x) for k, x in inputs.items()}
+        )
         assert set(single) == set(batch)
         for key, value in single.items():
             np.testing.assert_array_equal(value, batch[key][i], err_msg=f"{quantity} {key}")
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_lagrangian_jacobian_and_operational_space_on_every_catalog_robot(api, catalog_registry,
-                                                                         name):
+def test_lagrangian_jacobian_and_operational_space_on_every_catalog_robot(
+    api, catalog_registry, name
+):
     robot = catalog_registry.catalog[name]
     model = robot.model
     q, v = _states(model, name)
@@ -61,8 +64,9 @@ def test_lagrangian_jacobian_and_operational_space_on_every_catalog_robot(api, c
         for i in range(STATES):
             cond = np.linalg.cond(M[i])
             close(got["mass_matrix_inverse"][i] @ M[i], np.eye(model.nv), 1e-13 * cond)
-            close(got["mass_matrix_inverse"][i], np.linalg.inv(mass_matrix(model, q[i])),
-                  1e-13 * cond)
+            close(
+                got["mass_matrix_inverse"][i], np.linalg.inv(mass_matrix(model, q[i])), 1e-13 * cond
+            )
 
     # energy
     e = post(api, name, "energy", q=q, v=v)
@@ -90,24 +94,32 @@ def test_lagrangian_jacobian_and_operational_space_on_every_catalog_robot(api, c
     for i in range(STATES):
         pin.computeJointJacobiansTimeVariation(model, data, q[i], v[i])
         pin.updateFramePlacements(model, data)
-        close(jac["jacobian"][i], pin.getFrameJacobian(model, data, fid, RF["local_world_aligned"]),
-              1e-12)
-        close(jac["jacobian_time_variation"][i],
-              pin.getFrameJacobianTimeVariation(model, data, fid, RF["local_world_aligned"]),
-              1e-12)
+        close(
+            jac["jacobian"][i],
+            pin.getFrameJacobian(model, data, fid, RF["local_world_aligned"]),
+            1e-12,
+        )
+        close(
+            jac["jacobian_time_variation"][i],
+            pin.getFrameJacobianTimeVariation(model, data, fid, RF["local_world_aligned"]),
+            1e-12,
+        )
     assert jac["jacobian"][:, :, :].any()  # the last joint moves its link
 
     # operational-space of that link's position (3 rows): undamped where it is not singular,
     # a 422 where it clearly is; damped always
     if massless:
-        body = post(api, name, "operational-space", 422, q=q, frame=frame, task="linear",
-                    damping=DAMPING)
+        body = post(
+            api, name, "operational-space", 422, q=q, frame=frame, task="linear", damping=DAMPING
+        )
         assert body["code"] == "non_finite_result"
         return
     J = jac["jacobian"][:, :3]
     ratios = [singular_ratio(mass_matrix(model, q[i]), J[i]) for i in range(STATES)]
-    r = api.post(f"/v1/robots/{name}/operational-space",
-                 json={"q": q.tolist(), "v": v.tolist(), "frame": frame, "task": "linear"})
+    r = api.post(
+        f"/v1/robots/{name}/operational-space",
+        json={"q": q.tolist(), "v": v.tolist(), "frame": frame, "task": "linear"},
+    )
     if min(ratios) > 1e-6:
         assert r.status_code == 200, r.text
         got = {k: np.asarray(x) for k, x in r.json().items()}
@@ -117,14 +129,27 @@ def test_lagrangian_jacobian_and_operational_space_on_every_catalog_robot(api, c
             close(J[i] @ got["dynamically_consistent_inverse"][i], np.eye(3), rtol)
     elif min(ratios) < 1e-10:
         assert r.status_code == 422 and r.json()["code"] == "singular_configuration", r.text
-    damped = post(api, name, "operational-space", q=q, v=v, frame=frame, task="linear",
-                  damping=DAMPING)
+    damped = post(
+        api, name, "operational-space", q=q, v=v, frame=frame, task="linear", damping=DAMPING
+    )
     assert damped["inertia"].shape == (STATES, 3, 3)
     assert damped["coriolis"].shape == damped["gravity"].shape == (STATES, 3)
-    _single_equals_batch(api, name, "operational-space", damped, q=q, v=v, frame=frame,
-                         task="linear", damping=DAMPING)
+    _single_equals_batch(
+        api,
+        name,
+        "operational-space",
+        damped,
+        q=q,
+        v=v,
+        frame=frame,
+        task="linear",
+        damping=DAMPING,
+    )
     for i in range(STATES):
         A = task_matrix(M[i], J[i]) + DAMPING**2 * np.eye(3)
         close(damped["inertia"][i] @ A, np.eye(3), 1e-9 * np.linalg.cond(M[i]))
-        close(damped["dynamically_consistent_inverse"][i],
-              np.linalg.solve(M[i], J[i].T) @ damped["inertia"][i], 1e-9 * np.linalg.cond(M[i]))
+        close(
+            damped["dynamically_consistent_inverse"][i],
+            np.linalg.solve(M[i], J[i].T) @ damped["inertia"][i],
+            1e-9 * np.linalg.cond(M[i]),
+        )

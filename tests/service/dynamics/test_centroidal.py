@@ -48,14 +48,16 @@ def test_centroidal_momentum_is_the_sum_of_body_momenta(api, catalog_registry, r
         scale = max(1.0, float(np.abs(h).max()))
         np.testing.assert_allclose(got["momentum"], h, rtol=0, atol=1e-10 * scale)
         np.testing.assert_allclose(got["center_of_mass"], c, rtol=0, atol=1e-12)
-        np.testing.assert_allclose(got["momentum_matrix"] @ v, got["momentum"], rtol=0,
-                                   atol=1e-10 * scale)
+        np.testing.assert_allclose(
+            got["momentum_matrix"] @ v, got["momentum"], rtol=0, atol=1e-10 * scale
+        )
         # linear momentum = total mass × velocity of the centre of mass
         data = model.createData()
         pin.centerOfMass(model, data, q, v)
         vcom = data.vcom[0]
-        np.testing.assert_allclose(got["momentum"][:3], pin.computeTotalMass(model) * vcom,
-                                   rtol=0, atol=1e-10 * scale)
+        np.testing.assert_allclose(
+            got["momentum"][:3], pin.computeTotalMass(model) * vcom, rtol=0, atol=1e-10 * scale
+        )
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
@@ -70,8 +72,9 @@ def test_centroidal_equals_in_process_pinocchio(api, catalog_registry, robot):
     data = model.createData()
     pin.computeCentroidalMomentum(model, data, q, v)
     np.testing.assert_allclose(got["momentum"], data.hg.vector, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(got["center_of_mass"], pin.centerOfMass(model, data, q),
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        got["center_of_mass"], pin.centerOfMass(model, data, q), rtol=1e-12, atol=1e-12
+    )
 
 
 def test_centroidal_batch_equals_single_states(api, catalog_registry):

@@ -12,8 +12,9 @@ BUNDLED = (1.0, 0.7, 2.0, 1.5)  # l1, l2, m1, m2 of robots/textbook/planar_arm.u
 
 
 def _post(api, robot, quantity, **body):
-    r = api.post(f"/v1/robots/{robot}/{quantity}",
-                 json={k: np.asarray(x).tolist() for k, x in body.items()})
+    r = api.post(
+        f"/v1/robots/{robot}/{quantity}", json={k: np.asarray(x).tolist() for k, x in body.items()}
+    )
     assert r.status_code == 200, r.text
     return {k: np.asarray(x) for k, x in r.json().items()}
 
@@ -25,19 +26,30 @@ def _check_all_quantities(api, robot, params, rng):
         M, C, g = planar_arm_closed_form(l1, l2, m1, m2, q, v)
         tau = M @ a + C @ v + g
         scale = np.abs(M).max()
-        np.testing.assert_allclose(_post(api, robot, "mass-matrix", q=q)["mass_matrix"], M,
-                                   rtol=RTOL, atol=RTOL * scale)
-        np.testing.assert_allclose(_post(api, robot, "gravity", q=q)["gravity"], g,
-                                   rtol=RTOL, atol=RTOL * np.abs(g).max())
+        np.testing.assert_allclose(
+            _post(api, robot, "mass-matrix", q=q)["mass_matrix"], M, rtol=RTOL, atol=RTOL * scale
+        )
+        np.testing.assert_allclose(
+            _post(api, robot, "gravity", q=q)["gravity"], g, rtol=RTOL, atol=RTOL * np.abs(g).max()
+        )
         cor = _post(api, robot, "coriolis", q=q, v=v)
         np.testing.assert_allclose(cor["coriolis_matrix"], C, rtol=RTOL, atol=RTOL * scale)
         np.testing.assert_allclose(cor["coriolis_forces"], C @ v, rtol=RTOL, atol=RTOL * scale)
-        np.testing.assert_allclose(_post(api, robot, "nonlinear-effects", q=q, v=v)[
-            "nonlinear_effects"], C @ v + g, rtol=RTOL, atol=RTOL * np.abs(g).max())
-        np.testing.assert_allclose(_post(api, robot, "inverse-dynamics", q=q, v=v, a=a)["tau"],
-                                   tau, rtol=RTOL, atol=RTOL * np.abs(tau).max())
-        np.testing.assert_allclose(_post(api, robot, "forward-dynamics", q=q, v=v, tau=tau)["a"],
-                                   a, rtol=1e-7, atol=1e-8)
+        np.testing.assert_allclose(
+            _post(api, robot, "nonlinear-effects", q=q, v=v)["nonlinear_effects"],
+            C @ v + g,
+            rtol=RTOL,
+            atol=RTOL * np.abs(g).max(),
+        )
+        np.testing.assert_allclose(
+            _post(api, robot, "inverse-dynamics", q=q, v=v, a=a)["tau"],
+            tau,
+            rtol=RTOL,
+            atol=RTOL * np.abs(tau).max(),
+        )
+        np.testing.assert_allclose(
+            _post(api, robot, "forward-dynamics", q=q, v=v, tau=tau)["a"], a, rtol=1e-7, atol=1e-8
+        )
 
 
 def test_bundled_planar_arm_matches_hand_derivation(api):

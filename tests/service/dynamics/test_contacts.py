@@ -25,8 +25,7 @@ def contacts_of(robot: str) -> list[dict[str, str]]:
 
 
 def post(api, robot: str, quantity: str, **body) -> dict[str, np.ndarray]:
-    body = {k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v
-            for k, v in body.items()}
+    body = {k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v for k, v in body.items()}
     r = api.post(f"/v1/robots/{robot}/{quantity}", json=body)
     assert r.status_code == 200, r.text
     return {k: np.asarray(x) for k, x in r.json().items()}
@@ -41,8 +40,9 @@ def contact_jacobian(model, data, q: np.ndarray, contacts) -> np.ndarray:
     """Jc from the frames' LOCAL_WORLD_ALIGNED Jacobians, computed independently."""
     rows = []
     for c in contacts:
-        J = pin.computeFrameJacobian(model, data, q, model.getFrameId(c["frame"]),
-                                     pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        J = pin.computeFrameJacobian(
+            model, data, q, model.getFrameId(c["frame"]), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        )
         rows.append(J[:3] if c["type"] == "point" else J)
     return np.vstack(rows)
 
@@ -56,11 +56,13 @@ def constraint_acceleration(model, data, q, v, a, contacts) -> np.ndarray:
     for c in contacts:
         fid = model.getFrameId(c["frame"])
         if c["type"] == "point":
-            out.append(pin.getFrameClassicalAcceleration(
-                model, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED).linear)
+            out.append(
+                pin.getFrameClassicalAcceleration(
+                    model, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+                ).linear
+            )
         else:
-            out.append(pin.getFrameAcceleration(model, data, fid,
-                                                pin.ReferenceFrame.LOCAL).vector)
+            out.append(pin.getFrameAcceleration(model, data, fid, pin.ReferenceFrame.LOCAL).vector)
     return np.concatenate(out)
 
 
@@ -85,8 +87,9 @@ def test_standing_still_the_feet_carry_the_weight(api, catalog_registry, robot):
     # gravity compensation holds the robot still under the contacts
     held = post(api, robot, "contact-dynamics", q=q, v=zero, tau=out["tau"], contacts=contacts)
     assert np.abs(held["a"]).max() <= 1e-9 * max(1.0, G)
-    np.testing.assert_allclose(held["contact_forces"], out["contact_forces"], rtol=0,
-                               atol=1e-9 * weight)
+    np.testing.assert_allclose(
+        held["contact_forces"], out["contact_forces"], rtol=0, atol=1e-9 * weight
+    )
 
 
 @pytest.mark.parametrize("robot", sorted(STANDING))
@@ -102,8 +105,9 @@ def test_the_constraint_and_the_equation_of_motion_hold_at_random_states(catalog
     rng = np.random.default_rng(7)
     for _ in range(4):
         q, v, tau = random_state(model, rng)
-        out = contact_dynamics(r, States({"q": q[None], "v": v[None], "tau": tau[None]}, True),
-                               contacts=contacts)
+        out = contact_dynamics(
+            r, States({"q": q[None], "v": v[None], "tau": tau[None]}, True), contacts=contacts
+        )
         a, lam = out["a"][0], out["contact_forces"][0]
         drift = constraint_acceleration(model, data, q, v, a, contacts)
         assert np.abs(drift).max() <= 1e-9 * (1.0 + np.abs(a).max())
@@ -124,13 +128,15 @@ def test_6d_forces_are_local_world_aligned_wrenches_at_the_sole(catalog_registry
     model, data = r.model, r.model.createData()
     q, v, tau = random_state(model, np.random.default_rng(3))
     contacts = contacts_of("talos")
-    out = contact_dynamics(r, States({"q": q[None], "v": v[None], "tau": tau[None]}, False),
-                           contacts=contacts)
+    out = contact_dynamics(
+        r, States({"q": q[None], "v": v[None], "tau": tau[None]}, False), contacts=contacts
+    )
     models, datas = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
     for c in contacts:
         f = model.frames[model.getFrameId(c["frame"])]
-        cm = pin.RigidConstraintModel(pin.ContactType.CONTACT_6D, model, f.parentJoint,
-                                      f.placement, pin.ReferenceFrame.LOCAL)
+        cm = pin.RigidConstraintModel(
+            pin.ContactType.CONTACT_6D, model, f.parentJoint, f.placement, pin.ReferenceFrame.LOCAL
+        )
         models.append(cm)
         datas.append(cm.createData())
     pin.initConstraintDynamics(model, data, models, datas)
@@ -152,12 +158,14 @@ def test_symmetric_feet_carry_equal_forces(api, catalog_registry):
     q, zero = r.default_configuration.copy(), np.zeros(r.nv)
     q[:2] = 0.0  # on the plane of symmetry
     contacts = contacts_of("solo12")
-    forces = post(api, "solo12", "contact-inverse-dynamics", q=q, v=zero, a=zero,
-                  contacts=contacts)["contact_forces"].reshape(4, 3)
+    forces = post(
+        api, "solo12", "contact-inverse-dynamics", q=q, v=zero, a=zero, contacts=contacts
+    )["contact_forces"].reshape(4, 3)
     weight = r.total_mass * G
     for left, right in ((0, 1), (2, 3)):  # FL/FR, HL/HR
-        np.testing.assert_allclose(forces[left] * [1, -1, 1], forces[right], rtol=0,
-                                   atol=1e-9 * weight)
+        np.testing.assert_allclose(
+            forces[left] * [1, -1, 1], forces[right], rtol=0, atol=1e-9 * weight
+        )
 
 
 @pytest.mark.parametrize("robot", ["solo12", "talos"])
@@ -174,14 +182,15 @@ def test_impacts_do_not_create_energy(api, catalog_registry, robot):
         Jc = contact_jacobian(model, data, q, contacts)
         before = 0.5 * v @ M @ v
         for e in (0.0, 0.5, 1.0):
-            out = post(api, robot, "impulse-dynamics", q=q, v=v, contacts=contacts,
-                       restitution=e)
+            out = post(api, robot, "impulse-dynamics", q=q, v=v, contacts=contacts, restitution=e)
             after_v, impulses = out["v"], out["contact_impulses"]
             after = 0.5 * after_v @ M @ after_v
-            np.testing.assert_allclose(Jc @ after_v, -e * (Jc @ v), atol=1e-9 * (
-                1 + np.abs(Jc @ v).max()))
-            np.testing.assert_allclose(M @ (after_v - v), Jc.T @ impulses,
-                                       atol=1e-8 * (1 + np.abs(M @ v).max()))
+            np.testing.assert_allclose(
+                Jc @ after_v, -e * (Jc @ v), atol=1e-9 * (1 + np.abs(Jc @ v).max())
+            )
+            np.testing.assert_allclose(
+                M @ (after_v - v), Jc.T @ impulses, atol=1e-8 * (1 + np.abs(M @ v).max())
+            )
             assert after <= before * (1 + 1e-12)
             if e == 1.0:
                 assert after == pytest.approx(before, rel=1e-9)
@@ -228,10 +237,18 @@ def test_a_fixed_base_robot_needs_no_contact_force(api, catalog_registry):
     """ur5 with its tool held: τ = M a + h (the actuators can do anything), λ = 0."""
     model = catalog_registry.catalog["ur5"].model
     q, v, a = random_state(model, np.random.default_rng(2))
-    out = post(api, "ur5", "contact-inverse-dynamics", q=q, v=v, a=a,
-               contacts=[{"frame": "tool0", "type": "6d"}])
-    np.testing.assert_allclose(out["tau"], pin.rnea(model, model.createData(), q, v, a),
-                               rtol=1e-12, atol=1e-12)
+    out = post(
+        api,
+        "ur5",
+        "contact-inverse-dynamics",
+        q=q,
+        v=v,
+        a=a,
+        contacts=[{"frame": "tool0", "type": "6d"}],
+    )
+    np.testing.assert_allclose(
+        out["tau"], pin.rnea(model, model.createData(), q, v, a), rtol=1e-12, atol=1e-12
+    )
     np.testing.assert_array_equal(out["contact_forces"], np.zeros(6))
     assert out["residual"] == 0.0
 
@@ -241,13 +258,27 @@ def test_damping_answers_a_redundant_contact_set(api, catalog_registry):
     foot once and the force is shared equally between the two copies (minimum norm)."""
     r = catalog_registry.catalog["solo12"]
     q, v, tau = random_state(r.model, np.random.default_rng(9))
-    once = post(api, "solo12", "contact-dynamics", q=q, v=v, tau=tau,
-                contacts=[{"frame": "FL_FOOT"}])
-    twice = post(api, "solo12", "contact-dynamics", q=q, v=v, tau=tau, damping=1e-6,
-                 contacts=[{"frame": "FL_FOOT"}, {"frame": "FL_FOOT", "type": "point"}])
+    once = post(
+        api, "solo12", "contact-dynamics", q=q, v=v, tau=tau, contacts=[{"frame": "FL_FOOT"}]
+    )
+    twice = post(
+        api,
+        "solo12",
+        "contact-dynamics",
+        q=q,
+        v=v,
+        tau=tau,
+        damping=1e-6,
+        contacts=[{"frame": "FL_FOOT"}, {"frame": "FL_FOOT", "type": "point"}],
+    )
     np.testing.assert_allclose(twice["a"], once["a"], atol=1e-6 * (1 + np.abs(once["a"]).max()))
-    np.testing.assert_allclose(twice["contact_forces"][:3] + twice["contact_forces"][3:],
-                               once["contact_forces"], atol=1e-6 * (
-                                   1 + np.abs(once["contact_forces"]).max()))
-    np.testing.assert_allclose(twice["contact_forces"][:3], twice["contact_forces"][3:],
-                               atol=1e-6 * (1 + np.abs(once["contact_forces"]).max()))
+    np.testing.assert_allclose(
+        twice["contact_forces"][:3] + twice["contact_forces"][3:],
+        once["contact_forces"],
+        atol=1e-6 * (1 + np.abs(once["contact_forces"]).max()),
+    )
+    np.testing.assert_allclose(
+        twice["contact_forces"][:3],
+        twice["contact_forces"][3:],
+        atol=1e-6 * (1 + np.abs(once["contact_forces"]).max()),
+    )

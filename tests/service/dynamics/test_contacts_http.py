@@ -20,16 +20,22 @@ from tests.service.api.problems.test_errors import assert_problem
 from tests.service.dynamics.test_contacts import contacts_of, post
 
 FEET = contacts_of("solo12")
-COMPUTE = {"contact-dynamics": (contact_dynamics, ("q", "v", "tau")),
-           "contact-inverse-dynamics": (contact_inverse_dynamics, ("q", "v", "a")),
-           "impulse-dynamics": (impulse_dynamics, ("q", "v"))}
+COMPUTE = {
+    "contact-dynamics": (contact_dynamics, ("q", "v", "tau")),
+    "contact-inverse-dynamics": (contact_inverse_dynamics, ("q", "v", "a")),
+    "impulse-dynamics": (impulse_dynamics, ("q", "v")),
+}
 
 
 def _batch(model, n: int, seed: int = 0) -> dict[str, np.ndarray]:
     rng = np.random.default_rng(seed)
     states = [random_state(model, rng) for _ in range(n)]
-    return {"q": np.array([s[0] for s in states]), "v": np.array([s[1] for s in states]),
-            "a": np.array([s[2] for s in states]), "tau": np.array([s[2] for s in states])}
+    return {
+        "q": np.array([s[0] for s in states]),
+        "v": np.array([s[1] for s in states]),
+        "a": np.array([s[2] for s in states]),
+        "tau": np.array([s[2] for s in states]),
+    }
 
 
 @pytest.mark.parametrize("quantity", sorted(COMPUTE))
@@ -62,17 +68,25 @@ def test_joint_names_in_and_out(api, catalog_registry):
         for jid in range(1, model.njoints):
             jm = model.joints[jid]
             start, size = (jm.idx_q, jm.nq) if dim == "q" else (jm.idx_v, jm.nv)
-            part = x[start:start + size].tolist()
+            part = x[start : start + size].tolist()
             out[model.names[jid]] = part[0] if size == 1 else part
         return out
 
-    r2 = api.post("/v1/robots/solo12/contact-inverse-dynamics", json={
-        "q": named(q, "q"), "v": named(v, "v"), "a": named(a, "v"), "contacts": FEET,
-        "joint_names": True})
+    r2 = api.post(
+        "/v1/robots/solo12/contact-inverse-dynamics",
+        json={
+            "q": named(q, "q"),
+            "v": named(v, "v"),
+            "a": named(a, "v"),
+            "contacts": FEET,
+            "joint_names": True,
+        },
+    )
     assert r2.status_code == 200, r2.text
     body = r2.json()
-    assert body["tau"]["FL_KFE"] == pytest.approx(plain["tau"][model.joints[
-        model.getJointId("FL_KFE")].idx_v], abs=0)
+    assert body["tau"]["FL_KFE"] == pytest.approx(
+        plain["tau"][model.joints[model.getJointId("FL_KFE")].idx_v], abs=0
+    )
     assert body["tau"]["root_joint"] == [0.0] * 6
     np.testing.assert_array_equal(body["contact_forces"], plain["contact_forces"])
 
@@ -82,8 +96,11 @@ def test_binary_form(api, catalog_registry):
     r = catalog_registry.catalog["solo12"]
     arrays = {k: v for k, v in _batch(r.model, 2, seed=1).items() if k in ("q", "v", "tau")}
     body = binary.encode({**arrays, "contacts": FEET})
-    res = api.post("/v1/robots/solo12/contact-dynamics", content=body, headers={
-        "content-type": binary.BINARY_MEDIA_TYPE, "accept": binary.BINARY_MEDIA_TYPE})
+    res = api.post(
+        "/v1/robots/solo12/contact-dynamics",
+        content=body,
+        headers={"content-type": binary.BINARY_MEDIA_TYPE, "accept": binary.BINARY_MEDIA_TYPE},
+    )
     assert res.status_code == 200, res.text
     _fields, got = binary.decode(res.content)
     expected = post(api, "solo12", "contact-dynamics", contacts=FEET, **arrays)
@@ -99,15 +116,23 @@ def test_stream(api, catalog_registry):
     soles = contacts_of("talos")
     expected = post(api, "talos", "impulse-dynamics", q=q, v=v, contacts=soles)
     with api.websocket_connect("/v1/robots/talos/stream") as ws:
-        ws.send_json({"quantity": "impulse-dynamics", "q": q.tolist(), "v": v.tolist(),
-                      "contacts": soles})
+        ws.send_json(
+            {"quantity": "impulse-dynamics", "q": q.tolist(), "v": v.tolist(), "contacts": soles}
+        )
         got = ws.receive_json()
         np.testing.assert_array_equal(got["v"], expected["v"])
-        ws.send_json({"quantity": "impulse-dynamics", "q": q.tolist(), "v": v.tolist(),
-                      "contacts": [{"frame": "no_such_sole", "type": "6d"}]})
+        ws.send_json(
+            {
+                "quantity": "impulse-dynamics",
+                "q": q.tolist(),
+                "v": v.tolist(),
+                "contacts": [{"frame": "no_such_sole", "type": "6d"}],
+            }
+        )
         assert ws.receive_json()["code"] == "unknown_frame"
-        ws.send_json({"quantity": "impulse-dynamics", "q": q.tolist(), "v": v.tolist(),
-                      "contacts": soles})
+        ws.send_json(
+            {"quantity": "impulse-dynamics", "q": q.tolist(), "v": v.tolist(), "contacts": soles}
+        )
         np.testing.assert_array_equal(ws.receive_json()["v"], expected["v"])
 
 
@@ -121,17 +146,35 @@ def test_a_simulated_stand_keeps_the_feet_in_place(api, catalog_registry):
     q0 = r.default_configuration
     v0 = np.zeros(r.nv)
     v0[6:] = np.random.default_rng(0).normal(scale=0.5, size=12)
-    out = post(api, "solo12", "simulate", q=q0, v=v0, dt=1e-3, steps=1000, contacts=FEET,
-               controller={"type": "pd", "kp": 5.0, "kd": 0.1, "q_target": q0.tolist(),
-                           "gravity_compensation": True})
+    out = post(
+        api,
+        "solo12",
+        "simulate",
+        q=q0,
+        v=v0,
+        dt=1e-3,
+        steps=1000,
+        contacts=FEET,
+        controller={
+            "type": "pd",
+            "kp": 5.0,
+            "kd": 0.1,
+            "q_target": q0.tolist(),
+            "gravity_compensation": True,
+        },
+    )
     fids = [model.getFrameId(c["frame"]) for c in FEET]
     pin.framesForwardKinematics(model, data, q0)
     start = np.array([data.oMf[f].translation for f in fids])
     moved = []
     for q in out["q"]:
         pin.framesForwardKinematics(model, data, q)
-        moved.append(max(np.linalg.norm(data.oMf[f].translation - s)
-                         for f, s in zip(fids, start, strict=True)))
+        moved.append(
+            max(
+                np.linalg.norm(data.oMf[f].translation - s)
+                for f, s in zip(fids, start, strict=True)
+            )
+        )
     assert max(moved) < 1e-3
     np.testing.assert_allclose(out["constraint_drift"], moved, atol=1e-12)
     assert abs(out["q"][-1][2] - q0[2]) < 5e-3  # the base did not fall
@@ -145,17 +188,32 @@ def test_simulated_stand_under_gravity_compensation_alone_stays_at_rest(api, cat
     r = catalog_registry.catalog["talos"]
     q0, v0 = r.default_configuration, np.zeros(r.nv)
     for integrator in ("semi-implicit-euler", "rk4"):
-        out = post(api, "talos", "simulate", q=q0, v=v0, dt=1e-3, steps=50,
-                   contacts=contacts_of("talos"), integrator=integrator,
-                   controller={"type": "pd", "kp": 0.0, "kd": 0.0, "q_target": q0.tolist(),
-                               "gravity_compensation": True})
+        out = post(
+            api,
+            "talos",
+            "simulate",
+            q=q0,
+            v=v0,
+            dt=1e-3,
+            steps=50,
+            contacts=contacts_of("talos"),
+            integrator=integrator,
+            controller={
+                "type": "pd",
+                "kp": 0.0,
+                "kd": 0.0,
+                "q_target": q0.tolist(),
+                "gravity_compensation": True,
+            },
+        )
         assert np.abs(out["v"]).max() < 1e-8
         assert np.abs(out["constraint_drift"]).max() < 1e-10
 
 
 def test_simulate_without_contacts_is_unchanged(api):
-    out = api.post("/v1/robots/ur5/simulate", json={"q": [0.0] * 6, "v": [0.0] * 6,
-                                                    "dt": 1e-3, "steps": 2}).json()
+    out = api.post(
+        "/v1/robots/ur5/simulate", json={"q": [0.0] * 6, "v": [0.0] * 6, "dt": 1e-3, "steps": 2}
+    ).json()
     assert "constraint_drift" not in out
 
 
@@ -170,8 +228,15 @@ def test_catalog_legged_robots_suggest_feet_they_stand_on(api, catalog_registry)
         names = {f["name"] for f in info["frames"]}
         assert {c["frame"] for c in r.contact_frames} <= names, rid
         zero = np.zeros(r.nv)
-        out = post(api, rid, "contact-inverse-dynamics", q=r.default_configuration, v=zero,
-                   a=zero, contacts=r.contact_frames)
+        out = post(
+            api,
+            rid,
+            "contact-inverse-dynamics",
+            q=r.default_configuration,
+            v=zero,
+            a=zero,
+            contacts=r.contact_frames,
+        )
         weight = r.total_mass * 9.81
         size = 3 if r.contact_frames[0]["type"] == "point" else 6
         fz = out["contact_forces"].reshape(len(r.contact_frames), size)[:, 2]
@@ -183,6 +248,7 @@ def test_catalog_legged_robots_suggest_feet_they_stand_on(api, catalog_registry)
 
 # ---- errors ------------------------------------------------------------------------------
 
+
 def _zero(n: int) -> list[float]:
     return [0.0] * n
 
@@ -191,20 +257,32 @@ Q_SOLO = [0, 0, 0.24, 0, 0, 0, 1] + [0.0, 0.8, -1.6] * 4
 
 
 def test_an_unknown_contact_frame_is_a_422_naming_it(api):
-    r = api.post("/v1/robots/solo12/contact-dynamics", json={
-        "q": Q_SOLO, "v": _zero(18), "tau": _zero(18),
-        "contacts": [*FEET[:2], {"frame": "XX_FOOT", "type": "point"}]})
+    r = api.post(
+        "/v1/robots/solo12/contact-dynamics",
+        json={
+            "q": Q_SOLO,
+            "v": _zero(18),
+            "tau": _zero(18),
+            "contacts": [*FEET[:2], {"frame": "XX_FOOT", "type": "point"}],
+        },
+    )
     body = assert_problem(r, 422, "unknown_frame")
     assert "XX_FOOT" in body["detail"] and "contacts[2].frame" in body["detail"]
 
 
 @pytest.mark.parametrize("quantity", sorted(COMPUTE))
 def test_a_contact_on_a_fixed_base_robots_world_is_a_422(api, quantity):
-    body = {"q": _zero(6), "v": _zero(6), "a": _zero(6), "tau": _zero(6),
-            "contacts": [{"frame": "base_link", "type": "6d"}]}
+    body = {
+        "q": _zero(6),
+        "v": _zero(6),
+        "a": _zero(6),
+        "tau": _zero(6),
+        "contacts": [{"frame": "base_link", "type": "6d"}],
+    }
     body = {k: v for k, v in body.items() if k in (*COMPUTE[quantity][1], "contacts")}
-    problem = assert_problem(api.post(f"/v1/robots/ur5/{quantity}", json=body), 422,
-                             "singular_configuration")
+    problem = assert_problem(
+        api.post(f"/v1/robots/ur5/{quantity}", json=body), 422, "singular_configuration"
+    )
     assert "base_link" in problem["detail"] and "world" in problem["detail"]
 
 
@@ -212,18 +290,23 @@ def test_a_contact_on_a_fixed_base_robots_world_is_a_422(api, quantity):
 def test_singular_contact_sets_are_422_naming_the_contacts(api, quantity):
     """Two 6d contacts on a 6-joint arm (ur5), and one foot twice (solo12): 422
     singular_configuration whose detail names the contacts and the damping option."""
-    cases = [("ur5", 6, 6, [{"frame": "tool0", "type": "6d"},
-                            {"frame": "wrist_3_link", "type": "6d"}]),
-             ("solo12", 19, 18, [FEET[0], FEET[0]])]
+    cases = [
+        ("ur5", 6, 6, [{"frame": "tool0", "type": "6d"}, {"frame": "wrist_3_link", "type": "6d"}]),
+        ("solo12", 19, 18, [FEET[0], FEET[0]]),
+    ]
     for robot, _nq, nv, contacts in cases:
         if robot == "ur5" and quantity == "contact-inverse-dynamics":
             continue  # a fixed base needs no contact force: nothing to solve
-        q = ([0.1, -1.0, 1.2, -0.4, 0.7, 0.2] if robot == "ur5"
-             else [0, 0, 0.24, 0, 0, 0, 1] + [0.0, 0.8, -1.6] * 4)
+        q = (
+            [0.1, -1.0, 1.2, -0.4, 0.7, 0.2]
+            if robot == "ur5"
+            else [0, 0, 0.24, 0, 0, 0, 1] + [0.0, 0.8, -1.6] * 4
+        )
         body = {"q": q, "v": _zero(nv), "a": _zero(nv), "tau": _zero(nv), "contacts": contacts}
         body = {k: v for k, v in body.items() if k in (*COMPUTE[quantity][1], "contacts")}
-        problem = assert_problem(api.post(f"/v1/robots/{robot}/{quantity}", json=body), 422,
-                                 "singular_configuration")
+        problem = assert_problem(
+            api.post(f"/v1/robots/{robot}/{quantity}", json=body), 422, "singular_configuration"
+        )
         for c in contacts:
             assert c["frame"] in problem["detail"]
         assert "damping" in problem["detail"]
@@ -233,38 +316,75 @@ def test_singular_contact_sets_are_422_naming_the_contacts(api, quantity):
 
 def test_singular_in_a_batch_names_the_state(api):
     q = [0, 0, 0.24, 0, 0, 0, 1] + [0.0, 0.8, -1.6] * 4
-    problem = assert_problem(api.post("/v1/robots/solo12/contact-dynamics", json={
-        "q": [q, q], "v": [_zero(18)] * 2, "tau": [_zero(18)] * 2,
-        "contacts": [FEET[1], FEET[1]]}), 422, "singular_configuration")
+    problem = assert_problem(
+        api.post(
+            "/v1/robots/solo12/contact-dynamics",
+            json={
+                "q": [q, q],
+                "v": [_zero(18)] * 2,
+                "tau": [_zero(18)] * 2,
+                "contacts": [FEET[1], FEET[1]],
+            },
+        ),
+        422,
+        "singular_configuration",
+    )
     assert problem["detail"].startswith("state 0:")
 
 
-@pytest.mark.parametrize("contacts", [
-    [], [{"frame": "FL_FOOT", "type": "line"}], [{"type": "point"}],
-    [{"frame": "FL_FOOT", "type": "point", "mu": 0.7}], "FL_FOOT", None])
+@pytest.mark.parametrize(
+    "contacts",
+    [
+        [],
+        [{"frame": "FL_FOOT", "type": "line"}],
+        [{"type": "point"}],
+        [{"frame": "FL_FOOT", "type": "point", "mu": 0.7}],
+        "FL_FOOT",
+        None,
+    ],
+)
 def test_malformed_contacts_are_validation_errors(api, contacts):
-    body = {"q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12, "v": _zero(18), "tau": _zero(18),
-            "contacts": contacts}
-    assert_problem(api.post("/v1/robots/solo12/contact-dynamics", json=body), 422,
-                   "validation_error")
+    body = {
+        "q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12,
+        "v": _zero(18),
+        "tau": _zero(18),
+        "contacts": contacts,
+    }
+    assert_problem(
+        api.post("/v1/robots/solo12/contact-dynamics", json=body), 422, "validation_error"
+    )
 
 
-@pytest.mark.parametrize("extra", [{"restitution": 1.5}, {"restitution": -0.1},
-                                   {"damping": -1.0}])
+@pytest.mark.parametrize("extra", [{"restitution": 1.5}, {"restitution": -0.1}, {"damping": -1.0}])
 def test_out_of_range_options_are_validation_errors(api, extra):
-    body = {"q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12, "v": _zero(18), "contacts": FEET,
-            **extra}
-    assert_problem(api.post("/v1/robots/solo12/impulse-dynamics", json=body), 422,
-                   "validation_error")
+    body = {"q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12, "v": _zero(18), "contacts": FEET, **extra}
+    assert_problem(
+        api.post("/v1/robots/solo12/impulse-dynamics", json=body), 422, "validation_error"
+    )
 
 
 def test_missing_contacts_and_dimension_errors(api):
-    assert_problem(api.post("/v1/robots/solo12/contact-dynamics", json={
-        "q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12, "v": _zero(18), "tau": _zero(18)}), 422,
-        "validation_error")
-    assert_problem(api.post("/v1/robots/solo12/contact-dynamics", json={
-        "q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12, "v": _zero(17), "tau": _zero(18),
-        "contacts": FEET}), 422, "dimension_mismatch")
+    assert_problem(
+        api.post(
+            "/v1/robots/solo12/contact-dynamics",
+            json={"q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12, "v": _zero(18), "tau": _zero(18)},
+        ),
+        422,
+        "validation_error",
+    )
+    assert_problem(
+        api.post(
+            "/v1/robots/solo12/contact-dynamics",
+            json={
+                "q": [0, 0, 0.24, 0, 0, 0, 1] + [0.0] * 12,
+                "v": _zero(17),
+                "tau": _zero(18),
+                "contacts": FEET,
+            },
+        ),
+        422,
+        "dimension_mismatch",
+    )
 
 
 def test_constraint_models_are_cached_per_robot_and_contact_set(catalog_registry):

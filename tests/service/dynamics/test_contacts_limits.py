@@ -22,28 +22,43 @@ from tests.service.api.problems.test_errors import assert_problem
 from tests.service.dynamics.test_contacts import contacts_of
 
 FEET = contacts_of("solo12")
-Q_SOLO = [0, 0, 0.235, 0, 0, 0, 1,
-          0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
+Q_SOLO = [0, 0, 0.235, 0, 0, 0, 1, 0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]
 
 
-@pytest.mark.parametrize("extra", [{"dt": 1e300}, {"dt": 1e-3, "controller": {
-    "type": "pd", "kp": 1e300, "kd": 0.0, "q_target": [0, 0, 0.3, 0, 0, 0, 1] + [0.0] * 12}}])
+@pytest.mark.parametrize(
+    "extra",
+    [
+        {"dt": 1e300},
+        {
+            "dt": 1e-3,
+            "controller": {
+                "type": "pd",
+                "kp": 1e300,
+                "kd": 0.0,
+                "q_target": [0, 0, 0.3, 0, 0, 0, 1] + [0.0] * 12,
+            },
+        },
+    ],
+)
 @pytest.mark.parametrize("contacts", [None, FEET])
 def test_a_diverging_simulation_is_a_non_finite_result_with_or_without_contacts(
-        api, extra, contacts):
+    api, extra, contacts
+):
     """dt = 1e300 or kp = 1e300: the state overflows; with contacts as without, the answer
     says the simulation diverged (not a singular contact set with advice to add damping)."""
     body = {"q": Q_SOLO, "v": [0.0] * 18, "steps": 20, "integrator": "rk4", **extra}
     if contacts is not None:
         body["contacts"] = contacts
-    problem = assert_problem(api.post("/v1/robots/solo12/simulate", json=body), 422,
-                             "non_finite_result")
+    problem = assert_problem(
+        api.post("/v1/robots/solo12/simulate", json=body), 422, "non_finite_result"
+    )
     assert "diverged" in problem["detail"] and "damping" not in problem["detail"]
 
 
 def _many(robot, count: int) -> list[dict[str, str]]:
-    names = [f.name for f in robot.model.frames
-             if f.type == pin.FrameType.BODY and f.parentJoint > 1]
+    names = [
+        f.name for f in robot.model.frames if f.type == pin.FrameType.BODY and f.parentJoint > 1
+    ]
     return [{"frame": names[i % len(names)], "type": "6d"} for i in range(count)]
 
 
@@ -61,19 +76,28 @@ def test_the_work_estimate_counts_every_cost_factor(catalog_registry):
     point = [{"frame": c["frame"], "type": "point"} for c in contacts_of("talos")]
     assert work(point) < work(contacts_of("talos")) < work(_many(r, 16)) < work(_many(r, 64))
     assert work(contacts_of("talos"), 1e-6) > 2 * work(contacts_of("talos"))
-    assert work(contacts_of("talos"), s=many) == pytest.approx(10 * work(contacts_of("talos")),
-                                                               rel=1e-2)
+    assert work(contacts_of("talos"), s=many) == pytest.approx(
+        10 * work(contacts_of("talos")), rel=1e-2
+    )
     base = {"steps": 100, "integrator": "semi-implicit-euler", "contacts": contacts_of("talos")}
     euler = simulation_work(r, one, base)
-    assert simulation_work(r, one, {**base, "integrator": "rk4"}) == pytest.approx(4 * euler,
-                                                                                rel=1e-2)
+    assert simulation_work(r, one, {**base, "integrator": "rk4"}) == pytest.approx(
+        4 * euler, rel=1e-2
+    )
     assert simulation_work(r, one, {**base, "steps": 200}) == pytest.approx(2 * euler, rel=1e-2)
     assert simulation_work(r, one, {**base, "controller": {"type": "pd"}}) > euler
     assert simulation_work(r, one, {**base, "damping": 1e-6}) > 2 * euler
-    assert simulation_work(r, one, {k: v for k, v in base.items() if k != "contacts"}) \
-        == 100 * r.nv < euler
-    for quantity in ("contact-dynamics", "contact-inverse-dynamics", "impulse-dynamics",
-                     "simulate"):
+    assert (
+        simulation_work(r, one, {k: v for k, v in base.items() if k != "contacts"})
+        == 100 * r.nv
+        < euler
+    )
+    for quantity in (
+        "contact-dynamics",
+        "contact-inverse-dynamics",
+        "impulse-dynamics",
+        "simulate",
+    ):
         assert QUANTITIES[quantity].work is not None
         assert "max_work" in QUANTITIES[quantity].settings
 
@@ -82,18 +106,27 @@ def test_a_contact_heavy_simulation_is_refused_before_computing(api, catalog_reg
     """64 6d contacts with damping and 100,000 RK4 steps (admitted by the plain simulation
     limits: about an hour of computing): a 422 naming ROBODYN_MAX_WORK, at once."""
     r = catalog_registry.catalog["talos"]
-    body = {"q": r.default_configuration.tolist(), "v": [0.0] * r.nv, "dt": 1e-3,
-            "steps": 100_000, "integrator": "rk4", "contacts": _many(r, 64), "damping": 0.1}
+    body = {
+        "q": r.default_configuration.tolist(),
+        "v": [0.0] * r.nv,
+        "dt": 1e-3,
+        "steps": 100_000,
+        "integrator": "rk4",
+        "contacts": _many(r, 64),
+        "damping": 0.1,
+    }
     started = time.perf_counter()
-    problem = assert_problem(api.post("/v1/robots/talos/simulate", json=body), 422,
-                             "validation_error")
+    problem = assert_problem(
+        api.post("/v1/robots/talos/simulate", json=body), 422, "validation_error"
+    )
     assert time.perf_counter() - started < 2.0
     assert "ROBODYN_MAX_WORK" in problem["detail"]
     assert problem["max_work"] == Settings().max_work and problem["work"] > problem["max_work"]
 
 
-@pytest.mark.parametrize("quantity", ["contact-dynamics", "contact-inverse-dynamics",
-                                      "impulse-dynamics"])
+@pytest.mark.parametrize(
+    "quantity", ["contact-dynamics", "contact-inverse-dynamics", "impulse-dynamics"]
+)
 def test_a_contact_heavy_batch_is_refused_before_computing(api, catalog_registry, quantity):
     """A batch of 2,000 Talos states with 64 damped 6d contacts (~20 s of computing) is a
     422 naming the limit; a small batch of the same passes the check."""
@@ -101,12 +134,12 @@ def test_a_contact_heavy_batch_is_refused_before_computing(api, catalog_registry
     n = 2_000
     q = np.repeat(r.default_configuration[None], n, 0).tolist()
     zero = [[0.0] * r.nv] * n
-    body = {"q": q, "v": zero, "tau": zero, "a": zero, "contacts": _many(r, 64),
-            "damping": 0.1}
+    body = {"q": q, "v": zero, "tau": zero, "a": zero, "contacts": _many(r, 64), "damping": 0.1}
     inputs = QUANTITIES[quantity].inputs
     body = {k: v for k, v in body.items() if k in (*inputs, "contacts", "damping")}
-    problem = assert_problem(api.post(f"/v1/robots/talos/{quantity}", json=body), 422,
-                             "validation_error")
+    problem = assert_problem(
+        api.post(f"/v1/robots/talos/{quantity}", json=body), 422, "validation_error"
+    )
     assert "ROBODYN_MAX_WORK" in problem["detail"] and "2000 states" in problem["detail"]
 
 
@@ -118,13 +151,14 @@ def test_the_limit_is_a_setting(small_app_factory):
     q, zero = info["default_configuration"], [0.0] * info["nv"]
     soles = contacts_of("talos")
     for quantity, body in (
-            ("contact-dynamics", {"q": q, "v": zero, "tau": zero, "contacts": soles}),
-            ("simulate", {"q": q, "v": zero, "dt": 1e-3, "steps": 10, "contacts": soles})):
-        problem = assert_problem(api.post(f"/v1/robots/talos/{quantity}", json=body), 422,
-                                 "validation_error")
+        ("contact-dynamics", {"q": q, "v": zero, "tau": zero, "contacts": soles}),
+        ("simulate", {"q": q, "v": zero, "dt": 1e-3, "steps": 10, "contacts": soles}),
+    ):
+        problem = assert_problem(
+            api.post(f"/v1/robots/talos/{quantity}", json=body), 422, "validation_error"
+        )
         assert problem["max_work"] == 100
-    plain = api.post("/v1/robots/talos/simulate", json={"q": q, "v": zero, "dt": 1e-3,
-                                                        "steps": 10})
+    plain = api.post("/v1/robots/talos/simulate", json={"q": q, "v": zero, "dt": 1e-3, "steps": 10})
     assert plain.status_code == 200, plain.text
 
 
@@ -132,9 +166,17 @@ def _solo_rollout(catalog_registry, steps: int, **kw):
     r = catalog_registry.catalog["solo12"]
     s = States({"q": np.array(Q_SOLO, dtype=float)[None], "v": np.zeros((1, r.nv))}, False)
     settings = Settings()  # the step limits, passed as the endpoint passes them
-    return simulate(r, s, dt=1e-3, steps=steps, contacts=FEET, integrator="rk4",
-                    max_simulation_steps=settings.max_simulation_steps,
-                    max_simulation_work=settings.max_simulation_work, **kw)
+    return simulate(
+        r,
+        s,
+        dt=1e-3,
+        steps=steps,
+        contacts=FEET,
+        integrator="rk4",
+        max_simulation_steps=settings.max_simulation_steps,
+        max_simulation_work=settings.max_simulation_work,
+        **kw,
+    )
 
 
 def test_should_stop_stops_a_rollout_within_milliseconds(catalog_registry):
@@ -159,8 +201,9 @@ def test_should_stop_stops_a_rollout_within_milliseconds(catalog_registry):
         np.testing.assert_array_equal(full[name], value)
 
 
-@pytest.mark.parametrize("quantity", ["contact-dynamics", "contact-inverse-dynamics",
-                                      "impulse-dynamics"])
+@pytest.mark.parametrize(
+    "quantity", ["contact-dynamics", "contact-inverse-dynamics", "impulse-dynamics"]
+)
 def test_should_stop_stops_a_contact_batch(catalog_registry, quantity):
     """The contact quantities ask `should_stop` between states of a batch the same way."""
     r = catalog_registry.catalog["talos"]
@@ -195,7 +238,16 @@ def test_the_largest_admitted_contact_simulation_takes_seconds_not_hours(catalog
     steps = int(Settings().max_work // simulation_work(r, one, options))
     started = time.perf_counter()
     settings = Settings()
-    simulate(r, one, dt=1e-3, steps=steps, contacts=contacts, damping=0.1, integrator="rk4",
-             max_work=settings.max_work, max_simulation_steps=settings.max_simulation_steps,
-             max_simulation_work=settings.max_simulation_work)
+    simulate(
+        r,
+        one,
+        dt=1e-3,
+        steps=steps,
+        contacts=contacts,
+        damping=0.1,
+        integrator="rk4",
+        max_work=settings.max_work,
+        max_simulation_steps=settings.max_simulation_steps,
+        max_simulation_work=settings.max_simulation_work,
+    )
     assert time.perf_counter() - started < 15.0

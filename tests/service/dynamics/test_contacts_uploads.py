@@ -17,8 +17,10 @@ from tests.helpers import registry_client
 
 G = 9.81
 
-_INERTIAL = ('<inertial><origin xyz="{x} 0 {z}"/><mass value="{m}"/><inertia ixx="{i}" '
-             'ixy="0" ixz="0" iyy="{i}" iyz="0" izz="{i}"/></inertial>')
+_INERTIAL = (
+    '<inertial><origin xyz="{x} 0 {z}"/><mass value="{m}"/><inertia ixx="{i}" '
+    'ixy="0" ixz="0" iyy="{i}" iyz="0" izz="{i}"/></inertial>'
+)
 _LIMIT = '<limit lower="-3" upper="3" effort="50" velocity="5"/>'
 
 # A 3-link arm whose second joint is named like the third link ("link3"): the model has a
@@ -62,15 +64,19 @@ HOPPER_MJCF = """<mujoco model="hopper">
 
 
 def _link(name: str, x: float, z: float, m: float, ixx: float, iyy: float, izz: float) -> str:
-    return (f'<link name="{name}"><inertial><origin xyz="{x} 0 {z}"/><mass value="{m}"/>'
-            f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/>'
-            "</inertial></link>")
+    return (
+        f'<link name="{name}"><inertial><origin xyz="{x} 0 {z}"/><mass value="{m}"/>'
+        f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/>'
+        "</inertial></link>"
+    )
 
 
 def _hinge(name: str, parent: str, child: str, z: float) -> str:
-    return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/>'
-            f'<child link="{child}"/><origin xyz="0 0 {z}"/><axis xyz="0 1 0"/>{_LIMIT}'
-            "</joint>")
+    return (
+        f'<joint name="{name}" type="revolute"><parent link="{parent}"/>'
+        f'<child link="{child}"/><origin xyz="0 0 {z}"/><axis xyz="0 1 0"/>{_LIMIT}'
+        "</joint>"
+    )
 
 
 HOPPER_URDF = f"""<robot name="hopper">
@@ -111,8 +117,12 @@ def _upload(client: TestClient, **body) -> str:
 
 
 def _post(client: TestClient, robot_id: str, quantity: str, **body) -> dict[str, np.ndarray]:
-    r = client.post(f"/v1/robots/{robot_id}/{quantity}", json={
-        k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v for k, v in body.items()})
+    r = client.post(
+        f"/v1/robots/{robot_id}/{quantity}",
+        json={
+            k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v for k, v in body.items()
+        },
+    )
     assert r.status_code == 200, r.text
     return {k: np.asarray(v) for k, v in r.json().items()}
 
@@ -128,8 +138,17 @@ def test_simulate_resolves_a_shared_name_to_the_links_body_frame(client, registr
     root = model.getFrameId("link1", pin.FrameType.BODY)
     q0 = pin.neutral(model)
     q0[7:] = [0.4, -0.8]
-    out = _post(client, robot_id, "simulate", q=q0, v=np.zeros(model.nv), dt=1e-3, steps=300,
-                integrator="rk4", contacts=[{"frame": "link3", "type": "point"}])
+    out = _post(
+        client,
+        robot_id,
+        "simulate",
+        q=q0,
+        v=np.zeros(model.nv),
+        dt=1e-3,
+        steps=300,
+        integrator="rk4",
+        contacts=[{"frame": "link3", "type": "point"}],
+    )
     pin.framesForwardKinematics(model, data, q0)
     anchor, root_start = data.oMf[body].translation.copy(), data.oMf[root].translation.copy()
     held, swung = [], []
@@ -141,19 +160,29 @@ def test_simulate_resolves_a_shared_name_to_the_links_body_frame(client, registr
     np.testing.assert_allclose(out["constraint_drift"], held, atol=1e-12)
     assert max(swung) > 1e-2  # it hangs from that point and swings under gravity
     # contact-dynamics on the same name: the constrained acceleration of the body frame is 0
-    a = _post(client, robot_id, "contact-dynamics", q=q0, v=np.zeros(model.nv),
-              tau=np.zeros(model.nv), contacts=[{"frame": "link3"}])["a"]
+    a = _post(
+        client,
+        robot_id,
+        "contact-dynamics",
+        q=q0,
+        v=np.zeros(model.nv),
+        tau=np.zeros(model.nv),
+        contacts=[{"frame": "link3"}],
+    )["a"]
     pin.forwardKinematics(model, data, q0, np.zeros(model.nv), a)
     pin.updateFramePlacements(model, data)
-    acc = pin.getFrameClassicalAcceleration(model, data, body,
-                                            pin.ReferenceFrame.LOCAL_WORLD_ALIGNED).linear
+    acc = pin.getFrameClassicalAcceleration(
+        model, data, body, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    ).linear
     assert np.abs(acc).max() < 1e-9
 
 
 @pytest.fixture(scope="module")
 def hoppers(client) -> dict[str, str]:
-    return {"mjcf": _upload(client, mjcf=HOPPER_MJCF),
-            "urdf": _upload(client, urdf=HOPPER_URDF, root_joint="free-flyer")}
+    return {
+        "mjcf": _upload(client, mjcf=HOPPER_MJCF),
+        "urdf": _upload(client, urdf=HOPPER_URDF, root_joint="free-flyer"),
+    }
 
 
 def _q(kind: str, position=(0.0, 0.0, 1.0), joints=BENT) -> np.ndarray:
@@ -163,8 +192,9 @@ def _q(kind: str, position=(0.0, 0.0, 1.0), joints=BENT) -> np.ndarray:
     return np.array([*position, *quat, *joints])
 
 
-def test_an_mjcf_free_joint_is_a_floating_root_like_the_urdf_twins_free_flyer(client, hoppers,
-                                                                            registry):
+def test_an_mjcf_free_joint_is_a_floating_root_like_the_urdf_twins_free_flyer(
+    client, hoppers, registry
+):
     """Standing still on its sole: zero torque on the six base rows, contact forces carrying
     m g (11 kg) with no residual, and the same τ and forces for both twins (1e-9)."""
     answers = {}
@@ -172,20 +202,29 @@ def test_an_mjcf_free_joint_is_a_floating_root_like_the_urdf_twins_free_flyer(cl
         robot = registry.get(robot_id)
         assert robot.total_mass == pytest.approx(11.0) and robot.nv == 9
         zero = np.zeros(robot.nv)
-        out = _post(client, robot_id, "contact-inverse-dynamics", q=_q(kind), v=zero, a=zero,
-                    contacts=SOLE)
+        out = _post(
+            client, robot_id, "contact-inverse-dynamics", q=_q(kind), v=zero, a=zero, contacts=SOLE
+        )
         np.testing.assert_array_equal(out["tau"][:6], 0.0)
         assert out["residual"] <= 1e-9 * 11 * G
         assert out["contact_forces"][2] == pytest.approx(11 * G, rel=1e-12)
         assert np.abs(out["contact_forces"][:2]).max() <= 1e-9
         answers[kind] = out
     np.testing.assert_allclose(answers["mjcf"]["tau"], answers["urdf"]["tau"], atol=1e-9)
-    np.testing.assert_allclose(answers["mjcf"]["contact_forces"],
-                               answers["urdf"]["contact_forces"], atol=1e-9)
+    np.testing.assert_allclose(
+        answers["mjcf"]["contact_forces"], answers["urdf"]["contact_forces"], atol=1e-9
+    )
     # and that τ holds the MJCF robot still under its contact
     zero = np.zeros(9)
-    held = _post(client, hoppers["mjcf"], "contact-dynamics", q=_q("mjcf"), v=zero,
-                 tau=answers["mjcf"]["tau"], contacts=SOLE)
+    held = _post(
+        client,
+        hoppers["mjcf"],
+        "contact-dynamics",
+        q=_q("mjcf"),
+        v=zero,
+        tau=answers["mjcf"]["tau"],
+        contacts=SOLE,
+    )
     assert np.abs(held["a"]).max() <= 1e-9
 
 
@@ -195,19 +234,47 @@ def test_simulated_pd_on_an_mjcf_free_joint_acts_on_the_joints_only(client, hopp
     under PD gains from a perturbed posture both twins move alike."""
     for kind, robot_id in hoppers.items():
         q0 = _q(kind)
-        out = _post(client, robot_id, "simulate", q=q0, v=np.zeros(9), dt=1e-3, steps=100,
-                    contacts=SOLE, integrator="rk4",
-                    controller={"type": "pd", "kp": 0.0, "kd": 0.0, "q_target": q0.tolist(),
-                                "gravity_compensation": True})
+        out = _post(
+            client,
+            robot_id,
+            "simulate",
+            q=q0,
+            v=np.zeros(9),
+            dt=1e-3,
+            steps=100,
+            contacts=SOLE,
+            integrator="rk4",
+            controller={
+                "type": "pd",
+                "kp": 0.0,
+                "kd": 0.0,
+                "q_target": q0.tolist(),
+                "gravity_compensation": True,
+            },
+        )
         assert np.abs(out["v"]).max() < 1e-8, kind
     moved = {}
     for kind, robot_id in hoppers.items():
         target = _q(kind)
         start = _q(kind, joints=[0.35, -0.65, 0.3])
-        out = _post(client, robot_id, "simulate", q=start, v=np.zeros(9), dt=1e-3, steps=200,
-                    contacts=SOLE, integrator="rk4",
-                    controller={"type": "pd", "kp": 50.0, "kd": 2.0,
-                                "q_target": target.tolist(), "gravity_compensation": True})
+        out = _post(
+            client,
+            robot_id,
+            "simulate",
+            q=start,
+            v=np.zeros(9),
+            dt=1e-3,
+            steps=200,
+            contacts=SOLE,
+            integrator="rk4",
+            controller={
+                "type": "pd",
+                "kp": 50.0,
+                "kd": 2.0,
+                "q_target": target.tolist(),
+                "gravity_compensation": True,
+            },
+        )
         moved[kind] = out
     # base position and joint angles agree (the quaternions only differ in their order)
     np.testing.assert_allclose(moved["mjcf"]["q"][:, :3], moved["urdf"]["q"][:, :3], atol=1e-9)

@@ -15,8 +15,9 @@ H = 1e-6  # finite-difference step
 
 
 def _post(api, robot: str, path: str, **arrays: np.ndarray) -> dict[str, np.ndarray]:
-    r = api.post(f"/v1/robots/{robot}/{path}", json={k: np.asarray(v).tolist()
-                                                     for k, v in arrays.items()})
+    r = api.post(
+        f"/v1/robots/{robot}/{path}", json={k: np.asarray(v).tolist() for k, v in arrays.items()}
+    )
     assert r.status_code == 200, r.text
     return {k: np.asarray(v) for k, v in r.json().items()}
 
@@ -35,7 +36,7 @@ def _central_differences(api, robot, model, path, out, q, v, x, xname):
                 xs.append(x + d if which == "x" else x)
     got = _post(api, robot, path, q=np.array(qs), v=np.array(vs), **{xname: np.array(xs)})[out]
     diffs = (got[0::2] - got[1::2]) / (2 * H)  # (3 nv, nv): row j is column j of a Jacobian
-    return diffs[:nv].T, diffs[nv:2 * nv].T, diffs[2 * nv:].T
+    return diffs[:nv].T, diffs[nv : 2 * nv].T, diffs[2 * nv :].T
 
 
 def _close(analytic: np.ndarray, numeric: np.ndarray) -> None:
@@ -51,8 +52,9 @@ def test_inverse_dynamics_derivatives_equal_finite_differences(api, catalog_regi
         q, v, a = random_state(model, rng)
         got = _post(api, robot, "inverse-dynamics-derivatives", q=q, v=v, a=a)
         assert all(got[k].shape == (model.nv, model.nv) for k in got)
-        dq, dv, da = _central_differences(api, robot, model, "inverse-dynamics", "tau",
-                                          q, v, a, "a")
+        dq, dv, da = _central_differences(
+            api, robot, model, "inverse-dynamics", "tau", q, v, a, "a"
+        )
         _close(got["dtau_dq"], dq)
         _close(got["dtau_dv"], dv)
         _close(got["dtau_da"], da)
@@ -68,8 +70,9 @@ def test_forward_dynamics_derivatives_equal_finite_differences(api, catalog_regi
     for _ in range(2):
         q, v, tau = random_state(model, rng)
         got = _post(api, robot, "forward-dynamics-derivatives", q=q, v=v, tau=tau)
-        dq, dv, dtau = _central_differences(api, robot, model, "forward-dynamics", "a",
-                                            q, v, tau, "tau")
+        dq, dv, dtau = _central_differences(
+            api, robot, model, "forward-dynamics", "a", q, v, tau, "tau"
+        )
         _close(got["da_dq"], dq)
         _close(got["da_dv"], dv)
         _close(got["da_dtau"], dtau)
@@ -88,14 +91,22 @@ def test_free_flyer_derivative_is_on_the_tangent_space(api, catalog_registry):
     assert got["dtau_dq"].shape == (model.nv, model.nv) and model.nq == model.nv + 1
     delta = np.zeros(model.nv)
     delta[3:6] = rng.normal(size=3) * 1e-4  # a small rotation of the base
-    taus = _post(api, "solo12", "inverse-dynamics", q=np.array([q, pin.integrate(model, q, delta)]),
-                 v=np.array([v, v]), a=np.array([a, a]))["tau"]
-    np.testing.assert_allclose(taus[1] - taus[0], got["dtau_dq"] @ delta, rtol=1e-3,
-                               atol=1e-8 * np.abs(taus).max())
+    taus = _post(
+        api,
+        "solo12",
+        "inverse-dynamics",
+        q=np.array([q, pin.integrate(model, q, delta)]),
+        v=np.array([v, v]),
+        a=np.array([a, a]),
+    )["tau"]
+    np.testing.assert_allclose(
+        taus[1] - taus[0], got["dtau_dq"] @ delta, rtol=1e-3, atol=1e-8 * np.abs(taus).max()
+    )
 
 
-@pytest.mark.parametrize("path, x", [("inverse-dynamics-derivatives", "a"),
-                                     ("forward-dynamics-derivatives", "tau")])
+@pytest.mark.parametrize(
+    "path, x", [("inverse-dynamics-derivatives", "a"), ("forward-dynamics-derivatives", "tau")]
+)
 def test_derivatives_batch_equals_single_states(api, catalog_registry, path, x):
     model = catalog_registry.catalog["talos"].model
     rng = np.random.default_rng(3)

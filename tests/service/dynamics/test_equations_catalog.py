@@ -14,8 +14,18 @@ from service.errors import UnsupportedModel
 from service.registry.catalog import load_catalog
 from tests.helpers import random_configuration
 
-ARMS = ["ur5", "ur3", "ur10", "ur5_gripper", "double_pendulum", "double_pendulum_simple",
-        "asr_twodof", "finger_edu", "planar_arm", "cube_pendulum"]
+ARMS = [
+    "ur5",
+    "ur3",
+    "ur10",
+    "ur5_gripper",
+    "double_pendulum",
+    "double_pendulum_simple",
+    "asr_twodof",
+    "finger_edu",
+    "planar_arm",
+    "cube_pendulum",
+]
 RTOL = 1e-10
 
 
@@ -95,7 +105,8 @@ def test_identities_hold_between_the_expressions(arms, name):
         for j in range(n):
             assert (eq.mass_matrix[i][j] - eq.mass_matrix[j][i]).is_zero()
             skew = (mdot(i, j) - eq.coriolis_matrix[i][j].scale(2)) + (
-                mdot(j, i) - eq.coriolis_matrix[j][i].scale(2))
+                mdot(j, i) - eq.coriolis_matrix[j][i].scale(2)
+            )
             assert skew.is_zero()
             for k in range(n):
                 assert (eq.christoffel[i][j][k] - eq.christoffel[i][k][j]).is_zero()
@@ -126,7 +137,8 @@ def test_structure_of_the_ur5(arms):
     assert last["constant"] and not last["zero"]
     # wrist 3's inertia about its axis (y): constant, and what crba gives at any q
     assert float(ans["mass_matrix"]["expressions"][5][5]) == pytest.approx(
-        pin.crba(model, model.createData(), pin.neutral(model))[5, 5], rel=1e-15)
+        pin.crba(model, model.createData(), pin.neutral(model))[5, 5], rel=1e-15
+    )
     assert ans["joints"] == [model.names[j] for j in range(1, model.njoints)]
     assert np.shape(ans["christoffel"]["expressions"]) == (6, 6, 6)
     assert np.shape(ans["christoffel"]["latex"]) == (6, 6, 6)
@@ -148,8 +160,10 @@ def test_structure_agrees_with_pinocchio(arms, name):
     for k in range(n):
         dq = q.copy()
         dq[k] += 0.3
-        moved[k] = (pin.crba(model, data, dq).copy(),
-                    pin.computeGeneralizedGravity(model, data, dq).copy())
+        moved[k] = (
+            pin.crba(model, data, dq).copy(),
+            pin.computeGeneralizedGravity(model, data, dq).copy(),
+        )
     tol = 1e-9
     for i in range(n):
         for j in range(i, n):
@@ -176,12 +190,14 @@ def _urdf_chain(count: int, kind: str = "revolute") -> str:
     links = "".join(
         f'<link name="l{i}"><inertial><origin xyz="0.1 0 0"/><mass value="1"/>'
         f'<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>'
-        for i in range(1, count + 1))
+        for i in range(1, count + 1)
+    )
     joints = "".join(
         f'<joint name="j{i}" type="{kind}"><parent link="l{i - 1}"/><child link="l{i}"/>'
         f'<origin xyz="0.2 0 0"/><axis xyz="0 0 1"/>'
         f'<limit lower="-3" upper="3" effort="1" velocity="1"/></joint>'
-        for i in range(1, count + 1))
+        for i in range(1, count + 1)
+    )
     return f'<robot name="chain"><link name="l0"/>{links}{joints}</robot>'
 
 
@@ -230,7 +246,8 @@ def _random_tree_urdf(kinds: str, parents: list[int], seed: int) -> str:
             f'<link name="l{i}"><inertial><origin xyz="{c[0]} {c[1]} {c[2]}" '
             f'rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/><mass value="{rng.uniform(0.5, 3)}"/>'
             f'<inertia ixx="{ii[0]}" ixy="0.001" ixz="-0.002" iyy="{ii[1]}" iyz="0.003" '
-            f'izz="{ii[2]}"/></inertial></link>')
+            f'izz="{ii[2]}"/></inertial></link>'
+        )
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         p, rpy = rng.uniform(-0.3, 0.3, 3), rng.uniform(-2, 2, 3)
@@ -239,16 +256,20 @@ def _random_tree_urdf(kinds: str, parents: list[int], seed: int) -> str:
             f'<parent link="l{parent}"/><child link="l{i}"/>'
             f'<origin xyz="{p[0]} {p[1]} {p[2]}" rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/>'
             f'<axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
-            f'<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>')
+            f'<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+        )
     return f'<robot name="tree">{"".join(links + joints)}</robot>'
 
 
-@pytest.mark.parametrize(("kinds", "parents"), [
-    ("rpr", [0, 1, 2]),            # a slider between two skewed hinges
-    ("prp", [0, 1, 2]),
-    ("rrpr", [0, 1, 1, 3]),        # a branching tree: two limbs on link 1
-    ("rr", [0, 0]),                # two limbs on the base
-])
+@pytest.mark.parametrize(
+    ("kinds", "parents"),
+    [
+        ("rpr", [0, 1, 2]),  # a slider between two skewed hinges
+        ("prp", [0, 1, 2]),
+        ("rrpr", [0, 1, 1, 3]),  # a branching tree: two limbs on link 1
+        ("rr", [0, 0]),  # two limbs on the base
+    ],
+)
 def test_skewed_trees_with_sliders_equal_pinocchio(kinds, parents):
     model = pin.buildModelFromXML(_random_tree_urdf(kinds, parents, seed=len(kinds)))
     model.armature = np.linspace(0.01, 0.05, model.nv)  # added to M's diagonal, as crba does

@@ -44,9 +44,11 @@ def _answer(urdf: str) -> dict:
 
 
 def _link(name: str, mass: str, xyz: str, iyy: str = "0", izz: str = "0", ixx: str = "0") -> str:
-    return (f'<link name="{name}"><inertial><origin xyz="{xyz}"/><mass value="{mass}"/>'
-            f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/>'
-            f'</inertial></link>')
+    return (
+        f'<link name="{name}"><inertial><origin xyz="{xyz}"/><mass value="{mass}"/>'
+        f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/>'
+        f"</inertial></link>"
+    )
 
 
 def _planar_2r(link1: str, link2: str, l1: str) -> str:
@@ -67,11 +69,17 @@ def test_point_mass_2r_arm_textbook_form():
     l1, l2, m1, m2 = R("1.0"), R("0.7"), R("2.0"), R("1.5")
     urdf = _planar_2r(_link("link1", "2.0", "1.0 0 0"), _link("link2", "1.5", "0.7 0 0"), "1.0")
     ans = _answer(urdf)
-    M = [[m1 * l1**2 + m2 * (l1**2 + l2**2 + 2 * l1 * l2 * sp.cos(q2)),
-          m2 * (l2**2 + l1 * l2 * sp.cos(q2))],
-         [m2 * (l2**2 + l1 * l2 * sp.cos(q2)), m2 * l2**2]]
-    g = [(m1 + m2) * G0 * l1 * sp.cos(q1) + m2 * G0 * l2 * sp.cos(q1 + q2),
-         m2 * G0 * l2 * sp.cos(q1 + q2)]
+    M = [
+        [
+            m1 * l1**2 + m2 * (l1**2 + l2**2 + 2 * l1 * l2 * sp.cos(q2)),
+            m2 * (l2**2 + l1 * l2 * sp.cos(q2)),
+        ],
+        [m2 * (l2**2 + l1 * l2 * sp.cos(q2)), m2 * l2**2],
+    ]
+    g = [
+        (m1 + m2) * G0 * l1 * sp.cos(q1) + m2 * G0 * l2 * sp.cos(q1 + q2),
+        m2 * G0 * l2 * sp.cos(q1 + q2),
+    ]
     C = _coriolis_2r(-m2 * l1 * l2 * sp.sin(q2))
     _assert_equal(_parse(ans["mass_matrix"]["expressions"]), M)
     _assert_equal(_parse(ans["gravity"]["expressions"]), g)
@@ -85,8 +93,11 @@ def test_point_mass_2r_arm_textbook_form():
     assert ans["mass_matrix"]["latex"][0][0] == r"2.1 \cos{\left(q_{2} \right)} + 4.235"
     assert ans["gravity"]["expressions"][1] == "10.3005*cos(q1 + q2)"
     structure = ans["structure"]
-    assert structure["mass_matrix"][0][0] == {"depends_on": ["q2"], "constant": False,
-                                              "zero": False}
+    assert structure["mass_matrix"][0][0] == {
+        "depends_on": ["q2"],
+        "constant": False,
+        "zero": False,
+    }
     assert structure["mass_matrix"][1][1] == {"depends_on": [], "constant": True, "zero": False}
     assert structure["gravity"][0]["depends_on"] == ["q1", "q2"]
     assert ans["coordinates"] == ["q1", "q2"] and ans["velocities"] == ["dq1", "dq2"]
@@ -107,19 +118,27 @@ def test_rod_and_cube_2r_arm(second):
     else:
         m2, a, d2 = R("1.5"), R("0.2"), R("0.3")
         i2 = m2 * a**2 / 6  # 0.01
-        link2 = _link("link2", "1.5", "0.3 0 0", ixx=str(float(i2)), iyy=str(float(i2)),
-                      izz=str(float(i2)))
+        link2 = _link(
+            "link2", "1.5", "0.3 0 0", ixx=str(float(i2)), iyy=str(float(i2)), izz=str(float(i2))
+        )
     ans = _answer(_planar_2r(link1, link2, "0.9"))
     d1 = l1 / 2
-    M = [[i1 + m1 * d1**2 + i2 + m2 * (l1**2 + d2**2 + 2 * l1 * d2 * sp.cos(q2)),
-          i2 + m2 * (d2**2 + l1 * d2 * sp.cos(q2))],
-         [i2 + m2 * (d2**2 + l1 * d2 * sp.cos(q2)), i2 + m2 * d2**2]]
-    g = [G0 * ((m1 * d1 + m2 * l1) * sp.cos(q1) + m2 * d2 * sp.cos(q1 + q2)),
-         G0 * m2 * d2 * sp.cos(q1 + q2)]
+    M = [
+        [
+            i1 + m1 * d1**2 + i2 + m2 * (l1**2 + d2**2 + 2 * l1 * d2 * sp.cos(q2)),
+            i2 + m2 * (d2**2 + l1 * d2 * sp.cos(q2)),
+        ],
+        [i2 + m2 * (d2**2 + l1 * d2 * sp.cos(q2)), i2 + m2 * d2**2],
+    ]
+    g = [
+        G0 * ((m1 * d1 + m2 * l1) * sp.cos(q1) + m2 * d2 * sp.cos(q1 + q2)),
+        G0 * m2 * d2 * sp.cos(q1 + q2),
+    ]
     _assert_equal(_parse(ans["mass_matrix"]["expressions"]), M)
     _assert_equal(_parse(ans["gravity"]["expressions"]), g)
-    _assert_equal(_parse(ans["coriolis_matrix"]["expressions"]),
-                  _coriolis_2r(-m2 * l1 * d2 * sp.sin(q2)))
+    _assert_equal(
+        _parse(ans["coriolis_matrix"]["expressions"]), _coriolis_2r(-m2 * l1 * d2 * sp.sin(q2))
+    )
 
 
 def test_rp_arm_prismatic_coordinate_enters_polynomially():
@@ -141,8 +160,11 @@ def test_rp_arm_prismatic_coordinate_enters_polynomially():
     _assert_equal(_parse(ans["gravity"]["expressions"]), g)
     _assert_equal(_parse(ans["coriolis_matrix"]["expressions"]), C)
     _assert_equal(_parse(ans["christoffel"]["expressions"]), christoffel)
-    assert ans["structure"]["mass_matrix"][0][1] == {"depends_on": [], "constant": True,
-                                                     "zero": True}
+    assert ans["structure"]["mass_matrix"][0][1] == {
+        "depends_on": [],
+        "constant": True,
+        "zero": True,
+    }
     assert ans["structure"]["mass_matrix"][0][0]["depends_on"] == ["q2"]
     assert ans["mass_matrix"]["latex"][0][0] == r"1.5 q_{2}^{2} + 0.5"
 
@@ -164,24 +186,44 @@ def test_spatial_3r_elbow_arm():
     ans = _answer(urdf)
     r2 = l2 * sp.cos(q2)
     r3 = l2 * sp.cos(q2) + l3 * sp.cos(q2 + q3)
-    M = [[i1 + m2 * r2**2 + m3 * r3**2, 0, 0],
-         [0, m2 * l2**2 + m3 * (l2**2 + l3**2 + 2 * l2 * l3 * sp.cos(q3)),
-          m3 * (l3**2 + l2 * l3 * sp.cos(q3))],
-         [0, m3 * (l3**2 + l2 * l3 * sp.cos(q3)), m3 * l3**2]]
-    g = [0, G0 * (m2 * l2 * sp.cos(q2) + m3 * (l2 * sp.cos(q2) + l3 * sp.cos(q2 + q3))),
-         G0 * m3 * l3 * sp.cos(q2 + q3)]
+    M = [
+        [i1 + m2 * r2**2 + m3 * r3**2, 0, 0],
+        [
+            0,
+            m2 * l2**2 + m3 * (l2**2 + l3**2 + 2 * l2 * l3 * sp.cos(q3)),
+            m3 * (l3**2 + l2 * l3 * sp.cos(q3)),
+        ],
+        [0, m3 * (l3**2 + l2 * l3 * sp.cos(q3)), m3 * l3**2],
+    ]
+    g = [
+        0,
+        G0 * (m2 * l2 * sp.cos(q2) + m3 * (l2 * sp.cos(q2) + l3 * sp.cos(q2 + q3))),
+        G0 * m3 * l3 * sp.cos(q2 + q3),
+    ]
     _assert_equal(_parse(ans["mass_matrix"]["expressions"]), M)
     _assert_equal(_parse(ans["gravity"]["expressions"]), g)
     U = G0 * (m2 * (d1 + l2 * sp.sin(q2)) + m3 * (d1 + l2 * sp.sin(q2) + l3 * sp.sin(q2 + q3)))
     _assert_equal(_parse(ans["potential_energy"]["expressions"]), U)
     # C from the closed-form M by the Christoffel formula, independently of the service's
     qs, dqs = [q1, q2, q3], [dq1, dq2, dq3]
-    C = [[sum(R(1, 2) * (sp.diff(M[i][j], qs[k]) + sp.diff(M[i][k], qs[j])
-                         - sp.diff(M[j][k], qs[i])) * dqs[k] for k in range(3))
-          for j in range(3)] for i in range(3)]
+    C = [
+        [
+            sum(
+                R(1, 2)
+                * (sp.diff(M[i][j], qs[k]) + sp.diff(M[i][k], qs[j]) - sp.diff(M[j][k], qs[i]))
+                * dqs[k]
+                for k in range(3)
+            )
+            for j in range(3)
+        ]
+        for i in range(3)
+    ]
     _assert_equal(_parse(ans["coriolis_matrix"]["expressions"]), C)
     structure = ans["structure"]
     assert [[e["zero"] for e in row] for row in structure["mass_matrix"]] == [
-        [False, True, True], [True, False, False], [True, False, False]]
+        [False, True, True],
+        [True, False, False],
+        [True, False, False],
+    ]
     assert structure["mass_matrix"][0][0]["depends_on"] == ["q2", "q3"]
     assert structure["gravity"][0] == {"depends_on": [], "constant": True, "zero": True}

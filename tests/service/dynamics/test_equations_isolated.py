@@ -20,15 +20,21 @@ from tests.helpers import planar_arm_urdf, skewed_arm_urdf
 
 
 def _robot(urdf: str, robot_id: str, source: str = "upload") -> Robot:
-    return Robot(id=robot_id, name=robot_id, source=source, root_joint="fixed",
-                 model=pin.buildModelFromXML(urdf))
+    return Robot(
+        id=robot_id,
+        name=robot_id,
+        source=source,
+        root_joint="fixed",
+        model=pin.buildModelFromXML(urdf),
+    )
 
 
 def test_child_answer_equals_in_process_derivation():
     model = pin.buildModelFromXML(skewed_arm_urdf(3))
     body = derive_isolated(model, time_limit_s=60)
-    assert orjson.loads(body) == orjson.loads(orjson.dumps(
-        equations_answer(derive_equations(model))))
+    assert orjson.loads(body) == orjson.loads(
+        orjson.dumps(equations_answer(derive_equations(model)))
+    )
 
 
 def test_derivation_past_its_time_limit_is_unsupported():
@@ -64,8 +70,9 @@ def test_cache_memory_disk_and_single_flight(tmp_path, counted):
     robot = _robot(planar_arm_urdf(1.0, 0.7, 2.0, 1.5), "u-arm")
     cache = EquationsCache(tmp_path, 30, slots)
     answers: list[bytes] = []
-    threads = [threading.Thread(target=lambda: answers.append(cache.answer(robot)))
-               for _ in range(3)]
+    threads = [
+        threading.Thread(target=lambda: answers.append(cache.answer(robot))) for _ in range(3)
+    ]
     for t in threads:
         t.start()
     for t in threads:

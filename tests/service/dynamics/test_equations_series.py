@@ -81,13 +81,17 @@ def test_text_layout_and_numbers():
     n = 2
     dq1, dq2 = Series.variable(n, 2), Series.variable(n, 3)
     s2 = Series.trig(n, 1, SIN)
-    expr = (dq1 * s2).scale(Decimal("-1.05")) + (dq2 * dq2).scale(Decimal("0.3675")) + (
-        dq1 * (Series.constant(n, Decimal("2")) + Series.trig(n, 1, COS)))
+    expr = (
+        (dq1 * s2).scale(Decimal("-1.05"))
+        + (dq2 * dq2).scale(Decimal("0.3675"))
+        + (dq1 * (Series.constant(n, Decimal("2")) + Series.trig(n, 1, COS)))
+    )
     # grouped by the monomial in the velocities; a whole coefficient is an exact integer
     assert render(expr) == "dq1*(-1.05*sin(q2) + cos(q2) + 2) + 0.3675*dq2**2"
     assert render_latex(expr) == (
         r"\dot{q}_{1} \left(- 1.05 \sin{\left(q_{2} \right)} + \cos{\left(q_{2} \right)} + 2\right)"
-        r" + 0.3675 \dot{q}_{2}^{2}")
+        r" + 0.3675 \dot{q}_{2}^{2}"
+    )
     tiny = Series.constant(n, Decimal("1.5e-12")) * s2
     assert render(tiny) == "1.5e-12*sin(q2)"
     assert render_latex(tiny) == r"1.5 \cdot 10^{-12} \sin{\left(q_{2} \right)}"

@@ -13,8 +13,14 @@ from service.dynamics.equations.series import Series
 from service.registry.catalog import load_catalog
 from tests.helpers import skewed_arm_urdf
 
-QUANTITIES = ["mass_matrix", "gravity", "coriolis_matrix", "christoffel", "kinetic_energy",
-              "potential_energy"]
+QUANTITIES = [
+    "mass_matrix",
+    "gravity",
+    "coriolis_matrix",
+    "christoffel",
+    "kinetic_energy",
+    "potential_energy",
+]
 
 
 def _flat(value, out):

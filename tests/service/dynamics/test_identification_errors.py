@@ -64,8 +64,9 @@ def test_too_few_samples_says_how_many(ur5, log):
     assert "the log has 60 samples" in detail and "needs at least" in detail
     needed = int(detail.split("needs at least ")[1].split()[0])
     # enough samples (at the same rate, same motion) then identify
-    longer = synthetic_log(ur5.model, seed=1, duration=(needed + 20) / 100.0, rate=100.0,
-                           noise=0.01)
+    longer = synthetic_log(
+        ur5.model, seed=1, duration=(needed + 20) / 100.0, rate=100.0, noise=0.01
+    )
     assert longer.t.size > needed
     identify(ur5, longer.t, longer.q, longer.tau, method="least-squares")
     with pytest.raises(InvalidInput, match="needs at least"):
@@ -94,11 +95,11 @@ def test_options(ur5, log):
 
 def test_free_flyer_robot_is_unsupported(log):
     model = pin.buildSampleModelHumanoid()
-    robot = Robot(id="humanoid", name="humanoid", source="upload", root_joint="free-flyer",
-                  model=model)
+    robot = Robot(
+        id="humanoid", name="humanoid", source="upload", root_joint="free-flyer", model=model
+    )
     with pytest.raises(UnsupportedModel, match=r"fixed-base robot.*free_flyer"):
-        identify(robot, log.t, np.zeros((log.t.size, model.nq)),
-                 np.zeros((log.t.size, model.nv)))
+        identify(robot, log.t, np.zeros((log.t.size, model.nq)), np.zeros((log.t.size, model.nv)))
     assert UnsupportedModel.code == "unsupported_model"
 
 
@@ -165,4 +166,8 @@ def test_a_log_where_some_joints_stay_still_is_fitted(ur5, log):
         identify(ur5, log.t, q, tau, v=v, a=a, friction="none", method="least-squares")
     still = raised.value.detail.split("barely moving: ")[1]
     assert [n for n in ur5.model.names[1:] if f"{n} " in still] == [
-        "shoulder_pan_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+        "shoulder_pan_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ]

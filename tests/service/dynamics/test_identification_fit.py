@@ -29,15 +29,19 @@ def robots():
     assert not failures
     panda = loaded["panda"]
     locked = {"panda_finger_joint1": [0.02], "panda_finger_joint2": [0.02]}
-    loaded["panda_arm"] = reduced_robot(panda, locked, "panda_arm", "panda_arm",
-                                        {"robot": "panda", "locked_joints": locked})
+    loaded["panda_arm"] = reduced_robot(
+        panda, locked, "panda_arm", "panda_arm", {"robot": "panda", "locked_joints": locked}
+    )
     return loaded
 
 
 def _true_base(robot, log, friction="coulomb-viscous"):
     columns = Columns(robot, friction)
-    base = base_parameters(random_rows(robot, columns), columns.names,
-                           random_states_count(len(columns.names), robot.nv))
+    base = base_parameters(
+        random_rows(robot, columns),
+        columns.names,
+        random_states_count(len(columns.names), robot.nv),
+    )
     theta = np.concatenate([log.pi, np.stack([log.coulomb, log.viscous, log.offset], 1).ravel()])
     return base.projection() @ theta
 
@@ -52,7 +56,7 @@ def _check_friction(result, log):
 def _check_base(result, truth, worst=4.0, typical=1.6):
     z = (result.base_parameters["values"] - truth) / result.base_parameters["standard_deviation"]
     assert np.abs(z).max() < worst, np.abs(z).max()
-    assert np.sqrt(np.mean(z ** 2)) < typical  # the standard deviations are honest
+    assert np.sqrt(np.mean(z**2)) < typical  # the standard deviations are honest
 
 
 def test_least_squares_with_measured_velocities(robots):
@@ -74,16 +78,16 @@ def test_noiseless_log_recovers_the_base_parameters_exactly(robots):
     log = synthetic_log(robot.model, seed=2, duration=10.0, rate=100.0, noise=0.0)
     result = identify(robot, log.t, log.q, log.tau, v=log.v, a=log.a, method="least-squares")
     truth = _true_base(robot, log)
-    np.testing.assert_allclose(result.base_parameters["values"], truth,
-                               atol=1e-7 * np.abs(truth).max())
+    np.testing.assert_allclose(
+        result.base_parameters["values"], truth, atol=1e-7 * np.abs(truth).max()
+    )
     assert (result.rmse["validation"] < 1e-7).all()
 
 
 def test_physically_consistent_fit_of_a_filtered_irregular_log(robots):
     """q and τ only, jittered sample times: resampled, filtered, differentiated."""
     robot = robots["ur5"]
-    log = synthetic_log(robot.model, seed=5, duration=20.0, rate=200.0, noise=0.05,
-                        irregular=True)
+    log = synthetic_log(robot.model, seed=5, duration=20.0, rate=200.0, noise=0.05, irregular=True)
     result = identify(robot, log.t, log.q, log.tau)
     assert result.filter_hz == 10.0
     assert result.physically_consistent
@@ -127,21 +131,34 @@ def test_ordinary_and_weighted_least_squares(robots):
     log = synthetic_log(robot.model, seed=8, duration=20.0, rate=200.0, noise=0.0)
     levels = np.array([0.01, 0.5, 0.02, 0.3, 0.01, 0.05])
     log.tau += np.random.default_rng(9).normal(size=log.tau.shape) * levels
-    inputs = {"t": log.t, "q": log.q, "tau": log.tau, "v": log.v, "a": log.a,
-              "method": "least-squares"}
+    inputs = {
+        "t": log.t,
+        "q": log.q,
+        "tau": log.tau,
+        "v": log.v,
+        "a": log.a,
+        "method": "least-squares",
+    }
     ordinary = identify(robot, weighted=False, **inputs)
     weighted = identify(robot, **inputs)
     columns = Columns(robot, "coulomb-viscous")
-    base = base_parameters(random_rows(robot, columns), columns.names,
-                           random_states_count(len(columns.names), robot.nv))
+    base = base_parameters(
+        random_rows(robot, columns),
+        columns.names,
+        random_states_count(len(columns.names), robot.nv),
+    )
     train = log.t < log.t[0] + 0.8 * (log.t[-1] - log.t[0])
     A, known = columns(log.q[train], log.v[train], log.a[train], base.independent)
-    plain = np.linalg.lstsq(A.reshape(-1, base.count), (log.tau[train] - known).ravel(),
-                            rcond=None)[0]
-    np.testing.assert_allclose(ordinary.base_parameters["values"], plain,
-                               atol=1e-8 * np.abs(plain).max())
-    std_ratio = (weighted.base_parameters["standard_deviation"]
-                 / ordinary.base_parameters["standard_deviation"])
+    plain = np.linalg.lstsq(
+        A.reshape(-1, base.count), (log.tau[train] - known).ravel(), rcond=None
+    )[0]
+    np.testing.assert_allclose(
+        ordinary.base_parameters["values"], plain, atol=1e-8 * np.abs(plain).max()
+    )
+    std_ratio = (
+        weighted.base_parameters["standard_deviation"]
+        / ordinary.base_parameters["standard_deviation"]
+    )
     assert np.median(std_ratio) < 0.7
     _check_base(weighted, _true_base(robot, log))
     np.testing.assert_allclose(weighted.rmse["validation"], levels, rtol=0.15)
@@ -179,11 +196,11 @@ def test_a_joint_that_never_moves(robots):
 @pytest.mark.parametrize("friction", ["none", "viscous"])
 def test_simpler_friction_models(robots, friction):
     robot = robots["ur5"]
-    log = synthetic_log(robot.model, seed=6, duration=20.0, rate=200.0, noise=0.05,
-                        friction=False)
+    log = synthetic_log(robot.model, seed=6, duration=20.0, rate=200.0, noise=0.05, friction=False)
     log.tau += log.offset + (0.5 * log.v if friction == "viscous" else 0.0)
-    result = identify(robot, log.t, log.q, log.tau, v=log.v, a=log.a, friction=friction,
-                      method="least-squares")
+    result = identify(
+        robot, log.t, log.q, log.tau, v=log.v, a=log.a, friction=friction, method="least-squares"
+    )
     assert all(f["coulomb"] == 0.0 for f in result.friction)
     viscous = np.array([f["viscous"] for f in result.friction])
     np.testing.assert_allclose(viscous, 0.5 if friction == "viscous" else 0.0, atol=0.05)
@@ -205,8 +222,14 @@ def test_payload_identification(robots):
     """A 1.5 kg payload at the panda's hand; everything else is the catalog model."""
     robot = robots["panda_arm"]
     payload = pin.Inertia(1.5, np.array([0.01, -0.02, 0.08]), np.diag([0.004, 0.005, 0.003]))
-    log = synthetic_log(robot.model, seed=4, duration=20.0, rate=500.0, noise=0.05,
-                        pi=loaded_parameters(robot.model, "panda_hand", payload))
+    log = synthetic_log(
+        robot.model,
+        seed=4,
+        duration=20.0,
+        rate=500.0,
+        noise=0.05,
+        pi=loaded_parameters(robot.model, "panda_hand", payload),
+    )
     result = identify(robot, log.t, log.q, log.tau, payload_frame="panda_hand")
     found = result.payload
     assert found is not None and found["frame"] == "panda_hand"

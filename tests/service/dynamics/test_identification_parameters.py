@@ -71,26 +71,27 @@ def test_the_regressor_of_a_batch_of_states(robots):
     out = joint_torque_regressors(robot, states)["regressor"]
     np.testing.assert_array_equal(out, regressor(robot, q, v, a))
     single = prepare(robot, {"q": q[1], "v": v[1], "a": a[1]}, max_batch=10)
-    np.testing.assert_array_equal(joint_torque_regressors(robot, single)["regressor"][0],
-                                  out[1])
+    np.testing.assert_array_equal(joint_torque_regressors(robot, single)["regressor"][0], out[1])
 
 
 def test_known_torques_carry_the_armature(robots):
     robot = robots["ur5"]
     model = robot.model.copy()
     model.armature = np.linspace(0.1, 0.6, model.nv)
-    geared = type(robot)(id="ur5_geared", name="ur5_geared", source="upload",
-                         root_joint="fixed", model=model)
+    geared = type(robot)(
+        id="ur5_geared", name="ur5_geared", source="upload", root_joint="fixed", model=model
+    )
     rng = np.random.default_rng(8)
     q, v, a = _states(model, rng, 4)
     columns = Columns(geared, "none")
     A, known = columns(q, v, a)
     theta = columns.theta0.copy()
-    theta[-model.nv:] = 0.0  # offsets
+    theta[-model.nv :] = 0.0  # offsets
     data = model.createData()
     for i in range(4):
-        np.testing.assert_allclose(A[i] @ theta + known[i], pin.rnea(model, data, q[i], v[i],
-                                                                     a[i]), atol=1e-9)
+        np.testing.assert_allclose(
+            A[i] @ theta + known[i], pin.rnea(model, data, q[i], v[i], a[i]), atol=1e-9
+        )
 
 
 @pytest.mark.parametrize("name", ["ur5", "panda"])
@@ -107,8 +108,7 @@ def test_parameters_round_trip_and_pseudo_inertia(robots, name):
         np.testing.assert_allclose(pseudo_inertia(block), expected, atol=1e-12)
         summary = body_summary("b", block)
         assert summary["mass"] == pytest.approx(model.inertias[j].mass)
-        np.testing.assert_allclose(summary["center_of_mass"], model.inertias[j].lever,
-                                   atol=1e-12)
+        np.testing.assert_allclose(summary["center_of_mass"], model.inertias[j].lever, atol=1e-12)
         np.testing.assert_allclose(summary["inertia"], model.inertias[j].inertia, atol=1e-12)
     assert (pseudo_inertia_min_eigenvalues(pi) >= -1e-12).all()
 
@@ -134,8 +134,11 @@ def test_change_of_frame_is_pinocchios():
     rng = np.random.default_rng(3)
     placement = pin.SE3(pin.exp3(rng.normal(size=3)), rng.normal(size=3))
     body = pin.Inertia(1.3, rng.normal(size=3) * 0.1, np.diag([0.02, 0.03, 0.04]))
-    np.testing.assert_allclose(transform_parameters(placement) @ body.toDynamicParameters(),
-                               placement.act(body).toDynamicParameters(), atol=1e-12)
+    np.testing.assert_allclose(
+        transform_parameters(placement) @ body.toDynamicParameters(),
+        placement.act(body).toDynamicParameters(),
+        atol=1e-12,
+    )
 
 
 def test_friction_columns_times_parameters_is_the_friction_torque():
@@ -144,18 +147,25 @@ def test_friction_columns_times_parameters_is_the_friction_torque():
     v[0, 1] = 0.0  # sign(0) = 0
     coulomb, viscous, offset = rng.uniform(0.1, 1.0, (3, 3))
     phi = np.stack([coulomb, viscous, offset], axis=1).ravel()
-    np.testing.assert_allclose(friction_columns(v, "coulomb-viscous") @ phi,
-                               friction_torque(v, coulomb, viscous, offset))
-    np.testing.assert_allclose(friction_columns(v, "viscous") @ np.stack(
-        [viscous, offset], axis=1).ravel(), friction_torque(v, 0 * coulomb, viscous, offset))
-    np.testing.assert_allclose(friction_columns(v, "none") @ offset, np.broadcast_to(
-        offset, v.shape))
+    np.testing.assert_allclose(
+        friction_columns(v, "coulomb-viscous") @ phi, friction_torque(v, coulomb, viscous, offset)
+    )
+    np.testing.assert_allclose(
+        friction_columns(v, "viscous") @ np.stack([viscous, offset], axis=1).ravel(),
+        friction_torque(v, 0 * coulomb, viscous, offset),
+    )
+    np.testing.assert_allclose(
+        friction_columns(v, "none") @ offset, np.broadcast_to(offset, v.shape)
+    )
 
 
 def _base(robot, friction):
     columns = Columns(robot, friction)
-    return columns, base_parameters(random_rows(robot, columns), columns.names,
-                                    random_states_count(len(columns.names), robot.nv))
+    return columns, base_parameters(
+        random_rows(robot, columns),
+        columns.names,
+        random_states_count(len(columns.names), robot.nv),
+    )
 
 
 @pytest.mark.parametrize("name", ["ur5", "kinova", "panda"])
@@ -168,8 +178,9 @@ def test_base_parameters_reproduce_every_torque(robots, name):
     full, _ = columns(q, v, a)
     theta = rng.normal(size=len(columns.names))
     reduced = full[:, :, base.independent]
-    np.testing.assert_allclose(reduced @ (base.projection() @ theta), full @ theta,
-                               atol=1e-8 * np.abs(full @ theta).max())
+    np.testing.assert_allclose(
+        reduced @ (base.projection() @ theta), full @ theta, atol=1e-8 * np.abs(full @ theta).max()
+    )
     assert np.linalg.matrix_rank(reduced.reshape(-1, base.count)) == base.count
     assert len(base.expressions()) == base.count
 
@@ -182,11 +193,18 @@ def test_planar_arm_base_parameters_are_the_textbook_ones(robots):
     names = columns.names
     textbook = np.zeros((8, len(names)))
     l1 = 1.0
-    for row, terms in enumerate([
-            {"shoulder.m_cx": 1.0, "elbow.m": l1}, {"shoulder.m_cz": 1.0},
-            {"shoulder.Iyy": 1.0, "elbow.m": l1 ** 2}, {"elbow.m_cx": 1.0},
-            {"elbow.m_cz": 1.0}, {"elbow.Iyy": 1.0}, {"shoulder.offset": 1.0},
-            {"elbow.offset": 1.0}]):
+    for row, terms in enumerate(
+        [
+            {"shoulder.m_cx": 1.0, "elbow.m": l1},
+            {"shoulder.m_cz": 1.0},
+            {"shoulder.Iyy": 1.0, "elbow.m": l1**2},
+            {"elbow.m_cx": 1.0},
+            {"elbow.m_cz": 1.0},
+            {"elbow.Iyy": 1.0},
+            {"shoulder.offset": 1.0},
+            {"elbow.offset": 1.0},
+        ]
+    ):
         for name, c in terms.items():
             textbook[row, names.index(name)] = c
     projection = base.projection()
@@ -201,18 +219,29 @@ def test_inverse_dynamics_adds_an_identified_friction(robots):
     from service.registry.robot import Robot
 
     base = robots["ur5"]
-    friction = {"coulomb": np.linspace(0.5, 1.0, 6), "viscous": np.full(6, 0.3),
-                "offset": np.linspace(-0.1, 0.1, 6)}
-    rough = Robot(id="ur5_rough", name="ur5_rough", source="upload", root_joint="fixed",
-                  model=base.model, friction=friction)
+    friction = {
+        "coulomb": np.linspace(0.5, 1.0, 6),
+        "viscous": np.full(6, 0.3),
+        "offset": np.linspace(-0.1, 0.1, 6),
+    }
+    rough = Robot(
+        id="ur5_rough",
+        name="ur5_rough",
+        source="upload",
+        root_joint="fixed",
+        model=base.model,
+        friction=friction,
+    )
     rng = np.random.default_rng(5)
     q, v, a = _states(base.model, rng, 4)
     states = prepare(base, {"q": q, "v": v, "a": a}, max_batch=10)
     plain = inverse_dynamics(base, states)["tau"]
     with_friction = inverse_dynamics(rough, states, friction=True)["tau"]
-    np.testing.assert_allclose(with_friction - plain,
-                               friction_torque(v, friction["coulomb"], friction["viscous"],
-                                               friction["offset"]), atol=1e-12)
+    np.testing.assert_allclose(
+        with_friction - plain,
+        friction_torque(v, friction["coulomb"], friction["viscous"], friction["offset"]),
+        atol=1e-12,
+    )
     np.testing.assert_array_equal(inverse_dynamics(rough, states)["tau"], plain)
     with pytest.raises(InvalidInput, match="has no friction model"):
         inverse_dynamics(base, states, friction=True)

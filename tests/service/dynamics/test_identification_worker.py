@@ -36,8 +36,15 @@ def test_the_worker_answers_what_the_process_computes_and_its_errors(worker, ur5
     """(One worker for both: starting one imports the identification modules, seconds.)"""
     with pytest.raises(DimensionMismatch, match="each row of q must have 6 entries"):
         worker.identify(ur5, t=log.t, q=log.q[:, :5], tau=log.tau)
-    inputs = {"t": log.t, "q": log.q, "tau": log.tau, "v": log.v, "a": log.a,
-              "friction": "viscous", "method": "least-squares"}
+    inputs = {
+        "t": log.t,
+        "q": log.q,
+        "tau": log.tau,
+        "v": log.v,
+        "a": log.a,
+        "friction": "viscous",
+        "method": "least-squares",
+    }
     there = worker.identify(ur5, **inputs)  # the worker still serves after an error
     here = identify(ur5, **inputs)
     np.testing.assert_allclose(there.parameters, here.parameters, rtol=1e-6, atol=1e-9)

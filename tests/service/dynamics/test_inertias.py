@@ -30,13 +30,16 @@ def test_cube_pendulum_closed_form(api):
     # the cube: m a²/6 on the diagonal at its centre, whatever the rpy of its inertial frame
     assert cube["mass"] == pytest.approx(CUBE_M, abs=1e-15)
     np.testing.assert_allclose(cube["center_of_mass"], CUBE_C, atol=1e-15)
-    np.testing.assert_allclose(cube["inertia_at_center_of_mass"],
-                               CUBE_M * CUBE_A**2 / 6 * np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(
+        cube["inertia_at_center_of_mass"], CUBE_M * CUBE_A**2 / 6 * np.eye(3), atol=1e-15
+    )
     np.testing.assert_allclose(cube["principal_moments"], [0.016] * 3, atol=1e-15)
     # at the joint: I_c + m (|c|² 1 − c cᵀ), written out by hand
-    np.testing.assert_allclose(cube["inertia_at_joint"], [[0.136, -0.072, 0.144],
-                                                          [-0.072, 0.328, 0.048],
-                                                          [0.144, 0.048, 0.256]], atol=1e-15)
+    np.testing.assert_allclose(
+        cube["inertia_at_joint"],
+        [[0.136, -0.072, 0.144], [-0.072, 0.328, 0.048], [0.144, 0.048, 0.256]],
+        atol=1e-15,
+    )
 
     # the box: principal moments m (b² + c²)/12 ... about the columns of Rz(30°)
     a, b, c = BOX_SIDES
@@ -48,8 +51,11 @@ def test_cube_pendulum_closed_form(api):
     np.testing.assert_allclose(box["center_of_mass"], BOX_C, atol=1e-15)
     turned = _rot_z(BOX_TURN) @ np.diag(moments) @ _rot_z(BOX_TURN).T
     np.testing.assert_allclose(box["inertia_at_center_of_mass"], turned, atol=1e-15)
-    np.testing.assert_allclose(np.asarray(box["inertia_at_joint"]) - turned,
-                               BOX_M * np.diag([0.25**2, 0, 0.25**2]), atol=1e-15)
+    np.testing.assert_allclose(
+        np.asarray(box["inertia_at_joint"]) - turned,
+        BOX_M * np.diag([0.25**2, 0, 0.25**2]),
+        atol=1e-15,
+    )
 
 
 def test_cube_pendulum_mass_matrix_from_the_inertias(api):
@@ -60,8 +66,7 @@ def test_cube_pendulum_mass_matrix_from_the_inertias(api):
     assert M[0, 0] == pytest.approx(0.328 + box_yy_at_hinge, abs=1e-14)
     for q in ([0.0, 0.0], [0.4, -1.3]):
         M = post(api, "cube_pendulum", "mass-matrix", q=q)["mass_matrix"]
-        assert M[1, 1] == pytest.approx(0.025 * 0.75 + 0.02125 * 0.25
-                                        + BOX_M * 0.25**2, abs=1e-14)
+        assert M[1, 1] == pytest.approx(0.025 * 0.75 + 0.02125 * 0.25 + BOX_M * 0.25**2, abs=1e-14)
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -77,8 +82,11 @@ def test_inertias_on_every_catalog_robot(api, catalog_registry, name):
     masses = np.array([b["mass"] for b in bodies])
     assert got["total_mass"] == pytest.approx(masses.sum(), rel=1e-12)
     assert got["total_mass"] == pytest.approx(info["total_mass"], rel=1e-12)
-    warned = {w["name"] for w in robot.warnings
-              if w["code"] in ("triangle_inequality", "negative_principal_moment")}
+    warned = {
+        w["name"]
+        for w in robot.warnings
+        if w["code"] in ("triangle_inequality", "negative_principal_moment")
+    }
     frame_names = {f["name"] for f in info["frames"]}
     for jid, body in enumerate(bodies, start=1):
         m, c = body["mass"], np.asarray(body["center_of_mass"])
@@ -92,25 +100,32 @@ def test_inertias_on_every_catalog_robot(api, catalog_registry, name):
         np.testing.assert_allclose(I_c, model.inertias[jid].inertia, atol=1e-15)
         scale = max(float(np.abs(I_o).max()), 1e-300)
         # parallel axis: I_o = I_c + m (|c|² 1 − c cᵀ); and a rotation R with I_c = R Λ Rᵀ
-        np.testing.assert_allclose(I_o, I_c + m * (c @ c * np.eye(3) - np.outer(c, c)),
-                                   atol=1e-14 * scale)
+        np.testing.assert_allclose(
+            I_o, I_c + m * (c @ c * np.eye(3) - np.outer(c, c)), atol=1e-14 * scale
+        )
         np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
         assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
-        np.testing.assert_allclose(R @ np.diag(moments) @ R.T, I_c,
-                                   atol=1e-12 * max(float(np.abs(I_c).max()), 1e-300))
+        np.testing.assert_allclose(
+            R @ np.diag(moments) @ R.T, I_c, atol=1e-12 * max(float(np.abs(I_c).max()), 1e-300)
+        )
         assert np.all(np.diff(moments) >= 0)
         # physical bodies: non-negative moments and I_1 + I_2 ≥ I_3, or a warning names a link
         # of the body (the same tolerances as the upload check)
         tol = 1e-6 * moments.sum() + 1e-12
-        physical = moments[0] >= -(1e-6 * moments[2] + 1e-12) and \
-            moments[0] + moments[1] >= moments[2] - tol
+        physical = (
+            moments[0] >= -(1e-6 * moments[2] + 1e-12)
+            and moments[0] + moments[1] >= moments[2] - tol
+        )
         assert physical or warned & set(body["links"]), (name, body["name"], moments)
 
 
 def test_a_violation_is_found_where_the_catalog_warns(api, catalog_registry):
     """The triangle test above is not vacuous: romeo_small has warned links that violate it."""
     bodies = api.get("/v1/robots/romeo_small/inertias").json()["bodies"]
-    violating = [b["name"] for b in bodies if sum(b["principal_moments"][:2])
-                 < b["principal_moments"][2] * (1 - 1e-6)]
+    violating = [
+        b["name"]
+        for b in bodies
+        if sum(b["principal_moments"][:2]) < b["principal_moments"][2] * (1 - 1e-6)
+    ]
     warned = {w["name"] for w in catalog_registry.catalog["romeo_small"].warnings}
     assert violating and set(violating) <= warned

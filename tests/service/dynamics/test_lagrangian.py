@@ -55,8 +55,9 @@ def test_energies(api, catalog_registry, name):
     qs = np.stack([pin.integrate(model, q, h * direction), pin.integrate(model, q, -h * direction)])
     U = post(api, name, "energy", q=qs, v=np.zeros((2, model.nv)))["potential_energy"]
     g = post(api, name, "gravity", q=q)["gravity"]
-    np.testing.assert_allclose((U[0] - U[1]) / (2 * h), g @ direction,
-                               atol=1e-6 * max(1.0, np.abs(g).max()))
+    np.testing.assert_allclose(
+        (U[0] - U[1]) / (2 * h), g @ direction, atol=1e-6 * max(1.0, np.abs(g).max())
+    )
 
 
 def test_power_identity_along_a_simulated_motion(api, catalog_registry):
@@ -83,8 +84,9 @@ def test_power_identity_along_a_simulated_motion(api, catalog_registry):
         work = tau @ (q - q0)
         change = E["mechanical_energy"][1] - E["mechanical_energy"][0]
         assert abs(E["kinetic_energy"][1] - E["kinetic_energy"][0]) > 1e-3  # it did move
-        np.testing.assert_allclose(change, work,
-                                   atol=1e-8 * max(1.0, abs(E["potential_energy"][0])))
+        np.testing.assert_allclose(
+            change, work, atol=1e-8 * max(1.0, abs(E["potential_energy"][0]))
+        )
 
 
 @pytest.mark.parametrize("name", ROBOTS)
@@ -105,8 +107,10 @@ def test_center_of_mass(api, catalog_registry, name):
     # the mass-weighted mean of the bodies' centres of mass (GET .../inertias, joint frames)
     bodies = api.get(f"/v1/robots/{name}/inertias").json()["bodies"]
     pin.forwardKinematics(model, data, q)
-    weighted = sum(b["mass"] * data.oMi[model.getJointId(b["joint"])].act(
-        np.asarray(b["center_of_mass"])) for b in bodies)
+    weighted = sum(
+        b["mass"] * data.oMi[model.getJointId(b["joint"])].act(np.asarray(b["center_of_mass"]))
+        for b in bodies
+    )
     close(got["position"], weighted / sum(b["mass"] for b in bodies), 1e-12)
     without_v = post(api, name, "center-of-mass", q=q)
     assert set(without_v) == {"position", "jacobian"}
@@ -120,14 +124,13 @@ def _unaligned_arm_with_armature():
     model = pin.Model()
     axis = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
     j1 = model.addJoint(0, pin.JointModelRevoluteUnaligned(axis), pin.SE3.Identity(), "j1")
-    model.appendBodyToJoint(j1, pin.Inertia.FromBox(2.0, 0.1, 0.2, 0.3),
-                            pin.SE3(np.eye(3), np.array([0.1, 0.0, 0.2])))
-    j2 = model.addJoint(j1, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0.5, 0.0, 0.0])),
-                        "j2")
+    model.appendBodyToJoint(
+        j1, pin.Inertia.FromBox(2.0, 0.1, 0.2, 0.3), pin.SE3(np.eye(3), np.array([0.1, 0.0, 0.2]))
+    )
+    j2 = model.addJoint(j1, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0.5, 0.0, 0.0])), "j2")
     model.appendBodyToJoint(j2, pin.Inertia.FromBox(1.0, 0.1, 0.2, 0.3), pin.SE3.Identity())
     model.armature[:] = [0.3, 0.2]
-    return Robot(id="unaligned", name="unaligned", source="upload", root_joint="fixed",
-                 model=model)
+    return Robot(id="unaligned", name="unaligned", source="upload", root_joint="fixed", model=model)
 
 
 def test_kinetic_energy_includes_the_armature_of_an_unaligned_revolute_joint():
@@ -140,8 +143,7 @@ def test_kinetic_energy_includes_the_armature_of_an_unaligned_revolute_joint():
     robot = _unaligned_arm_with_armature()
     rng = np.random.default_rng(7)
     q, v = rng.uniform(-1.0, 1.0, (2, 5, 2))
-    T = run(robot, SPECS["energy"].quantity, States({"q": q, "v": v}, True), {})[
-        "kinetic_energy"]
+    T = run(robot, SPECS["energy"].quantity, States({"q": q, "v": v}, True), {})["kinetic_energy"]
     expected = [0.5 * v[i] @ mass_matrix(robot.model, q[i]) @ v[i] for i in range(5)]
     np.testing.assert_allclose(T, expected, rtol=1e-14, atol=1e-14)
 
@@ -155,8 +157,17 @@ def test_a_free_motion_keeps_its_mechanical_energy_with_armature():
 
     robot = _unaligned_arm_with_armature()
     s = States({"q": np.array([[0.3, -0.4]]), "v": np.array([[1.2, -0.7]])}, False)
-    out = run(robot, SPECS["simulate"].quantity, s, {
-        "dt": 1e-3, "steps": 2000, "integrator": "rk4", "max_simulation_steps": 10_000,
-        "max_simulation_work": 10**9})
+    out = run(
+        robot,
+        SPECS["simulate"].quantity,
+        s,
+        {
+            "dt": 1e-3,
+            "steps": 2000,
+            "integrator": "rk4",
+            "max_simulation_steps": 10_000,
+            "max_simulation_work": 10**9,
+        },
+    )
     energy = out["mechanical_energy"]
     assert np.ptp(energy) < 1e-9 * max(1.0, abs(energy[0]))

@@ -51,8 +51,9 @@ def _service_terms(api, name, q, v, frame, reference_frame):
 
 
 @pytest.mark.parametrize(("name", "frame", "task", "reference_frame"), CASES)
-def test_operational_space_equals_the_formulas(api, catalog_registry, name, frame, task,
-                                               reference_frame):
+def test_operational_space_equals_the_formulas(
+    api, catalog_registry, name, frame, task, reference_frame
+):
     model, q, v = _state(catalog_registry, name, seed=len(frame))
     M, J6, dJ6, C, g = _service_terms(api, name, q, v, frame, reference_frame)
     J, dJ = J6[ROWS[task]], dJ6[ROWS[task]]
@@ -60,8 +61,17 @@ def test_operational_space_equals_the_formulas(api, catalog_registry, name, fram
     damping = 0.0 if ratio > 1e-6 else 0.05
     if damping:
         assert name == "planar_arm"  # the other cases were chosen away from singularities
-    got = post(api, name, "operational-space", q=q, v=v, frame=frame, task=task,
-               reference_frame=reference_frame, damping=damping)
+    got = post(
+        api,
+        name,
+        "operational-space",
+        q=q,
+        v=v,
+        frame=frame,
+        task=task,
+        reference_frame=reference_frame,
+        damping=damping,
+    )
     k = J.shape[0]
     assert got["inertia"].shape == (k, k) and got["jacobian"].shape == (k, model.nv)
     assert got["dynamically_consistent_inverse"].shape == (model.nv, k)
@@ -87,15 +97,23 @@ def test_operational_space_equals_the_formulas(api, catalog_registry, name, fram
         close(Jbar, np.linalg.solve(M, J.T) @ Lambda, rtol)
 
 
-@pytest.mark.parametrize(("name", "frame", "task", "reference_frame"),
-                         [c for c in CASES if c[0] != "planar_arm"])
-def test_task_space_equation_of_motion(api, catalog_registry, name, frame, task,
-                                       reference_frame):
+@pytest.mark.parametrize(
+    ("name", "frame", "task", "reference_frame"), [c for c in CASES if c[0] != "planar_arm"]
+)
+def test_task_space_equation_of_motion(api, catalog_registry, name, frame, task, reference_frame):
     """Λ ẍ + μ + p = F for ẍ = J a + J̇ v, with a the service's forward dynamics under the joint
     torques τ = Jᵀ F of a random task force F."""
     _, q, v = _state(catalog_registry, name, seed=3)
-    os = post(api, name, "operational-space", q=q, v=v, frame=frame, task=task,
-              reference_frame=reference_frame)
+    os = post(
+        api,
+        name,
+        "operational-space",
+        q=q,
+        v=v,
+        frame=frame,
+        task=task,
+        reference_frame=reference_frame,
+    )
     jac = post(api, name, "jacobian", q=q, v=v, frame=frame, reference_frame=reference_frame)
     J, dJ = jac["jacobian"][ROWS[task]], jac["jacobian_time_variation"][ROWS[task]]
     F = np.random.default_rng(5).normal(size=J.shape[0]) * 10
@@ -107,19 +125,25 @@ def test_task_space_equation_of_motion(api, catalog_registry, name, frame, task,
 
 
 @pytest.mark.parametrize("reference_frame", ["world", "local", "local_world_aligned"])
-@pytest.mark.parametrize("name, frame", [("ur5", "tool0"), ("solo12", "FR_FOOT"),
-                                         ("talos", "gripper_left_base_link")])
+@pytest.mark.parametrize(
+    "name, frame", [("ur5", "tool0"), ("solo12", "FR_FOOT"), ("talos", "gripper_left_base_link")]
+)
 def test_jacobian_time_variation_is_the_derivative_of_the_jacobian(
-        api, catalog_registry, name, frame, reference_frame):
+    api, catalog_registry, name, frame, reference_frame
+):
     model, q, v = _state(catalog_registry, name, seed=11)
     got = post(api, name, "jacobian", q=q, v=v, frame=frame, reference_frame=reference_frame)
     assert got["jacobian"].shape == got["jacobian_time_variation"].shape == (6, model.nv)
     h = 1e-6
     qs = np.stack([pin.integrate(model, q, v * h), pin.integrate(model, q, -v * h)])
-    J_pm = post(api, name, "jacobian", q=qs, frame=frame,
-                reference_frame=reference_frame)["jacobian"]
-    np.testing.assert_allclose(got["jacobian_time_variation"], (J_pm[0] - J_pm[1]) / (2 * h),
-                               atol=1e-6 * max(1.0, np.abs(got["jacobian"]).max()))
+    J_pm = post(api, name, "jacobian", q=qs, frame=frame, reference_frame=reference_frame)[
+        "jacobian"
+    ]
+    np.testing.assert_allclose(
+        got["jacobian_time_variation"],
+        (J_pm[0] - J_pm[1]) / (2 * h),
+        atol=1e-6 * max(1.0, np.abs(got["jacobian"]).max()),
+    )
     without_v = post(api, name, "jacobian", q=q, frame=frame, reference_frame=reference_frame)
     assert set(without_v) == {"jacobian"}
     close(without_v["jacobian"], got["jacobian"], 1e-12)
@@ -134,12 +158,15 @@ def test_reference_frames_are_pinocchios(api, catalog_registry):
     pin.framesForwardKinematics(model, data, q)
     placement = data.oMf[model.getFrameId("tool0")]
     R, p = placement.rotation, placement.translation
-    J = {rf: post(api, "ur5", "jacobian", q=q, frame="tool0", reference_frame=rf)["jacobian"]
-         for rf in ("world", "local", "local_world_aligned")}
+    J = {
+        rf: post(api, "ur5", "jacobian", q=q, frame="tool0", reference_frame=rf)["jacobian"]
+        for rf in ("world", "local", "local_world_aligned")
+    }
     local = J["local"]
     close(J["local_world_aligned"], np.vstack([R @ local[:3], R @ local[3:]]), 1e-12)
-    close(J["world"], np.vstack([R @ local[:3] + pin.skew(p) @ R @ local[3:], R @ local[3:]]),
-          1e-12)
+    close(
+        J["world"], np.vstack([R @ local[:3] + pin.skew(p) @ R @ local[3:], R @ local[3:]]), 1e-12
+    )
     # the default is local_world_aligned; its linear rows give the velocity of the frame origin
     default = post(api, "ur5", "jacobian", q=q, frame="tool0")["jacobian"]
     np.testing.assert_array_equal(default, J["local_world_aligned"])
@@ -176,13 +203,15 @@ def test_straight_ur5_is_singular_and_says_how_close(api, catalog_registry):
     assert body["smallest_singular_value"] <= SINGULAR_RCOND * body["largest_singular_value"]
     M = mass_matrix(catalog_registry.catalog["ur5"].model, q)
     J = post(api, "ur5", "jacobian", q=q, frame="tool0")["jacobian"]
-    np.testing.assert_allclose(body["largest_singular_value"],
-                               np.linalg.eigvalsh(task_matrix(M, J))[-1], rtol=1e-9)
+    np.testing.assert_allclose(
+        body["largest_singular_value"], np.linalg.eigvalsh(task_matrix(M, J))[-1], rtol=1e-9
+    )
 
 
 @pytest.mark.parametrize("elbow", [0.5, 1e-1, 1e-5, 1e-7])
 def test_singularity_threshold_is_relative_to_the_largest_singular_value(
-        api, catalog_registry, elbow):
+    api, catalog_registry, elbow
+):
     """Only the elbow approaches its singularity: σ_min/σ_max of J M⁻¹ Jᵀ falls like elbow²,
     and the answer switches to 422 below the documented ratio 1e-8."""
     q = np.array([0.2, -1.0, elbow, -0.8, 1.2, 0.3])
@@ -190,8 +219,7 @@ def test_singularity_threshold_is_relative_to_the_largest_singular_value(
     J = post(api, "ur5", "jacobian", q=q, frame="tool0")["jacobian"]
     ratio = singular_ratio(M, J)
     assert not 1e-2 * SINGULAR_RCOND < ratio < 1e2 * SINGULAR_RCOND  # clear of the threshold
-    r = api.post("/v1/robots/ur5/operational-space",
-                 json={"q": q.tolist(), "frame": "tool0"})
+    r = api.post("/v1/robots/ur5/operational-space", json={"q": q.tolist(), "frame": "tool0"})
     if ratio > SINGULAR_RCOND:
         assert r.status_code == 200, r.text
         Lambda = np.asarray(r.json()["inertia"])
@@ -203,8 +231,7 @@ def test_singularity_threshold_is_relative_to_the_largest_singular_value(
 def test_damping_regularizes_a_singular_configuration(api, catalog_registry):
     q, lam = np.zeros(6), 0.05
     M = mass_matrix(catalog_registry.catalog["ur5"].model, q)
-    got = post(api, "ur5", "operational-space", q=q, frame="tool0", damping=lam,
-               v=np.ones(6))
+    got = post(api, "ur5", "operational-space", q=q, frame="tool0", damping=lam, v=np.ones(6))
     J = got["jacobian"]
     A = task_matrix(M, J)
     Lambda = got["inertia"]
@@ -222,18 +249,26 @@ def test_a_frame_that_does_not_move(api):
     """The world frame has a zero Jacobian: singular, and with damping Λ = I/λ², J̄ = 0, p = 0."""
     body = post(api, "ur5", "operational-space", 422, q=UR5_Q, frame="universe")
     assert body["code"] == "singular_configuration" and "zero" in body["detail"]
-    got = post(api, "ur5", "operational-space", q=UR5_Q, frame="universe", damping=0.5,
-               task="linear")
+    got = post(
+        api, "ur5", "operational-space", q=UR5_Q, frame="universe", damping=0.5, task="linear"
+    )
     np.testing.assert_allclose(got["inertia"], np.eye(3) / 0.25, rtol=1e-12)
     assert not got["dynamically_consistent_inverse"].any() and not got["gravity"].any()
 
 
 def test_a_batch_with_one_singular_state_names_it(api):
-    body = post(api, "ur5", "operational-space", 422, q=np.stack([UR5_Q, np.zeros(6)]),
-                frame="tool0")
+    body = post(
+        api, "ur5", "operational-space", 422, q=np.stack([UR5_Q, np.zeros(6)]), frame="tool0"
+    )
     assert body["detail"].startswith("state 1:") and body["state"] == 1
-    got = post(api, "ur5", "operational-space", q=np.stack([UR5_Q, np.zeros(6)]),
-               frame="tool0", damping=0.05)
+    got = post(
+        api,
+        "ur5",
+        "operational-space",
+        q=np.stack([UR5_Q, np.zeros(6)]),
+        frame="tool0",
+        damping=0.05,
+    )
     assert got["inertia"].shape == (2, 6, 6)
     single = post(api, "ur5", "operational-space", q=UR5_Q, frame="tool0", damping=0.05)
     for key, value in single.items():
@@ -243,11 +278,16 @@ def test_a_batch_with_one_singular_state_names_it(api):
 # -- the binary form and large batches ---------------------------------------------------
 
 
-@pytest.mark.parametrize(("quantity", "options"), [
-    ("mass-matrix-inverse", {}), ("energy", {}), ("center-of-mass", {}),
-    ("jacobian", {"frame": "arm_left_7_link", "reference_frame": "local"}),
-    ("operational-space", {"frame": "arm_left_7_link", "task": "linear", "damping": 0.01}),
-])
+@pytest.mark.parametrize(
+    ("quantity", "options"),
+    [
+        ("mass-matrix-inverse", {}),
+        ("energy", {}),
+        ("center-of-mass", {}),
+        ("jacobian", {"frame": "arm_left_7_link", "reference_frame": "local"}),
+        ("operational-space", {"frame": "arm_left_7_link", "task": "linear", "damping": 0.01}),
+    ],
+)
 def test_binary_form_and_large_batches(api, catalog_registry, quantity, options):
     """200 talos states (computed off the event loop) in JSON and in the binary form give the
     same numbers, and the same as the states sent one by one."""
@@ -257,9 +297,11 @@ def test_binary_form_and_large_batches(api, catalog_registry, quantity, options)
     v = rng.normal(size=(200, model.nv))
     arrays = {"q": q} if quantity == "mass-matrix-inverse" else {"q": q, "v": v}
     as_json = post(api, "talos", quantity, **arrays, **options)
-    r = api.post(f"/v1/robots/talos/{quantity}", content=binary.encode({**arrays, **options}),
-                 headers={"content-type": binary.BINARY_MEDIA_TYPE,
-                          "accept": binary.BINARY_MEDIA_TYPE})
+    r = api.post(
+        f"/v1/robots/talos/{quantity}",
+        content=binary.encode({**arrays, **options}),
+        headers={"content-type": binary.BINARY_MEDIA_TYPE, "accept": binary.BINARY_MEDIA_TYPE},
+    )
     assert r.status_code == 200 and r.headers["content-type"] == binary.BINARY_MEDIA_TYPE
     fields, as_binary = binary.decode(r.content)
     assert fields == {} and set(as_binary) == set(as_json)

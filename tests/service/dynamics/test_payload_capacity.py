@@ -27,7 +27,8 @@ def torques(model, frame: str, com, mass: float, q, v, a) -> np.ndarray:
     carried = pin.Model(model)
     f = carried.frames[carried.getFrameId(frame)]
     carried.inertias[f.parentJoint] += f.placement.act(
-        pin.Inertia(mass, np.asarray(com, dtype=float), np.zeros((3, 3))))
+        pin.Inertia(mass, np.asarray(com, dtype=float), np.zeros((3, 3)))
+    )
     return pin.rnea(carried, carried.createData(), q, v, a)
 
 
@@ -67,8 +68,7 @@ def test_capacity_is_the_heaviest_mass_of_a_brute_force_scan(catalog_registry, n
             continue
         # the scan: the heaviest feasible mass on a grid up to twice the answer
         grid = np.linspace(0.0, 2.0 * m_star + 1.0, 401)
-        ok = [feasible(torques(robot.model, frame, com, m, q[i], v[i], a[i]), limit)
-              for m in grid]
+        ok = [feasible(torques(robot.model, frame, com, m, q[i], v[i], a[i]), limit) for m in grid]
         scanned = grid[np.flatnonzero(ok)].max() if any(ok) else None
         step = grid[1] - grid[0]
         if m_star == 0.0:
@@ -109,8 +109,9 @@ def test_the_torque_per_kg_is_rnea_of_the_unit_mass_alone(catalog_registry):
     rng = np.random.default_rng(5)
     q, v, a = states(robot, rng, 2, moving=True)
     for i in range(2):
-        want = (torques(robot.model, frame, com, 1.0, q[i], v[i], a[i])
-                - pin.rnea(robot.model, robot.model.createData(), q[i], v[i], a[i]))
+        want = torques(robot.model, frame, com, 1.0, q[i], v[i], a[i]) - pin.rnea(
+            robot.model, robot.model.createData(), q[i], v[i], a[i]
+        )
         got = pin.rnea(unit.model, unit.model.createData(), q[i], v[i], a[i])
         np.testing.assert_allclose(got, want, atol=1e-9)
 
@@ -121,13 +122,16 @@ def test_a_batch_is_its_states_and_its_minimum(catalog_registry):
     q, v, a = states(robot, rng, 80, moving=True)  # parallel RNEA from 64 states
     cap = payload_capacity(robot, q, "tool0", v=v, a=a)
     for i in (0, 17, 79):
-        one = payload_capacity(robot, q[i:i + 1], "tool0", v=v[i:i + 1], a=a[i:i + 1])
+        one = payload_capacity(robot, q[i : i + 1], "tool0", v=v[i : i + 1], a=a[i : i + 1])
         np.testing.assert_allclose(one.tau[0], cap.tau[i], rtol=1e-12, atol=1e-12)
         assert one.mass[0] == pytest.approx(cap.mass[i], rel=1e-12)
     answer = cap.answer(batched=True)
     low = int(np.argmin(cap.mass))
-    assert answer["minimum"] == {"mass": cap.mass[low], "state": low,
-                                 "limiting_joint": cap.limiting_joint(low)}
+    assert answer["minimum"] == {
+        "mass": cap.mass[low],
+        "state": low,
+        "limiting_joint": cap.limiting_joint(low),
+    }
     assert len(answer["mass"]) == len(answer["limiting_joint"]) == 80
     single = payload_capacity(robot, q[:1], "tool0").answer(batched=False)
     assert isinstance(single["mass"], float) and len(single["tau"]) == 6
@@ -188,8 +192,13 @@ def test_planar_arm_capacity_against_its_closed_form():
     M a + C v + g with m₂ + m. At the capacity the limiting joint is exactly at its limit (100
     N·m) and every other within it; a little more mass breaks the limit."""
     l1, l2, m1, m2 = 0.7, 0.5, 1.5, 0.8
-    robot = Robot(id="arm", name="arm", source="upload", root_joint="fixed",
-                  model=pin.buildModelFromXML(planar_arm_urdf(l1, l2, m1, m2)))
+    robot = Robot(
+        id="arm",
+        name="arm",
+        source="upload",
+        root_joint="fixed",
+        model=pin.buildModelFromXML(planar_arm_urdf(l1, l2, m1, m2)),
+    )
     rng = np.random.default_rng(4)
     q = rng.uniform(-3, 3, size=(6, 2))
     v, a = rng.normal(size=(6, 2)), rng.normal(size=(6, 2))
@@ -214,5 +223,7 @@ def test_joints_without_a_limit_in_the_description_never_limit(catalog_registry)
     cap = payload_capacity(robot, np.array([[0.3, 0.2]]), "link2")
     assert np.isinf(cap.mass[0]) and cap.limiting_joint(0) is None
     np.testing.assert_allclose(
-        cap.tau[0], pin.computeGeneralizedGravity(robot.model, robot.model.createData(),
-                                                  np.array([0.3, 0.2])), atol=1e-12)
+        cap.tau[0],
+        pin.computeGeneralizedGravity(robot.model, robot.model.createData(), np.array([0.3, 0.2])),
+        atol=1e-12,
+    )

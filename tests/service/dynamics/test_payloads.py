@@ -19,9 +19,11 @@ from tests.helpers import random_configuration
 
 G = 9.81
 # a rigid payload: a 0.3 × 0.2 × 0.1 m box of 3 kg, its centre 5 cm along the frame's z
-BOX = {"mass": 3.0, "center_of_mass": [0.01, -0.02, 0.05],
-       "inertia": (3.0 / 12 * np.diag([0.2**2 + 0.1**2, 0.3**2 + 0.1**2, 0.3**2 + 0.2**2]))
-       .tolist()}
+BOX = {
+    "mass": 3.0,
+    "center_of_mass": [0.01, -0.02, 0.05],
+    "inertia": (3.0 / 12 * np.diag([0.2**2 + 0.1**2, 0.3**2 + 0.1**2, 0.3**2 + 0.2**2])).tolist(),
+}
 CASES = {  # robot -> frames holding payloads (links, joints, fixed frames)
     "ur5": ["tool0", "wrist_2_link"],
     "panda": ["panda_hand", "panda_joint4"],
@@ -35,8 +37,11 @@ def hand_composed(model, payloads):
     out = pin.Model(model)
     for p in payloads:
         frame = out.frames[out.getFrameId(p["frame"])]
-        inertia = pin.Inertia(p["mass"], np.array(p.get("center_of_mass", np.zeros(3))),
-                              np.array(p.get("inertia", np.zeros((3, 3)))))
+        inertia = pin.Inertia(
+            p["mass"],
+            np.array(p.get("center_of_mass", np.zeros(3))),
+            np.array(p.get("inertia", np.zeros((3, 3)))),
+        )
         out.inertias[frame.parentJoint] += frame.placement.act(inertia)
     return out
 
@@ -57,12 +62,20 @@ def test_every_quantity_is_the_one_of_the_model_composed_by_hand(catalog_registr
     for _ in range(3):
         q = random_configuration(robot.model, rng)
         v, a = rng.normal(size=robot.nv), rng.normal(size=robot.nv)
-        np.testing.assert_allclose(pin.crba(carried.model, data, q), pin.crba(reference, ref, q),
-                                   rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(pin.rnea(carried.model, data, q, v, a),
-                                   pin.rnea(reference, ref, q, v, a), rtol=1e-12, atol=1e-10)
-        np.testing.assert_allclose(pin.centerOfMass(carried.model, data, q),
-                                   pin.centerOfMass(reference, ref, q), atol=1e-14)
+        np.testing.assert_allclose(
+            pin.crba(carried.model, data, q), pin.crba(reference, ref, q), rtol=1e-12, atol=1e-12
+        )
+        np.testing.assert_allclose(
+            pin.rnea(carried.model, data, q, v, a),
+            pin.rnea(reference, ref, q, v, a),
+            rtol=1e-12,
+            atol=1e-10,
+        )
+        np.testing.assert_allclose(
+            pin.centerOfMass(carried.model, data, q),
+            pin.centerOfMass(reference, ref, q),
+            atol=1e-14,
+        )
     assert carried.total_mass == pytest.approx(robot.total_mass + 3.0 * len(payloads), rel=1e-14)
     assert carried.info()["moving_mass"] == carried.total_mass
     # the shared model is untouched
@@ -78,8 +91,9 @@ def _point_jacobian(model, data, q, fid, c):
     return J[:3] - pin.skew(Rc) @ J[3:]
 
 
-@pytest.mark.parametrize("name,frame", [("ur5", "tool0"), ("panda", "panda_hand"),
-                                        ("talos", "gripper_left_base_link")])
+@pytest.mark.parametrize(
+    "name,frame", [("ur5", "tool0"), ("panda", "panda_hand"), ("talos", "gripper_left_base_link")]
+)
 def test_gravity_and_kinetic_energy_gain_the_payloads_own(catalog_registry, name, frame):
     """Independently of the composition: a payload of mass m at c adds −m Jcᵀ g⃗ to g(q) (the
     gradient of its potential −m g⃗·p_c) and ½ m |Jc v|² + ½ ωᵀ R I Rᵀ ω to the kinetic energy."""
@@ -93,16 +107,22 @@ def test_gravity_and_kinetic_energy_gain_the_payloads_own(catalog_registry, name
         v = rng.normal(size=robot.nv)
         Jc = _point_jacobian(model, data, q, fid, BOX["center_of_mass"])
         gravity_vector = model.gravity.linear
-        dg = (pin.computeGeneralizedGravity(carried.model, carried.model.createData(), q)
-              - pin.computeGeneralizedGravity(model, data, q))
+        dg = pin.computeGeneralizedGravity(
+            carried.model, carried.model.createData(), q
+        ) - pin.computeGeneralizedGravity(model, data, q)
         np.testing.assert_allclose(dg, -BOX["mass"] * Jc.T @ gravity_vector, atol=1e-10)
-        omega = pin.computeFrameJacobian(model, data, q, fid,
-                                         pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[3:] @ v
+        omega = (
+            pin.computeFrameJacobian(model, data, q, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[
+                3:
+            ]
+            @ v
+        )
         R = data.oMf[fid].rotation
-        energy = (0.5 * BOX["mass"] * np.sum((Jc @ v) ** 2)
-                  + 0.5 * omega @ R @ np.array(BOX["inertia"]) @ R.T @ omega)
-        dM = (pin.crba(carried.model, carried.model.createData(), q)
-              - pin.crba(model, data, q))
+        energy = (
+            0.5 * BOX["mass"] * np.sum((Jc @ v) ** 2)
+            + 0.5 * omega @ R @ np.array(BOX["inertia"]) @ R.T @ omega
+        )
+        dM = pin.crba(carried.model, carried.model.createData(), q) - pin.crba(model, data, q)
         assert 0.5 * v @ dM @ v == pytest.approx(energy, rel=1e-10, abs=1e-12)
 
 
@@ -111,8 +131,12 @@ def test_standing_robot_carries_its_weight_and_the_payloads(catalog_registry, pa
     """Solo-12 standing on its four feet, still: Σ contact forces = (m_robot + m_payload) g⃗,
     with no net horizontal force."""
     robot = _robot(catalog_registry, "solo12")
-    payload = {"frame": payload_frame, "mass": 1.7, "center_of_mass": [0.05, 0.02, 0.08],
-               "inertia": (0.01 * np.eye(3)).tolist()}
+    payload = {
+        "frame": payload_frame,
+        "mass": 1.7,
+        "center_of_mass": [0.05, 0.02, 0.08],
+        "inertia": (0.01 * np.eye(3)).tolist(),
+    }
     carried = robot_with_payloads(robot, [payload])
     q, zero = robot.default_configuration, np.zeros(robot.nv)
     feet = [{"frame": f, "type": "point"} for f in ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")]
@@ -135,7 +159,8 @@ def test_a_payload_on_a_link_fixed_to_the_world_adds_fixed_mass_only(catalog_reg
     q = np.array([0.1, -1.0, 1.2, 0.3, -0.4, 0.5])
     np.testing.assert_array_equal(
         pin.computeGeneralizedGravity(carried.model, carried.model.createData(), q),
-        pin.computeGeneralizedGravity(robot.model, robot.model.createData(), q))
+        pin.computeGeneralizedGravity(robot.model, robot.model.createData(), q),
+    )
 
 
 def test_the_fixed_mass_is_what_the_description_holds_beyond_the_moving_mass(catalog_registry):
@@ -170,29 +195,57 @@ BAD = {  # payload -> (error, field named)
     "mass-text": ({"frame": "tool0", "mass": "3"}, InvalidInput, "mass"),
     "mass-bool": ({"frame": "tool0", "mass": True}, InvalidInput, "mass"),
     "mass-missing": ({"frame": "tool0"}, InvalidInput, "mass"),
-    "inertia-huge": ({"frame": "tool0", "mass": 1.0,  # eigvalsh cannot converge on it
-                      "inertia": [[1e308, 0, 0], [0, 1e308, 0], [0, 0, 1e308]]},
-                     InvalidInput, "inertia"),
+    "inertia-huge": (
+        {
+            "frame": "tool0",
+            "mass": 1.0,  # eigvalsh cannot converge on it
+            "inertia": [[1e308, 0, 0], [0, 1e308, 0], [0, 0, 1e308]],
+        },
+        InvalidInput,
+        "inertia",
+    ),
     "frame-missing": ({"mass": 1.0}, InvalidInput, "frame"),
     "frame-unknown": ({"frame": "tool9", "mass": 1.0}, UnknownFrame, "frame"),
-    "com-short": ({"frame": "tool0", "mass": 1.0, "center_of_mass": [0, 0]}, InvalidInput,
-                  "center_of_mass"),
-    "com-nan": ({"frame": "tool0", "mass": 1.0, "center_of_mass": [0, float("nan"), 0]},
-                InvalidInput, "center_of_mass"),
-    "com-text": ({"frame": "tool0", "mass": 1.0, "center_of_mass": ["a", 0, 0]}, InvalidInput,
-                 "center_of_mass"),
-    "inertia-shape": ({"frame": "tool0", "mass": 1.0, "inertia": [[1, 0, 0], [0, 1, 0]]},
-                      InvalidInput, "inertia"),
-    "inertia-asymmetric": ({"frame": "tool0", "mass": 1.0,
-                            "inertia": [[1, 0.1, 0], [0, 1, 0], [0, 0, 1]]}, InvalidInput,
-                           "inertia"),
-    "inertia-negative": ({"frame": "tool0", "mass": 1.0, "inertia": np.diag([1, 1, -1e-3])
-                          .tolist()}, InvalidInput, "inertia"),
-    "inertia-triangle": ({"frame": "tool0", "mass": 1.0, "inertia": np.diag([0.1, 0.1, 0.3])
-                          .tolist()}, InvalidInput, "inertia"),
-    "inertia-inf": ({"frame": "tool0", "mass": 1.0,
-                     "inertia": [[float("inf"), 0, 0], [0, 1, 0], [0, 0, 1]]}, InvalidInput,
-                    "inertia"),
+    "com-short": (
+        {"frame": "tool0", "mass": 1.0, "center_of_mass": [0, 0]},
+        InvalidInput,
+        "center_of_mass",
+    ),
+    "com-nan": (
+        {"frame": "tool0", "mass": 1.0, "center_of_mass": [0, float("nan"), 0]},
+        InvalidInput,
+        "center_of_mass",
+    ),
+    "com-text": (
+        {"frame": "tool0", "mass": 1.0, "center_of_mass": ["a", 0, 0]},
+        InvalidInput,
+        "center_of_mass",
+    ),
+    "inertia-shape": (
+        {"frame": "tool0", "mass": 1.0, "inertia": [[1, 0, 0], [0, 1, 0]]},
+        InvalidInput,
+        "inertia",
+    ),
+    "inertia-asymmetric": (
+        {"frame": "tool0", "mass": 1.0, "inertia": [[1, 0.1, 0], [0, 1, 0], [0, 0, 1]]},
+        InvalidInput,
+        "inertia",
+    ),
+    "inertia-negative": (
+        {"frame": "tool0", "mass": 1.0, "inertia": np.diag([1, 1, -1e-3]).tolist()},
+        InvalidInput,
+        "inertia",
+    ),
+    "inertia-triangle": (
+        {"frame": "tool0", "mass": 1.0, "inertia": np.diag([0.1, 0.1, 0.3]).tolist()},
+        InvalidInput,
+        "inertia",
+    ),
+    "inertia-inf": (
+        {"frame": "tool0", "mass": 1.0, "inertia": [[float("inf"), 0, 0], [0, 1, 0], [0, 0, 1]]},
+        InvalidInput,
+        "inertia",
+    ),
 }
 
 

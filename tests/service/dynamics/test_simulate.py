@@ -14,8 +14,7 @@ from tests.service.api.problems.test_errors import assert_problem
 
 
 def _simulate(api, robot: str, **body) -> dict[str, np.ndarray]:
-    body = {k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v
-            for k, v in body.items()}
+    body = {k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v for k, v in body.items()}
     r = api.post(f"/v1/robots/{robot}/simulate", json=body)
     assert r.status_code == 200, r.text
     return {k: np.asarray(x) for k, x in r.json().items()}
@@ -40,8 +39,13 @@ def test_torque_free_rk4_conserves_mechanical_energy(api, catalog_registry):
     np.testing.assert_array_equal(out["v"][0], v0)
     T = np.array([_kinetic(model, q, v) for q, v in zip(out["q"], out["v"], strict=True)])
     data = model.createData()
-    np.testing.assert_allclose(E[[0, 500, 1000]], [
-        pin.computeMechanicalEnergy(model, data, out["q"][i], out["v"][i]) for i in (0, 500, 1000)])
+    np.testing.assert_allclose(
+        E[[0, 500, 1000]],
+        [
+            pin.computeMechanicalEnergy(model, data, out["q"][i], out["v"][i])
+            for i in (0, 500, 1000)
+        ],
+    )
     assert T.max() - T.min() > 0.5 * abs(E[0])  # energy really flows between T and U
     assert np.abs(E - E[0]).max() <= 1e-4 * abs(E[0])
 
@@ -66,16 +70,14 @@ def test_rk4_is_fourth_order_on_a_free_flyer(api, catalog_registry):
     v0[3:6] = [2.0, -3.0, 4.0]  # a fast spin of the base
 
     def final(steps: int) -> tuple[np.ndarray, np.ndarray]:
-        out = _simulate(api, "solo12", q=q0, v=v0, dt=0.2 / steps, steps=steps,
-                        integrator="rk4")
+        out = _simulate(api, "solo12", q=q0, v=v0, dt=0.2 / steps, steps=steps, integrator="rk4")
         return out["q"][-1], out["v"][-1]
 
     q_ref, v_ref = final(640)
     errors = []
     for steps in (20, 40):
         q, v = final(steps)
-        errors.append(np.linalg.norm(pin.difference(model, q_ref, q))
-                      + np.linalg.norm(v - v_ref))
+        errors.append(np.linalg.norm(pin.difference(model, q_ref, q)) + np.linalg.norm(v - v_ref))
     assert errors[0] / errors[1] > 12, errors
 
 
@@ -107,8 +109,7 @@ def test_semi_implicit_euler_steps_with_a_torque_schedule(api, catalog_registry)
 def test_constant_torque_equals_a_constant_schedule(api):
     q, v, tau = [0.1] * 6, [0.2] * 6, [1.0, -2.0, 3.0, 0.5, 0.1, -0.3]
     constant = _simulate(api, "ur5", q=q, v=v, dt=1e-3, steps=20, tau=tau, integrator="rk4")
-    schedule = _simulate(api, "ur5", q=q, v=v, dt=1e-3, steps=20, tau=[tau] * 20,
-                         integrator="rk4")
+    schedule = _simulate(api, "ur5", q=q, v=v, dt=1e-3, steps=20, tau=[tau] * 20, integrator="rk4")
     free = _simulate(api, "ur5", q=q, v=v, dt=1e-3, steps=20, integrator="rk4")
     np.testing.assert_array_equal(constant["q"], schedule["q"])
     assert np.abs(constant["q"][-1] - free["q"][-1]).max() > 1e-6
@@ -121,28 +122,47 @@ def _gains(model, q: np.ndarray, kp: float, kd: float) -> tuple[list[float], lis
 
 
 @pytest.mark.parametrize("integrator", ["semi-implicit-euler", "rk4"])
-def test_pd_with_gravity_compensation_converges_to_its_target(api, catalog_registry,
-                                                              integrator):
+def test_pd_with_gravity_compensation_converges_to_its_target(api, catalog_registry, integrator):
     model = catalog_registry.catalog["ur5"].model
     q0 = np.array([0.0, -1.0, 1.0, 0.0, 0.5, 0.0])
     target = q0 + np.array([0.4, -0.3, 0.5, 0.6, -0.4, 0.7])
     kp, kd = _gains(model, target, 100.0, 20.0)
-    out = _simulate(api, "ur5", q=q0, v=np.zeros(6), dt=1e-3, steps=2000,
-                    integrator=integrator, controller={
-                        "type": "pd", "kp": kp, "kd": kd, "q_target": target.tolist(),
-                        "gravity_compensation": True})
+    out = _simulate(
+        api,
+        "ur5",
+        q=q0,
+        v=np.zeros(6),
+        dt=1e-3,
+        steps=2000,
+        integrator=integrator,
+        controller={
+            "type": "pd",
+            "kp": kp,
+            "kd": kd,
+            "q_target": target.tolist(),
+            "gravity_compensation": True,
+        },
+    )
     np.testing.assert_allclose(out["q"][-1], target, atol=1e-4)
     np.testing.assert_allclose(out["v"][-1], 0.0, atol=1e-3)
     assert np.abs(out["q"][100] - target).max() > 1e-2  # it did travel
 
 
 def test_pd_without_gravity_compensation_settles_where_kp_error_balances_gravity(
-        api, catalog_registry):
+    api, catalog_registry
+):
     model = catalog_registry.catalog["ur5"].model
     target = np.array([0.2, -1.2, 1.3, -0.4, 0.5, 0.0])
     kp, kd = _gains(model, target, 100.0, 20.0)
-    out = _simulate(api, "ur5", q=target, v=np.zeros(6), dt=1e-3, steps=3000, controller={
-        "type": "pd", "kp": kp, "kd": kd, "q_target": target.tolist()})
+    out = _simulate(
+        api,
+        "ur5",
+        q=target,
+        v=np.zeros(6),
+        dt=1e-3,
+        steps=3000,
+        controller={"type": "pd", "kp": kp, "kd": kd, "q_target": target.tolist()},
+    )
     q, v = out["q"][-1], out["v"][-1]
     g = pin.computeGeneralizedGravity(model, model.createData(), q)
     np.testing.assert_allclose(np.array(kp) * pin.difference(model, q, target), g, atol=1e-3)
@@ -157,10 +177,22 @@ def test_pd_error_is_taken_on_the_manifold(api, catalog_registry):
     q0 = np.array([np.cos(start), np.sin(start), 1.0, 0.0])
     target = np.array([np.cos(goal), np.sin(goal), 1.0, 0.0])
     kp, kd = _gains(model, target, 100.0, 20.0)
-    out = _simulate(api, "double_pendulum_continuous", q=q0, v=np.zeros(2), dt=1e-3,
-                    steps=1500, integrator="rk4", controller={
-                        "type": "pd", "kp": kp, "kd": kd, "q_target": target.tolist(),
-                        "gravity_compensation": True})
+    out = _simulate(
+        api,
+        "double_pendulum_continuous",
+        q=q0,
+        v=np.zeros(2),
+        dt=1e-3,
+        steps=1500,
+        integrator="rk4",
+        controller={
+            "type": "pd",
+            "kp": kp,
+            "kd": kd,
+            "q_target": target.tolist(),
+            "gravity_compensation": True,
+        },
+    )
     assert (out["q"][:, 0] < -0.9).all()  # cos θ stays near −1: it never swings through 0
     assert np.linalg.norm(pin.difference(model, out["q"][-1], target)) < 1e-3
 
@@ -172,9 +204,21 @@ def test_pd_drives_a_free_flyer_base_to_a_rotated_target(api, catalog_registry):
     turn[:6] = [0.1, -0.2, 0.05, 0.3, -0.2, 0.6]
     target = pin.integrate(model, q0, turn)
     kp, kd = _gains(model, target, 100.0, 20.0)
-    out = _simulate(api, "solo12", q=q0, v=np.zeros(model.nv), dt=1e-3, steps=2000,
-                    controller={"type": "pd", "kp": kp, "kd": kd, "q_target": target.tolist(),
-                                "gravity_compensation": True})
+    out = _simulate(
+        api,
+        "solo12",
+        q=q0,
+        v=np.zeros(model.nv),
+        dt=1e-3,
+        steps=2000,
+        controller={
+            "type": "pd",
+            "kp": kp,
+            "kd": kd,
+            "q_target": target.tolist(),
+            "gravity_compensation": True,
+        },
+    )
     assert np.linalg.norm(pin.difference(model, out["q"][-1], target)) < 1e-4
 
 
@@ -216,15 +260,20 @@ def test_steps_and_work_limits_are_configurable(small_app_factory):
     client = small_app_factory(catalog="ur5", max_simulation_steps=50, max_simulation_work=1000)
     body = {"q": [0.0] * 6, "v": [0.0] * 6, "dt": 1e-3}
     assert client.post("/v1/robots/ur5/simulate", json={**body, "steps": 40}).status_code == 200
-    problem = assert_problem(client.post("/v1/robots/ur5/simulate", json={**body, "steps": 51}),
-                             422, "validation_error")
+    problem = assert_problem(
+        client.post("/v1/robots/ur5/simulate", json={**body, "steps": 51}), 422, "validation_error"
+    )
     assert "50" in problem["detail"] and "ROBODYN_MAX_SIMULATION_STEPS" in problem["detail"]
-    problem = assert_problem(client.post("/v1/robots/ur5/simulate", json={
-        **body, "steps": 50, "integrator": "rk4"}), 422, "validation_error")  # 50×6×4 = 1200
+    problem = assert_problem(
+        client.post("/v1/robots/ur5/simulate", json={**body, "steps": 50, "integrator": "rk4"}),
+        422,
+        "validation_error",
+    )  # 50×6×4 = 1200
     assert "1000" in problem["detail"] and "ROBODYN_MAX_SIMULATION_WORK" in problem["detail"]
     batch = {"q": [[0.0] * 6] * 2, "v": [[0.0] * 6] * 2, "dt": 1e-3, "steps": 26}
-    problem = assert_problem(client.post("/v1/robots/ur5/simulate", json=batch), 422,
-                             "validation_error")  # 2 × 26 = 52 steps in all
+    problem = assert_problem(
+        client.post("/v1/robots/ur5/simulate", json=batch), 422, "validation_error"
+    )  # 2 × 26 = 52 steps in all
     assert "2 states × 26 steps = 52" in problem["detail"]
     ok = client.post("/v1/robots/ur5/simulate", json={**batch, "steps": 25})
     assert ok.status_code == 200 and np.asarray(ok.json()["q"]).shape == (2, 26, 6)
@@ -234,23 +283,26 @@ Q6, V6 = [0.0] * 6, [0.0] * 6
 PD = {"type": "pd", "kp": 10.0, "kd": 1.0, "q_target": Q6}
 
 
-@pytest.mark.parametrize("body, code", [
-    ({"tau": [0.0] * 6, "controller": PD}, "validation_error"),
-    ({"tau": [0.0] * 5}, "dimension_mismatch"),
-    ({"tau": [[0.0] * 6] * 3}, "dimension_mismatch"),  # 3 rows for 10 steps
-    ({"tau": [[0.0] * 5] * 10}, "dimension_mismatch"),
-    ({"controller": {**PD, "q_target": [0.0] * 5}}, "dimension_mismatch"),
-    ({"controller": {**PD, "kp": [1.0] * 5}}, "dimension_mismatch"),
-    ({"controller": {**PD, "type": "pid"}}, "validation_error"),
-    ({"controller": {**PD, "ki": 1.0}}, "validation_error"),
-    ({"controller": {"type": "pd", "kp": 1.0, "q_target": Q6}}, "validation_error"),
-    ({"integrator": "euler"}, "validation_error"),
-    ({"dt": 0.0}, "validation_error"),
-    ({"dt": -1e-3}, "validation_error"),
-    ({"steps": 0}, "validation_error"),
-    ({"steps": 1.5}, "validation_error"),
-    ({"q": [0.0] * 5}, "dimension_mismatch"),
-])
+@pytest.mark.parametrize(
+    "body, code",
+    [
+        ({"tau": [0.0] * 6, "controller": PD}, "validation_error"),
+        ({"tau": [0.0] * 5}, "dimension_mismatch"),
+        ({"tau": [[0.0] * 6] * 3}, "dimension_mismatch"),  # 3 rows for 10 steps
+        ({"tau": [[0.0] * 5] * 10}, "dimension_mismatch"),
+        ({"controller": {**PD, "q_target": [0.0] * 5}}, "dimension_mismatch"),
+        ({"controller": {**PD, "kp": [1.0] * 5}}, "dimension_mismatch"),
+        ({"controller": {**PD, "type": "pid"}}, "validation_error"),
+        ({"controller": {**PD, "ki": 1.0}}, "validation_error"),
+        ({"controller": {"type": "pd", "kp": 1.0, "q_target": Q6}}, "validation_error"),
+        ({"integrator": "euler"}, "validation_error"),
+        ({"dt": 0.0}, "validation_error"),
+        ({"dt": -1e-3}, "validation_error"),
+        ({"steps": 0}, "validation_error"),
+        ({"steps": 1.5}, "validation_error"),
+        ({"q": [0.0] * 5}, "dimension_mismatch"),
+    ],
+)
 def test_simulate_errors(api, body, code):
     full = {"q": Q6, "v": V6, "dt": 1e-3, "steps": 10, **body}
     assert_problem(api.post("/v1/robots/ur5/simulate", json=full), 422, code)
@@ -261,16 +313,28 @@ def test_target_with_a_non_unit_quaternion_is_invalid(api, catalog_registry):
     q = pin.neutral(model)
     target = q.copy()
     target[6] = 2.0
-    body = {"q": q.tolist(), "v": [0.0] * model.nv, "dt": 1e-3, "steps": 3,
-            "controller": {"type": "pd", "kp": 1.0, "kd": 1.0, "q_target": target.tolist()}}
-    problem = assert_problem(api.post("/v1/robots/solo12/simulate", json=body), 422,
-                             "invalid_configuration")
+    body = {
+        "q": q.tolist(),
+        "v": [0.0] * model.nv,
+        "dt": 1e-3,
+        "steps": 3,
+        "controller": {"type": "pd", "kp": 1.0, "kd": 1.0, "q_target": target.tolist()},
+    }
+    problem = assert_problem(
+        api.post("/v1/robots/solo12/simulate", json=body), 422, "invalid_configuration"
+    )
     assert "norm" in problem["detail"]
 
 
 def test_a_diverging_simulation_is_a_non_finite_result(api):
-    body = {"q": Q6, "v": V6, "dt": 0.1, "steps": 2000, "controller": {
-        "type": "pd", "kp": 1e9, "kd": 0.0, "q_target": [1.0] * 6}}
-    problem = assert_problem(api.post("/v1/robots/ur5/simulate", json=body), 422,
-                             "non_finite_result")
+    body = {
+        "q": Q6,
+        "v": V6,
+        "dt": 0.1,
+        "steps": 2000,
+        "controller": {"type": "pd", "kp": 1e9, "kd": 0.0, "q_target": [1.0] * 6},
+    }
+    problem = assert_problem(
+        api.post("/v1/robots/ur5/simulate", json=body), 422, "non_finite_result"
+    )
     assert "dt" in problem["detail"]

@@ -52,8 +52,9 @@ def small(tmp_path_factory):
     settings = Settings(data_dir=tmp_path_factory.mktemp("small"), catalog="ur5")
     registry = Registry(settings.data_dir, settings.catalog_names())
     registry.load()
-    with TestClient(create_app(settings, registry=registry),
-                    raise_server_exceptions=False) as client:
+    with TestClient(
+        create_app(settings, registry=registry), raise_server_exceptions=False
+    ) as client:
         pendulum = client.post("/v1/robots", json={"urdf": PENDULUM})
         shared = client.post("/v1/robots", json={"urdf": SHARED_NAMES})
         joints = client.get("/v1/robots/ur5").json()["joints"]
@@ -82,8 +83,9 @@ def test_pendulum_center_of_mass_and_its_jacobian_are_the_closed_form(small):
 def test_pendulum_centroidal_momentum_matrix_is_the_closed_form(small):
     client, pid, *_ = small
     theta = -0.4
-    body = client.post(f"/v1/robots/{pid}/centroidal",
-                       json={"q": [[theta], [theta]], "v": [[1.0], [3.0]]}).json()
+    body = client.post(
+        f"/v1/robots/{pid}/centroidal", json={"q": [[theta], [theta]], "v": [[1.0], [3.0]]}
+    ).json()
     # linear rows m J_c; angular rows about the centre of mass: the body's own Iyy = 0.1
     A = np.array([[-np.cos(theta)], [0.0], [np.sin(theta)], [0.0], [0.1], [0.0]])
     assert np.shape(body["momentum_matrix"]) == (2, 6, 1)
@@ -94,16 +96,19 @@ def test_pendulum_centroidal_momentum_matrix_is_the_closed_form(small):
 @pytest.mark.parametrize("frame", ["arm"])
 def test_pendulum_jacobian_and_damped_operational_space(small, frame):
     client, pid, *_ = small
-    J = client.post(f"/v1/robots/{pid}/jacobian",
-                    json={"q": [0.2], "v": [1.0], "frame": frame}).json()
+    J = client.post(
+        f"/v1/robots/{pid}/jacobian", json={"q": [0.2], "v": [1.0], "frame": frame}
+    ).json()
     assert np.shape(J["jacobian"]) == (6, 1) and np.shape(J["jacobian_time_variation"]) == (6, 1)
     np.testing.assert_allclose(J["jacobian"], [[0], [0], [0], [0], [1], [0]], atol=1e-12)
     # Full task of a 1-dof robot: J M⁻¹ Jᵀ has rank 1 → singular without damping.
     r = client.post(f"/v1/robots/{pid}/operational-space", json={"q": [0.2], "frame": frame})
     assert r.status_code == 422 and r.json()["code"] == "singular_configuration"
     lam = 0.5
-    r = client.post(f"/v1/robots/{pid}/operational-space",
-                    json={"q": [0.2], "v": [1.0], "frame": frame, "damping": lam})
+    r = client.post(
+        f"/v1/robots/{pid}/operational-space",
+        json={"q": [0.2], "v": [1.0], "frame": frame, "damping": lam},
+    )
     assert r.status_code == 200, r.text
     out = r.json()
     M = 0.1 + 1.0 * 1.0**2  # Iyy about the joint: I_c + m d²
@@ -111,15 +116,30 @@ def test_pendulum_jacobian_and_damped_operational_space(small, frame):
     Lambda = np.linalg.inv(Jm @ Jm.T / M + lam**2 * np.eye(6))
     np.testing.assert_allclose(out["inertia"], Lambda, atol=1e-12)
     assert np.shape(out["dynamically_consistent_inverse"]) == (1, 6)
-    r = client.post(f"/v1/robots/{pid}/operational-space",
-                    json={"q": [0.2], "frame": frame, "task": "angular", "damping": 0.0})
+    r = client.post(
+        f"/v1/robots/{pid}/operational-space",
+        json={"q": [0.2], "frame": frame, "task": "angular", "damping": 0.0},
+    )
     assert r.status_code == 422  # angular task of one joint: still rank 1 of 3
 
 
-QUANTITIES = ["mass-matrix", "gravity", "coriolis", "nonlinear-effects", "inverse-dynamics",
-              "forward-dynamics", "mass-matrix-inverse", "energy", "center-of-mass", "jacobian",
-              "operational-space", "inverse-dynamics-derivatives",
-              "forward-dynamics-derivatives", "centroidal", "simulate"]
+QUANTITIES = [
+    "mass-matrix",
+    "gravity",
+    "coriolis",
+    "nonlinear-effects",
+    "inverse-dynamics",
+    "forward-dynamics",
+    "mass-matrix-inverse",
+    "energy",
+    "center-of-mass",
+    "jacobian",
+    "operational-space",
+    "inverse-dynamics-derivatives",
+    "forward-dynamics-derivatives",
+    "centroidal",
+    "simulate",
+]
 
 
 @pytest.mark.parametrize("quantity", QUANTITIES)
@@ -127,9 +147,18 @@ def test_one_dof_reduced_catalog_robot_answers_every_quantity_like_pinocchio(sma
     client, _, rid, _, registry = small
     model = registry.get(rid).model
     q, v = np.array([0.4]), np.array([-1.2])
-    body = {"q": q.tolist(), "v": v.tolist(), "a": [0.5], "tau": [2.0], "frame": "tool0",
-            "damping": 0.1, "dt": 0.01, "steps": 3}
+    body = {
+        "q": q.tolist(),
+        "v": v.tolist(),
+        "a": [0.5],
+        "tau": [2.0],
+        "frame": "tool0",
+        "damping": 0.1,
+        "dt": 0.01,
+        "steps": 3,
+    }
     from service.api.quantities import SPECS
+
     body = {k: x for k, x in body.items() if k in SPECS[quantity].request.model_fields}
     r = client.post(f"/v1/robots/{rid}/{quantity}", json=body)
     assert r.status_code == 200, r.text
@@ -137,10 +166,16 @@ def test_one_dof_reduced_catalog_robot_answers_every_quantity_like_pinocchio(sma
     fid = model.getFrameId("tool0")
     expected = {
         "mass-matrix": ("mass_matrix", np.reshape(pin.crba(model, data, q), (1, 1))),
-        "jacobian": ("jacobian", np.reshape(pin.computeFrameJacobian(
-            model, data, q, fid, pin.LOCAL_WORLD_ALIGNED), (6, 1))),
-        "center-of-mass": ("jacobian", np.reshape(pin.jacobianCenterOfMass(model, data, q),
-                                                  (3, 1))),
+        "jacobian": (
+            "jacobian",
+            np.reshape(
+                pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED), (6, 1)
+            ),
+        ),
+        "center-of-mass": (
+            "jacobian",
+            np.reshape(pin.jacobianCenterOfMass(model, data, q), (3, 1)),
+        ),
         "centroidal": ("momentum_matrix", np.reshape(pin.ccrba(model, data, q, v), (6, 1))),
         "forward-dynamics": ("a", pin.aba(model, data, q, v, np.array([2.0]))),
     }.get(quantity)
@@ -155,19 +190,31 @@ def test_a_name_shared_by_a_link_and_a_joint_means_the_first_frame_listed(small)
     assert frames[first]["type"] == "body"  # the link comes first here, the joint after it
     model = registry.get(sid).model
     q = np.array([0.3, -0.8])
-    expected = pin.computeFrameJacobian(model, model.createData(), q, first,
-                                        pin.LOCAL_WORLD_ALIGNED)
+    expected = pin.computeFrameJacobian(
+        model, model.createData(), q, first, pin.LOCAL_WORLD_ALIGNED
+    )
     r = client.post(f"/v1/robots/{sid}/jacobian", json={"q": q.tolist(), "frame": "arm"})
     assert r.status_code == 200, r.text
     np.testing.assert_allclose(r.json()["jacobian"], expected, atol=1e-12)
     # the body frame of "arm" sits on joint j1's axis: its linear velocity is zero
     np.testing.assert_allclose(np.array(r.json()["jacobian"])[:3], 0.0, atol=1e-12)
-    for quantity, extra in [("operational-space", {"damping": 0.1}),
-                            ("inverse-dynamics", {"v": [0, 0], "a": [0, 0], "external_forces": [
-                                {"frame": "arm", "wrench": [1, 0, 0, 0, 0, 0]}]})]:
-        r = client.post(f"/v1/robots/{sid}/{quantity}",
-                        json={"q": q.tolist(), "frame": "arm", **extra} if "damping" in extra
-                        else {"q": q.tolist(), **extra})
+    for quantity, extra in [
+        ("operational-space", {"damping": 0.1}),
+        (
+            "inverse-dynamics",
+            {
+                "v": [0, 0],
+                "a": [0, 0],
+                "external_forces": [{"frame": "arm", "wrench": [1, 0, 0, 0, 0, 0]}],
+            },
+        ),
+    ]:
+        r = client.post(
+            f"/v1/robots/{sid}/{quantity}",
+            json={"q": q.tolist(), "frame": "arm", **extra}
+            if "damping" in extra
+            else {"q": q.tolist(), **extra},
+        )
         assert r.status_code == 200, r.text
 
 
@@ -176,16 +223,20 @@ def test_a_huge_damping_is_a_422_not_a_linear_algebra_crash(small, damping):
     client, pid, rid, *_ = small
     for robot, frame in [(pid, "arm"), ("ur5", "tool0"), (rid, "tool0")]:
         nq = 1 if robot != "ur5" else 6
-        r = client.post(f"/v1/robots/{robot}/operational-space",
-                        json={"q": [0.1] * nq, "frame": frame, "damping": damping})
+        r = client.post(
+            f"/v1/robots/{robot}/operational-space",
+            json={"q": [0.1] * nq, "frame": frame, "damping": damping},
+        )
         assert r.status_code == 422 and r.json()["code"] == "validation_error", r.text
         assert "damping" in r.json()["detail"]
 
 
 def test_the_largest_allowed_damping_gives_a_finite_answer(small):
     client, *_ = small
-    r = client.post("/v1/robots/ur5/operational-space",
-                    json={"q": [0.1] * 6, "frame": "tool0", "damping": 1e150})
+    r = client.post(
+        "/v1/robots/ur5/operational-space",
+        json={"q": [0.1] * 6, "frame": "tool0", "damping": 1e150},
+    )
     assert r.status_code == 200, r.text
     assert np.all(np.abs(r.json()["inertia"]) <= 1e-299)
 
@@ -199,8 +250,7 @@ def test_a_failed_solve_anywhere_is_a_singular_configuration(small, monkeypatch)
 
     monkeypatch.setattr(module.np.linalg, "eigh", failing)
     client, *_ = small
-    r = client.post("/v1/robots/ur5/operational-space",
-                    json={"q": [0.1] * 6, "frame": "tool0"})
+    r = client.post("/v1/robots/ur5/operational-space", json={"q": [0.1] * 6, "frame": "tool0"})
     assert r.status_code == 422 and r.json()["code"] == "singular_configuration"
     assert "did not converge" in r.json()["detail"]
 
@@ -210,8 +260,10 @@ RAGGED_TAU = [[0.0] * 6, [0.0] * 5, [0.0] * 6]
 
 def test_a_ragged_torque_schedule_is_a_422(small):
     client, *_ = small
-    r = client.post("/v1/robots/ur5/simulate", json={
-        "q": [0.0] * 6, "v": [0.0] * 6, "dt": 0.01, "steps": 3, "tau": RAGGED_TAU})
+    r = client.post(
+        "/v1/robots/ur5/simulate",
+        json={"q": [0.0] * 6, "v": [0.0] * 6, "dt": 0.01, "steps": 3, "tau": RAGGED_TAU},
+    )
     assert r.status_code == 422 and r.json()["code"] == "validation_error", r.text
     assert "tau" in r.json()["detail"]
 
@@ -219,8 +271,18 @@ def test_a_ragged_torque_schedule_is_a_422(small):
 def test_a_ragged_torque_schedule_on_the_stream_is_a_problem(small):
     client, *_ = small
     with client.websocket_connect("/v1/robots/ur5/stream") as ws:
-        ws.send_text(orjson.dumps({"quantity": "simulate", "q": [0.0] * 6, "v": [0.0] * 6,
-                                   "dt": 0.01, "steps": 3, "tau": RAGGED_TAU}).decode())
+        ws.send_text(
+            orjson.dumps(
+                {
+                    "quantity": "simulate",
+                    "q": [0.0] * 6,
+                    "v": [0.0] * 6,
+                    "dt": 0.01,
+                    "steps": 3,
+                    "tau": RAGGED_TAU,
+                }
+            ).decode()
+        )
         problem = ws.receive_json()
         assert problem["status"] == 422 and problem["code"] == "validation_error"
         ws.send_text(orjson.dumps({"quantity": "gravity", "q": [0.0] * 6}).decode())
@@ -239,12 +301,25 @@ def _binary_with_shape(shape: list, quantity: str | None = None) -> bytes:
     return len(raw).to_bytes(8, "little") + raw + bytes(8 * count)
 
 
-@pytest.mark.parametrize("shape", [[0, 2**63], [2**63, 0], [0, 2**62, 2**62], [0, 1 << 25],
-                                   [1 << 25, 0, 1], [-1, 6], [True, 6], [6.0], [0, 2**64]])
+@pytest.mark.parametrize(
+    "shape",
+    [
+        [0, 2**63],
+        [2**63, 0],
+        [0, 2**62, 2**62],
+        [0, 1 << 25],
+        [1 << 25, 0, 1],
+        [-1, 6],
+        [True, 6],
+        [6.0],
+        [0, 2**64],
+    ],
+)
 def test_a_binary_shape_beyond_the_bounds_is_a_422_before_any_allocation(small, shape):
     client, *_ = small
-    r = client.post("/v1/robots/ur5/gravity", content=_binary_with_shape(shape),
-                    headers={"Content-Type": BIN})
+    r = client.post(
+        "/v1/robots/ur5/gravity", content=_binary_with_shape(shape), headers={"Content-Type": BIN}
+    )
     assert r.status_code == 422 and r.json()["code"] == "validation_error", r.text
     with client.websocket_connect("/v1/robots/ur5/stream") as ws:
         ws.send_bytes(_binary_with_shape(shape, "gravity"))
@@ -254,8 +329,9 @@ def test_a_binary_shape_beyond_the_bounds_is_a_422_before_any_allocation(small, 
 
 def test_an_empty_binary_batch_within_the_bounds_is_still_answered_as_a_dimension_problem(small):
     client, *_ = small
-    r = client.post("/v1/robots/ur5/gravity", content=_binary_with_shape([0, 6]),
-                    headers={"Content-Type": BIN})
+    r = client.post(
+        "/v1/robots/ur5/gravity", content=_binary_with_shape([0, 6]), headers={"Content-Type": BIN}
+    )
     assert r.status_code == 422 and r.json()["code"] == "dimension_mismatch", r.text
 
 
@@ -266,8 +342,10 @@ def test_a_model_without_a_moving_joint_is_refused_at_upload(small):
     """nv = 0: no dynamics, and Pinocchio's frame Jacobians crash the process on such a model
     (found by the full sweep) — refused when built, whatever the format."""
     client, *_ = small
-    no_joint_mjcf = ('<mujoco model="still"><worldbody><body name="b"><inertial pos="0 0 0" '
-                     'mass="1" diaginertia="0.1 0.1 0.1"/></body></worldbody></mujoco>')
+    no_joint_mjcf = (
+        '<mujoco model="still"><worldbody><body name="b"><inertial pos="0 0 0" '
+        'mass="1" diaginertia="0.1 0.1 0.1"/></body></worldbody></mujoco>'
+    )
     for body in ({"urdf": FIXED_ONLY}, {"mjcf": no_joint_mjcf}):
         r = client.post("/v1/robots", json=body)
         assert r.status_code == 422 and r.json()["code"] == "invalid_model", r.text
@@ -284,18 +362,35 @@ def test_a_stored_model_without_a_moving_joint_is_not_served(tmp_path):
     from service.settings import Settings
 
     model_id = "u-still"
-    summary = {"id": model_id, "name": "still", "source": "upload", "nq": 0, "nv": 0,
-               "root_joint": "fixed"}
+    summary = {
+        "id": model_id,
+        "name": "still",
+        "source": "upload",
+        "nq": 0,
+        "nv": 0,
+        "root_joint": "fixed",
+    }
     (tmp_path / "models").mkdir()
-    (tmp_path / "models" / f"{model_id}.json").write_text(json.dumps({
-        "id": model_id, "format": "urdf", "description": FIXED_ONLY, "root_joint": "fixed",
-        "gravity": [0.0, 0.0, -9.81], "name": "still", "warnings": [], "summary": summary}))
+    (tmp_path / "models" / f"{model_id}.json").write_text(
+        json.dumps(
+            {
+                "id": model_id,
+                "format": "urdf",
+                "description": FIXED_ONLY,
+                "root_joint": "fixed",
+                "gravity": [0.0, 0.0, -9.81],
+                "name": "still",
+                "warnings": [],
+                "summary": summary,
+            }
+        )
+    )
     registry = Registry(tmp_path, ["ur5"])
     registry.load()
-    with TestClient(create_app(Settings(data_dir=tmp_path), registry=registry),
-                    raise_server_exceptions=False) as client:
-        r = client.post(f"/v1/robots/{model_id}/jacobian",
-                        json={"q": [], "v": [], "frame": "arm"})
+    with TestClient(
+        create_app(Settings(data_dir=tmp_path), registry=registry), raise_server_exceptions=False
+    ) as client:
+        r = client.post(f"/v1/robots/{model_id}/jacobian", json={"q": [], "v": [], "frame": "arm"})
         assert r.status_code == 404 and r.json()["code"] == "robot_not_found"
 
 
@@ -313,8 +408,9 @@ def test_a_robot_whose_link_and_joint_share_names_can_be_reduced(tmp_path):
     registry.load()
     base = registry.get("anymal_c")
     assert len({f.name for f in base.model.frames}) < base.model.nframes  # shared names
-    with TestClient(create_app(Settings(data_dir=tmp_path), registry=registry),
-                    raise_server_exceptions=False) as client:
+    with TestClient(
+        create_app(Settings(data_dir=tmp_path), registry=registry), raise_server_exceptions=False
+    ) as client:
         r = client.post("/v1/robots/anymal_c/reduce", json={"locked_joints": {"LF_HAA": 0.2}})
         assert r.status_code == 201, r.text
         reduced = r.json()
@@ -326,13 +422,15 @@ def test_a_robot_whose_link_and_joint_share_names_can_be_reduced(tmp_path):
         lf = base.model.joints[base.model.getJointId("LF_HAA")]
         q[lf.idx_q] = 0.2
         keep = [i for i in range(base.nq) if i != lf.idx_q]
-        M = client.post(f"/v1/robots/{reduced['id']}/mass-matrix",
-                        json={"q": q[keep].tolist()}).json()["mass_matrix"]
+        M = client.post(
+            f"/v1/robots/{reduced['id']}/mass-matrix", json={"q": q[keep].tolist()}
+        ).json()["mass_matrix"]
         M_base = pin.crba(base.model, base.model.createData(), q)
         keep_v = [i for i in range(base.nv) if i != lf.idx_v]
         np.testing.assert_allclose(M, M_base[np.ix_(keep_v, keep_v)], atol=1e-10)
-        r = client.post(f"/v1/robots/{reduced['id']}/jacobian",
-                        json={"q": q[keep].tolist(), "frame": "LF_HFE"})
+        r = client.post(
+            f"/v1/robots/{reduced['id']}/jacobian", json={"q": q[keep].tolist(), "frame": "LF_HFE"}
+        )
         assert r.status_code == 200, r.text
 
 

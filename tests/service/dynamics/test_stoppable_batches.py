@@ -30,6 +30,7 @@ class Listening:
 
 def _spec(name: str):
     from service.api.quantities import SPECS
+
     return SPECS[name].quantity
 
 
@@ -58,8 +59,9 @@ def test_payload_capacity_of_a_large_batch_is_the_whole_batchs(ur5) -> None:
     stoppable = run(ur5, _spec("payload-capacity"), s, options, Listening())
     assert len(stoppable["limiting_joint"]) == s.count
     np.testing.assert_array_equal(stoppable["mass"], at_once["mass"])
-    masses = np.where(np.isnan(at_once["mass"].astype(float)), np.inf,
-                      at_once["mass"].astype(float))
+    masses = np.where(
+        np.isnan(at_once["mass"].astype(float)), np.inf, at_once["mass"].astype(float)
+    )
     assert stoppable["minimum"]["state"] == int(np.argmin(masses))
     assert stoppable["minimum"]["mass"] == pytest.approx(float(masses.min()), rel=0, abs=0)
 
@@ -71,9 +73,13 @@ def test_per_state_external_wrenches_of_a_large_batch_stay_with_their_states(ur5
     listening = Listening()
     stoppable = run(ur5, _spec("inverse-dynamics"), s, options, listening)
     for i in (0, s.count // 2, s.count - 1):  # each state alone, with its own wrench
-        one = States({k: a[i:i + 1] for k, a in s.arrays.items()}, False)
-        alone = run(ur5, _spec("inverse-dynamics"), one, {
-            "external_forces": [{"frame": "tool0", "wrench": wrenches[i].tolist()}]})
+        one = States({k: a[i : i + 1] for k, a in s.arrays.items()}, False)
+        alone = run(
+            ur5,
+            _spec("inverse-dynamics"),
+            one,
+            {"external_forces": [{"frame": "tool0", "wrench": wrenches[i].tolist()}]},
+        )
         np.testing.assert_allclose(stoppable["tau"][i], alone["tau"], rtol=0, atol=1e-12)
 
 

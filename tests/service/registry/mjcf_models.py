@@ -15,9 +15,12 @@ from robots import CATALOG_DIR
 def _rpy(r: float, p: float, y: float) -> np.ndarray:
     """URDF's fixed-axis roll-pitch-yaw rotation Rz(y) Ry(p) Rx(r)."""
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return (np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-            @ np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-            @ np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]]))
+    return (
+        np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+        @ np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+        @ np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    )
+
 
 PLANAR_ARM_URDF = (CATALOG_DIR / "textbook" / "planar_arm.urdf").read_text()
 
@@ -66,10 +69,14 @@ SPATIAL_ARM_URDF = """<?xml version="1.0"?>
 # The same in MuJoCo's units: degrees (the default), and URDF's fixed-axis roll-pitch-yaw
 # (r, p, y) as rotating-axis Euler angles z-y-x (y, p, r). MuJoCo takes a full inertia tensor
 # only in the body frame (not with an orientation): the URDF's tensor rotated by its rpy.
-_UPPER = _rpy(0.1, 0.2, 0.3) @ np.array([[0.03, 0.001, -0.002], [0.001, 0.025, 0.0015],
-                                        [-0.002, 0.0015, 0.01]]) @ _rpy(0.1, 0.2, 0.3).T
-_UPPER_FULL = " ".join(repr(float(_UPPER[i, j]))
-                       for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))
+_UPPER = (
+    _rpy(0.1, 0.2, 0.3)
+    @ np.array([[0.03, 0.001, -0.002], [0.001, 0.025, 0.0015], [-0.002, 0.0015, 0.01]])
+    @ _rpy(0.1, 0.2, 0.3).T
+)
+_UPPER_FULL = " ".join(
+    repr(float(_UPPER[i, j])) for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+)
 SPATIAL_ARM_MJCF = """<mujoco model="spatial_arm">
   <compiler eulerseq="zyx"/>
   <worldbody>

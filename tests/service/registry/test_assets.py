@@ -27,10 +27,12 @@ from service.settings import Settings
 from tests.helpers import registry_client
 from tests.service.registry.mjcf_reference import cube_stl, encoded
 
-URDF = ('<robot name="r"><link name="a"/><link name="b"><visual><geometry><mesh '
-        'filename="package://pkg/meshes/b.stl"/></geometry></visual><inertial><mass value="1"/>'
-        '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link><joint '
-        'name="j" type="continuous"><parent link="a"/><child link="b"/></joint></robot>')
+URDF = (
+    '<robot name="r"><link name="a"/><link name="b"><visual><geometry><mesh '
+    'filename="package://pkg/meshes/b.stl"/></geometry></visual><inertial><mass value="1"/>'
+    '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link><joint '
+    'name="j" type="continuous"><parent link="a"/><child link="b"/></joint></robot>'
+)
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +59,8 @@ def test_urdf_assets_are_stored_with_the_model(client: TestClient, registry: Reg
     assert r.status_code == 201, r.text
     info = r.json()
     assert [(w["code"], w["name"]) for w in info["warnings"]] == [
-        ("unreferenced_asset", "pkg/meshes/spare.stl")]
+        ("unreferenced_asset", "pkg/meshes/spare.stl")
+    ]
     without = client.post("/v1/robots", json={"urdf": URDF}).json()
     assert without["id"] != info["id"]  # assets are part of the id
     robot = registry.get(info["id"])
@@ -77,37 +80,49 @@ BAD = {  # case → (assets, a fragment of the detail)
     "empty": ({"x.stl": b""}, "'x.stl' is empty"),
     "not an STL": ({"x.stl": b"\x00" * 100}, "'x.stl' is unreadable as .stl"),
     "not XML": ({"part.xml": b"<mujoco>"}, "'part.xml' is unreadable as .xml"),
-    "XML with entities": ({"part.xml": b'<!DOCTYPE m [<!ENTITY a "b">]><m>&a;</m>'},
-                          "'part.xml' is unreadable as .xml"),
+    "XML with entities": (
+        {"part.xml": b'<!DOCTYPE m [<!ENTITY a "b">]><m>&a;</m>'},
+        "'part.xml' is unreadable as .xml",
+    ),
     "not a PNG": ({"t.png": b"GIF89a"}, "'t.png' is unreadable as .png"),
-    "twice after normalization": ({"a/x.stl": cube_stl(), "a/./x.stl": cube_stl()},
-                                  "given twice"),
+    "twice after normalization": ({"a/x.stl": cube_stl(), "a/./x.stl": cube_stl()}, "given twice"),
     "too many": ({f"m{i}.stl": cube_stl() for i in range(MAX_ASSETS + 1)}, "the limit is"),
-    "key too long": ({"m/" + "x" * MAX_KEY_LENGTH + ".stl": cube_stl()},
-                     f"characters long; the limit is {MAX_KEY_LENGTH}"),
-    "key of too many segments": ({"a/" * MAX_KEY_SEGMENTS + "x.stl": cube_stl()},
-                                 f"{MAX_KEY_SEGMENTS + 1} path segments; the limit is"),
+    "key too long": (
+        {"m/" + "x" * MAX_KEY_LENGTH + ".stl": cube_stl()},
+        f"characters long; the limit is {MAX_KEY_LENGTH}",
+    ),
+    "key of too many segments": (
+        {"a/" * MAX_KEY_SEGMENTS + "x.stl": cube_stl()},
+        f"{MAX_KEY_SEGMENTS + 1} path segments; the limit is",
+    ),
     # the hostile case: 2,000-segment keys (a scan of their tails once took minutes)
-    "key of 2000 segments": ({f"{i}/" + "s/" * 1999 + "x.stl": cube_stl() for i in range(50)},
-                             "2001 path segments; the limit is"),
-    "glTF nested deeper than JSON parsers go": ({"m.gltf": b"[" * 100_000 + b"]" * 100_000},
-                                                "'m.gltf' is unreadable as .gltf: JSON nested"),
+    "key of 2000 segments": (
+        {f"{i}/" + "s/" * 1999 + "x.stl": cube_stl() for i in range(50)},
+        "2001 path segments; the limit is",
+    ),
+    "glTF nested deeper than JSON parsers go": (
+        {"m.gltf": b"[" * 100_000 + b"]" * 100_000},
+        "'m.gltf' is unreadable as .gltf: JSON nested",
+    ),
     "not UTF-8": ({"m.gltf": b"\xff\xfe{}"}, "'m.gltf' is unreadable as .gltf: not UTF-8"),
-    "XML asset over the element cap": ({"part.xml": b"<m>" + b"<a/>" * 50_001 + b"</m>"},
-                                       "'part.xml' is unreadable as .xml: it has more than 50000 "
-                                       "XML elements"),
-    "XML asset nested too deeply": ({"part.xml": b"<a>" * 200 + b"</a>" * 200},
-                                    "'part.xml' is unreadable as .xml: it is nested deeper"),
+    "XML asset over the element cap": (
+        {"part.xml": b"<m>" + b"<a/>" * 50_001 + b"</m>"},
+        "'part.xml' is unreadable as .xml: it has more than 50000 XML elements",
+    ),
+    "XML asset nested too deeply": (
+        {"part.xml": b"<a>" * 200 + b"</a>" * 200},
+        "'part.xml' is unreadable as .xml: it is nested deeper",
+    ),
 }
 
 
 @pytest.mark.parametrize("case", sorted(BAD))
-def test_bad_assets_are_refused_by_key(client: TestClient, registry: Registry,
-                                       case: str) -> None:
+def test_bad_assets_are_refused_by_key(client: TestClient, registry: Registry, case: str) -> None:
     files, fragment = BAD[case]
     stored = set(registry.store.ids())
-    assets = {k: v if isinstance(v, str) else base64.b64encode(v).decode()
-              for k, v in files.items()}
+    assets = {
+        k: v if isinstance(v, str) else base64.b64encode(v).decode() for k, v in files.items()
+    }
     r = client.post("/v1/robots", json={"urdf": URDF, "assets": assets})
     assert r.status_code == 422 and r.json()["code"] == "invalid_model", r.text
     assert fragment in r.json()["detail"], r.json()["detail"]
@@ -118,16 +133,23 @@ def test_bad_assets_are_refused_by_key(client: TestClient, registry: Registry,
 def test_a_urdf_uploads_visual_meshes_are_served_and_nothing_else(client: TestClient) -> None:
     """Visuals of a URDF upload name its own mesh (by the key the upload gave it), the assets
     route serves exactly those bytes, and a collision mesh or an unreferenced asset is a 404."""
-    urdf = URDF.replace("</visual>", "</visual><collision><geometry><mesh filename="
-                        '"package://pkg/meshes/hull.stl"/></geometry></collision>')
-    files = {"pkg/meshes/b.stl": cube_stl(), "pkg/meshes/hull.stl": cube_stl(0.3),
-             "pkg/meshes/spare.stl": cube_stl(0.2)}
+    urdf = URDF.replace(
+        "</visual>",
+        "</visual><collision><geometry><mesh filename="
+        '"package://pkg/meshes/hull.stl"/></geometry></collision>',
+    )
+    files = {
+        "pkg/meshes/b.stl": cube_stl(),
+        "pkg/meshes/hull.stl": cube_stl(0.3),
+        "pkg/meshes/spare.stl": cube_stl(0.2),
+    }
     r = client.post("/v1/robots", json={"urdf": urdf, "assets": encoded(files)})
     assert r.status_code == 201, r.text
     robot_id = r.json()["id"]
     visuals = client.get(f"/v1/robots/{robot_id}/visuals").json()["visuals"]
     assert [(v["frame"], v["geometry"]["type"], v["geometry"].get("asset")) for v in visuals] == [
-        ("b", "mesh", "pkg/meshes/b.stl")]
+        ("b", "mesh", "pkg/meshes/b.stl")
+    ]
     mesh = client.get(f"/v1/robots/{robot_id}/assets/pkg/meshes/b.stl")
     assert mesh.status_code == 200 and mesh.content == cube_stl()
     assert mesh.headers["content-type"] == "model/stl"
@@ -156,8 +178,10 @@ def test_unreferenced_assets_by_file_name_in_linear_time() -> None:
     `x.stl` is not named by `box.stl`. The scan cuts the texts into tokens once: 2 MB of text
     and 2,000 keys of 32 segments take well under a second (the former scan searched each
     key's every tail in the whole text: minutes)."""
-    text = '<mujoco><compiler meshdir="meshes"/><mesh file="box.stl"/>' \
-           '<include file="$(find pkg)/parts/arm.xml"/></mujoco>'
+    text = (
+        '<mujoco><compiler meshdir="meshes"/><mesh file="box.stl"/>'
+        '<include file="$(find pkg)/parts/arm.xml"/></mujoco>'
+    )
     keys = ["meshes/box.stl", "meshes/x.stl", "pkg/parts/arm.xml", "other/arm.xml"]
     assert unreferenced(keys, [text]) == ["meshes/x.stl"]
     big = "<a>" + " ".join(f'<mesh file="d{i}/m{i}.stl"/>' for i in range(70_000)) + "</a>"
@@ -177,19 +201,24 @@ MESHES_URDF = (
     '<visual><geometry><mesh filename="meshes/c.stl"/></geometry></visual><inertial><mass '
     'value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>'
     '<joint name="j" type="continuous"><parent link="a"/><child link="b"/></joint>'
-    '<joint name="k" type="continuous"><parent link="b"/><child link="c"/></joint></robot>')
+    '<joint name="k" type="continuous"><parent link="b"/><child link="c"/></joint></robot>'
+)
 
 
 def test_meshes_missing_from_the_upload_are_warned_by_file_and_link(client: TestClient) -> None:
     """Three mesh files referenced, one uploaded: one `missing_mesh` warning per missing file
     naming it and its link, on the upload's answer and in RobotInfo; their URLs are 404."""
-    r = client.post("/v1/robots", json={"urdf": MESHES_URDF,
-                                        "assets": encoded({"pkg/meshes/a.stl": cube_stl()})})
+    r = client.post(
+        "/v1/robots",
+        json={"urdf": MESHES_URDF, "assets": encoded({"pkg/meshes/a.stl": cube_stl()})},
+    )
     assert r.status_code == 201, r.text
     info = r.json()
     missing = [w for w in info["warnings"] if w["code"] == "missing_mesh"]
     assert [(w["file"], w["element"], w["name"]) for w in missing] == [
-        ("pkg/meshes/b.stl", "link", "b"), ("meshes/c.stl", "link", "c")]
+        ("pkg/meshes/b.stl", "link", "b"),
+        ("meshes/c.stl", "link", "c"),
+    ]
     assert all(w["file"] in w["message"] and f"'{w['name']}'" in w["message"] for w in missing)
     assert client.get(f"/v1/robots/{info['id']}").json()["warnings"] == info["warnings"]
     assert len(info["warnings"]) == 2  # nothing else: a.stl is named and present
@@ -198,9 +227,19 @@ def test_meshes_missing_from_the_upload_are_warned_by_file_and_link(client: Test
     for gone in ("pkg/meshes/b.stl", "meshes/c.stl"):
         assert client.get(f"{robot}/assets/{gone}").status_code == 404
     # every mesh given: no warning
-    complete = client.post("/v1/robots", json={"urdf": MESHES_URDF, "assets": encoded({
-        "pkg/meshes/a.stl": cube_stl(), "pkg/meshes/b.stl": cube_stl(0.1),
-        "meshes/c.stl": cube_stl(0.2)})})
+    complete = client.post(
+        "/v1/robots",
+        json={
+            "urdf": MESHES_URDF,
+            "assets": encoded(
+                {
+                    "pkg/meshes/a.stl": cube_stl(),
+                    "pkg/meshes/b.stl": cube_stl(0.1),
+                    "meshes/c.stl": cube_stl(0.2),
+                }
+            ),
+        },
+    )
     assert complete.status_code == 201 and complete.json()["warnings"] == [], complete.text
 
 
@@ -216,8 +255,9 @@ def test_deleting_uploads_removes_the_asset_files_no_stored_model_names(tmp_path
     registry.load()
     shared = cube_stl(0.3)
     with registry_client(registry) as client:
-        keeper = client.post("/v1/robots", json={"urdf": URDF, "assets": encoded(
-            {"pkg/meshes/b.stl": shared})})
+        keeper = client.post(
+            "/v1/robots", json={"urdf": URDF, "assets": encoded({"pkg/meshes/b.stl": shared})}
+        )
         assert keeper.status_code == 201, keeper.text
         baseline = _stored_files(tmp_path)
         assert len(baseline) == 1
@@ -232,11 +272,20 @@ def test_deleting_uploads_removes_the_asset_files_no_stored_model_names(tmp_path
         mesh = client.get(f"/v1/robots/{keeper.json()['id']}/assets/pkg/meshes/b.stl")
         assert mesh.status_code == 200 and mesh.content == shared
         # a reduced model keeps its base's files after the base is deleted
-        base = client.post("/v1/robots", json={"urdf": MESHES_URDF, "assets": encoded(
-            {"pkg/meshes/a.stl": cube_stl(0.07), "pkg/meshes/b.stl": cube_stl(0.08),
-             "meshes/c.stl": cube_stl(0.09)})}).json()
-        reduced = client.post(f"/v1/robots/{base['id']}/reduce",
-                              json={"locked_joints": {"k": 0.5}})
+        base = client.post(
+            "/v1/robots",
+            json={
+                "urdf": MESHES_URDF,
+                "assets": encoded(
+                    {
+                        "pkg/meshes/a.stl": cube_stl(0.07),
+                        "pkg/meshes/b.stl": cube_stl(0.08),
+                        "meshes/c.stl": cube_stl(0.09),
+                    }
+                ),
+            },
+        ).json()
+        reduced = client.post(f"/v1/robots/{base['id']}/reduce", json={"locked_joints": {"k": 0.5}})
         assert reduced.status_code == 201, reduced.text
         assert client.delete(f"/v1/robots/{base['id']}").status_code == 204
         assert len(_stored_files(tmp_path)) == 4
@@ -272,8 +321,9 @@ def test_a_mesh_is_streamed_from_its_file_in_chunks(tmp_path) -> None:
     big = bytes(80) + triangles.to_bytes(4, "little") + bytes(50 * triangles)
     app = _BodyMessages(create_app(Settings(data_dir=tmp_path), registry=registry))
     with TestClient(app, raise_server_exceptions=False) as client:
-        r = client.post("/v1/robots", json={"urdf": URDF, "assets": encoded(
-            {"pkg/meshes/b.stl": big})})
+        r = client.post(
+            "/v1/robots", json={"urdf": URDF, "assets": encoded({"pkg/meshes/b.stl": big})}
+        )
         assert r.status_code == 201, r.text
         url = f"/v1/robots/{r.json()['id']}/assets/pkg/meshes/b.stl"
         app.sizes.clear()
@@ -289,28 +339,35 @@ def test_a_mesh_is_streamed_from_its_file_in_chunks(tmp_path) -> None:
         assert again.headers["etag"] == mesh.headers["etag"]
 
 
-def test_meshes_outside_the_upload_are_warned_and_the_list_is_bounded(client: TestClient
-                                                                        ) -> None:
+def test_meshes_outside_the_upload_are_warned_and_the_list_is_bounded(client: TestClient) -> None:
     """A mesh named by an absolute path, a file:// URL or a path climbing out can never be an
     asset: warned as such (not drawn). 150 missing files give 100 warnings and one counting
     the rest."""
     urdf = MESHES_URDF.replace("package://pkg/meshes/a.stl", "file:///home/me/a.stl").replace(
-        "meshes/c.stl", "../../c.stl")
-    r = client.post("/v1/robots", json={"urdf": urdf, "assets": encoded(
-        {"pkg/meshes/b.stl": cube_stl()})})
+        "meshes/c.stl", "../../c.stl"
+    )
+    r = client.post(
+        "/v1/robots", json={"urdf": urdf, "assets": encoded({"pkg/meshes/b.stl": cube_stl()})}
+    )
     assert r.status_code == 201, r.text
     warned = [(w["code"], w["file"], w["name"]) for w in r.json()["warnings"]]
-    assert warned == [("missing_mesh", "file:///home/me/a.stl", "a"),
-                      ("missing_mesh", "../../c.stl", "c")], warned
+    assert warned == [
+        ("missing_mesh", "file:///home/me/a.stl", "a"),
+        ("missing_mesh", "../../c.stl", "c"),
+    ], warned
     assert all("outside the upload" in w["message"] for w in r.json()["warnings"])
-    links = "".join(f'<link name="l{i}"><visual><geometry><mesh filename="m/{i}.stl"/>'
-                    f'</geometry></visual></link><joint name="f{i}" type="fixed"><parent '
-                    f'link="a"/><child link="l{i}"/></joint>' for i in range(150))
+    links = "".join(
+        f'<link name="l{i}"><visual><geometry><mesh filename="m/{i}.stl"/>'
+        f'</geometry></visual></link><joint name="f{i}" type="fixed"><parent '
+        f'link="a"/><child link="l{i}"/></joint>'
+        for i in range(150)
+    )
     many = URDF.replace("</robot>", links + "</robot>")
     r = client.post("/v1/robots", json={"urdf": many})
     assert r.status_code == 201, r.text
     missing = [w for w in r.json()["warnings"] if w["code"] == "missing_mesh"]
     # in document order: URDF's own link b (pkg/meshes/b.stl) first, then l0, l1, ...
     assert [w.get("file") for w in missing[:100]] == ["pkg/meshes/b.stl"] + [
-        f"m/{i}.stl" for i in range(99)]
+        f"m/{i}.stl" for i in range(99)
+    ]
     assert len(missing) == 101 and "and 51 more mesh files" in missing[-1]["message"]

@@ -58,12 +58,13 @@ def _chain(n: int) -> Robot:
     model = pin.Model()
     parent = 0
     for i in range(n):
-        parent = model.addJoint(parent, pin.JointModelRX(), pin.SE3(np.eye(3), np.array(
-            [0.0, 0.0, 0.1])), f"j{i}")
-        model.appendBodyToJoint(parent, pin.Inertia.FromBox(1.0, 0.05, 0.05, 0.1),
-                                pin.SE3.Identity())
-    return Robot(id=f"chain{n}", name="chain", source="upload", root_joint="fixed",
-                 model=model)
+        parent = model.addJoint(
+            parent, pin.JointModelRX(), pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.1])), f"j{i}"
+        )
+        model.appendBodyToJoint(
+            parent, pin.Inertia.FromBox(1.0, 0.05, 0.05, 0.1), pin.SE3.Identity()
+        )
+    return Robot(id=f"chain{n}", name="chain", source="upload", root_joint="fixed", model=model)
 
 
 @pytest.fixture

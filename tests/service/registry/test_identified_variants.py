@@ -22,8 +22,9 @@ def registry(tmp_path):
 
 def _fitted(model) -> Fitted:
     pi = inertial_parameters(model) * 1.1
-    friction = tuple((str(model.names[j]), 0.1 * j, 0.2, -0.01 * j)
-                     for j in range(1, model.njoints))
+    friction = tuple(
+        (str(model.names[j]), 0.1 * j, 0.2, -0.01 * j) for j in range(1, model.njoints)
+    )
     return Fitted(tuple(float(x) for x in pi), friction)
 
 
@@ -47,5 +48,7 @@ def test_identified_values_and_a_reduction_of_them(registry, tmp_path):
         rebuilt = again.get(stored.id)
         assert rebuilt.info()["friction"] == stored.info()["friction"]
         q = pin.neutral(stored.model) + 0.3
-        np.testing.assert_allclose(pin.crba(rebuilt.model, rebuilt.model.createData(), q),
-                                   pin.crba(stored.model, stored.model.createData(), q))
+        np.testing.assert_allclose(
+            pin.crba(rebuilt.model, rebuilt.model.createData(), q),
+            pin.crba(stored.model, stored.model.createData(), q),
+        )

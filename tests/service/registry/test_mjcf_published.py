@@ -25,8 +25,12 @@ from tests.service.registry.mjcf_reference import (
 from tests.service.registry.test_mjcf import assert_as_mujoco
 
 SUITE = sorted(p.name for p in DM_SUITE.glob("*.xml") if p.name != "lqr.xml")
-GYMNASIUM = Path(importlib.util.find_spec("gymnasium").submodule_search_locations[0]) / "envs" \
-    / "mujoco" / "assets"
+GYMNASIUM = (
+    Path(importlib.util.find_spec("gymnasium").submodule_search_locations[0])
+    / "envs"
+    / "mujoco"
+    / "assets"
+)
 GYM_MODELS = sorted(p.name for p in GYMNASIUM.glob("*.xml"))
 
 
@@ -68,6 +72,11 @@ def test_mujoco_test_model_as_mujoco(client: TestClient) -> None:
 
 
 def test_a_model_without_joints_is_refused(client: TestClient) -> None:
-    r = client.post("/v1/robots", json={"mjcf": (DM_SUITE / "lqr.xml").read_text(),
-                                        "assets": encoded(directory_assets(DM_SUITE, "common"))})
+    r = client.post(
+        "/v1/robots",
+        json={
+            "mjcf": (DM_SUITE / "lqr.xml").read_text(),
+            "assets": encoded(directory_assets(DM_SUITE, "common")),
+        },
+    )
     assert r.status_code == 422 and "nothing can move" in r.json()["detail"]

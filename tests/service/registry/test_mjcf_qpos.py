@@ -94,9 +94,12 @@ def uploaded(client: TestClient) -> dict[str, dict]:
 
 
 def post(client: TestClient, robot_id: str, quantity: str, **body) -> dict:
-    r = client.post(f"/v1/robots/{robot_id}/{quantity}",
-                    json={k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v
-                          for k, v in body.items()})
+    r = client.post(
+        f"/v1/robots/{robot_id}/{quantity}",
+        json={
+            k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v for k, v in body.items()
+        },
+    )
     assert r.status_code == 200, r.text
     return r.json()
 
@@ -189,15 +192,30 @@ def test_one_simulated_step_is_mujocos_integration(client, uploaded, name) -> No
         for s in quaternion_slices(mj):
             assert abs(np.linalg.norm(q[1][s]) - 1) < 1e-12
         # a PD target of qpos itself (w first) with kd = 0 exerts nothing
-        held = post(client, uploaded[name]["id"], "simulate", q=qpos, v=qvel, dt=dt, steps=1,
-                    controller={"type": "pd", "kp": 50.0, "kd": 0.0, "q_target": qpos.tolist()})
+        held = post(
+            client,
+            uploaded[name]["id"],
+            "simulate",
+            q=qpos,
+            v=qvel,
+            dt=dt,
+            steps=1,
+            controller={"type": "pd", "kp": 50.0, "kd": 0.0, "q_target": qpos.tolist()},
+        )
         np.testing.assert_allclose(held["q"], out["q"], rtol=0, atol=1e-14)
         # ... while a target of another orientation does
         target = qpos.copy()
         mujoco.mj_integratePos(mj, target, np.full(mj.nv, 0.3), 1.0)
-        pulled = post(client, uploaded[name]["id"], "simulate", q=qpos, v=qvel, dt=dt, steps=1,
-                      controller={"type": "pd", "kp": 50.0, "kd": 0.0,
-                                  "q_target": target.tolist()})
+        pulled = post(
+            client,
+            uploaded[name]["id"],
+            "simulate",
+            q=qpos,
+            v=qvel,
+            dt=dt,
+            steps=1,
+            controller={"type": "pd", "kp": 50.0, "kd": 0.0, "q_target": target.tolist()},
+        )
         assert np.abs(np.array(pulled["v"][1]) - v[1]).max() > 1e-3
 
 
@@ -205,8 +223,13 @@ def test_joint_names_and_fill_use_qpos_order(client, uploaded) -> None:
     mj = mujoco.MjModel.from_xml_string(MIXED_MJCF)
     robot_id = uploaded["mixed"]["id"]
     qpos, qvel, *_ = next(mujoco_states(mj, 3, 1))
-    named = {"float": qpos[0:3].tolist(), "float_rotation": qpos[3:7].tolist(),
-             "hip": qpos[7], "ankle": qpos[8:12].tolist(), "toe_hinge": qpos[12]}
+    named = {
+        "float": qpos[0:3].tolist(),
+        "float_rotation": qpos[3:7].tolist(),
+        "hip": qpos[7],
+        "ankle": qpos[8:12].tolist(),
+        "toe_hinge": qpos[12],
+    }
     plain = post(client, robot_id, "mass-matrix", q=qpos)
     assert post(client, robot_id, "mass-matrix", q=named) == plain
     # missing joints from the keyframe (MuJoCo's qpos, w first)
@@ -216,11 +239,11 @@ def test_joint_names_and_fill_use_qpos_order(client, uploaded) -> None:
     assert partial == post(client, robot_id, "mass-matrix", q=crouch)
     neutral = np.array(uploaded["mixed"]["neutral_configuration"])
     neutral[7] = qpos[7]
-    assert post(client, robot_id, "mass-matrix", q={"hip": qpos[7]}, fill="neutral") == \
-        post(client, robot_id, "mass-matrix", q=neutral)
+    assert post(client, robot_id, "mass-matrix", q={"hip": qpos[7]}, fill="neutral") == post(
+        client, robot_id, "mass-matrix", q=neutral
+    )
     # answers keyed by name: the rotation w first
-    out = post(client, robot_id, "simulate", q=named, v=qvel, dt=1e-3, steps=1,
-               joint_names=True)
+    out = post(client, robot_id, "simulate", q=named, v=qvel, dt=1e-3, steps=1, joint_names=True)
     assert out["q"][0]["float_rotation"] == qpos[3:7].tolist()
     assert out["q"][0]["ankle"] == qpos[8:12].tolist()
 
@@ -233,35 +256,45 @@ def test_binary_and_stream_give_what_json_gives(client, uploaded) -> None:
     expected = post(client, robot_id, "inverse-dynamics", q=q, v=v, a=a)
     for i, s in enumerate(states):
         assert relative_error(np.array(expected["tau"][i]), s[5]) < EXACT
-    r = client.post(f"/v1/robots/{robot_id}/inverse-dynamics",
-                    content=encode_request({"q": q, "v": v, "a": a}),
-                    headers={"Content-Type": BIN, "Accept": BIN})
+    r = client.post(
+        f"/v1/robots/{robot_id}/inverse-dynamics",
+        content=encode_request({"q": q, "v": v, "a": a}),
+        headers={"Content-Type": BIN, "Accept": BIN},
+    )
     assert r.status_code == 200, r.text
     np.testing.assert_array_equal(decode_answer(r.content)["tau"], expected["tau"])
     sim = post(client, robot_id, "simulate", q=q, v=v, dt=1e-3, steps=2)
-    r = client.post(f"/v1/robots/{robot_id}/simulate",
-                    content=encode_request({"q": q, "v": v}, {"dt": 1e-3, "steps": 2}),
-                    headers={"Content-Type": BIN, "Accept": BIN})
+    r = client.post(
+        f"/v1/robots/{robot_id}/simulate",
+        content=encode_request({"q": q, "v": v}, {"dt": 1e-3, "steps": 2}),
+        headers={"Content-Type": BIN, "Accept": BIN},
+    )
     assert r.status_code == 200, r.text
     np.testing.assert_array_equal(decode_answer(r.content)["q"], sim["q"])
     with client.websocket_connect(f"/v1/robots/{robot_id}/stream") as ws:
-        ws.send_text(orjson.dumps({"quantity": "inverse-dynamics", "q": q[0].tolist(),
-                                   "v": v[0].tolist(), "a": a[0].tolist()}).decode())
+        ws.send_text(
+            orjson.dumps(
+                {
+                    "quantity": "inverse-dynamics",
+                    "q": q[0].tolist(),
+                    "v": v[0].tolist(),
+                    "a": a[0].tolist(),
+                }
+            ).decode()
+        )
         assert ws.receive_json()["tau"] == expected["tau"][0]
-        ws.send_bytes(encode_request({"q": q, "v": v, "a": a},
-                                     {"quantity": "inverse-dynamics"}))
-        np.testing.assert_array_equal(decode_answer(ws.receive_bytes())["tau"],
-                                      expected["tau"])
+        ws.send_bytes(encode_request({"q": q, "v": v, "a": a}, {"quantity": "inverse-dynamics"}))
+        np.testing.assert_array_equal(decode_answer(ws.receive_bytes())["tau"], expected["tau"])
 
 
 def test_frame_placements_at_qpos_are_mujocos(client, uploaded) -> None:
     mj = mujoco.MjModel.from_xml_string(MIXED_MJCF)
     for qpos, *_, data in mujoco_states(mj, 9, 3):
-        out = post(client, uploaded["mixed"]["id"], "frame-placements", q=qpos,
-                   frames=["toe_tip", "lower"])
+        out = post(
+            client, uploaded["mixed"]["id"], "frame-placements", q=qpos, frames=["toe_tip", "lower"]
+        )
         np.testing.assert_allclose(out["positions"][0], data.site_xpos[0], atol=1e-12)
-        np.testing.assert_allclose(out["positions"][1], data.xpos[mj.body("lower").id],
-                                   atol=1e-12)
+        np.testing.assert_allclose(out["positions"][1], data.xpos[mj.body("lower").id], atol=1e-12)
 
 
 def test_contacts_take_and_give_qpos(client, uploaded) -> None:
@@ -272,15 +305,13 @@ def test_contacts_take_and_give_qpos(client, uploaded) -> None:
     qpos, _qvel, qacc, *_ = next(mujoco_states(mj, 4, 1))
     contacts = [{"frame": "base", "type": "6d"}]
     zero = np.zeros(mj.nv)
-    out = post(client, robot_id, "simulate", q=qpos, v=zero, dt=1e-3, steps=5,
-               contacts=contacts)
+    out = post(client, robot_id, "simulate", q=qpos, v=zero, dt=1e-3, steps=5, contacts=contacts)
     q = np.array(out["q"])
     np.testing.assert_array_equal(q[0], qpos)
     np.testing.assert_allclose(q[-1][:7], qpos[:7], atol=1e-9)  # the base is held, w first
     a = qacc.copy()
     a[:6] = 0  # the held base does not accelerate
-    r = post(client, robot_id, "contact-inverse-dynamics", q=qpos, v=zero, a=a,
-             contacts=contacts)
+    r = post(client, robot_id, "contact-inverse-dynamics", q=qpos, v=zero, a=a, contacts=contacts)
     tau = post(client, robot_id, "inverse-dynamics", q=qpos, v=zero, a=a)["tau"]
     np.testing.assert_allclose(r["tau"][6:], tau[6:], atol=1e-9)
 
@@ -306,11 +337,13 @@ def test_reduced_and_reloaded_models_keep_qpos(client, uploaded, registry) -> No
     got = np.array(post(client, reduced["id"], "mass-matrix", q=qpos[keep])["mass_matrix"])
     vkeep = [*range(6), *range(7, 11)]
     assert relative_error(got, full[np.ix_(vkeep, vkeep)]) < EXACT
-    np.testing.assert_allclose(reduced["reference_configurations"]["qpos0"], mj.qpos0[keep],
-                               atol=1e-15)
+    np.testing.assert_allclose(
+        reduced["reference_configurations"]["qpos0"], mj.qpos0[keep], atol=1e-15
+    )
     # locking the ball joint takes its quaternion w first, as in qpos
-    r = client.post(f"/v1/robots/{robot_id}/reduce",
-                    json={"locked_joints": {"ankle": qpos[8:12].tolist()}})
+    r = client.post(
+        f"/v1/robots/{robot_id}/reduce", json={"locked_joints": {"ankle": qpos[8:12].tolist()}}
+    )
     assert r.status_code in (200, 201), r.text
     keep = [*range(8), 12]
     got = np.array(post(client, r.json()["id"], "mass-matrix", q=qpos[keep])["mass_matrix"])

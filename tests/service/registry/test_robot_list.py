@@ -12,9 +12,9 @@ def _upload(client, m1: float) -> str:
     return r.json()["id"]
 
 
-def test_listing_reads_each_record_once_and_follows_the_directory(small_app_factory,
-                                                                   tmp_path,
-                                                                   monkeypatch) -> None:
+def test_listing_reads_each_record_once_and_follows_the_directory(
+    small_app_factory, tmp_path, monkeypatch
+) -> None:
     one = small_app_factory(tmp_path, catalog="ur5")
     other_replica = small_app_factory(tmp_path, catalog="ur5")
     first, second = _upload(one, 2.0), _upload(other_replica, 3.0)
@@ -22,8 +22,9 @@ def test_listing_reads_each_record_once_and_follows_the_directory(small_app_fact
     store = one.app.state.registry.store
     reads: list[str] = []
     real_read = store.read
-    monkeypatch.setattr(store, "read", lambda model_id: reads.append(model_id) or
-                        real_read(model_id))
+    monkeypatch.setattr(
+        store, "read", lambda model_id: reads.append(model_id) or real_read(model_id)
+    )
 
     def listed() -> set[str]:
         r = one.get("/v1/robots")

@@ -36,6 +36,7 @@ def _set(path, value):
             target = target[key]
         target[path[-1]] = value
         return r
+
     return change
 
 
@@ -57,8 +58,9 @@ def test_incomplete_records_are_skipped_with_one_line_and_listing_never_fails(tm
     good = client.post("/v1/robots", json={"urdf": planar_arm_urdf(1, 1, 1, 1)})
     assert good.status_code == 201
     good_id = good.json()["id"]
-    reduced = client.post(f"/v1/robots/{good_id}/reduce",
-                          json={"locked_joints": {"elbow": 0.2}}).json()["id"]
+    reduced = client.post(
+        f"/v1/robots/{good_id}/reduce", json={"locked_joints": {"elbow": 0.2}}
+    ).json()["id"]
     models = tmp_path / "models"
     record = json.loads((models / f"{good_id}.json").read_text())
     reduced_record = json.loads((models / f"{reduced}.json").read_text())
@@ -67,15 +69,17 @@ def test_incomplete_records_are_skipped_with_one_line_and_listing_never_fails(tm
         bad_id = f"u-bad-{name}"
         bad_ids.append(bad_id)
         (models / f"{bad_id}.json").write_text(json.dumps(breakage({**record, "id": bad_id})))
-    for name, breakage in {"no-base": _drop("base"),
-                           "no-locked-joints": _drop("locked_joints"),
-                           "base-source-unknown": _set(["base", "source"], "elsewhere"),
-                           "embedded-record-broken": _set(["base", "record", "description"],
-                                                          None)}.items():
+    for name, breakage in {
+        "no-base": _drop("base"),
+        "no-locked-joints": _drop("locked_joints"),
+        "base-source-unknown": _set(["base", "source"], "elsewhere"),
+        "embedded-record-broken": _set(["base", "record", "description"], None),
+    }.items():
         bad_id = f"r-bad-{name}"
         bad_ids.append(bad_id)
         (models / f"{bad_id}.json").write_text(
-            json.dumps(breakage({**reduced_record, "id": bad_id})))
+            json.dumps(breakage({**reduced_record, "id": bad_id}))
+        )
     (models / "u-not-an-object.json").write_text("[1, 2, 3]")
     bad_ids.append("u-not-an-object")
 
@@ -91,8 +95,10 @@ def test_incomplete_records_are_skipped_with_one_line_and_listing_never_fails(tm
                 assert r.status_code == 404 and r.json()["code"] == "robot_not_found"
                 r = listed_by.post(f"/v1/robots/{bad_id}/gravity", json={"q": [0.0, 0.0]})
                 assert r.status_code == 404
-            assert listed_by.post(f"/v1/robots/{reduced}/gravity",
-                                  json={"q": [0.1]}).status_code == 200
+            assert (
+                listed_by.post(f"/v1/robots/{reduced}/gravity", json={"q": [0.1]}).status_code
+                == 200
+            )
     for bad_id in bad_ids:
         lines = [r for r in caplog.records if f"{bad_id}.json" in r.getMessage()]
         # one line per record and process (two processes' worth of registries here)
@@ -117,14 +123,33 @@ def test_records_of_every_upload_format_are_accepted(tmp_path) -> None:
     arguments, its assets) pass the schema; one whose expansion is not text does not."""
     from service.registry.records import check_record
 
-    summary = {"id": "u-1", "name": "m", "source": "upload", "nq": 1, "nv": 1,
-               "root_joint": "fixed"}
-    mjcf = {"id": "u-1", "format": "mjcf", "description": "<mujoco/>", "root_joint": "fixed",
-            "gravity": None, "name": "m", "summary": summary, "visuals": [],
-            "assets": {"a/b.stl": "0" * 64}}
+    summary = {
+        "id": "u-1",
+        "name": "m",
+        "source": "upload",
+        "nq": 1,
+        "nv": 1,
+        "root_joint": "fixed",
+    }
+    mjcf = {
+        "id": "u-1",
+        "format": "mjcf",
+        "description": "<mujoco/>",
+        "root_joint": "fixed",
+        "gravity": None,
+        "name": "m",
+        "summary": summary,
+        "visuals": [],
+        "assets": {"a/b.stl": "0" * 64},
+    }
     assert check_record(mjcf, "u-1") is mjcf
-    xacro = {**mjcf, "format": "xacro", "gravity": [0.0, 0.0, -9.81], "xacro_args": {"a": "1"},
-             "expanded_urdf": "<robot/>"}
+    xacro = {
+        **mjcf,
+        "format": "xacro",
+        "gravity": [0.0, 0.0, -9.81],
+        "xacro_args": {"a": "1"},
+        "expanded_urdf": "<robot/>",
+    }
     assert check_record(xacro, "u-1") is xacro
     with pytest.raises(ValueError, match="expanded_urdf"):
         check_record({**xacro, "expanded_urdf": 3}, "u-1")

@@ -36,8 +36,9 @@ def test_upload_is_idempotent_with_a_content_id(tmp_path):
     assert ff.json()["joints"][0]["type"] == "planar"
     g_moon = client.post(f"/v1/robots/{moon.json()['id']}/gravity", json={"q": [0, 0]}).json()
     g_earth = client.post(f"/v1/robots/{first.json()['id']}/gravity", json={"q": [0, 0]}).json()
-    np.testing.assert_allclose(np.array(g_moon["gravity"]) / 1.62,
-                               np.array(g_earth["gravity"]) / 9.81, rtol=1e-12)
+    np.testing.assert_allclose(
+        np.array(g_moon["gravity"]) / 1.62, np.array(g_earth["gravity"]) / 9.81, rtol=1e-12
+    )
 
 
 def test_same_upload_same_id_on_another_machine(tmp_path):
@@ -106,8 +107,10 @@ def test_a_joint_or_link_named_universe_is_refused_by_name(tmp_path):
     """Pinocchio's own joint 0 and world frame are named `universe`: a description's joint or
     link of that name could never be found by name (two frames match), so it is a 422."""
     client = _app(tmp_path)
-    for kind, urdf in (("joint", URDF.replace('"shoulder"', '"universe"')),
-                       ("link", URDF.replace('"link1"', '"universe"'))):
+    for kind, urdf in (
+        ("joint", URDF.replace('"shoulder"', '"universe"')),
+        ("link", URDF.replace('"link1"', '"universe"')),
+    ):
         assert "universe" in urdf
         r = client.post("/v1/robots", json={"urdf": urdf})
         assert r.status_code == 422 and r.json()["code"] == "invalid_model", r.text

@@ -15,8 +15,9 @@ WRIST = {"frame": "wrist_2_link", "mass": 0.5, "inertia": np.diag([1e-3, 1e-3, 1
 
 def test_a_variant_answers_as_its_parent_carrying_the_payloads(small_app_factory):
     api = small_app_factory(catalog="ur5")
-    made = api.post("/v1/robots/ur5/variants",
-                    json={"payloads": [TOOL, WRIST], "name": "ur5 holding a part"})
+    made = api.post(
+        "/v1/robots/ur5/variants", json={"payloads": [TOOL, WRIST], "name": "ur5 holding a part"}
+    )
     assert made.status_code == 201, made.text
     info = made.json()
     assert made.headers["location"] == f"/v1/robots/{info['id']}"
@@ -29,11 +30,15 @@ def test_a_variant_answers_as_its_parent_carrying_the_payloads(small_app_factory
     assert info["fixed_mass"] == ur5["fixed_mass"] == 4.0
     again = api.post("/v1/robots/ur5/variants", json={"payloads": [WRIST, TOOL]})
     assert again.status_code == 200 and again.json()["id"] == info["id"]
-    for quantity, body in (("gravity", {"q": Q}), ("mass-matrix", {"q": Q}),
-                           ("payload-capacity", {"q": Q, "frame": "tool0"})):
+    for quantity, body in (
+        ("gravity", {"q": Q}),
+        ("mass-matrix", {"q": Q}),
+        ("payload-capacity", {"q": Q, "frame": "tool0"}),
+    ):
         on_variant = api.post(f"/v1/robots/{info['id']}/{quantity}", json=body).json()
-        carried = api.post(f"/v1/robots/ur5/{quantity}",
-                           json={**body, "payloads": [TOOL, WRIST]}).json()
+        carried = api.post(
+            f"/v1/robots/ur5/{quantity}", json={**body, "payloads": [TOOL, WRIST]}
+        ).json()
         assert on_variant == carried, quantity
     listed = {r["id"] for r in api.get("/v1/robots").json()["robots"]}
     assert info["id"] in listed
@@ -45,8 +50,7 @@ def test_variants_survive_a_restart_and_get_the_same_id_everywhere(small_app_fac
     body = {"payloads": [TOOL], "locked_joints": {"wrist_3_joint": 0.2}}
     first = one.post("/v1/robots/ur5/variants", json=body).json()
     assert two.post("/v1/robots/ur5/variants", json=body).json()["id"] == first["id"]
-    assert first["nv"] == 5 and first["modifications"]["locked_joints"] == {
-        "wrist_3_joint": [0.2]}
+    assert first["nv"] == 5 and first["modifications"]["locked_joints"] == {"wrist_3_joint": [0.2]}
     g = one.post(f"/v1/robots/{first['id']}/gravity", json={"q": Q[:5]}).json()
     restarted = small_app_factory(tmp_path / "a", catalog="ur5")
     assert restarted.get(f"/v1/robots/{first['id']}").json() == first
@@ -58,8 +62,9 @@ def test_deleting_the_parent_leaves_the_variant_working(small_app_factory, tmp_p
     arm = api.post("/v1/robots", json={"urdf": planar_arm_urdf(0.7, 0.5, 1.5, 0.8)}).json()
     tip = {"frame": "link2", "mass": 2.0, "center_of_mass": [0.5, 0.0, 0.0]}
     variant = api.post(f"/v1/robots/{arm['id']}/variants", json={"payloads": [tip]}).json()
-    nested = api.post(f"/v1/robots/{variant['id']}/variants",
-                      json={"locked_joints": {"elbow": 0.3}}).json()
+    nested = api.post(
+        f"/v1/robots/{variant['id']}/variants", json={"locked_joints": {"elbow": 0.3}}
+    ).json()
     assert nested["id"].startswith("r-") and nested["parent"] == variant["id"]
     q = [0.4, 0.3]
     g = api.post(f"/v1/robots/{variant['id']}/gravity", json={"q": q}).json()["gravity"]
@@ -71,8 +76,9 @@ def test_deleting_the_parent_leaves_the_variant_working(small_app_factory, tmp_p
     assert api.get(f"/v1/robots/{arm['id']}").status_code == 404
     assert api.post(f"/v1/robots/{variant['id']}/gravity", json={"q": q}).json()["gravity"] == g
     restarted = small_app_factory(tmp_path, catalog="ur5")
-    assert restarted.post(f"/v1/robots/{variant['id']}/gravity",
-                          json={"q": q}).json()["gravity"] == g
+    assert (
+        restarted.post(f"/v1/robots/{variant['id']}/gravity", json={"q": q}).json()["gravity"] == g
+    )
     shoulder = restarted.post(f"/v1/robots/{nested['id']}/gravity", json={"q": q[:1]}).json()
     assert abs(shoulder["gravity"][0] - g[0]) < 1e-12  # the elbow locked where q had it
 

@@ -25,8 +25,7 @@ def client(tmp_path_factory):
     settings = Settings(data_dir=tmp_path_factory.mktemp("visuals"), catalog=CATALOG)
     registry = Registry(settings.data_dir, settings.catalog_names(), settings.build_timeout_s)
     registry.load()
-    with TestClient(create_app(settings, registry=registry),
-                    raise_server_exceptions=False) as c:
+    with TestClient(create_app(settings, registry=registry), raise_server_exceptions=False) as c:
         c.registry = registry  # type: ignore[attr-defined]
         yield c
 
@@ -41,6 +40,7 @@ def _urdf_path(name):
 
 
 # ---- frame placements ---------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name", ["ur5", "talos", "solo12"])
 def test_placements_equal_pinocchio_frames_forward_kinematics(client, name) -> None:
@@ -69,8 +69,9 @@ def test_named_frames_in_the_order_asked(client) -> None:
     model = _model(client, "ur5")
     q = random_configuration(model, np.random.default_rng(1))
     names = ["wrist_3_joint", "tool0", "base_link"]
-    answer = client.post("/v1/robots/ur5/frame-placements", json={"q": q.tolist(),
-                                                                    "frames": names}).json()
+    answer = client.post(
+        "/v1/robots/ur5/frame-placements", json={"q": q.tolist(), "frames": names}
+    ).json()
     assert answer["frames"] == names
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
@@ -88,13 +89,15 @@ def test_placements_errors_follow_the_contract(client) -> None:
     assert "frames[1]" in unknown.json()["detail"]
     short = client.post(url, json={"q": q[:5]})
     assert short.status_code == 422 and short.json()["code"] == "dimension_mismatch"
-    nan = client.post(url, content=b'{"q": [NaN, 0, 0, 0, 0, 0]}',
-                      headers={"Content-Type": "application/json"})
+    nan = client.post(
+        url, content=b'{"q": [NaN, 0, 0, 0, 0, 0]}', headers={"Content-Type": "application/json"}
+    )
     assert nan.status_code == 422 and nan.json()["code"] == "validation_error"
     huge = client.post(url, json={"q": [1e308] * 6})  # cos/sin of 1e308 are finite: fine
     assert huge.status_code in (200, 422)
-    quaternion = client.post("/v1/robots/talos/frame-placements",
-                             json={"q": [0.0] * _model(client, "talos").nq})
+    quaternion = client.post(
+        "/v1/robots/talos/frame-placements", json={"q": [0.0] * _model(client, "talos").nq}
+    )
     assert quaternion.status_code == 422
     assert quaternion.json()["code"] == "invalid_configuration"
     missing = client.post("/v1/robots/nobody/frame-placements", json={"q": q})
@@ -111,14 +114,16 @@ def test_placements_in_the_openapi_document(client) -> None:
 
 # ---- visuals --------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("name", ["ur5", "talos", "solo12", "talos_full", "alex_sake_hands"])
 def test_visuals_are_pinocchios_visual_geometries(client, name) -> None:
     """Every visual geometry Pinocchio reads from the description is listed, on the same
     frame, at the same world placement, with the same mesh file and scale."""
     model = _model(client, name)
     share = erd_robots_dir().parent.parent
-    geometry = pin.buildGeomFromUrdf(model, str(_urdf_path(name)), pin.GeometryType.VISUAL,
-                                     package_dirs=[str(share)])
+    geometry = pin.buildGeomFromUrdf(
+        model, str(_urdf_path(name)), pin.GeometryType.VISUAL, package_dirs=[str(share)]
+    )
     visuals = client.get(f"/v1/robots/{name}/visuals").json()["visuals"]
     assert len(visuals) == len(geometry.geometryObjects) > 0
     robot = client.registry.get(name)
@@ -130,8 +135,9 @@ def test_visuals_are_pinocchios_visual_geometries(client, name) -> None:
     for visual in visuals:
         obj = by_name[visual["name"]]
         assert visual["frame"] == model.frames[obj.parentFrame].name
-        local = pin.SE3(np.array(visual["placement"]["rotation"]),
-                        np.array(visual["placement"]["translation"]))
+        local = pin.SE3(
+            np.array(visual["placement"]["rotation"]), np.array(visual["placement"]["translation"])
+        )
         world = data.oMf[obj.parentFrame] * local
         expected = data.oMi[obj.parentJoint] * obj.placement
         np.testing.assert_allclose(world.homogeneous, expected.homogeneous, atol=1e-9)
@@ -149,6 +155,7 @@ def test_robot_without_visuals_has_an_empty_list(client) -> None:
 
 # ---- assets ---------------------------------------------------------------------------------
 
+
 def test_every_referenced_mesh_is_served_with_type_etag_and_cache(client) -> None:
     visuals = client.get("/v1/robots/ur5/visuals").json()["visuals"]
     robot = client.registry.get("ur5")
@@ -163,8 +170,9 @@ def test_every_referenced_mesh_is_served_with_type_etag_and_cache(client) -> Non
         etag = answer.headers["etag"]
         again = client.get(f"/v1/robots/ur5/assets/{key}", headers={"If-None-Match": etag})
         assert again.status_code == 304 and again.content == b""
-        weak = client.get(f"/v1/robots/ur5/assets/{key}",
-                          headers={"If-None-Match": f'"other", W/{etag}'})
+        weak = client.get(
+            f"/v1/robots/ur5/assets/{key}", headers={"If-None-Match": f'"other", W/{etag}'}
+        )
         assert weak.status_code == 304
         stale = client.get(f"/v1/robots/ur5/assets/{key}", headers={"If-None-Match": '"x"'})
         assert stale.status_code == 200 and stale.content == answer.content
@@ -179,11 +187,19 @@ def test_only_referenced_files_are_reachable(client) -> None:
     description = "example-robot-data/robots/ur_description/urdf/ur5_robot.urdf"
     assert (erd_robots_dir().parent.parent / description).is_file()
     attempts = [
-        collision, description, visual.upper(), visual + "/", "/" + visual,
+        collision,
+        description,
+        visual.upper(),
+        visual + "/",
+        "/" + visual,
         f"example-robot-data/robots/ur_description/meshes/ur5/visual/../collision/"
         f"{collision.rsplit('/', 1)[1]}",
-        "..%2F..%2F..%2Fetc%2Fpasswd", "%2e%2e/%2e%2e/etc/passwd", "%2Fetc%2Fpasswd",
-        "..%5C..%5Cservice%5Cmain.py", "service/main.py", "",
+        "..%2F..%2F..%2Fetc%2Fpasswd",
+        "%2e%2e/%2e%2e/etc/passwd",
+        "%2Fetc%2Fpasswd",
+        "..%5C..%5Cservice%5Cmain.py",
+        "service/main.py",
+        "",
     ]
     for path in attempts:
         answer = client.get(f"/v1/robots/ur5/assets/{path}")
@@ -225,17 +241,23 @@ def test_upload_visuals_come_from_its_description(client) -> None:
     robot_id = stored.json()["id"]
     visuals = client.get(f"/v1/robots/{robot_id}/visuals").json()["visuals"]
     assert [(v["name"], v["frame"], v["geometry"]["type"]) for v in visuals] == [
-        ("base_0", "base", "box"), ("arm_0", "arm", "cylinder"), ("arm_1", "arm", "mesh")]
+        ("base_0", "base", "box"),
+        ("arm_0", "arm", "cylinder"),
+        ("arm_1", "arm", "mesh"),
+    ]
     assert visuals[0]["color"] == [1, 0, 0, 1] and visuals[1]["color"] == [0, 1, 0, 0.5]
-    assert visuals[2]["geometry"] == {"type": "mesh", "asset": "shapes/meshes/arm.stl",
-                                      "scale": [2, 2, 2]}
-    np.testing.assert_allclose(visuals[1]["placement"]["rotation"],
-                               pin.rpy.rpyToMatrix(0.1, 0.2, 0.3), atol=1e-15)
+    assert visuals[2]["geometry"] == {
+        "type": "mesh",
+        "asset": "shapes/meshes/arm.stl",
+        "scale": [2, 2, 2],
+    }
+    np.testing.assert_allclose(
+        visuals[1]["placement"]["rotation"], pin.rpy.rpyToMatrix(0.1, 0.2, 0.3), atol=1e-15
+    )
     # no asset was uploaded with it: nothing to serve
     mesh = client.get(f"/v1/robots/{robot_id}/assets/shapes/meshes/arm.stl")
     assert mesh.status_code == 404 and mesh.json()["code"] == "asset_not_found"
-    placements = client.post(f"/v1/robots/{robot_id}/frame-placements",
-                             json={"q": [0.5]}).json()
+    placements = client.post(f"/v1/robots/{robot_id}/frame-placements", json={"q": [0.5]}).json()
     assert placements["frames"] == ["base", "arm"]
 
 
@@ -243,8 +265,15 @@ def test_asset_keys_and_rotations() -> None:
     assert asset_key("package://pkg/meshes/./a.stl") == "pkg/meshes/a.stl"
     assert asset_key("meshes/a.dae") == "meshes/a.dae"
     assert asset_key("package:///pkg/a.stl") == "pkg/a.stl"
-    for refused in ("/etc/passwd", "file:///etc/passwd", "package://../x.stl", "a/../../b.stl",
-                    "http://example.com/a.stl", "a\\b.stl", ""):
+    for refused in (
+        "/etc/passwd",
+        "file:///etc/passwd",
+        "package://../x.stl",
+        "a/../../b.stl",
+        "http://example.com/a.stl",
+        "a\\b.stl",
+        "",
+    ):
         assert asset_key(refused) is None, refused
     rng = np.random.default_rng(0)
     for rpy in rng.uniform(-3, 3, (5, 3)):
@@ -270,27 +299,35 @@ def test_placements_in_binary_by_joint_name_and_on_the_stream(client) -> None:
     q = random_configuration(model, np.random.default_rng(5))
     url = "/v1/robots/ur5/frame-placements"
     expected = client.post(url, json={"q": q.tolist(), "frames": ["tool0"]}).json()
-    answer = client.post(url, content=binary.encode({"q": q, "frames": ["tool0"]}),
-                         headers={"Content-Type": binary.BINARY_MEDIA_TYPE,
-                                  "Accept": binary.BINARY_MEDIA_TYPE})
+    answer = client.post(
+        url,
+        content=binary.encode({"q": q, "frames": ["tool0"]}),
+        headers={"Content-Type": binary.BINARY_MEDIA_TYPE, "Accept": binary.BINARY_MEDIA_TYPE},
+    )
     assert answer.status_code == 200, answer.text
     fields, arrays = binary.decode(answer.content)
     assert fields["frames"] == ["tool0"]
     np.testing.assert_array_equal(arrays["positions"], expected["positions"])
     np.testing.assert_array_equal(arrays["rotations"], expected["rotations"])
     names = [model.names[j] for j in range(1, model.njoints)]
-    named = client.post(url, json={"q": dict(zip(names, q.tolist(), strict=True)),
-                                   "frames": ["tool0"]}).json()
+    named = client.post(
+        url, json={"q": dict(zip(names, q.tolist(), strict=True)), "frames": ["tool0"]}
+    ).json()
     assert named == expected
     with client.websocket_connect("/v1/robots/ur5/stream") as ws:
-        ws.send_text(orjson.dumps({"quantity": "frame-placements", "q": q.tolist(),
-                                   "frames": ["tool0"]}).decode())
+        ws.send_text(
+            orjson.dumps(
+                {"quantity": "frame-placements", "q": q.tolist(), "frames": ["tool0"]}
+            ).decode()
+        )
         assert ws.receive_json() == expected
 
 
 def test_a_reduced_model_shows_its_bases_visuals_and_meshes(client) -> None:
-    reduced = client.post("/v1/robots/ur5/reduce",
-                          json={"locked_joints": {"wrist_1_joint": 0.3, "wrist_2_joint": -0.2}})
+    reduced = client.post(
+        "/v1/robots/ur5/reduce",
+        json={"locked_joints": {"wrist_1_joint": 0.3, "wrist_2_joint": -0.2}},
+    )
     assert reduced.status_code in (200, 201), reduced.text
     robot_id = reduced.json()["id"]
     base = client.get("/v1/robots/ur5/visuals").json()["visuals"]
@@ -316,8 +353,12 @@ def test_every_catalog_robot_lists_pinocchios_visual_geometries(catalog_registry
     for name, robot in sorted(catalog_registry.catalog.items()):
         model = robot.model
         try:
-            geometry = pin.buildGeomFromUrdf(model, str(entries[name].path("urdf")),
-                                             pin.GeometryType.VISUAL, package_dirs=[share])
+            geometry = pin.buildGeomFromUrdf(
+                model,
+                str(entries[name].path("urdf")),
+                pin.GeometryType.VISUAL,
+                package_dirs=[share],
+            )
         except Exception:  # a reduced catalog model (talos_legs) or a mesh assimp cannot read
             continue
         by_name = {obj.name: obj for obj in geometry.geometryObjects}
@@ -326,10 +367,16 @@ def test_every_catalog_robot_lists_pinocchios_visual_geometries(catalog_registry
         pin.framesForwardKinematics(model, data, pin.neutral(model))
         for visual in robot.visuals:
             obj = by_name[visual["name"]]
-            local = pin.SE3(np.array(visual["placement"]["rotation"]),
-                            np.array(visual["placement"]["translation"]))
+            local = pin.SE3(
+                np.array(visual["placement"]["rotation"]),
+                np.array(visual["placement"]["translation"]),
+            )
             expected = data.oMi[obj.parentJoint] * obj.placement
-            np.testing.assert_allclose((data.oMf[obj.parentFrame] * local).homogeneous,
-                                       expected.homogeneous, atol=1e-9, err_msg=name)
+            np.testing.assert_allclose(
+                (data.oMf[obj.parentFrame] * local).homogeneous,
+                expected.homogeneous,
+                atol=1e-9,
+                err_msg=name,
+            )
         compared += 1
     assert compared >= 60

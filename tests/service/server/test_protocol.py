@@ -73,8 +73,13 @@ async def _app(scope: dict[str, Any], receive: Any, send: Any) -> None:
         await send({"type": "lifespan.shutdown.complete"})
         return
     body = scope["path"].encode()
-    await send({"type": "http.response.start", "status": 200,
-                "headers": [(b"content-length", str(len(body)).encode())]})
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 200,
+            "headers": [(b"content-length", str(len(body)).encode())],
+        }
+    )
     await send({"type": "http.response.body", "body": body})
 
 
@@ -91,8 +96,9 @@ def _read_answers(sock: socket.socket, count: int) -> list[bytes]:
 @pytest.mark.parametrize("pipelined", [False, True])
 def test_a_real_server_answers_in_order(pipelined: bool) -> None:
     async def run() -> list[bytes]:
-        config = uvicorn.Config(_app, port=0, http=HardenedHttpToolsProtocol,
-                                log_level="warning", lifespan="off")
+        config = uvicorn.Config(
+            _app, port=0, http=HardenedHttpToolsProtocol, log_level="warning", lifespan="off"
+        )
         server = uvicorn.Server(config)
         task = asyncio.create_task(server.serve())
         while not server.started:

@@ -18,8 +18,10 @@ from uvicorn.server import ServerState
 
 from service.server.protocol import CoalescedWrites, GuardedCycle, HardenedHttpToolsProtocol
 
-MOVED = ("uvicorn {version}: {what} moved; service/server/protocol.py relies on it — adapt the "
-         "protocol, then widen the uvicorn pin in pyproject.toml")
+MOVED = (
+    "uvicorn {version}: {what} moved; service/server/protocol.py relies on it — adapt the "
+    "protocol, then widen the uvicorn pin in pyproject.toml"
+)
 
 PROTOCOL_METHODS = {  # name -> parameters (after self) the subclass overrides or calls
     "__init__": ["config", "server_state", "app_state", "_loop"],
@@ -35,10 +37,26 @@ PROTOCOL_METHODS = {  # name -> parameters (after self) the subclass overrides o
     "pause_writing": [],
     "resume_writing": [],
 }
-PROTOCOL_ATTRIBUTES = ("config", "loop", "transport", "flow", "cycle", "connections",
-                       "server_state", "pipeline", "parser")
-CYCLE_ATTRIBUTES = ("transport", "keep_alive", "more_body", "response_started",
-                    "response_complete", "disconnected", "scope")
+PROTOCOL_ATTRIBUTES = (
+    "config",
+    "loop",
+    "transport",
+    "flow",
+    "cycle",
+    "connections",
+    "server_state",
+    "pipeline",
+    "parser",
+)
+CYCLE_ATTRIBUTES = (
+    "transport",
+    "keep_alive",
+    "more_body",
+    "response_started",
+    "response_complete",
+    "disconnected",
+    "scope",
+)
 
 
 def _moved(what: str) -> str:
@@ -51,7 +69,8 @@ def test_protocol_methods_keep_their_signatures(name: str) -> None:
     assert callable(method), _moved(f"HttpToolsProtocol.{name}")
     parameters = list(inspect.signature(method).parameters)[1:]
     assert parameters == PROTOCOL_METHODS[name], _moved(
-        f"the parameters of HttpToolsProtocol.{name} ({parameters})")
+        f"the parameters of HttpToolsProtocol.{name} ({parameters})"
+    )
 
 
 def test_the_cycle_class_and_its_send() -> None:
@@ -59,14 +78,18 @@ def test_the_cycle_class_and_its_send() -> None:
     assert cycle is not None, _moved("httptools_impl.RequestResponseCycle")
     assert inspect.iscoroutinefunction(cycle.send), _moved("RequestResponseCycle.send")
     assert list(inspect.signature(cycle.send).parameters) == ["self", "message"], _moved(
-        "the parameters of RequestResponseCycle.send")
+        "the parameters of RequestResponseCycle.send"
+    )
     assert GuardedCycle.__mro__[1] is cycle
     assert inspect.iscoroutinefunction(cycle.send_500_response), _moved(
-        "RequestResponseCycle.send_500_response")
+        "RequestResponseCycle.send_500_response"
+    )
     assert list(inspect.signature(cycle.run_asgi).parameters) == ["self", "app"], _moved(
-        "RequestResponseCycle.run_asgi (which calls send_500_response)")
+        "RequestResponseCycle.run_asgi (which calls send_500_response)"
+    )
     assert hasattr(flow_control.FlowControl(None), "read_paused"), _moved(  # type: ignore[arg-type]
-        "FlowControl.read_paused")
+        "FlowControl.read_paused"
+    )
 
 
 class FakeTransport:
@@ -101,8 +124,9 @@ async def _app(scope: dict[str, Any], receive: Any, send: Any) -> None:
     if scope["path"] == "/fail":
         raise RuntimeError("fails before answering")
     body = b"hello"
-    await send({"type": "http.response.start", "status": 200,
-                "headers": [(b"content-length", b"5")]})
+    await send(
+        {"type": "http.response.start", "status": 200, "headers": [(b"content-length", b"5")]}
+    )
     await send({"type": "http.response.body", "body": body})
 
 
@@ -134,15 +158,22 @@ def test_a_request_goes_through_the_subclass_as_expected() -> None:
 
 def test_uvicorn_run_takes_the_options_the_server_passes() -> None:
     parameters = inspect.signature(uvicorn.run).parameters
-    for name in ("http", "timeout_keep_alive", "timeout_graceful_shutdown", "factory",
-                 "log_config", "access_log"):
+    for name in (
+        "http",
+        "timeout_keep_alive",
+        "timeout_graceful_shutdown",
+        "factory",
+        "log_config",
+        "access_log",
+    ):
         assert name in parameters, _moved(f"uvicorn.run({name}=...)")
 
 
 def test_uvicorns_last_resort_500_is_problem_json() -> None:
     async def run() -> FakeTransport:
-        config = uvicorn.Config(_app, http=HardenedHttpToolsProtocol, lifespan="off",
-                                log_level="critical")
+        config = uvicorn.Config(
+            _app, http=HardenedHttpToolsProtocol, lifespan="off", log_level="critical"
+        )
         protocol = HardenedHttpToolsProtocol(config, ServerState(), {})
         transport = FakeTransport()
         protocol.connection_made(transport)  # type: ignore[arg-type]

@@ -30,13 +30,20 @@ class BaseClient:
     """The settings of a client (see `Client` for the arguments) and what does not depend on
     how requests are sent."""
 
-    def __init__(self, base_url: str | None, *, api_key: str | None,
-                 http_client: httpx.Client | httpx.AsyncClient | None,
-                 headers: Mapping[str, str] | None, binary: bool | None,
-                 retry: transport.Retry | None, array_type: outputs.ArrayType,
-                 progress: _progress.Progress, fill: Fill | None) -> None:
-        self._settings = transport.settings(base_url, api_key, http_client, headers, binary,
-                                            fill)
+    def __init__(
+        self,
+        base_url: str | None,
+        *,
+        api_key: str | None,
+        http_client: httpx.Client | httpx.AsyncClient | None,
+        headers: Mapping[str, str] | None,
+        binary: bool | None,
+        retry: transport.Retry | None,
+        array_type: outputs.ArrayType,
+        progress: _progress.Progress,
+        fill: Fill | None,
+    ) -> None:
+        self._settings = transport.settings(base_url, api_key, http_client, headers, binary, fill)
         self._retry = retry
         self._array_type = outputs.check_array_type(array_type)
         self._progress = _progress.check(progress)
@@ -51,8 +58,7 @@ class BaseClient:
         """Where to report progress: `progress` of this call, else the client's (None)."""
         return _progress.check(progress) if progress is not None else self._progress
 
-    def _chunks(self, call: Call[T], report: _progress.Progress
-                ) -> _progress.Chunks[T] | None:
+    def _chunks(self, call: Call[T], report: _progress.Progress) -> _progress.Chunks[T] | None:
         """The chunks to send `call` in: only when progress is asked for and there is more
         than one chunk."""
         if report is None or call.chunks is None or not call.chunks.worth_it:
@@ -113,8 +119,10 @@ class SyncSender(BaseClient):
     def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
         url, headers, body = self._settings.prepare(call, listener is not None)
         content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
-        with transport.wrapped(call.method, url), self._http.stream(
-                call.method, url, content=content, headers=headers) as response:
+        with (
+            transport.wrapped(call.method, url),
+            self._http.stream(call.method, url, content=content, headers=headers) as response,
+        ):
             if listener is not None and core.is_progress_stream(response):
                 lines = core.ProgressLines(call, listener)
                 for line in response.iter_lines():
@@ -185,8 +193,9 @@ class AsyncSender(BaseClient):
         url, headers, body = self._settings.prepare(call, listener is not None)
         content: Any = transport.parts_async(body) if isinstance(body, list) else body
         with transport.wrapped(call.method, url):
-            async with self._http.stream(call.method, url, content=content,
-                                         headers=headers) as response:
+            async with self._http.stream(
+                call.method, url, content=content, headers=headers
+            ) as response:
                 if listener is not None and core.is_progress_stream(response):
                     lines = core.ProgressLines(call, listener)
                     async for line in response.aiter_lines():

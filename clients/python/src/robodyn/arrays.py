@@ -35,8 +35,13 @@ class JointStateLike(Protocol):
     def position(self) -> Any: ...
 
 
-ArrayLike: TypeAlias = (npt.ArrayLike | Mapping[str, Any] | Sequence[Mapping[str, Any]]
-                        | JointStateLike | Sequence[JointStateLike])
+ArrayLike: TypeAlias = (
+    npt.ArrayLike
+    | Mapping[str, Any]
+    | Sequence[Mapping[str, Any]]
+    | JointStateLike
+    | Sequence[JointStateLike]
+)
 """A joint-space input: anything numpy reads as a 1-D or 2-D array of real numbers (list,
 tuple, ndarray, torch tensor, JAX array), or an input keyed by joint name (a mapping, a
 JointState-like object, or a list of them for a batch)."""
@@ -56,11 +61,18 @@ def joint_array(name: str, value: ArrayLike) -> np.ndarray:
     try:
         arr = np.asarray(host_array(value))
     except (ValueError, TypeError):  # ragged nested lists
-        raise InputError(f"{name} must be a 1-D array (one state) or a 2-D array of equal-length "
-                         "rows (a batch); it is ragged or not an array") from None
+        raise InputError(
+            f"{name} must be a 1-D array (one state) or a 2-D array of equal-length "
+            "rows (a batch); it is ragged or not an array"
+        ) from None
     if arr.dtype.kind not in "iuf":
-        kind = {"b": "booleans", "c": "complex numbers", "U": "text", "S": "bytes",
-                "O": "objects"}.get(arr.dtype.kind, f"dtype {arr.dtype}")
+        kind = {
+            "b": "booleans",
+            "c": "complex numbers",
+            "U": "text",
+            "S": "bytes",
+            "O": "objects",
+        }.get(arr.dtype.kind, f"dtype {arr.dtype}")
         raise InputError(f"{name} must hold real numbers, not {kind}")
     if arr.ndim not in (1, 2):
         shape = "a scalar" if arr.ndim == 0 else f"{arr.ndim}-D, shape {arr.shape}"
@@ -80,16 +92,19 @@ def joint_array(name: str, value: ArrayLike) -> np.ndarray:
 def is_by_name(value: Any) -> bool:
     """True for a joint-space input keyed by joint name: a mapping, or a list of mappings."""
     return isinstance(value, Mapping) or (
-        isinstance(value, list | tuple) and len(value) > 0
-        and all(isinstance(v, Mapping) for v in value))
+        isinstance(value, list | tuple)
+        and len(value) > 0
+        and all(isinstance(v, Mapping) for v in value)
+    )
 
 
 def _by_name_state(name: str, value: Mapping[Any, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for joint, entry in value.items():
         if not isinstance(joint, str):
-            raise InputError(f"{name} by joint name: keys must be joint names (str), not "
-                             f"{type(joint).__name__}")
+            raise InputError(
+                f"{name} by joint name: keys must be joint names (str), not {type(joint).__name__}"
+            )
         entry = host_array(entry)
         arr = joint_array(f"{name}[{joint!r}]", np.atleast_1d(np.asarray(entry)))
         if arr.ndim != 1:
@@ -104,8 +119,11 @@ JOINT_STATE_FIELDS = {"q": "position", "v": "velocity", "tau": "effort"}
 
 def is_joint_state(value: Any) -> bool:
     """True for a ROS `sensor_msgs/JointState`-like object: `name` and `position` members."""
-    return (not isinstance(value, Mapping | np.ndarray) and hasattr(value, "name")
-            and hasattr(value, "position"))
+    return (
+        not isinstance(value, Mapping | np.ndarray)
+        and hasattr(value, "name")
+        and hasattr(value, "position")
+    )
 
 
 def joint_state(name: str, value: Any) -> dict[str, Any]:
@@ -114,13 +132,17 @@ def joint_state(name: str, value: Any) -> dict[str, Any]:
     `effort`. A continuous joint's position is its angle (the server takes it as such)."""
     member = JOINT_STATE_FIELDS.get(name.split("[", 1)[0])
     if member is None:
-        raise InputError(f"{name} cannot come from a JointState (it has positions, velocities "
-                         "and efforts, no accelerations): give an array or a mapping")
+        raise InputError(
+            f"{name} cannot come from a JointState (it has positions, velocities "
+            "and efforts, no accelerations): give an array or a mapping"
+        )
     raw = getattr(value, member, None)
     names, values = list(value.name), ([] if raw is None else list(raw))
     if len(values) != len(names):
-        raise InputError(f"{name} from a JointState: {member} has {len(values)} entries for "
-                         f"{len(names)} names (ROS leaves it empty when unknown)")
+        raise InputError(
+            f"{name} from a JointState: {member} has {len(values)} entries for "
+            f"{len(names)} names (ROS leaves it empty when unknown)"
+        )
     return dict(zip(names, values, strict=True))
 
 
@@ -154,23 +176,27 @@ def joint_states(**inputs: Any) -> tuple[dict[str, Any], bool]:
     ndims = {_ndim(arr) for arr in arrays.values()}
     if len(ndims) > 1:
         shown = ", ".join(f"{n} is {_ndim(a)}-D" for n, a in arrays.items())
-        raise InputError(f"inputs mix single states and batches ({shown}); give all as 1-D or "
-                         "all as 2-D arrays (np.tile repeats a state N times)")
+        raise InputError(
+            f"inputs mix single states and batches ({shown}); give all as 1-D or "
+            "all as 2-D arrays (np.tile repeats a state N times)"
+        )
     batched = ndims == {2}
     if batched:
         sizes = {n: _rows(a) for n, a in arrays.items()}
         if len(set(sizes.values())) > 1:
             shown = ", ".join(f"{n} has {s}" for n, s in sizes.items())
-            raise InputError(f"batch sizes differ ({shown} states); every input needs the "
-                             "same number of states")
+            raise InputError(
+                f"batch sizes differ ({shown} states); every input needs the same number of states"
+            )
     return arrays, batched
 
 
 def to_json(arrays: Mapping[str, Any]) -> dict[str, Any]:
     """Arrays as nested lists of Python floats (JSON numbers round-trip float64 exactly);
     inputs keyed by joint name are JSON already."""
-    return {name: arr.tolist() if isinstance(arr, np.ndarray) else arr
-            for name, arr in arrays.items()}
+    return {
+        name: arr.tolist() if isinstance(arr, np.ndarray) else arr for name, arr in arrays.items()
+    }
 
 
 def batch_rows(arrays: Mapping[str, Any], batched: bool) -> int | None:
@@ -178,8 +204,14 @@ def batch_rows(arrays: Mapping[str, Any], batched: bool) -> int | None:
     return _rows(next(iter(arrays.values()))) if batched else None
 
 
-def answer_array(body: Mapping[str, Any], key: str, ndim: int, batched: bool,
-                 rows: int | None = None, square: bool = True) -> np.ndarray:
+def answer_array(
+    body: Mapping[str, Any],
+    key: str,
+    ndim: int,
+    batched: bool,
+    rows: int | None = None,
+    square: bool = True,
+) -> np.ndarray:
     """Field `key` of an answer as a float64 array with `ndim` dimensions per state (one more
     when `batched`, with `rows` states; a matrix must be square unless `square` is False).
     Raises KeyError/ValueError when it does not fit."""

@@ -23,9 +23,14 @@ from robodyn.request_options import Fill
 from robodyn.stream import AsyncStream, stream_url
 
 
-class AsyncClient(AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods,
-                  AsyncContactMethods, AsyncTrajectoryMethods,
-                  AsyncIdentificationMethods):
+class AsyncClient(
+    AsyncRobotMethods,
+    AsyncDynamicsMethods,
+    AsyncBeyondMethods,
+    AsyncContactMethods,
+    AsyncTrajectoryMethods,
+    AsyncIdentificationMethods,
+):
     """An async client of a robodyn server; use it with `async with`, or await `aclose()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else
@@ -42,24 +47,44 @@ class AsyncClient(AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods,
     `retry`, `array_type`, `progress` and `fill`: as for `Client`.
     """
 
-    def __init__(self, base_url: str | None = None, *, api_key: str | None = None,
-                 timeout: transport.TimeoutLike = transport.DEFAULT_TIMEOUT,
-                 http_client: httpx.AsyncClient | None = None,
-                 headers: Mapping[str, str] | None = None, binary: bool | None = None,
-                 retry: transport.Retry | None = transport.DEFAULT_RETRY,
-                 array_type: outputs.ArrayType = "numpy",
-                 progress: _progress.Progress = None, fill: Fill | None = None) -> None:
-        super().__init__(base_url, api_key=api_key, http_client=http_client, headers=headers,
-                         binary=binary, retry=retry, array_type=array_type, progress=progress,
-                         fill=fill)
-        self._http = http_client or httpx.AsyncClient(timeout=transport.timeout_of(timeout),
-                                                      limits=transport.DEFAULT_LIMITS)
+    def __init__(
+        self,
+        base_url: str | None = None,
+        *,
+        api_key: str | None = None,
+        timeout: transport.TimeoutLike = transport.DEFAULT_TIMEOUT,
+        http_client: httpx.AsyncClient | None = None,
+        headers: Mapping[str, str] | None = None,
+        binary: bool | None = None,
+        retry: transport.Retry | None = transport.DEFAULT_RETRY,
+        array_type: outputs.ArrayType = "numpy",
+        progress: _progress.Progress = None,
+        fill: Fill | None = None,
+    ) -> None:
+        super().__init__(
+            base_url,
+            api_key=api_key,
+            http_client=http_client,
+            headers=headers,
+            binary=binary,
+            retry=retry,
+            array_type=array_type,
+            progress=progress,
+            fill=fill,
+        )
+        self._http = http_client or httpx.AsyncClient(
+            timeout=transport.timeout_of(timeout), limits=transport.DEFAULT_LIMITS
+        )
 
     async def __aenter__(self) -> AsyncClient:
         return self
 
-    async def __aexit__(self, exc_type: type[BaseException] | None,
-                        exc: BaseException | None, tb: TracebackType | None) -> None:
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         await self.aclose()
 
     def stream(self, robot_id: str, *, open_timeout: float | None = 10.0) -> AsyncStream:
@@ -67,6 +92,10 @@ class AsyncClient(AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods,
         `robot_id` argument, over one connection, answered in order (needs
         `pip install 'robodyn[stream]'`). Use it as an async context manager:
         `async with client.stream("ur5") as s: tau = await s.inverse_dynamics(q, v, a)`."""
-        return AsyncStream(stream_url(self.base_url, robot_id), robot_id,
-                           dict(self._settings.headers), self._settings.use_binary,
-                           open_timeout)
+        return AsyncStream(
+            stream_url(self.base_url, robot_id),
+            robot_id,
+            dict(self._settings.headers),
+            self._settings.use_binary,
+            open_timeout,
+        )

@@ -32,8 +32,9 @@ def _json(value: Any) -> str:
     return json.dumps(value, separators=(",", ":"), allow_nan=False)
 
 
-def encode_parts(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = None
-                 ) -> list[bytes | memoryview]:
+def encode_parts(
+    arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = None
+) -> list[bytes | memoryview]:
     """A request body as a list of parts: the length and header, then views of the arrays' own
     memory (no copy), at most `CHUNK_BYTES` each. Sent part by part, a 9.2 MB body is not
     first joined into one new buffer (about 6 ms)."""
@@ -46,10 +47,13 @@ def encode_parts(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | N
         array = np.asarray(value, dtype="<f8")
         if not array.flags.c_contiguous:  # (not np.ascontiguousarray: it makes 0-d 1-d)
             array = array.copy(order="C")
-        header[name] = {"dtype": "F64", "shape": list(array.shape),
-                        "data_offsets": [offset, offset + array.nbytes]}
+        header[name] = {
+            "dtype": "F64",
+            "shape": list(array.shape),
+            "data_offsets": [offset, offset + array.nbytes],
+        }
         view = array.data.cast("B")
-        views += [view[i:i + CHUNK_BYTES] for i in range(0, len(view), CHUNK_BYTES)]
+        views += [view[i : i + CHUNK_BYTES] for i in range(0, len(view), CHUNK_BYTES)]
         offset += array.nbytes
     text = _json(header).encode()
     text += b" " * (-len(text) % 8)
@@ -71,23 +75,27 @@ def decode(content: bytes | bytearray) -> dict[str, Any]:
     (size,) = _LENGTH.unpack_from(content)
     if _LENGTH.size + size > len(content):
         raise ValueError("not a safetensors answer: the header runs past the body")
-    header = json.loads(bytes(content[_LENGTH.size:_LENGTH.size + size]))
+    header = json.loads(bytes(content[_LENGTH.size : _LENGTH.size + size]))
     if not isinstance(header, dict):
         raise ValueError("not a safetensors answer: the header is not an object")
     start = _LENGTH.size + size
     data: Any = memoryview(content)[start:]
     if not isinstance(content, bytearray) or start % 8:
         data = bytearray(data)  # one copy: the answer's arrays are writable (and aligned)
-    out: dict[str, Any] = {name: json.loads(text)
-                           for name, text in dict(header.pop(METADATA, None) or {}).items()}
+    out: dict[str, Any] = {
+        name: json.loads(text) for name, text in dict(header.pop(METADATA, None) or {}).items()
+    }
     for name, d in header.items():
         if d["dtype"] != "F64":
             raise ValueError(f"tensor {name} is {d['dtype']}, not F64")
         shape = [int(n) for n in d["shape"]]
         count = math.prod(shape)
         begin, end = (int(n) for n in d["data_offsets"])
-        if min(shape, default=0) < 0 or end - begin != 8 * count or not 0 <= begin <= end <= len(
-                data):
+        if (
+            min(shape, default=0) < 0
+            or end - begin != 8 * count
+            or not 0 <= begin <= end <= len(data)
+        ):
             raise ValueError(f"tensor {name} does not fit the answer")
         out[name] = np.frombuffer(data, dtype="<f8", count=count, offset=begin).reshape(shape)
     return out

@@ -23,8 +23,14 @@ from robodyn.request_options import Fill
 from robodyn.stream import Stream, stream_url
 
 
-class Client(RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, TrajectoryMethods,
-             IdentificationMethods):
+class Client(
+    RobotMethods,
+    DynamicsMethods,
+    BeyondMethods,
+    ContactMethods,
+    TrajectoryMethods,
+    IdentificationMethods,
+):
     """A blocking client of a robodyn server; use it as a context manager, or call `close()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else
@@ -51,24 +57,44 @@ class Client(RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, Traje
     q, zero for v, a and τ. None (default): every joint must be named.
     """
 
-    def __init__(self, base_url: str | None = None, *, api_key: str | None = None,
-                 timeout: transport.TimeoutLike = transport.DEFAULT_TIMEOUT,
-                 http_client: httpx.Client | None = None,
-                 headers: Mapping[str, str] | None = None, binary: bool | None = None,
-                 retry: transport.Retry | None = transport.DEFAULT_RETRY,
-                 array_type: outputs.ArrayType = "numpy",
-                 progress: _progress.Progress = None, fill: Fill | None = None) -> None:
-        super().__init__(base_url, api_key=api_key, http_client=http_client, headers=headers,
-                         binary=binary, retry=retry, array_type=array_type, progress=progress,
-                         fill=fill)
-        self._http = http_client or httpx.Client(timeout=transport.timeout_of(timeout),
-                                                 limits=transport.DEFAULT_LIMITS)
+    def __init__(
+        self,
+        base_url: str | None = None,
+        *,
+        api_key: str | None = None,
+        timeout: transport.TimeoutLike = transport.DEFAULT_TIMEOUT,
+        http_client: httpx.Client | None = None,
+        headers: Mapping[str, str] | None = None,
+        binary: bool | None = None,
+        retry: transport.Retry | None = transport.DEFAULT_RETRY,
+        array_type: outputs.ArrayType = "numpy",
+        progress: _progress.Progress = None,
+        fill: Fill | None = None,
+    ) -> None:
+        super().__init__(
+            base_url,
+            api_key=api_key,
+            http_client=http_client,
+            headers=headers,
+            binary=binary,
+            retry=retry,
+            array_type=array_type,
+            progress=progress,
+            fill=fill,
+        )
+        self._http = http_client or httpx.Client(
+            timeout=transport.timeout_of(timeout), limits=transport.DEFAULT_LIMITS
+        )
 
     def __enter__(self) -> Client:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self.close()
 
     def stream(self, robot_id: str, *, open_timeout: float | None = 10.0) -> Stream:
@@ -76,5 +102,10 @@ class Client(RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, Traje
         `robot_id` argument, over one connection, answered in order (needs
         `pip install 'robodyn[stream]'`). Use it as a context manager:
         `with client.stream("ur5") as s: tau = s.inverse_dynamics(q, v, a)`."""
-        return Stream(stream_url(self.base_url, robot_id), robot_id,
-                      dict(self._settings.headers), self._settings.use_binary, open_timeout)
+        return Stream(
+            stream_url(self.base_url, robot_id),
+            robot_id,
+            dict(self._settings.headers),
+            self._settings.use_binary,
+            open_timeout,
+        )

@@ -37,8 +37,10 @@ ContactsLike = Sequence[Contact | Mapping[str, Any] | str]
 def contacts_body(contacts: ContactsLike) -> list[dict[str, str]]:
     """The `contacts` body member, checked locally (frame names are checked by the server)."""
     if isinstance(contacts, str | Mapping) or not isinstance(contacts, Sequence) or not contacts:
-        raise InputError("contacts must be a non-empty list of {'frame': name, 'type': "
-                         "'point' | '6d'} (or of frame names)")
+        raise InputError(
+            "contacts must be a non-empty list of {'frame': name, 'type': "
+            "'point' | '6d'} (or of frame names)"
+        )
     out = []
     for k, contact in enumerate(contacts):
         if isinstance(contact, str):
@@ -47,8 +49,10 @@ def contacts_body(contacts: ContactsLike) -> list[dict[str, str]]:
             raise InputError(f"contacts[{k}] must be a mapping with a 'frame' name (str)")
         unknown = set(contact) - {"frame", "type"}
         if unknown:
-            raise InputError(f"contacts[{k}] has unknown keys {sorted(unknown)}; a contact "
-                             "has 'frame' and 'type'")
+            raise InputError(
+                f"contacts[{k}] has unknown keys {sorted(unknown)}; a contact "
+                "has 'frame' and 'type'"
+            )
         kind = contact.get("type", "point")
         if kind not in CONTACT_TYPES:
             raise InputError(f"contacts[{k}]['type'] must be 'point' or '6d', not {kind!r}")
@@ -83,10 +87,10 @@ class ContactDynamics(NamedTuple):
     contact_forces: np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> ContactDynamics:
-        return cls(read(body, "a", 1, batched, rows),
-                   read(body, "contact_forces", 1, batched, rows))
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> ContactDynamics:
+        return cls(
+            read(body, "a", 1, batched, rows), read(body, "contact_forces", 1, batched, rows)
+        )
 
 
 class ContactInverseDynamics(NamedTuple):
@@ -100,12 +104,15 @@ class ContactInverseDynamics(NamedTuple):
     residual: float | np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> ContactInverseDynamics:
+    def from_json(
+        cls, body: Mapping[str, Any], batched: bool, rows: int | None
+    ) -> ContactInverseDynamics:
         residual = read(body, "residual", 0, batched, rows)
-        return cls(read(body, "tau", 1, batched, rows),
-                   read(body, "contact_forces", 1, batched, rows),
-                   residual if batched else float(residual))
+        return cls(
+            read(body, "tau", 1, batched, rows),
+            read(body, "contact_forces", 1, batched, rows),
+            residual if batched else float(residual),
+        )
 
 
 class ImpulseDynamics(NamedTuple):
@@ -116,10 +123,10 @@ class ImpulseDynamics(NamedTuple):
     contact_impulses: np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> ImpulseDynamics:
-        return cls(read(body, "v", 1, batched, rows),
-                   read(body, "contact_impulses", 1, batched, rows))
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> ImpulseDynamics:
+        return cls(
+            read(body, "v", 1, batched, rows), read(body, "contact_impulses", 1, batched, rows)
+        )
 
 
 class ContactTrajectory(NamedTuple):
@@ -134,6 +141,7 @@ class ContactTrajectory(NamedTuple):
     constraint_drift: np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> ContactTrajectory:
+    def from_json(
+        cls, body: Mapping[str, Any], batched: bool, rows: int | None
+    ) -> ContactTrajectory:
         return cls(*trajectory_arrays(body, cls._fields, batched, rows))

@@ -59,8 +59,12 @@ class Call(Generic[T]):
 
     def binary(self, use_binary: bool | None) -> bool:
         """Whether the joint-space inputs go in the binary form (see `body`)."""
-        if (self.arrays is None or use_binary is False or not self.binary_form
-                or not all(isinstance(a, np.ndarray) for a in self.arrays.values())):
+        if (
+            self.arrays is None
+            or use_binary is False
+            or not self.binary_form
+            or not all(isinstance(a, np.ndarray) for a in self.arrays.values())
+        ):
             return False  # inputs keyed by joint name are JSON objects
         return bool(use_binary) or sum(a.size for a in self.arrays.values()) >= BINARY_FROM
 
@@ -68,13 +72,17 @@ class Call(Generic[T]):
         """The JSON object of the request (inputs as nested lists, then the other fields);
         with `fill` when an input is keyed by joint name."""
         body = {**to_json(self.arrays or {}), **(self.json or {})}
-        if fill is not None and self.arrays is not None and not all(
-                isinstance(a, np.ndarray) for a in self.arrays.values()):
+        if (
+            fill is not None
+            and self.arrays is not None
+            and not all(isinstance(a, np.ndarray) for a in self.arrays.values())
+        ):
             body.setdefault("fill", fill)
         return body
 
-    def body(self, use_binary: bool | None, fill: str | None = None
-             ) -> tuple[Body | None, str | None]:
+    def body(
+        self, use_binary: bool | None, fill: str | None = None
+    ) -> tuple[Body | None, str | None]:
         """The body and its media type: bytes, or for the binary form a list of parts
         (`binary.encode_parts`). Joint-space inputs go in the binary form when `use_binary` is
         True, or when it is None and they hold `BINARY_FROM` numbers or more. `fill`: sent
@@ -93,9 +101,11 @@ def binary_length(response: httpx.Response) -> int | None:
     coding): such an answer is read into one preallocated buffer (`Receiver`) rather
     than through httpx's chunk list. None for every other answer."""
     headers = response.headers
-    if (200 <= response.status_code <= 299
-            and headers.get("content-type", "").startswith(binary.MEDIA_TYPE)
-            and headers.get("content-encoding", "identity") == "identity"):
+    if (
+        200 <= response.status_code <= 299
+        and headers.get("content-type", "").startswith(binary.MEDIA_TYPE)
+        and headers.get("content-encoding", "identity") == "identity"
+    ):
         length = headers.get("content-length", "")
         if length.isdigit() and 0 < int(length) <= MAX_BINARY_ANSWER:
             return int(length)
@@ -118,21 +128,24 @@ class Receiver:
     def add(self, chunk: bytes) -> None:
         end = self._filled + len(chunk)
         if end > len(self.content):
-            raise ResponseFormatError(f"the answer is longer than its Content-Length "
-                                      f"{len(self.content)}", status=self._status)
-        self._view[self._filled:end] = chunk
+            raise ResponseFormatError(
+                f"the answer is longer than its Content-Length {len(self.content)}",
+                status=self._status,
+            )
+        self._view[self._filled : end] = chunk
         self._filled = end
 
     def finish(self) -> bytearray:
         if self._filled != len(self.content):
-            raise ResponseFormatError(f"the answer ended after {self._filled} of its "
-                                      f"{len(self.content)} bytes", status=self._status)
+            raise ResponseFormatError(
+                f"the answer ended after {self._filled} of its {len(self.content)} bytes",
+                status=self._status,
+            )
         self._view.release()
         return self.content
 
 
-def read_response(call: Call[T], response: httpx.Response,
-                  received: bytearray | None = None) -> T:
+def read_response(call: Call[T], response: httpx.Response, received: bytearray | None = None) -> T:
     """The result of `call` from its answer; an `APIError` subclass for an error status.
     `received` is the body already read into a buffer (see `binary_length`), if it was."""
     status = response.status_code
@@ -150,11 +163,16 @@ def read_response(call: Call[T], response: httpx.Response,
                 body = binary.decode(response.content) if is_binary else response.json()
         except ValueError:
             form = "in the binary form it claims" if is_binary else "JSON"
-            start = (bytes(received[:1000]).decode("utf-8", "replace") if received is not None
-                     else response.text[:1000])
-            raise ResponseFormatError(f"{call.method} {call.path} answered {status} with a body "
-                                      f"that is not {form}", status=status,
-                                      body=start) from None
+            start = (
+                bytes(received[:1000]).decode("utf-8", "replace")
+                if received is not None
+                else response.text[:1000]
+            )
+            raise ResponseFormatError(
+                f"{call.method} {call.path} answered {status} with a body that is not {form}",
+                status=status,
+                body=start,
+            ) from None
     return _read(call, status, body)
 
 
@@ -162,14 +180,18 @@ def _read(call: Call[T], status: int, body: Any) -> T:
     try:
         return call.read(status, body)
     except (KeyError, ValueError, TypeError, IndexError) as exc:
-        raise ResponseFormatError(f"{call.method} {call.path} answered {status} with an "
-                                  f"unexpected body: {exc!s}", status=status, body=body) from exc
+        raise ResponseFormatError(
+            f"{call.method} {call.path} answered {status} with an unexpected body: {exc!s}",
+            status=status,
+            body=body,
+        ) from exc
 
 
 def is_progress_stream(response: httpx.Response) -> bool:
     """Whether a response is the server's progress stream (a success, lines of JSON)."""
-    return (200 <= response.status_code <= 299 and response.headers.get(
-        "content-type", "").startswith(PROGRESS_MEDIA_TYPE))
+    return 200 <= response.status_code <= 299 and response.headers.get(
+        "content-type", ""
+    ).startswith(PROGRESS_MEDIA_TYPE)
 
 
 class ProgressLines(Generic[T]):
@@ -189,9 +211,12 @@ class ProgressLines(Generic[T]):
             message = json.loads(line)
             key = next(iter(message))
         except (ValueError, TypeError, StopIteration):
-            raise ResponseFormatError(f"{self.call.method} {self.call.path}: a line of its "
-                                      "progress stream is not a JSON object", status=200,
-                                      body=line[:1000]) from None
+            raise ResponseFormatError(
+                f"{self.call.method} {self.call.path}: a line of its "
+                "progress stream is not a JSON object",
+                status=200,
+                body=line[:1000],
+            ) from None
         if key == "progress":
             self.report(message["progress"])
         elif key == "answer":
@@ -201,8 +226,10 @@ class ProgressLines(Generic[T]):
 
     def result(self) -> T:
         if not self._done:
-            raise ResponseFormatError(f"{self.call.method} {self.call.path}: its progress "
-                                      "stream ended before the answer", status=200)
+            raise ResponseFormatError(
+                f"{self.call.method} {self.call.path}: its progress stream ended before the answer",
+                status=200,
+            )
         return _read(self.call, 200, self._answer)
 
 
@@ -221,13 +248,19 @@ def api_error(response: httpx.Response) -> APIError:
     return problem_error(body, response, retry_after)
 
 
-def problem_error(body: Any, response: httpx.Response | None, retry_after: float | None
-                  ) -> APIError:
+def problem_error(
+    body: Any, response: httpx.Response | None, retry_after: float | None
+) -> APIError:
     """The exception for a problem (problem+json, or any other body) of an error answer (its
     status from `response`, else from the problem's `status`)."""
     problem = body if isinstance(body, dict) else {}
-    status = (response.status_code if response is not None else
-              int(problem["status"]) if isinstance(problem.get("status"), int) else 500)
+    status = (
+        response.status_code
+        if response is not None
+        else int(problem["status"])
+        if isinstance(problem.get("status"), int)
+        else 500
+    )
     reason = response.reason_phrase if response is not None else None
     code = problem.get("code") if isinstance(problem.get("code"), str) else None
     title = str(problem.get("title") or reason or f"HTTP {status}")

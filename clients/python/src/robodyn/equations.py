@@ -23,8 +23,9 @@ def _sympy() -> Any:
     try:
         import sympy
     except ImportError:  # the optional extra
-        raise ImportError("Equations.sympy() needs SymPy: pip install 'robodyn[sympy]' "
-                          "(or sympy)") from None
+        raise ImportError(
+            "Equations.sympy() needs SymPy: pip install 'robodyn[sympy]' (or sympy)"
+        ) from None
     return sympy
 
 
@@ -93,9 +94,10 @@ class EquationsStructure:
 
     @classmethod
     def from_json(cls, body: Mapping[str, Any]) -> EquationsStructure:
-        return cls(tuple(tuple(EntryStructure.from_json(e) for e in row)
-                         for row in body["mass_matrix"]),
-                   tuple(EntryStructure.from_json(e) for e in body["gravity"]))
+        return cls(
+            tuple(tuple(EntryStructure.from_json(e) for e in row) for row in body["mass_matrix"]),
+            tuple(EntryStructure.from_json(e) for e in body["gravity"]),
+        )
 
 
 @dataclass(frozen=True)
@@ -128,14 +130,24 @@ class Equations:
         def read(key: str) -> Expressions:
             return Expressions.from_json(body[key], names)
 
-        return cls(tuple(body["joints"]), coordinates, velocities, read("mass_matrix"),
-                   read("gravity"), read("coriolis_matrix"), read("christoffel"),
-                   read("kinetic_energy"), read("potential_energy"),
-                   EquationsStructure.from_json(body["structure"]))
+        return cls(
+            tuple(body["joints"]),
+            coordinates,
+            velocities,
+            read("mass_matrix"),
+            read("gravity"),
+            read("coriolis_matrix"),
+            read("christoffel"),
+            read("kinetic_energy"),
+            read("potential_energy"),
+            EquationsStructure.from_json(body["structure"]),
+        )
 
     def symbols(self) -> tuple[Any, Any]:
         """(q, dq): the coordinates and velocities as tuples of SymPy symbols, the ones
         `.sympy()` uses (e.g. for `sympy.lambdify(q, M)`). Needs SymPy."""
         sp = _sympy()
-        return (tuple(sp.Symbol(n, real=True) for n in self.coordinates),
-                tuple(sp.Symbol(n, real=True) for n in self.velocities))
+        return (
+            tuple(sp.Symbol(n, real=True) for n in self.coordinates),
+            tuple(sp.Symbol(n, real=True) for n in self.velocities),
+        )

@@ -103,8 +103,15 @@ class APIError(RobodynError):
     status_code: ClassVar[int | None] = None  # the status this class stands for, if one
     error_code: ClassVar[str | None] = None  # the server code this class stands for, if one
 
-    def __init__(self, status: int, code: str | None, title: str, detail: str, body: Any = None,
-                 retry_after: float | None = None) -> None:
+    def __init__(
+        self,
+        status: int,
+        code: str | None,
+        title: str,
+        detail: str,
+        body: Any = None,
+        retry_after: float | None = None,
+    ) -> None:
         self.status = status
         self.code = code
         self.title = title
@@ -117,8 +124,10 @@ class APIError(RobodynError):
         return f"{self.status} {self.code or self.title}: {self.detail}"
 
     def __reduce__(self) -> tuple[Any, ...]:  # picklable, e.g. across multiprocessing
-        return (type(self), (self.status, self.code, self.title, self.detail, self.body,
-                             self.retry_after))
+        return (
+            type(self),
+            (self.status, self.code, self.title, self.detail, self.body, self.retry_after),
+        )
 
 
 class BadRequestError(APIError):

@@ -46,9 +46,8 @@ class InertialParameters:
         try:
             i = self.bodies.index(body)
         except ValueError:
-            raise KeyError(f"no body is named {body!r}; bodies: {', '.join(self.bodies)}"
-                           ) from None
-        return self.parameters[10 * i:10 * (i + 1)]
+            raise KeyError(f"no body is named {body!r}; bodies: {', '.join(self.bodies)}") from None
+        return self.parameters[10 * i : 10 * (i + 1)]
 
     @classmethod
     def from_json(cls, body: Mapping[str, Any]) -> InertialParameters:
@@ -132,23 +131,38 @@ class Identification:
         series = body.get("validation_series")
         return cls(
             parameters=_vector(body["parameters"]),
-            bodies=tuple(IdentifiedBody(b["name"], float(b["mass"]),
-                                        _vector(b["center_of_mass"]), _vector(b["inertia"]),
-                                        float(b["pseudo_inertia_min_eigenvalue"]))
-                         for b in body["bodies"]),
-            friction=tuple(JointFriction(f["joint"], float(f["coulomb"]), float(f["viscous"]),
-                                         float(f["offset"])) for f in body["friction"]),
-            base_parameters=BaseParameters(tuple(base["expressions"]),
-                                           _vector(base["values"]),
-                                           _vector(base["standard_deviation"])),
-            condition_number=(None if body["condition_number"] is None
-                              else float(body["condition_number"])),
+            bodies=tuple(
+                IdentifiedBody(
+                    b["name"],
+                    float(b["mass"]),
+                    _vector(b["center_of_mass"]),
+                    _vector(b["inertia"]),
+                    float(b["pseudo_inertia_min_eigenvalue"]),
+                )
+                for b in body["bodies"]
+            ),
+            friction=tuple(
+                JointFriction(
+                    f["joint"], float(f["coulomb"]), float(f["viscous"]), float(f["offset"])
+                )
+                for f in body["friction"]
+            ),
+            base_parameters=BaseParameters(
+                tuple(base["expressions"]),
+                _vector(base["values"]),
+                _vector(base["standard_deviation"]),
+            ),
+            condition_number=(
+                None if body["condition_number"] is None else float(body["condition_number"])
+            ),
             physically_consistent=bool(body["physically_consistent"]),
             rmse=Rmse(*(_vector(body["rmse"][k]) for k in Rmse._fields)),
             filter_hz=None if body["filter_hz"] is None else float(body["filter_hz"]),
             samples=dict(body["samples"]),
             robot=None if body.get("robot") is None else RobotInfo.from_json(body["robot"]),
             payload=None if payload is None else _payload(payload),
-            validation_series=None if series is None else {
-                k: _vector(v) for k, v in series.items()},
-            not_stored=body.get("not_stored"))
+            validation_series=None
+            if series is None
+            else {k: _vector(v) for k, v in series.items()},
+            not_stored=body.get("not_stored"),
+        )

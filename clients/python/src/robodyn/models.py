@@ -57,9 +57,13 @@ class Finding:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Finding:
-        return cls(code=str(data.get("code", "")), element=str(data.get("element", "")),
-                   name=str(data.get("name", "")), message=str(data.get("message", "")),
-                   raw=_frozen(data))
+        return cls(
+            code=str(data.get("code", "")),
+            element=str(data.get("element", "")),
+            name=str(data.get("name", "")),
+            message=str(data.get("message", "")),
+            raw=_frozen(data),
+        )
 
 
 @dataclass(frozen=True)
@@ -73,8 +77,12 @@ class FrameInfo:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> FrameInfo:
-        return cls(name=data["name"], type=data.get("type", ""),
-                   parent_joint=data.get("parent_joint", ""), raw=_frozen(data))
+        return cls(
+            name=data["name"],
+            type=data.get("type", ""),
+            parent_joint=data.get("parent_joint", ""),
+            raw=_frozen(data),
+        )
 
 
 @dataclass(frozen=True)
@@ -118,14 +126,20 @@ class JointInfo:
         one = int(data["nv"]) == 1
         armature = tuple(float(x) for x in data.get("armature", ()))
         return cls(
-            name=data["name"], type=data["type"], parent=data.get("parent", ""),
-            idx_q=int(data["idx_q"]), nq=int(data["nq"]),
-            idx_v=int(data["idx_v"]), nv=int(data["nv"]),
-            lower=_limits(data.get("lower", ()), one), upper=_limits(data.get("upper", ()), one),
+            name=data["name"],
+            type=data["type"],
+            parent=data.get("parent", ""),
+            idx_q=int(data["idx_q"]),
+            nq=int(data["nq"]),
+            idx_v=int(data["idx_v"]),
+            nv=int(data["nv"]),
+            lower=_limits(data.get("lower", ()), one),
+            upper=_limits(data.get("upper", ()), one),
             velocity_limit=_limits(data.get("velocity_limit", ()), one),
             effort_limit=_limits(data.get("effort_limit", ()), one),
             armature=armature[0] if one and len(armature) == 1 else armature,
-            raw=_frozen(data))
+            raw=_frozen(data),
+        )
 
 
 @dataclass(frozen=True)
@@ -143,9 +157,15 @@ class RobotSummary:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> RobotSummary:
-        return cls(id=data["id"], name=data["name"], source=data["source"],
-                   nq=int(data["nq"]), nv=int(data["nv"]), root_joint=data.get("root_joint"),
-                   raw=_frozen(data))
+        return cls(
+            id=data["id"],
+            name=data["name"],
+            source=data["source"],
+            nq=int(data["nq"]),
+            nv=int(data["nv"]),
+            root_joint=data.get("root_joint"),
+            raw=_frozen(data),
+        )
 
 
 @dataclass(frozen=True)
@@ -175,8 +195,11 @@ class RobotList(Sequence[RobotSummary]):
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> RobotList:
-        return cls(robots=tuple(RobotSummary.from_json(r) for r in data["robots"]),
-                   unavailable=_frozen(data.get("unavailable") or {}), raw=_frozen(data))
+        return cls(
+            robots=tuple(RobotSummary.from_json(r) for r in data["robots"]),
+            unavailable=_frozen(data.get("unavailable") or {}),
+            raw=_frozen(data),
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,25 +257,37 @@ class RobotInfo:
         for j in self.joints:
             if j.name == name:
                 return j
-        raise KeyError(f"robot '{self.id}' has no joint '{name}'; its joints are "
-                       f"{', '.join(self.joint_names) or '(none)'}")
+        raise KeyError(
+            f"robot '{self.id}' has no joint '{name}'; its joints are "
+            f"{', '.join(self.joint_names) or '(none)'}"
+        )
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any], created: bool | None = None) -> RobotInfo:
         neutral = _vector(data["neutral_configuration"])
         return cls(
-            id=data["id"], name=data["name"], source=data["source"],
-            nq=int(data["nq"]), nv=int(data["nv"]), root_joint=data.get("root_joint", ""),
-            gravity=_vector(data["gravity"]), total_mass=float(data["total_mass"]),
+            id=data["id"],
+            name=data["name"],
+            source=data["source"],
+            nq=int(data["nq"]),
+            nv=int(data["nv"]),
+            root_joint=data.get("root_joint", ""),
+            gravity=_vector(data["gravity"]),
+            total_mass=float(data["total_mass"]),
             neutral_configuration=neutral,
             default_configuration=_vector(data.get("default_configuration", neutral)),
             reference_configurations=MappingProxyType(
-                {k: _vector(v) for k, v in (data.get("reference_configurations") or {}).items()}),
+                {k: _vector(v) for k, v in (data.get("reference_configurations") or {}).items()}
+            ),
             warnings=tuple(Finding.from_json(w) for w in data.get("warnings") or ()),
             joints=tuple(JointInfo.from_json(j) for j in data["joints"]),
             frames=tuple(FrameInfo.from_json(f) for f in data.get("frames") or ()),
-            raw=_frozen(data), created=created,
+            raw=_frozen(data),
+            created=created,
             moving_mass=float(data.get("moving_mass", data["total_mass"])),
-            fixed_mass=float(data.get("fixed_mass", 0.0)), parent=data.get("parent"),
-            modifications=(_frozen(data["modifications"]) if data.get("modifications")
-                           is not None else None))
+            fixed_mass=float(data.get("fixed_mass", 0.0)),
+            parent=data.get("parent"),
+            modifications=(
+                _frozen(data["modifications"]) if data.get("modifications") is not None else None
+            ),
+        )

@@ -24,8 +24,9 @@ T = TypeVar("T")
 
 def check_array_type(array_type: Any) -> ArrayType:
     if array_type not in ARRAY_TYPES:
-        raise InputError(f"array_type must be one of {', '.join(map(repr, ARRAY_TYPES))}, "
-                         f"not {array_type!r}")
+        raise InputError(
+            f"array_type must be one of {', '.join(map(repr, ARRAY_TYPES))}, not {array_type!r}"
+        )
     if array_type == "torch":
         _torch()  # fail now, not at the first answer
     result: ArrayType = array_type
@@ -61,8 +62,14 @@ def _map(value: Any, fn: Callable[[np.ndarray], Any]) -> Any:
         items = [_map(v, fn) for v in value]
         return _tuple(value, items)
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return dataclasses.replace(value, **{f.name: _map(getattr(value, f.name), fn)
-                                             for f in dataclasses.fields(value) if f.init})
+        return dataclasses.replace(
+            value,
+            **{
+                f.name: _map(getattr(value, f.name), fn)
+                for f in dataclasses.fields(value)
+                if f.init
+            },
+        )
     return value
 
 
@@ -81,9 +88,14 @@ def _join(parts: list[Any], axis: int) -> Any:
         items = [_join([p[i] for p in parts], axis) for i in range(len(first))]
         return _tuple(first, items)
     if dataclasses.is_dataclass(first) and not isinstance(first, type):
-        return dataclasses.replace(first, **{
-            f.name: _join([getattr(p, f.name) for p in parts], axis)
-            for f in dataclasses.fields(first) if f.init})
+        return dataclasses.replace(
+            first,
+            **{
+                f.name: _join([getattr(p, f.name) for p in parts], axis)
+                for f in dataclasses.fields(first)
+                if f.init
+            },
+        )
     return first
 
 

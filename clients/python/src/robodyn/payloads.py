@@ -33,13 +33,13 @@ class Payload:
     mass: float
     center_of_mass: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0)
     inertia: Sequence[Sequence[float]] | np.ndarray = field(
-        default=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+        default=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    )
 
     def __post_init__(self) -> None:
         """Check the payload (`InputError`) and keep its vectors as tuples of floats, so that
         payloads compare and hash by value."""
-        body = _payload_json("Payload", self.frame, self.mass, self.center_of_mass,
-                             self.inertia)
+        body = _payload_json("Payload", self.frame, self.mass, self.center_of_mass, self.inertia)
         object.__setattr__(self, "mass", body["mass"])
         object.__setattr__(self, "center_of_mass", tuple(body["center_of_mass"]))
         object.__setattr__(self, "inertia", tuple(tuple(row) for row in body["inertia"]))
@@ -47,8 +47,7 @@ class Payload:
     def to_json(self) -> dict[str, Any]:
         """The payload as the server reads it: `{"frame", "mass", "center_of_mass",
         "inertia"}`."""
-        return _payload_json("Payload", self.frame, self.mass, self.center_of_mass,
-                             self.inertia)
+        return _payload_json("Payload", self.frame, self.mass, self.center_of_mass, self.inertia)
 
 
 PayloadsLike = Sequence[Payload | Mapping[str, Any]]
@@ -69,16 +68,19 @@ def _numbers(where: str, value: Any, shape: tuple[int, ...]) -> list[Any]:
     return listed
 
 
-def _payload_json(where: str, frame: Any, mass: Any, center_of_mass: Any, inertia: Any
-                  ) -> dict[str, Any]:
+def _payload_json(
+    where: str, frame: Any, mass: Any, center_of_mass: Any, inertia: Any
+) -> dict[str, Any]:
     if not isinstance(frame, str) or not frame:
         raise InputError(f"{where}: frame must be a frame name (a non-empty str)")
-    if (isinstance(mass, bool) or not isinstance(mass, numbers.Real)
-            or not math.isfinite(mass)):
+    if isinstance(mass, bool) or not isinstance(mass, numbers.Real) or not math.isfinite(mass):
         raise InputError(f"{where}: mass must be a finite number of kg, not {mass!r}")
-    return {"frame": frame, "mass": float(mass),
-            "center_of_mass": _numbers(f"{where}: center_of_mass", center_of_mass, (3,)),
-            "inertia": _numbers(f"{where}: inertia", inertia, (3, 3))}
+    return {
+        "frame": frame,
+        "mass": float(mass),
+        "center_of_mass": _numbers(f"{where}: center_of_mass", center_of_mass, (3,)),
+        "inertia": _numbers(f"{where}: inertia", inertia, (3, 3)),
+    }
 
 
 def payloads_body(payloads: PayloadsLike | None) -> dict[str, Any]:
@@ -87,8 +89,10 @@ def payloads_body(payloads: PayloadsLike | None) -> dict[str, Any]:
     if payloads is None:
         return {}
     if isinstance(payloads, Payload | Mapping | str) or not isinstance(payloads, Sequence):
-        raise InputError("payloads must be a list of Payload (or of mappings with 'frame' and "
-                         "'mass'); for one payload give [payload]")
+        raise InputError(
+            "payloads must be a list of Payload (or of mappings with 'frame' and "
+            "'mass'); for one payload give [payload]"
+        )
     out = []
     for k, payload in enumerate(payloads):
         where = f"payloads[{k}]"
@@ -96,15 +100,24 @@ def payloads_body(payloads: PayloadsLike | None) -> dict[str, Any]:
             out.append(payload.to_json())  # checked when it was made
             continue
         if not isinstance(payload, Mapping):
-            raise InputError(f"{where} must be a Payload or a mapping, not "
-                             f"{type(payload).__name__}")
+            raise InputError(
+                f"{where} must be a Payload or a mapping, not {type(payload).__name__}"
+            )
         unknown = set(payload) - set(FIELDS)
         if unknown or "frame" not in payload or "mass" not in payload:
-            raise InputError(f"{where} needs 'frame' and 'mass' and may have "
-                             f"'center_of_mass' and 'inertia', nothing else")
-        out.append(_payload_json(where, payload["frame"], payload["mass"],
-                                 payload.get("center_of_mass", np.zeros(3)),
-                                 payload.get("inertia", np.zeros((3, 3)))))
+            raise InputError(
+                f"{where} needs 'frame' and 'mass' and may have "
+                f"'center_of_mass' and 'inertia', nothing else"
+            )
+        out.append(
+            _payload_json(
+                where,
+                payload["frame"],
+                payload["mass"],
+                payload.get("center_of_mass", np.zeros(3)),
+                payload.get("inertia", np.zeros((3, 3))),
+            )
+        )
     return {"payloads": out} if out else {}
 
 
@@ -147,8 +160,7 @@ class PayloadCapacity:
     minimum: CapacityMinimum | None = None
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> PayloadCapacity:
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> PayloadCapacity:
         mass = _masses(body["mass"])
         per = _masses(body["mass_per_joint"])
         tau = np.asarray(body["tau"], dtype=np.float64)
@@ -164,5 +176,6 @@ class PayloadCapacity:
         minimum = CapacityMinimum(
             mass=float(np.inf if low.get("mass") is None else low["mass"]),
             state=None if low.get("state") is None else int(low["state"]),
-            limiting_joint=low.get("limiting_joint"))
+            limiting_joint=low.get("limiting_joint"),
+        )
         return cls(mass, tuple(joint or ()), per, tau, minimum)

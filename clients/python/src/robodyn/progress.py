@@ -58,8 +58,10 @@ def check(progress: Any) -> Progress:
         _tqdm()
         return True
     if not callable(progress):
-        raise InputError("progress must be a callable (done, total), True for a tqdm bar, or "
-                         f"None; not {type(progress).__name__}")
+        raise InputError(
+            "progress must be a callable (done, total), True for a tqdm bar, or "
+            f"None; not {type(progress).__name__}"
+        )
     callback: ProgressCallback = progress
     return callback
 
@@ -68,8 +70,9 @@ def _tqdm() -> Any:
     try:
         from tqdm.auto import tqdm
     except ImportError:
-        raise InputError("progress=True shows a tqdm bar: pip install tqdm (or pass a "
-                         "callable (done, total))") from None
+        raise InputError(
+            "progress=True shows a tqdm bar: pip install tqdm (or pass a callable (done, total))"
+        ) from None
     return tqdm
 
 

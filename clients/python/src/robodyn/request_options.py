@@ -35,16 +35,16 @@ INTEGRATORS: tuple[str, ...] = get_args(Integrator)
 def choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
     """`value` if it is one of `allowed`; else an InputError listing them."""
     if not isinstance(value, str) or value not in allowed:
-        raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}, "
-                         f"not {value!r}")
+        raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}, not {value!r}")
     return value
 
 
 def frame_name(frame: Any) -> str:
     """A frame name argument: a non-empty str (the server checks that the robot has it)."""
     if not isinstance(frame, str):
-        raise TypeError(f"frame must be a str (a name from robot(id).frame_names), not "
-                        f"{type(frame).__name__}")
+        raise TypeError(
+            f"frame must be a str (a name from robot(id).frame_names), not {type(frame).__name__}"
+        )
     if not frame:
         raise InputError("frame is empty; robot(id).frame_names lists the valid names")
     return frame
@@ -60,8 +60,9 @@ def external_forces(forces: Sequence[Mapping[str, Any]] | None) -> dict[str, Any
     if forces is None:
         return {}
     if isinstance(forces, Mapping) or not isinstance(forces, Sequence):
-        raise InputError("external_forces must be a list of {'frame', 'wrench', "
-                         "'reference_frame'} mappings")
+        raise InputError(
+            "external_forces must be a list of {'frame', 'wrench', 'reference_frame'} mappings"
+        )
     out = []
     for k, force in enumerate(forces):
         where = f"external_forces[{k}]"
@@ -69,19 +70,23 @@ def external_forces(forces: Sequence[Mapping[str, Any]] | None) -> dict[str, Any
             raise InputError(f"{where} must be a mapping with 'frame' and 'wrench'")
         unknown = set(force) - {"frame", "wrench", "reference_frame"}
         if unknown or "frame" not in force or "wrench" not in force:
-            raise InputError(f"{where} needs 'frame' and 'wrench' and may have "
-                             "'reference_frame', nothing else")
+            raise InputError(
+                f"{where} needs 'frame' and 'wrench' and may have 'reference_frame', nothing else"
+            )
         if not isinstance(force["frame"], str):
             raise InputError(f"{where}['frame'] must be a frame name (str)")
         wrench = joint_array(f"{where}['wrench']", force["wrench"])
         if wrench.shape[-1] != 6:
-            raise InputError(f"{where}['wrench'] must have 6 entries (force then torque), or "
-                             f"shape (N, 6); it has shape {wrench.shape}")
+            raise InputError(
+                f"{where}['wrench'] must have 6 entries (force then torque), or "
+                f"shape (N, 6); it has shape {wrench.shape}"
+            )
         item: dict[str, Any] = {"frame": force["frame"], "wrench": wrench.tolist()}
         if "reference_frame" in force:
             if force["reference_frame"] not in REFERENCE_FRAMES:
-                raise InputError(f"{where}['reference_frame'] must be one of "
-                                 f"{', '.join(REFERENCE_FRAMES)}")
+                raise InputError(
+                    f"{where}['reference_frame'] must be one of {', '.join(REFERENCE_FRAMES)}"
+                )
             item["reference_frame"] = force["reference_frame"]
         out.append(item)
     return {"external_forces": out}
@@ -95,8 +100,13 @@ def _gain(name: str, value: Any) -> Any:
     return _json(joint_input(name, value))
 
 
-def simulation(dt: float, steps: int, tau: Any, controller: Mapping[str, Any] | None,
-               integrator: Integrator | None) -> dict[str, Any]:
+def simulation(
+    dt: float,
+    steps: int,
+    tau: Any,
+    controller: Mapping[str, Any] | None,
+    integrator: Integrator | None,
+) -> dict[str, Any]:
     """The non-state members of a simulate body, checked."""
     if isinstance(dt, bool) or not isinstance(dt, int | float) or not np.isfinite(dt) or dt <= 0:
         raise InputError("dt must be a positive number of seconds")
@@ -109,8 +119,10 @@ def simulation(dt: float, steps: int, tau: Any, controller: Mapping[str, Any] | 
         body["tau"] = _json(joint_input("tau", tau))
     if controller is not None:
         if not isinstance(controller, Mapping):
-            raise InputError("controller must be a mapping like {'type': 'pd', 'kp': ..., "
-                             "'kd': ..., 'q_target': ...}")
+            raise InputError(
+                "controller must be a mapping like {'type': 'pd', 'kp': ..., "
+                "'kd': ..., 'q_target': ...}"
+            )
         pd = dict(controller)
         for gain in ("kp", "kd"):
             if gain in pd:

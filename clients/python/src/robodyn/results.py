@@ -22,14 +22,16 @@ import numpy as np
 from robodyn.arrays import answer_array
 
 
-def read(body: Mapping[str, Any], key: str, ndim: int, batched: bool, rows: int | None
-         ) -> np.ndarray:
+def read(
+    body: Mapping[str, Any], key: str, ndim: int, batched: bool, rows: int | None
+) -> np.ndarray:
     """Field `key` with `ndim` dimensions per state (any shape: Jacobians are not square)."""
     return answer_array(body, key, ndim, batched, rows, square=False)
 
 
-def read_optional(body: Mapping[str, Any], key: str, ndim: int, batched: bool,
-                  rows: int | None) -> np.ndarray | None:
+def read_optional(
+    body: Mapping[str, Any], key: str, ndim: int, batched: bool, rows: int | None
+) -> np.ndarray | None:
     return read(body, key, ndim, batched, rows) if body.get(key) is not None else None
 
 
@@ -45,8 +47,10 @@ class Energy:
 
     @classmethod
     def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> Energy:
-        values = [read(body, key, 0, batched, rows) for key in
-                  ("kinetic_energy", "potential_energy", "mechanical_energy")]
+        values = [
+            read(body, key, 0, batched, rows)
+            for key in ("kinetic_energy", "potential_energy", "mechanical_energy")
+        ]
         if not batched:
             return cls(*(float(x) for x in values))
         return cls(*values)
@@ -62,11 +66,12 @@ class CenterOfMass:
     velocity: np.ndarray | None
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> CenterOfMass:
-        return cls(position=read(body, "position", 1, batched, rows),
-                   jacobian=read(body, "jacobian", 2, batched, rows),
-                   velocity=read_optional(body, "velocity", 1, batched, rows))
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> CenterOfMass:
+        return cls(
+            position=read(body, "position", 1, batched, rows),
+            jacobian=read(body, "jacobian", 2, batched, rows),
+            velocity=read_optional(body, "velocity", 1, batched, rows),
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,11 +84,13 @@ class FrameJacobian:
     jacobian_time_variation: np.ndarray | None
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> FrameJacobian:
-        return cls(jacobian=read(body, "jacobian", 2, batched, rows),
-                   jacobian_time_variation=read_optional(body, "jacobian_time_variation", 2,
-                                                         batched, rows))
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> FrameJacobian:
+        return cls(
+            jacobian=read(body, "jacobian", 2, batched, rows),
+            jacobian_time_variation=read_optional(
+                body, "jacobian_time_variation", 2, batched, rows
+            ),
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,14 +111,18 @@ class OperationalSpace:
     coriolis: np.ndarray | None
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> OperationalSpace:
-        return cls(inertia=read(body, "inertia", 2, batched, rows),
-                   jacobian=read(body, "jacobian", 2, batched, rows),
-                   dynamically_consistent_inverse=read(body, "dynamically_consistent_inverse",
-                                                       2, batched, rows),
-                   gravity=read(body, "gravity", 1, batched, rows),
-                   coriolis=read_optional(body, "coriolis", 1, batched, rows))
+    def from_json(
+        cls, body: Mapping[str, Any], batched: bool, rows: int | None
+    ) -> OperationalSpace:
+        return cls(
+            inertia=read(body, "inertia", 2, batched, rows),
+            jacobian=read(body, "jacobian", 2, batched, rows),
+            dynamically_consistent_inverse=read(
+                body, "dynamically_consistent_inverse", 2, batched, rows
+            ),
+            gravity=read(body, "gravity", 1, batched, rows),
+            coriolis=read_optional(body, "coriolis", 1, batched, rows),
+        )
 
 
 def _matrix(values: Any) -> np.ndarray:
@@ -150,14 +161,18 @@ class BodyInertia:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> BodyInertia:
-        return cls(name=str(data["name"]), joint=str(data["joint"]),
-                   links=tuple(str(x) for x in data.get("links", ())),
-                   mass=float(data["mass"]), center_of_mass=_vector3(data["center_of_mass"]),
-                   inertia_at_center_of_mass=_matrix(data["inertia_at_center_of_mass"]),
-                   inertia_at_joint=_matrix(data["inertia_at_joint"]),
-                   principal_moments=_vector3(data["principal_moments"]),
-                   principal_axes=_matrix(data["principal_axes"]),
-                   raw=MappingProxyType(dict(data)))
+        return cls(
+            name=str(data["name"]),
+            joint=str(data["joint"]),
+            links=tuple(str(x) for x in data.get("links", ())),
+            mass=float(data["mass"]),
+            center_of_mass=_vector3(data["center_of_mass"]),
+            inertia_at_center_of_mass=_matrix(data["inertia_at_center_of_mass"]),
+            inertia_at_joint=_matrix(data["inertia_at_joint"]),
+            principal_moments=_vector3(data["principal_moments"]),
+            principal_axes=_matrix(data["principal_axes"]),
+            raw=MappingProxyType(dict(data)),
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,8 +200,10 @@ class Inertias(Sequence[BodyInertia]):
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Inertias:
-        return cls(total_mass=float(data["total_mass"]),
-                   bodies=tuple(BodyInertia.from_json(b) for b in data["bodies"]))
+        return cls(
+            total_mass=float(data["total_mass"]),
+            bodies=tuple(BodyInertia.from_json(b) for b in data["bodies"]),
+        )
 
 
 class InverseDynamicsDerivatives(NamedTuple):
@@ -197,8 +214,9 @@ class InverseDynamicsDerivatives(NamedTuple):
     dtau_da: np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> InverseDynamicsDerivatives:
+    def from_json(
+        cls, body: Mapping[str, Any], batched: bool, rows: int | None
+    ) -> InverseDynamicsDerivatives:
         return cls(*(answer_array(body, key, 2, batched, rows) for key in cls._fields))
 
 
@@ -210,8 +228,9 @@ class ForwardDynamicsDerivatives(NamedTuple):
     da_dtau: np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> ForwardDynamicsDerivatives:
+    def from_json(
+        cls, body: Mapping[str, Any], batched: bool, rows: int | None
+    ) -> ForwardDynamicsDerivatives:
         return cls(*(answer_array(body, key, 2, batched, rows) for key in cls._fields))
 
 
@@ -224,11 +243,12 @@ class Centroidal(NamedTuple):
     center_of_mass: np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> Centroidal:
-        return cls(read(body, "momentum", 1, batched, rows),
-                   read(body, "momentum_matrix", 2, batched, rows),
-                   read(body, "center_of_mass", 1, batched, rows))
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> Centroidal:
+        return cls(
+            read(body, "momentum", 1, batched, rows),
+            read(body, "momentum_matrix", 2, batched, rows),
+            read(body, "center_of_mass", 1, batched, rows),
+        )
 
 
 class Trajectory(NamedTuple):
@@ -242,12 +262,12 @@ class Trajectory(NamedTuple):
     mechanical_energy: np.ndarray
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None
-                  ) -> Trajectory:
+    def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> Trajectory:
         return cls(*trajectory_arrays(body, cls._fields, batched, rows))
 
 
-def trajectory_arrays(body: Mapping[str, Any], fields: Sequence[str], batched: bool,
-                      rows: int | None) -> list[np.ndarray]:
+def trajectory_arrays(
+    body: Mapping[str, Any], fields: Sequence[str], batched: bool, rows: int | None
+) -> list[np.ndarray]:
     """A trajectory's fields: q and v have 2 dimensions per initial state, the others 1."""
     return [read(body, key, 2 if key in ("q", "v") else 1, batched, rows) for key in fields]

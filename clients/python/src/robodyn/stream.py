@@ -31,8 +31,9 @@ def _require_websockets() -> None:
     try:
         import websockets  # noqa: F401
     except ImportError:
-        raise ImportError("streams need the 'websockets' package: "
-                          "pip install 'robodyn[stream]'") from None
+        raise ImportError(
+            "streams need the 'websockets' package: pip install 'robodyn[stream]'"
+        ) from None
 
 
 def stream_url(base_url: str, robot_id: str) -> str:
@@ -45,8 +46,7 @@ def stream_url(base_url: str, robot_id: str) -> str:
 def message(call: core.Call[Any], use_binary: bool | None) -> str | bytes:
     """The stream message of a client call: JSON text, or the binary form for large inputs."""
     if call.binary(use_binary):
-        return binary.encode(call.arrays or {}, {**(call.json or {}),
-                                                 "quantity": call.quantity})
+        return binary.encode(call.arrays or {}, {**(call.json or {}), "quantity": call.quantity})
     return core.encode({"quantity": call.quantity, **call.json_body()}).decode()
 
 
@@ -55,13 +55,15 @@ def answer(call: core.Call[Any], reply: str | bytes) -> Any:
     body: Any = binary.decode(reply) if isinstance(reply, bytes) else json.loads(reply)
     if isinstance(body, dict) and isinstance(body.get("code"), str) and "status" in body:
         status = int(body["status"])
-        raise error_class(status, body["code"])(status, body["code"], str(body.get("title")),
-                                                str(body.get("detail")), body, None)
+        raise error_class(status, body["code"])(
+            status, body["code"], str(body.get("title")), str(body.get("detail")), body, None
+        )
     try:
         return call.read(200, body)
     except (KeyError, ValueError, TypeError, IndexError) as exc:
-        raise ResponseFormatError(f"stream answer of {call.path} is unexpected: {exc!s}",
-                                  status=200, body=body) from exc
+        raise ResponseFormatError(
+            f"stream answer of {call.path} is unexpected: {exc!s}", status=200, body=body
+        ) from exc
 
 
 @contextmanager
@@ -72,12 +74,19 @@ def _wrapped(robot_id: str) -> Iterator[None]:
     try:
         yield
     except InvalidStatus as exc:  # the handshake was refused with an HTTP answer
-        raise core.api_error(httpx.Response(
-            exc.response.status_code, headers=list(exc.response.headers.raw_items()),
-            content=bytes(exc.response.body or b""))) from exc
+        raise core.api_error(
+            httpx.Response(
+                exc.response.status_code,
+                headers=list(exc.response.headers.raw_items()),
+                content=bytes(exc.response.body or b""),
+            )
+        ) from exc
     except (WebSocketException, OSError) as exc:
-        raise TransportError(f"the stream of {robot_id!r} failed ({type(exc).__name__}): {exc}",
-                             method="WEBSOCKET", url=STREAM_PATH) from exc
+        raise TransportError(
+            f"the stream of {robot_id!r} failed ({type(exc).__name__}): {exc}",
+            method="WEBSOCKET",
+            url=STREAM_PATH,
+        ) from exc
 
 
 def _method(name: str, send: Callable[..., Any]) -> Callable[..., Any]:
@@ -94,17 +103,29 @@ def _method(name: str, send: Callable[..., Any]) -> Callable[..., Any]:
 class Stream:
     """A blocking stream of one robot (from `Client.stream`); a context manager."""
 
-    def __init__(self, url: str, robot_id: str, headers: dict[str, str],
-                 use_binary: bool | None, open_timeout: float | None) -> None:
+    def __init__(
+        self,
+        url: str,
+        robot_id: str,
+        headers: dict[str, str],
+        use_binary: bool | None,
+        open_timeout: float | None,
+    ) -> None:
         _require_websockets()
         from websockets.sync.client import connect
 
         self.robot_id, self._use_binary = robot_id, use_binary
         self._exit = ExitStack()
         with _wrapped(robot_id):
-            self._ws = self._exit.enter_context(connect(
-                url, additional_headers=headers, open_timeout=open_timeout, max_size=None,
-                compression=None))
+            self._ws = self._exit.enter_context(
+                connect(
+                    url,
+                    additional_headers=headers,
+                    open_timeout=open_timeout,
+                    max_size=None,
+                    compression=None,
+                )
+            )
 
     def _send(self, call: core.Call[Any]) -> Any:
         with _wrapped(self.robot_id):
@@ -118,16 +139,26 @@ class Stream:
     def __enter__(self) -> Stream:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self.close()
 
 
 class AsyncStream:
     """An asyncio stream of one robot (from `AsyncClient.stream`); an async context manager."""
 
-    def __init__(self, url: str, robot_id: str, headers: dict[str, str],
-                 use_binary: bool | None, open_timeout: float | None) -> None:
+    def __init__(
+        self,
+        url: str,
+        robot_id: str,
+        headers: dict[str, str],
+        use_binary: bool | None,
+        open_timeout: float | None,
+    ) -> None:
         _require_websockets()
         self.robot_id, self._use_binary = robot_id, use_binary
         self._url, self._headers, self._open_timeout = url, headers, open_timeout
@@ -149,13 +180,21 @@ class AsyncStream:
         from websockets.asyncio.client import connect
 
         with _wrapped(self.robot_id):
-            self._ws = await connect(self._url, additional_headers=self._headers,
-                                     open_timeout=self._open_timeout, max_size=None,
-                                     compression=None)
+            self._ws = await connect(
+                self._url,
+                additional_headers=self._headers,
+                open_timeout=self._open_timeout,
+                max_size=None,
+                compression=None,
+            )
         return self
 
-    async def __aexit__(self, exc_type: type[BaseException] | None,
-                        exc: BaseException | None, tb: TracebackType | None) -> None:
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         await self.close()
 
 

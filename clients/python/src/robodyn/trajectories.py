@@ -84,12 +84,17 @@ class TrajectoryCheck(NamedTuple):
     work: Work
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool = True, rows: int | None = None
-                  ) -> TrajectoryCheck:
-        return cls(bool(body["feasible"]), np.asarray(body["tau"], dtype=np.float64),
-                   np.asarray(body["v"], dtype=np.float64),
-                   [JointCheck(**j) for j in body["joints"]],
-                   [Violation(**x) for x in body["violations"]], Work(**body["work"]))
+    def from_json(
+        cls, body: Mapping[str, Any], batched: bool = True, rows: int | None = None
+    ) -> TrajectoryCheck:
+        return cls(
+            bool(body["feasible"]),
+            np.asarray(body["tau"], dtype=np.float64),
+            np.asarray(body["v"], dtype=np.float64),
+            [JointCheck(**j) for j in body["joints"]],
+            [Violation(**x) for x in body["violations"]],
+            Work(**body["work"]),
+        )
 
 
 class Retimed(NamedTuple):
@@ -105,9 +110,12 @@ class Retimed(NamedTuple):
     check: TrajectoryCheck
 
     @classmethod
-    def from_json(cls, body: Mapping[str, Any], batched: bool = True, rows: int | None = None
-                  ) -> Retimed:
-        t, q, v, a, tau = (np.asarray(body[k], dtype=np.float64)
-                           for k in ("t", "q", "v", "a", "tau"))
-        return cls(float(body["duration"]), t, q, v, a, tau,
-                   TrajectoryCheck.from_json(body["check"]))
+    def from_json(
+        cls, body: Mapping[str, Any], batched: bool = True, rows: int | None = None
+    ) -> Retimed:
+        t, q, v, a, tau = (
+            np.asarray(body[k], dtype=np.float64) for k in ("t", "q", "v", "a", "tau")
+        )
+        return cls(
+            float(body["duration"]), t, q, v, a, tau, TrajectoryCheck.from_json(body["check"])
+        )

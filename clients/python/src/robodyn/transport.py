@@ -75,12 +75,18 @@ def retry_context(call: Call[Any], retry: Retry | None) -> Any:
         if isinstance(exc, TransportError):
             cause = exc.__cause__
             return isinstance(cause, _UNSENT_FAILURES) or (
-                call.idempotent and isinstance(cause, _SENT_FAILURES))
+                call.idempotent and isinstance(cause, _SENT_FAILURES)
+            )
         return False
 
-    return stamina.retry_context(on=backoff, attempts=retry.attempts, timeout=retry.timeout,
-                                 wait_initial=retry.wait_initial, wait_max=retry.wait_max,
-                                 wait_jitter=retry.wait_jitter)
+    return stamina.retry_context(
+        on=backoff,
+        attempts=retry.attempts,
+        timeout=retry.timeout,
+        wait_initial=retry.wait_initial,
+        wait_max=retry.wait_max,
+        wait_jitter=retry.wait_jitter,
+    )
 
 
 @dataclass(frozen=True)
@@ -92,8 +98,9 @@ class Settings:
     use_binary: bool | None = None  # None: the binary form for large batches only
     fill: str | None = None  # sent with inputs keyed by joint name
 
-    def prepare(self, call: Call[Any], with_progress: bool = False
-                ) -> tuple[str, dict[str, str], Body | None]:
+    def prepare(
+        self, call: Call[Any], with_progress: bool = False
+    ) -> tuple[str, dict[str, str], Body | None]:
         """The absolute URL, headers and body of `call` (bytes, or a list of parts sent one
         after the other under one Content-Length); `with_progress`: the answer asked for as the
         server's progress stream (its last line the JSON answer)."""
@@ -110,9 +117,14 @@ class Settings:
         return self.base_url + call.path, headers, content
 
 
-def settings(base_url: str | None, api_key: str | None, http_client: httpx.Client |
-             httpx.AsyncClient | None, headers: Mapping[str, str] | None,
-             use_binary: bool | None = None, fill: str | None = None) -> Settings:
+def settings(
+    base_url: str | None,
+    api_key: str | None,
+    http_client: httpx.Client | httpx.AsyncClient | None,
+    headers: Mapping[str, str] | None,
+    use_binary: bool | None = None,
+    fill: str | None = None,
+) -> Settings:
     """Resolve the base URL (argument, else the injected client's, else $ROBODYN_URL, else
     http://127.0.0.1:8000) and the headers sent with each request."""
     if base_url is None and http_client is not None and str(http_client.base_url):
@@ -121,8 +133,9 @@ def settings(base_url: str | None, api_key: str | None, http_client: httpx.Clien
         base_url = os.environ.get(URL_ENV) or DEFAULT_URL
     url = httpx.URL(base_url)
     if url.scheme not in ("http", "https") or not url.host:
-        raise ValueError(f"base_url must be an http:// or https:// URL with a host, "
-                         f"not {base_url!r}")
+        raise ValueError(
+            f"base_url must be an http:// or https:// URL with a host, not {base_url!r}"
+        )
     sent = {"Accept": "application/json", "User-Agent": f"robodyn-python/{__version__}"}
     sent.update(headers or {})
     if api_key is not None:
@@ -131,8 +144,7 @@ def settings(base_url: str | None, api_key: str | None, http_client: httpx.Clien
         sent["Authorization"] = f"Bearer {api_key}"
     if fill is not None and (not isinstance(fill, str) or not fill):
         raise ValueError('fill must be "neutral" or the name of a reference configuration')
-    return Settings(base_url=str(url).rstrip("/"), headers=sent, use_binary=use_binary,
-                    fill=fill)
+    return Settings(base_url=str(url).rstrip("/"), headers=sent, use_binary=use_binary, fill=fill)
 
 
 async def parts_async(parts: list[bytes | memoryview]) -> AsyncIterator[bytes | memoryview]:
@@ -151,8 +163,10 @@ def wrapped(method: str, url: str) -> Iterator[None]:
     try:
         yield
     except httpx.TimeoutException as exc:
-        raise TimeoutError(f"{method} {url} timed out ({type(exc).__name__}): {exc}",
-                           method=method, url=url) from exc
+        raise TimeoutError(
+            f"{method} {url} timed out ({type(exc).__name__}): {exc}", method=method, url=url
+        ) from exc
     except httpx.RequestError as exc:
-        raise TransportError(f"{method} {url} failed ({type(exc).__name__}): {exc}",
-                             method=method, url=url) from exc
+        raise TransportError(
+            f"{method} {url} failed ({type(exc).__name__}): {exc}", method=method, url=url
+        ) from exc

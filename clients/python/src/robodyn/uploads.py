@@ -49,7 +49,7 @@ def _is_text(value: str) -> bool:
 
 
 def detect_format(text: str, path: Path | None = None) -> str:
-    """"urdf", "mjcf" or "xacro" of a description (by its file name, else its content)."""
+    """ "urdf", "mjcf" or "xacro" of a description (by its file name, else its content)."""
     if path is not None and path.name.endswith(".xacro"):
         return "xacro"
     try:
@@ -88,8 +88,10 @@ def _tree(directory: Path) -> list[Path]:
         dirs[:] = sorted(d for d in dirs if not d.startswith(".") and d not in _SKIPPED_DIRS)
         found += (Path(folder) / f for f in sorted(files))
         if len(found) > MAX_SCANNED:
-            raise InputError(f"directory {directory} holds more than {MAX_SCANNED} files; "
-                             "give the description file")
+            raise InputError(
+                f"directory {directory} holds more than {MAX_SCANNED} files; "
+                "give the description file"
+            )
     return found
 
 
@@ -97,8 +99,9 @@ def _included(candidates: list[Path]) -> set[Path]:
     """The candidates that another candidate names (xacro macros, MJCF parts, ...): not the
     description itself."""
     texts = {p: p.read_text("utf-8", "replace") for p in candidates}
-    return {p for p in candidates
-            if any(p.name in text for other, text in texts.items() if other != p)}
+    return {
+        p for p in candidates if any(p.name in text for other, text in texts.items() if other != p)
+    }
 
 
 def _main_file(directory: Path) -> Path:
@@ -114,9 +117,11 @@ def _main_file(directory: Path) -> Path:
         candidates = in_urdf if len(in_urdf) == 1 else candidates
     if len(candidates) != 1:
         listed = ", ".join(str(p.relative_to(directory)) for p in candidates) or "none"
-        raise InputError(f"directory {directory} must hold exactly one description (.xacro, "
-                         f".urdf, or an MJCF or URDF .xml) at its top or, with none there, "
-                         f"in its tree; found: {listed}; give the file")
+        raise InputError(
+            f"directory {directory} must hold exactly one description (.xacro, "
+            f".urdf, or an MJCF or URDF .xml) at its top or, with none there, "
+            f"in its tree; found: {listed}; give the file"
+        )
     return candidates[0]
 
 
@@ -169,10 +174,18 @@ def _mjcf_assets(main: Path) -> dict[str, bytes]:
             file = el.get("file")
             if file is None or el is root:
                 continue
-            kind = ("mesh" if el.tag in ("mesh", "skin") else "texture"
-                    if el.tag in ("texture", "hfield") else None)
-            key = str(PurePosixPath(dirs[kind] if kind else "", file)) \
-                if el.tag != "include" else file
+            kind = (
+                "mesh"
+                if el.tag in ("mesh", "skin")
+                else "texture"
+                if el.tag in ("texture", "hfield")
+                else None
+            )
+            key = (
+                str(PurePosixPath(dirs[kind] if kind else "", file))
+                if el.tag != "include"
+                else file
+            )
             before = len(assets)
             _add(assets, key, base / key, [])
             if el.tag == "include" and len(assets) > before:
@@ -193,8 +206,9 @@ def _ros_assets(main: Path, packages: Mapping[str, Path]) -> dict[str, bytes]:
         seen.add(path)
         text = path.read_text("utf-8", "replace")
         references = [(m.group(1), m.group(1)) for m in _PACKAGE.finditer(text)]
-        references += [(m.group(1) + m.group(2), m.group(1) + m.group(2))
-                       for m in _FIND.finditer(text)]
+        references += [
+            (m.group(1) + m.group(2), m.group(1) + m.group(2)) for m in _FIND.finditer(text)
+        ]
         for key, _ in references:
             package, _, rest = key.partition("/")
             found = _package_dir(path.parent, package, packages)
@@ -221,16 +235,26 @@ def _encode(value: AssetValue) -> str:
     return base64.b64encode(value).decode("ascii")
 
 
-def upload_body(source: Source | None, *, urdf: Source | None = None,
-                mjcf: Source | None = None, xacro: Source | None = None,
-                assets: Mapping[str, AssetValue] | None = None,
-                collect_assets: bool = True) -> dict[str, Any]:
+def upload_body(
+    source: Source | None,
+    *,
+    urdf: Source | None = None,
+    mjcf: Source | None = None,
+    xacro: Source | None = None,
+    assets: Mapping[str, AssetValue] | None = None,
+    collect_assets: bool = True,
+) -> dict[str, Any]:
     """The description members of an upload body: `{format: text, "assets": {...}}`."""
-    given = [(fmt, v) for fmt, v in (("auto", source), ("urdf", urdf), ("mjcf", mjcf),
-                                     ("xacro", xacro)) if v is not None]
+    given = [
+        (fmt, v)
+        for fmt, v in (("auto", source), ("urdf", urdf), ("mjcf", mjcf), ("xacro", xacro))
+        if v is not None
+    ]
     if len(given) != 1:
-        raise InputError("give exactly one description (a path, a directory or the text; or "
-                         "one of urdf=, mjcf=, xacro=)")
+        raise InputError(
+            "give exactly one description (a path, a directory or the text; or "
+            "one of urdf=, mjcf=, xacro=)"
+        )
     fmt, value = given[0]
     path: Path | None = None
     packages: dict[str, Path] = {}

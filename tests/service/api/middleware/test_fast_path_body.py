@@ -16,11 +16,13 @@ from service.errors import InvalidInput
 PARTS = [b"abc", b"", b"defgh", b"ij"]
 
 
-def _read(parts: list[bytes], headers: list[tuple[bytes, bytes]],
-          disconnect_after: int | None = None) -> Any:
+def _read(
+    parts: list[bytes], headers: list[tuple[bytes, bytes]], disconnect_after: int | None = None
+) -> Any:
     messages: list[dict[str, Any]] = [
         {"type": "http.request", "body": p, "more_body": i < len(parts) - 1}
-        for i, p in enumerate(parts)]
+        for i, p in enumerate(parts)
+    ]
     if disconnect_after is not None:
         messages = [*messages[:disconnect_after], {"type": "http.disconnect"}]
     it = iter(messages)

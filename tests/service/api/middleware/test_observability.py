@@ -64,7 +64,7 @@ def test_request_id_is_accepted_when_safe_and_replaced_otherwise(api):
     given = "client-42.retry:1"
     r = api.post("/v1/robots/ur5/gravity", json={"q": Q_UR5}, headers={"X-Request-ID": given})
     assert r.status_code == 200 and r.headers["x-request-id"] == given
-    for bad in ("has space", "x" * 129, "quote\"d", ""):
+    for bad in ("has space", "x" * 129, 'quote"d', ""):
         got = api.get("/health/live", headers={"X-Request-ID": bad}).headers["x-request-id"]
         assert got != bad and re.fullmatch(r"[0-9a-f]{32}", got)
     # Errors carry it too.
@@ -87,8 +87,11 @@ def test_server_timing_reports_compute_within_the_request(api):
 
 def test_access_log_line_says_what_the_request_did(api, json_log):
     q = np.tile(Q_UR5, (3, 1)).tolist()
-    api.post("/v1/robots/ur5/inverse-dynamics", json={"q": q, "v": q, "a": q},
-             headers={"X-Request-ID": "batch-1"})
+    api.post(
+        "/v1/robots/ur5/inverse-dynamics",
+        json={"q": q, "v": q, "a": q},
+        headers={"X-Request-ID": "batch-1"},
+    )
     api.post("/v1/robots/ur5/gravity", json={"q": [0, 0]}, headers={"X-Request-ID": "bad-1"})
     api.get("/v1/robots/nope", headers={"X-Request-ID": "missing-1"})
     api.get("/health/ready", headers={"X-Request-ID": "probe-1"})
@@ -97,13 +100,21 @@ def test_access_log_line_says_what_the_request_did(api, json_log):
     assert batch["level"] == "info" and batch["method"] == "POST"
     assert batch["route"] == "/v1/robots/{robot_id}/inverse-dynamics"
     assert (batch["robot"], batch["quantity"], batch["batch_size"], batch["status"]) == (
-        "ur5", "inverse-dynamics", 3, 200)
+        "ur5",
+        "inverse-dynamics",
+        3,
+        200,
+    )
     assert isinstance(batch["compute_ms"], float)
     assert 0 <= batch["compute_ms"] <= batch["duration_ms"]
     assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z", batch["ts"])
     bad = lines["bad-1"]
     assert (bad["robot"], bad["status"], bad["quantity"], bad["compute_ms"]) == (
-        "ur5", 422, None, None)
+        "ur5",
+        422,
+        None,
+        None,
+    )
     assert lines["missing-1"]["status"] == 404 and lines["missing-1"]["robot"] == "nope"
     assert lines["probe-1"]["level"] == "debug"  # probes and scrapes stay out of the info log
 
@@ -148,22 +159,22 @@ def test_robot_label_cardinality_is_bounded(api, tmp_path):
     text = api.get("/metrics").text
     assert "made-up" not in text and upload["id"] not in text
     route = "/v1/robots/{robot_id}/gravity"
-    assert _sample(text, "robodyn_requests_total", route=route, robot="unknown",
-                   status="404") >= 5
-    assert _sample(text, "robodyn_requests_total", route=route, robot="upload",
-                   status="200") >= 1
+    assert _sample(text, "robodyn_requests_total", route=route, robot="unknown", status="404") >= 5
+    assert _sample(text, "robodyn_requests_total", route=route, robot="upload", status="200") >= 1
 
 
 def test_an_unexpected_failure_is_a_500_with_request_id_and_a_correlated_log(
-        small_app_factory, monkeypatch, json_log):
+    small_app_factory, monkeypatch, json_log
+):
     client = small_app_factory(catalog="ur5")
 
     def broken(*args, **kwargs):
         raise RuntimeError("bug")
 
     monkeypatch.setattr(dynamics, "run", broken)
-    r = client.post("/v1/robots/ur5/gravity", json={"q": Q_UR5},
-                    headers={"X-Request-ID": "crash-1"})
+    r = client.post(
+        "/v1/robots/ur5/gravity", json={"q": Q_UR5}, headers={"X-Request-ID": "crash-1"}
+    )
     assert r.status_code == 500 and r.json()["code"] == "internal_error"
     assert r.headers["x-request-id"] == "crash-1"
     assert "bug" not in r.text and "Traceback" not in r.text
@@ -182,8 +193,13 @@ def test_log_level_names():
 
 def test_an_unknown_log_level_stops_the_server_with_a_clear_message():
     env = {**os.environ, "ROBODYN_LOG_LEVEL": "loud"}
-    proc = subprocess.run([sys.executable, "-m", "service", "--port", "0"], env=env,
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "service", "--port", "0"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2 and "ROBODYN_LOG_LEVEL" in proc.stderr
 
 
@@ -193,11 +209,16 @@ def test_real_server_writes_one_json_line_per_request(tmp_path):
     from tests.servers import running_server
 
     log_path = tmp_path / "data" / "server.log"
-    with running_server(tmp_path / "data", catalog="ur5", log_level="info") as base, \
-            httpx.Client() as http:
+    with (
+        running_server(tmp_path / "data", catalog="ur5", log_level="info") as base,
+        httpx.Client() as http,
+    ):
         for i in range(3):
-            r = http.post(f"{base}/v1/robots/ur5/gravity", json={"q": Q_UR5},
-                          headers={"X-Request-ID": f"e2e-{i}"})
+            r = http.post(
+                f"{base}/v1/robots/ur5/gravity",
+                json={"q": Q_UR5},
+                headers={"X-Request-ID": f"e2e-{i}"},
+            )
             assert r.status_code == 200 and r.headers["x-request-id"] == f"e2e-{i}"
         deadline = time.monotonic() + 10
         while "e2e-2" not in log_path.read_text() and time.monotonic() < deadline:

@@ -23,9 +23,19 @@ def _client(tmp_path: Path, **settings_kw: object) -> TestClient:
     return TestClient(create_app(settings, registry=registry), raise_server_exceptions=False)
 
 
-@pytest.mark.parametrize("path", ["/health/live", "/health/ready", "/v1/robots",
-                                  "/v1/robots/planar_arm", "/v1/robots/planar_arm/inertias",
-                                  "/v1/robots/planar_arm/visuals", "/", "/openapi.json"])
+@pytest.mark.parametrize(
+    "path",
+    [
+        "/health/live",
+        "/health/ready",
+        "/v1/robots",
+        "/v1/robots/planar_arm",
+        "/v1/robots/planar_arm/inertias",
+        "/v1/robots/planar_arm/visuals",
+        "/",
+        "/openapi.json",
+    ],
+)
 def test_head_is_get_without_the_body(tmp_path, path):
     with _client(tmp_path) as client:
         got, head = client.get(path), client.head(path)
@@ -43,8 +53,9 @@ def test_head_on_a_post_route_is_still_405(tmp_path):
         assert client.head("/v1/robots/nope").status_code == 404
 
 
-async def _asgi_post(app, path: str, body: bytes, headers: list[tuple[bytes, bytes]]
-                     ) -> tuple[int, bool]:
+async def _asgi_post(
+    app, path: str, body: bytes, headers: list[tuple[bytes, bytes]]
+) -> tuple[int, bool]:
     """POST `body` through the ASGI app; (status, whether the app read the body)."""
     read = False
     sent: list[dict] = []
@@ -57,31 +68,47 @@ async def _asgi_post(app, path: str, body: bytes, headers: list[tuple[bytes, byt
     async def send(message: dict) -> None:
         sent.append(message)
 
-    scope = {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1",
-             "method": "POST", "scheme": "http", "path": path, "raw_path": path.encode(),
-             "query_string": b"", "root_path": "", "server": ("test", 80),
-             "client": ("127.0.0.1", 1),
-             "headers": [(b"content-type", b"application/json"),
-                         (b"content-length", str(len(body)).encode()), *headers]}
+    scope = {
+        "type": "http",
+        "asgi": {"version": "3.0"},
+        "http_version": "1.1",
+        "method": "POST",
+        "scheme": "http",
+        "path": path,
+        "raw_path": path.encode(),
+        "query_string": b"",
+        "root_path": "",
+        "server": ("test", 80),
+        "client": ("127.0.0.1", 1),
+        "headers": [
+            (b"content-type", b"application/json"),
+            (b"content-length", str(len(body)).encode()),
+            *headers,
+        ],
+    }
     await app(scope, receive, send)
     return sent[0]["status"], read
 
 
-@pytest.mark.parametrize(("scope", "path"), [
-    ("all", "/v1/robots/planar_arm/gravity"),
-    ("all", "/v1/robots/planar_arm/reduce"),
-    ("writes", "/v1/robots"),
-    ("writes", "/v1/robots/planar_arm/reduce"),
-    ("writes", "/v1/robots/planar_arm/variants"),
-])
+@pytest.mark.parametrize(
+    ("scope", "path"),
+    [
+        ("all", "/v1/robots/planar_arm/gravity"),
+        ("all", "/v1/robots/planar_arm/reduce"),
+        ("writes", "/v1/robots"),
+        ("writes", "/v1/robots/planar_arm/reduce"),
+        ("writes", "/v1/robots/planar_arm/variants"),
+    ],
+)
 def test_a_request_without_its_key_is_refused_before_its_body_is_read(tmp_path, scope, path):
     """Before: the body was read and parsed (seconds for a large one) just to answer 401."""
     with _client(tmp_path, api_keys="k1", api_keys_scope=scope) as client:
         body = json.dumps({"q": [0.0, 0.0]}).encode()
         status, read = asyncio.run(_asgi_post(client.app, path, body, []))
         assert (status, read) == (401, False)
-        status, read = asyncio.run(_asgi_post(client.app, path, body,
-                                              [(b"authorization", b"Bearer k1")]))
+        status, read = asyncio.run(
+            _asgi_post(client.app, path, body, [(b"authorization", b"Bearer k1")])
+        )
         assert status != 401 and read
 
 

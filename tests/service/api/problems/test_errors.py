@@ -47,82 +47,101 @@ def test_delete_unknown_upload(api):
     assert_problem(api.delete("/v1/robots/u-0000"), 404, "robot_not_found")
 
 
-@pytest.mark.parametrize("raw", [
-    '{"q": [0, 0, 0, 0, 0, NaN]}',
-    '{"q": [0, 0, 0, 0, 0, Infinity]}',
-    '{"q": [0, 0, 0, 0, 0, -Infinity]}',
-    '{"q": [0, 0, 0, 0, 0, 1e400]}',
-    '{"q": [0, 0, 0, 0, 0, "1"]}',
-    '{"q": [0, 0, 0, 0, 0, true]}',
-    '{"q": [0, 0, 0, 0, 0, null]}',
-    '{"q": [[[0, 0, 0, 0, 0, 0]]]}',
-    '{"q": [[0, 0, 0, 0, 0, 0], [0, 0]]}',
-    '{"q": [0, 0, 0, [0], 0, 0]}',
-    '{"q": 3}',
-    '{}',
-    '{"q": [0, 0, 0, 0, 0, 0], "extra": 1}',
-    '[0, 0, 0, 0, 0, 0]',
-    '{"q": [0, 0, 0',
-    "",
-])
+@pytest.mark.parametrize(
+    "raw",
+    [
+        '{"q": [0, 0, 0, 0, 0, NaN]}',
+        '{"q": [0, 0, 0, 0, 0, Infinity]}',
+        '{"q": [0, 0, 0, 0, 0, -Infinity]}',
+        '{"q": [0, 0, 0, 0, 0, 1e400]}',
+        '{"q": [0, 0, 0, 0, 0, "1"]}',
+        '{"q": [0, 0, 0, 0, 0, true]}',
+        '{"q": [0, 0, 0, 0, 0, null]}',
+        '{"q": [[[0, 0, 0, 0, 0, 0]]]}',
+        '{"q": [[0, 0, 0, 0, 0, 0], [0, 0]]}',
+        '{"q": [0, 0, 0, [0], 0, 0]}',
+        '{"q": 3}',
+        "{}",
+        '{"q": [0, 0, 0, 0, 0, 0], "extra": 1}',
+        "[0, 0, 0, 0, 0, 0]",
+        '{"q": [0, 0, 0',
+        "",
+    ],
+)
 def test_malformed_bodies_are_validation_errors(api, raw):
-    r = api.post("/v1/robots/ur5/gravity", content=raw,
-                 headers={"content-type": "application/json"})
+    r = api.post(
+        "/v1/robots/ur5/gravity", content=raw, headers={"content-type": "application/json"}
+    )
     assert_problem(r, 422, "validation_error")
 
 
 def test_validation_error_names_the_field(api):
-    body = assert_problem(api.post("/v1/robots/ur5/coriolis", json={"q": [0] * 6}), 422,
-                          "validation_error")
+    body = assert_problem(
+        api.post("/v1/robots/ur5/coriolis", json={"q": [0] * 6}), 422, "validation_error"
+    )
     assert body["detail"] == "v: Field required"
 
 
 def test_dimension_mismatch_says_what_was_expected(api):
-    body = assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": [0] * 5}), 422,
-                          "dimension_mismatch")
+    body = assert_problem(
+        api.post("/v1/robots/ur5/gravity", json={"q": [0] * 5}), 422, "dimension_mismatch"
+    )
     assert body["detail"] == "q has 5 entries; robot 'ur5' has nq = 6"
-    body = assert_problem(api.post("/v1/robots/talos/coriolis",
-                                   json={"q": [0] * 6 + [1] + [0] * 32, "v": [0] * 39}),
-                          422, "dimension_mismatch")
+    body = assert_problem(
+        api.post("/v1/robots/talos/coriolis", json={"q": [0] * 6 + [1] + [0] * 32, "v": [0] * 39}),
+        422,
+        "dimension_mismatch",
+    )
     assert "nv = 38" in body["detail"]
 
 
 def test_batch_problems_are_dimension_mismatches(api):
     one, two = [0.0] * 6, [[0.0] * 6] * 2
-    assert_problem(api.post("/v1/robots/ur5/coriolis", json={"q": one, "v": two}), 422,
-                   "dimension_mismatch")
-    body = assert_problem(api.post("/v1/robots/ur5/coriolis",
-                                   json={"q": two, "v": [[0.0] * 6] * 3}), 422,
-                          "dimension_mismatch")
+    assert_problem(
+        api.post("/v1/robots/ur5/coriolis", json={"q": one, "v": two}), 422, "dimension_mismatch"
+    )
+    body = assert_problem(
+        api.post("/v1/robots/ur5/coriolis", json={"q": two, "v": [[0.0] * 6] * 3}),
+        422,
+        "dimension_mismatch",
+    )
     assert "q has 2" in body["detail"] and "v has 3" in body["detail"]
-    assert_problem(api.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 5] * 2}), 422,
-                   "dimension_mismatch")
+    assert_problem(
+        api.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 5] * 2}), 422, "dimension_mismatch"
+    )
 
 
 def test_batch_limit(small_app_factory):
     client = small_app_factory(max_batch=3)
     assert client.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 6] * 3}).status_code == 200
-    body = assert_problem(client.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 6] * 4}),
-                          422, "dimension_mismatch")
+    body = assert_problem(
+        client.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 6] * 4}),
+        422,
+        "dimension_mismatch",
+    )
     assert "limit is 3" in body["detail"]
 
 
 def test_non_unit_quaternion_is_an_invalid_configuration(api):
     q = [0.0] * 39
     q[6] = 0.9  # qw of the free-flyer base
-    body = assert_problem(api.post("/v1/robots/talos/gravity", json={"q": q}), 422,
-                          "invalid_configuration")
+    body = assert_problem(
+        api.post("/v1/robots/talos/gravity", json={"q": q}), 422, "invalid_configuration"
+    )
     assert "root_joint" in body["detail"] and "q[3:7]" in body["detail"]
     batch = [[0, 0, 0, 0, 0, 0, 1.0] + [0.0] * 32, q]
-    body = assert_problem(api.post("/v1/robots/talos/gravity", json={"q": batch}), 422,
-                          "invalid_configuration")
+    body = assert_problem(
+        api.post("/v1/robots/talos/gravity", json={"q": batch}), 422, "invalid_configuration"
+    )
     assert body["detail"].startswith("state 1:")
 
 
 def test_continuous_joint_needs_unit_cos_sin(api):
-    body = assert_problem(api.post("/v1/robots/double_pendulum_continuous/gravity",
-                                   json={"q": [0.0, 1.0, 2.0, 0.0]}), 422,
-                          "invalid_configuration")
+    body = assert_problem(
+        api.post("/v1/robots/double_pendulum_continuous/gravity", json={"q": [0.0, 1.0, 2.0, 0.0]}),
+        422,
+        "invalid_configuration",
+    )
     assert "cos" in body["detail"]
 
 
@@ -131,59 +150,103 @@ def test_non_finite_result_is_a_clear_error(api, catalog_registry):
     robot = catalog_registry.catalog["romeo"]
     assert any(w["code"] == "massless_subtree" for w in robot.warnings)
     q = robot.info()["neutral_configuration"]
-    body = assert_problem(api.post("/v1/robots/romeo/forward-dynamics",
-                                   json={"q": q, "v": [0.0] * robot.nv,
-                                         "tau": [0.0] * robot.nv}), 422, "non_finite_result")
+    body = assert_problem(
+        api.post(
+            "/v1/robots/romeo/forward-dynamics",
+            json={"q": q, "v": [0.0] * robot.nv, "tau": [0.0] * robot.nv},
+        ),
+        422,
+        "non_finite_result",
+    )
     assert "forward-dynamics" in body["detail"]
 
 
-@pytest.mark.parametrize("urdf, fragment", [
-    ("this is not xml", "not well-formed"),
-    ("<robot name='x'><link name='a'/>", "not well-formed"),
-    ("<model name='x'/>", "<model>"),
-    ("<robot><link name='a'/></robot>", "no name"),
-    ("<robot name='x'/>", "no <link>"),
-    ("<robot name='x'><link name='a'/><link name='a'/></robot>", "twice"),
-    ("<robot name='x'><link name='a'/><link name='b'/></robot>", "2 root links"),
-    ("<robot name='x'><link name='a'/><joint name='j' type='revolute'><parent link='a'/>"
-     "<child link='zz'/></joint></robot>", "'zz' does not exist"),
-    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='1'/></inertial>"
-     "</link><joint name='j' type='hinge'><parent link='a'/><child link='b'/></joint></robot>",
-     "type 'hinge'"),
-    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='nan'/></inertial>"
-     "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/></joint>"
-     "</robot>", "link 'b' mass value must be finite"),
-    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='heavy'/>"
-     "</inertial></link><joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
-     "</joint></robot>", "link 'b' mass value is not a number"),
-    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='-1'/></inertial>"
-     "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/></joint>"
-     "</robot>", "negative"),
-    ("<robot name='x'><link name='a'/><link name='b'><inertial><mass value='1'/></inertial>"
-     "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
-     "<axis xyz='0 0 0'/></joint></robot>", "axis is zero"),
-    ("<robot name='x'><link name='a'/><link name='b'/><joint name='j' type='revolute'>"
-     "<parent link='a'/><child link='b'/></joint></robot>", "no mass"),
-    ("<!DOCTYPE r [<!ENTITY e 'x'>]><robot name='&e;'><link name='a'/></robot>", "DTD"),
-    (f"<robot name='x'><link name='a'><inertial><mass value='1'/>{inertia(-1, 1, 1)}"
-     "</inertial></link></robot>", "negative principal moment"),
-    (f"<robot name='x'><link name='a'><inertial><mass value='1'/>{inertia(1, 1, 5)}"
-     "</inertial></link></robot>", "triangle inequality"),
-    ("<robot name='x'><link name='a'><inertial><mass value='1'/><inertia ixx='1'/>"
-     "</inertial></link></robot>", "inertia ixy is missing"),
-])
+@pytest.mark.parametrize(
+    "urdf, fragment",
+    [
+        ("this is not xml", "not well-formed"),
+        ("<robot name='x'><link name='a'/>", "not well-formed"),
+        ("<model name='x'/>", "<model>"),
+        ("<robot><link name='a'/></robot>", "no name"),
+        ("<robot name='x'/>", "no <link>"),
+        ("<robot name='x'><link name='a'/><link name='a'/></robot>", "twice"),
+        ("<robot name='x'><link name='a'/><link name='b'/></robot>", "2 root links"),
+        (
+            "<robot name='x'><link name='a'/><joint name='j' type='revolute'><parent link='a'/>"
+            "<child link='zz'/></joint></robot>",
+            "'zz' does not exist",
+        ),
+        (
+            "<robot name='x'><link name='a'/><link name='b'>"
+            "<inertial><mass value='1'/></inertial>"
+            "</link><joint name='j' type='hinge'><parent link='a'/><child link='b'/></joint>"
+            "</robot>",
+            "type 'hinge'",
+        ),
+        (
+            "<robot name='x'><link name='a'/><link name='b'>"
+            "<inertial><mass value='nan'/></inertial>"
+            "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/></joint>"
+            "</robot>",
+            "link 'b' mass value must be finite",
+        ),
+        (
+            "<robot name='x'><link name='a'/><link name='b'><inertial><mass value='heavy'/>"
+            "</inertial></link><joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
+            "</joint></robot>",
+            "link 'b' mass value is not a number",
+        ),
+        (
+            "<robot name='x'><link name='a'/><link name='b'><inertial><mass value='-1'/></inertial>"
+            "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/></joint>"
+            "</robot>",
+            "negative",
+        ),
+        (
+            "<robot name='x'><link name='a'/><link name='b'>"
+            "<inertial><mass value='1'/></inertial>"
+            "</link><joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
+            "<axis xyz='0 0 0'/></joint></robot>",
+            "axis is zero",
+        ),
+        (
+            "<robot name='x'><link name='a'/><link name='b'/><joint name='j' type='revolute'>"
+            "<parent link='a'/><child link='b'/></joint></robot>",
+            "no mass",
+        ),
+        ("<!DOCTYPE r [<!ENTITY e 'x'>]><robot name='&e;'><link name='a'/></robot>", "DTD"),
+        (
+            f"<robot name='x'><link name='a'><inertial><mass value='1'/>{inertia(-1, 1, 1)}"
+            "</inertial></link></robot>",
+            "negative principal moment",
+        ),
+        (
+            f"<robot name='x'><link name='a'><inertial><mass value='1'/>{inertia(1, 1, 5)}"
+            "</inertial></link></robot>",
+            "triangle inequality",
+        ),
+        (
+            "<robot name='x'><link name='a'><inertial><mass value='1'/><inertia ixx='1'/>"
+            "</inertial></link></robot>",
+            "inertia ixy is missing",
+        ),
+    ],
+)
 def test_invalid_uploads_name_what_is_wrong(api, urdf, fragment):
     body = assert_problem(api.post("/v1/robots", json={"urdf": urdf}), 422, "invalid_model")
     assert fragment in body["detail"], body["detail"]
 
 
 def test_inertia_findings_can_be_accepted_with_warn(api):
-    urdf = (f"<robot name='odd'><link name='a'><inertial><mass value='1'/>{inertia(1, 1, 5)}"
-            "</inertial></link></robot>")
+    urdf = (
+        f"<robot name='odd'><link name='a'><inertial><mass value='1'/>{inertia(1, 1, 5)}"
+        "</inertial></link></robot>"
+    )
     body = assert_problem(api.post("/v1/robots", json={"urdf": urdf}), 422, "invalid_model")
     assert '"inertia_check": "warn"' in body["detail"]
-    r = api.post("/v1/robots", json={"urdf": urdf, "inertia_check": "warn",
-                                     "root_joint": "free-flyer"})
+    r = api.post(
+        "/v1/robots", json={"urdf": urdf, "inertia_check": "warn", "root_joint": "free-flyer"}
+    )
     assert r.status_code in (200, 201), r.text
     warnings = r.json()["warnings"]
     assert warnings[0]["code"] == "triangle_inequality" and warnings[0]["name"] == "a"
@@ -191,16 +254,18 @@ def test_inertia_findings_can_be_accepted_with_warn(api):
 
 def test_payload_too_large(small_app_factory):
     client = small_app_factory(max_body_bytes=4096)
-    body = assert_problem(client.post("/v1/robots", json={"urdf": "x" * 5000}), 413,
-                          "payload_too_large")
+    body = assert_problem(
+        client.post("/v1/robots", json={"urdf": "x" * 5000}), 413, "payload_too_large"
+    )
     assert "4096" in body["detail"]
 
     def chunks():  # no Content-Length: the limit applies while streaming
         for _ in range(10):
             yield b" " * 1000
 
-    r = client.post("/v1/robots/ur5/gravity", content=chunks(),
-                    headers={"content-type": "application/json"})
+    r = client.post(
+        "/v1/robots/ur5/gravity", content=chunks(), headers={"content-type": "application/json"}
+    )
     assert_problem(r, 413, "payload_too_large")
     assert client.get("/health/live").status_code == 200
 
@@ -211,10 +276,16 @@ def test_api_keys_guard_uploads_and_deletions(small_app_factory):
     r = client.post("/v1/robots", json={"urdf": urdf})
     assert_problem(r, 401, "unauthorized")
     assert r.headers["www-authenticate"].startswith("Bearer")
-    assert_problem(client.post("/v1/robots", json={"urdf": urdf},
-                               headers={"Authorization": "Bearer nope"}), 401, "unauthorized")
-    assert_problem(client.post("/v1/robots", json={"urdf": urdf},
-                               headers={"Authorization": "Basic k1"}), 401, "unauthorized")
+    assert_problem(
+        client.post("/v1/robots", json={"urdf": urdf}, headers={"Authorization": "Bearer nope"}),
+        401,
+        "unauthorized",
+    )
+    assert_problem(
+        client.post("/v1/robots", json={"urdf": urdf}, headers={"Authorization": "Basic k1"}),
+        401,
+        "unauthorized",
+    )
     r = client.post("/v1/robots", json={"urdf": urdf}, headers={"Authorization": "Bearer k2"})
     assert r.status_code == 201
     robot_id = r.json()["id"]
@@ -223,8 +294,10 @@ def test_api_keys_guard_uploads_and_deletions(small_app_factory):
     assert client.get("/v1/robots").status_code == 200
     assert client.get("/metrics").status_code == 200
     assert_problem(client.delete(f"/v1/robots/{robot_id}"), 401, "unauthorized")
-    assert client.delete(f"/v1/robots/{robot_id}",
-                         headers={"Authorization": "Bearer k1"}).status_code == 204
+    assert (
+        client.delete(f"/v1/robots/{robot_id}", headers={"Authorization": "Bearer k1"}).status_code
+        == 204
+    )
 
 
 def test_not_ready_before_the_catalog_is_loaded(tmp_path):
@@ -233,8 +306,7 @@ def test_not_ready_before_the_catalog_is_loaded(tmp_path):
         r = client.get("/health/ready")
         assert_problem(r, 503, "not_ready")
         assert r.headers["retry-after"] == "1"
-        assert_problem(client.post("/v1/robots/ur5/gravity", json={"q": [0] * 6}), 503,
-                       "not_ready")
+        assert_problem(client.post("/v1/robots/ur5/gravity", json={"q": [0] * 6}), 503, "not_ready")
         assert client.get("/health/live").json() == {"status": "ok"}
         registry.load()
         assert client.get("/health/ready").status_code == 200
@@ -273,8 +345,11 @@ def test_unknown_routes_and_methods_are_problems(api):
 
 
 def test_a_body_not_labelled_json_is_415(api):
-    r = api.post("/v1/robots/ur5/gravity", content=b'{"q": [0, 0, 0, 0, 0, 0]}',
-                 headers={"content-type": "application/x-www-form-urlencoded"})
+    r = api.post(
+        "/v1/robots/ur5/gravity",
+        content=b'{"q": [0, 0, 0, 0, 0, 0]}',
+        headers={"content-type": "application/x-www-form-urlencoded"},
+    )
     body = assert_problem(r, 415, "unsupported_media_type")
     assert "application/json" in body["detail"]
     r = api.post("/v1/robots/ur5/gravity", content=b'{"q": [0, 0, 0, 0, 0, 0]}')
@@ -284,13 +359,21 @@ def test_a_body_not_labelled_json_is_415(api):
 def test_media_types_are_read_regardless_of_case(api):
     """RFC 9110: type and subtype names are case-insensitive (and the first header counts)."""
     json_body = b'{"q": [0, 0, 0, 0, 0, 0]}'
-    r = api.post("/v1/robots/ur5/gravity", content=json_body,
-                 headers={"content-type": "Application/JSON; charset=UTF-8"})
+    r = api.post(
+        "/v1/robots/ur5/gravity",
+        content=json_body,
+        headers={"content-type": "Application/JSON; charset=UTF-8"},
+    )
     assert r.status_code == 200 and r.headers["content-type"] == "application/json"
     binary_body = binary.encode({"q": np.zeros((1, 6))})
-    r = api.post("/v1/robots/ur5/gravity", content=binary_body,
-                 headers={"content-type": "Application/VND.Robodyn.SafeTensors",
-                          "accept": "APPLICATION/VND.ROBODYN.SAFETENSORS"})
+    r = api.post(
+        "/v1/robots/ur5/gravity",
+        content=binary_body,
+        headers={
+            "content-type": "Application/VND.Robodyn.SafeTensors",
+            "accept": "APPLICATION/VND.ROBODYN.SAFETENSORS",
+        },
+    )
     assert r.status_code == 200 and r.headers["content-type"] == binary.BINARY_MEDIA_TYPE
     assert binary.decode(r.content)[1]["gravity"].shape == (1, 6)
 
@@ -301,8 +384,7 @@ def test_other_framework_4xx_are_bad_requests(api):
 
     from service.api.problems.handlers import _on_http_error
 
-    request = Request({"type": "http", "method": "GET", "path": "/", "headers": [],
-                       "app": api.app})
+    request = Request({"type": "http", "method": "GET", "path": "/", "headers": [], "app": api.app})
     import asyncio
 
     r = asyncio.run(_on_http_error(request, HTTPException(status_code=429, detail="slow down")))

@@ -11,8 +11,12 @@ METHODS = {"get", "put", "post", "delete", "patch"}
 
 
 def _operations(doc):
-    return {(method, path): op for path, item in doc["paths"].items()
-            for method, op in item.items() if method in METHODS}
+    return {
+        (method, path): op
+        for path, item in doc["paths"].items()
+        for method, op in item.items()
+        if method in METHODS
+    }
 
 
 def test_operation_ids_are_the_quantity_in_camel_case(api):
@@ -21,8 +25,10 @@ def test_operation_ids_are_the_quantity_in_camel_case(api):
     assert len(ids) == len(set(ids))
     assert all(re.fullmatch(r"[a-z][a-zA-Z0-9]*", i) for i in ids), ids
     assert ops["post", "/v1/robots/{robot_id}/mass-matrix"]["operationId"] == "massMatrix"
-    assert ops["post", "/v1/robots/{robot_id}/inverse-dynamics-derivatives"][
-        "operationId"] == "inverseDynamicsDerivatives"
+    assert (
+        ops["post", "/v1/robots/{robot_id}/inverse-dynamics-derivatives"]["operationId"]
+        == "inverseDynamicsDerivatives"
+    )
     assert ops["get", "/v1/robots"]["operationId"] == "listRobots"
     assert ops["post", "/v1/robots"]["operationId"] == "uploadRobot"
     assert ops["get", "/health/ready"]["operationId"] == "healthReady"
@@ -69,20 +75,29 @@ def test_every_error_answer_is_problem_json(api):
 
 def test_dynamics_bodies_and_answers_declare_the_binary_form(api):
     ops = _operations(api.get("/openapi.json").json())
-    dynamics = [op for (method, path), op in ops.items()
-                if method == "post" and path.startswith("/v1/robots/{robot_id}/")
-                and path.rsplit("/", 1)[1] not in ("reduce", "variants", "identify")]
+    dynamics = [
+        op
+        for (method, path), op in ops.items()
+        if method == "post"
+        and path.startswith("/v1/robots/{robot_id}/")
+        and path.rsplit("/", 1)[1] not in ("reduce", "variants", "identify")
+    ]
     assert len(dynamics) >= 15
     for op in dynamics:
         assert set(op["requestBody"]["content"]) == {"application/json", BINARY_MEDIA_TYPE}
         assert set(op["responses"]["200"]["content"]) == {
-            "application/json", BINARY_MEDIA_TYPE, "application/x-ndjson"}  # + progress
+            "application/json",
+            BINARY_MEDIA_TYPE,
+            "application/x-ndjson",
+        }  # + progress
     upload = ops["post", "/v1/robots"]
     assert BINARY_MEDIA_TYPE not in upload["requestBody"]["content"]
     assert set(upload["responses"]["201"]["content"]) == {"application/json"}
     identify = ops["post", "/v1/robots/{robot_id}/identify"]
-    assert set(identify["responses"]["200"]["content"]) == {"application/json",
-                                                            "application/x-ndjson"}
+    assert set(identify["responses"]["200"]["content"]) == {
+        "application/json",
+        "application/x-ndjson",
+    }
 
 
 def test_health_and_metrics_are_described(api):

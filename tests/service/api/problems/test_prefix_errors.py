@@ -19,15 +19,21 @@ ROWS = [[0.1, 0.2]] * 20_000  # 240 kB
 def _full_errors(model, body: bytes) -> list[dict]:
     with pytest.raises(ValidationError) as caught:
         model.model_validate_json(body)
-    return [dict(e) for e in caught.value.errors(include_url=False, include_context=False,
-                                                 include_input=False)]
+    return [
+        dict(e)
+        for e in caught.value.errors(include_url=False, include_context=False, include_input=False)
+    ]
 
 
-@pytest.mark.parametrize("q", [
-    [["x", "y"]] * 20_000,  # the batch of strings: ~1 s for 5 MB when validated whole
-    [[0.1, "x"], *ROWS],
-    ["x"] * 50_000,
-], ids=["rows-of-strings", "a-string-in-the-first-row", "strings"])
+@pytest.mark.parametrize(
+    "q",
+    [
+        [["x", "y"]] * 20_000,  # the batch of strings: ~1 s for 5 MB when validated whole
+        [[0.1, "x"], *ROWS],
+        ["x"] * 50_000,
+    ],
+    ids=["rows-of-strings", "a-string-in-the-first-row", "strings"],
+)
 def test_the_beginning_of_a_large_body_gives_the_whole_bodys_errors(q):
     body = orjson.dumps({"q": q})
     assert len(body) > _PREFIX_BYTES
@@ -35,15 +41,19 @@ def test_the_beginning_of_a_large_body_gives_the_whole_bodys_errors(q):
     assert errors and errors == _full_errors(GRAVITY, body)
 
 
-@pytest.mark.parametrize("body", [
-    orjson.dumps({"q": ROWS}),  # valid
-    orjson.dumps({"q": [*ROWS, ["x", 0.1]]}),  # its mistake is past the beginning
-    orjson.dumps({"q": ROWS, **{f"m{i}": 1 for i in range(100)}}),  # counted in all
-    orjson.dumps({"q": [*ROWS[:6000], "x"], "qq": 1}),  # cut off: member missing
-    b'{"q": [[NaN, 0.1]' + orjson.dumps(ROWS)[1:] + b"}",  # refused as JSON by pydantic
-    # a JointState lacks `name` in every object: "missing" could also be the cut's doing
-    orjson.dumps({"q": [{"shoulder": "x", "elbow": 0.1}] * 10_000}),
-], ids=["valid", "late-mistake", "many-unknown-members", "field-cut-off", "nan", "named"])
+@pytest.mark.parametrize(
+    "body",
+    [
+        orjson.dumps({"q": ROWS}),  # valid
+        orjson.dumps({"q": [*ROWS, ["x", 0.1]]}),  # its mistake is past the beginning
+        orjson.dumps({"q": ROWS, **{f"m{i}": 1 for i in range(100)}}),  # counted in all
+        orjson.dumps({"q": [*ROWS[:6000], "x"], "qq": 1}),  # cut off: member missing
+        b'{"q": [[NaN, 0.1]' + orjson.dumps(ROWS)[1:] + b"}",  # refused as JSON by pydantic
+        # a JointState lacks `name` in every object: "missing" could also be the cut's doing
+        orjson.dumps({"q": [{"shoulder": "x", "elbow": 0.1}] * 10_000}),
+    ],
+    ids=["valid", "late-mistake", "many-unknown-members", "field-cut-off", "nan", "named"],
+)
 def test_a_body_whose_beginning_is_not_conclusive_is_validated_whole(body):
     assert prefix_errors(GRAVITY, body) is None
 

@@ -24,7 +24,9 @@ from service.api.schemas.robots import ReduceRequest, UploadRequest
 REQUEST_MODELS: list[type[BaseModel]] = [
     *(spec.request for spec in SPECS.values()),
     *(endpoint.options_model for endpoint in ENDPOINTS.values()),
-    UploadRequest, ReduceRequest]
+    UploadRequest,
+    ReduceRequest,
+]
 
 
 def _sequence_schemas(schema: Any) -> list[dict[str, Any]]:
@@ -33,7 +35,8 @@ def _sequence_schemas(schema: Any) -> list[dict[str, Any]]:
         node = todo.pop()
         if isinstance(node, dict):
             if node.get("type") in ("list", "dict", "set", "tuple") and isinstance(
-                    node.get("type"), str):
+                node.get("type"), str
+            ):
                 out.append(node)
             todo.extend(v for k, v in node.items() if k != "metadata")
         elif isinstance(node, list):
@@ -46,7 +49,8 @@ def test_every_array_and_object_of_a_request_fails_fast(model):
     sequences = _sequence_schemas(model.__pydantic_core_schema__)
     assert sequences or model.__name__.endswith("Options"), model
     assert all(s.get("fail_fast") for s in sequences), [
-        s["type"] for s in sequences if not s.get("fail_fast")]
+        s["type"] for s in sequences if not s.get("fail_fast")
+    ]
 
 
 def _errors(model: type[BaseModel], body: bytes) -> ValidationError:
@@ -60,6 +64,7 @@ def test_20000_wrong_numbers_are_as_many_errors_as_2(name):
     """Before: one error per string and per member of q's union, 300,000 objects (8.6 s).
     Now each member of the union stops at its first wrong item: as many errors as for a body
     with two wrong numbers."""
+
     def count(n: int) -> int:
         body = orjson.dumps({"q": ["x"] * n, "v": [["x"] * 3] * n})
         return _errors(SPECS[name].request, body).error_count()
@@ -120,31 +125,43 @@ def test_an_upload_with_many_unknown_members_is_one_error_before_validation():
     assert caught.value.error_count() == MAX_UNKNOWN_MEMBERS  # each named, with suggestions
 
 
-@pytest.mark.parametrize("body", [
-    {"q": [0] * 6, "x" * 1_000_000: 1},
-    {"q": {"x" * 1_000_000: 1}},
-    {"q": [0] * 6, "external_forces": [{"frame": "tool0", "wrench": [0] * 6,
-                                        "y" * 1_000_000: 1}]},
-], ids=["member", "joint-name-key", "nested-member"])
+@pytest.mark.parametrize(
+    "body",
+    [
+        {"q": [0] * 6, "x" * 1_000_000: 1},
+        {"q": {"x" * 1_000_000: 1}},
+        {
+            "q": [0] * 6,
+            "external_forces": [{"frame": "tool0", "wrench": [0] * 6, "y" * 1_000_000: 1}],
+        },
+    ],
+    ids=["member", "joint-name-key", "nested-member"],
+)
 def test_a_megabyte_name_is_shortened_in_the_problem(api, body):
-    r = api.post("/v1/robots/ur5/gravity" if "external_forces" not in body
-                 else "/v1/robots/ur5/inverse-dynamics",
-                 json=body if "external_forces" not in body else {**body, "v": [0] * 6,
-                                                                   "a": [0] * 6})
+    r = api.post(
+        "/v1/robots/ur5/gravity"
+        if "external_forces" not in body
+        else "/v1/robots/ur5/inverse-dynamics",
+        json=body if "external_forces" not in body else {**body, "v": [0] * 6, "a": [0] * 6},
+    )
     assert r.status_code == 422
     assert len(r.content) < 2000, len(r.content)
     assert "x" * 64 + "…" in r.text or "y" * 64 + "…" in r.text
 
 
 def test_a_stream_message_flood_is_a_small_problem(api):
-    message = {"quantity": "gravity", "q": ["x"] * 100_000,
-               **{f"m{i}": 1 for i in range(50_000)}}  # counted before any validation
+    message = {
+        "quantity": "gravity",
+        "q": ["x"] * 100_000,
+        **{f"m{i}": 1 for i in range(50_000)},
+    }  # counted before any validation
     with api.websocket_connect("/v1/robots/ur5/stream") as ws:
         ws.send_text(orjson.dumps(message).decode())
         problem = orjson.loads(ws.receive_text())
         assert problem["code"] == "validation_error"
-        assert problem["detail"].startswith("the message has 50000 members that are not "
-                                            "fields of gravity (the first: 'm0')")
+        assert problem["detail"].startswith(
+            "the message has 50000 members that are not fields of gravity (the first: 'm0')"
+        )
         assert len(orjson.dumps(problem)) < 2000
         ws.send_text(orjson.dumps({"quantity": "gravity", "q": [0] * 6}).decode())
         assert "gravity" in orjson.loads(ws.receive_text())

@@ -68,12 +68,15 @@ def test_a_cached_answer_is_served_without_deriving_again(client, monkeypatch):
         assert r.status_code == 200 and r.content == first.content
 
 
-@pytest.mark.parametrize(("robot_id", "status", "code", "says"), [
-    ("talos_arm", 422, "unsupported_model", "7 moving joints"),
-    ("double_pendulum_continuous", 422, "unsupported_model", "is continuous"),
-    ("solo12", 422, "unsupported_model", "free-flyer root joint"),
-    ("no_such_robot", 404, "robot_not_found", "no robot has id"),
-])
+@pytest.mark.parametrize(
+    ("robot_id", "status", "code", "says"),
+    [
+        ("talos_arm", 422, "unsupported_model", "7 moving joints"),
+        ("double_pendulum_continuous", 422, "unsupported_model", "is continuous"),
+        ("solo12", 422, "unsupported_model", "free-flyer root joint"),
+        ("no_such_robot", 404, "robot_not_found", "no robot has id"),
+    ],
+)
 def test_refusals_are_problems_with_the_contract_codes(client, robot_id, status, code, says):
     for _ in range(2):  # the second time from the remembered refusal
         r = client.get(f"/v1/robots/{robot_id}/equations")
@@ -149,11 +152,14 @@ def test_a_real_server_answers_health_while_it_derives(tmp_path):
     from tests.hardening.health_probe import health_latencies_during
     from tests.servers import running_server
 
-    with running_server(tmp_path, catalog="planar_arm") as url, \
-            httpx.Client(base_url=url, timeout=120) as http:
+    with (
+        running_server(tmp_path, catalog="planar_arm") as url,
+        httpx.Client(base_url=url, timeout=120) as http,
+    ):
         robot_id = http.post("/v1/robots", json={"urdf": skewed_arm_urdf(4)}).json()["id"]
         answer, latencies = health_latencies_during(
-            url, lambda: http.get(f"/v1/robots/{robot_id}/equations"))
+            url, lambda: http.get(f"/v1/robots/{robot_id}/equations")
+        )
     assert answer.status_code == 200, answer.text
     assert len(latencies) >= 20, latencies
     assert max(latencies) < 0.5 and statistics.median(latencies) < 0.05, latencies

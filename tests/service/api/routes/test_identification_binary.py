@@ -32,17 +32,18 @@ def registry(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def client(registry):
-    settings = Settings(data_dir=registry.store.dir.parent, catalog="ur5",
-                        max_identify_samples=5000)
-    with TestClient(create_app(settings, registry=registry),
-                    raise_server_exceptions=False) as client:
+    settings = Settings(
+        data_dir=registry.store.dir.parent, catalog="ur5", max_identify_samples=5000
+    )
+    with TestClient(
+        create_app(settings, registry=registry), raise_server_exceptions=False
+    ) as client:
         yield client
 
 
 @pytest.fixture(scope="module")
 def log(registry):
-    return synthetic_log(registry.get("ur5").model, seed=2, duration=8.0, rate=100.0,
-                         noise=0.05)
+    return synthetic_log(registry.get("ur5").model, seed=2, duration=8.0, rate=100.0, noise=0.05)
 
 
 def _tensors(log, **extra):
@@ -50,8 +51,9 @@ def _tensors(log, **extra):
 
 
 def _post_binary(client, arrays, fields=None, **headers):
-    return client.post(ROUTE, content=encode_request(arrays, fields),
-                       headers={"Content-Type": BIN, **headers})
+    return client.post(
+        ROUTE, content=encode_request(arrays, fields), headers={"Content-Type": BIN, **headers}
+    )
 
 
 def _problem(response, status, code):
@@ -66,45 +68,61 @@ def _same_answer(binary_answer, json_answer):
     for key in ("parameters", "condition_number"):
         np.testing.assert_allclose(binary_answer[key], json_answer[key], rtol=1e-9, atol=1e-12)
     for key in ("values", "standard_deviation"):
-        np.testing.assert_allclose(binary_answer["base_parameters"][key],
-                                   json_answer["base_parameters"][key], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(
+            binary_answer["base_parameters"][key],
+            json_answer["base_parameters"][key],
+            rtol=1e-9,
+            atol=1e-12,
+        )
     for key in ("train", "validation", "validation_before"):
-        np.testing.assert_allclose(binary_answer["rmse"][key], json_answer["rmse"][key],
-                                   rtol=1e-9)
+        np.testing.assert_allclose(binary_answer["rmse"][key], json_answer["rmse"][key], rtol=1e-9)
     for a, b in zip(binary_answer["friction"], json_answer["friction"], strict=True):
         assert a["joint"] == b["joint"]
-        np.testing.assert_allclose([a[k] for k in ("coulomb", "viscous", "offset")],
-                                   [b[k] for k in ("coulomb", "viscous", "offset")],
-                                   rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(
+            [a[k] for k in ("coulomb", "viscous", "offset")],
+            [b[k] for k in ("coulomb", "viscous", "offset")],
+            rtol=1e-9,
+            atol=1e-12,
+        )
     assert binary_answer["samples"] == json_answer["samples"]
-    assert binary_answer["base_parameters"]["expressions"] == \
-        json_answer["base_parameters"]["expressions"]
+    assert (
+        binary_answer["base_parameters"]["expressions"]
+        == json_answer["base_parameters"]["expressions"]
+    )
 
 
 def test_the_binary_form_gives_the_json_answer(client, log):
     options = {"store": False, "include_series": True}
-    by_json = client.post(ROUTE, json={k: v.tolist() for k, v in _tensors(log).items()}
-                          | options)
+    by_json = client.post(ROUTE, json={k: v.tolist() for k, v in _tensors(log).items()} | options)
     assert by_json.status_code == 200, by_json.text
     # written by the safetensors library itself: any safetensors writer makes a valid body
-    body = safetensors.numpy.save(_tensors(log), metadata={"store": "false",
-                                                           "include_series": "true"})
+    body = safetensors.numpy.save(
+        _tensors(log), metadata={"store": "false", "include_series": "true"}
+    )
     by_binary = client.post(ROUTE, content=body, headers={"Content-Type": BIN, "Accept": BIN})
     assert by_binary.status_code == 200, by_binary.text
     assert by_binary.headers["content-type"] == "application/json"  # the answer stays JSON
     answer = by_binary.json()
     _same_answer(answer, by_json.json())
-    np.testing.assert_allclose(answer["validation_series"]["predicted"],
-                               by_json.json()["validation_series"]["predicted"], rtol=1e-9,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        answer["validation_series"]["predicted"],
+        by_json.json()["validation_series"]["predicted"],
+        rtol=1e-9,
+        atol=1e-12,
+    )
     assert answer["robot"] is None and answer["physically_consistent"] is True
 
 
 def test_the_binary_form_with_v_a_and_options(client, log):
     """The optional tensors and the options (a payload's frame: an object in __metadata__)
     travel as in JSON and give the same fit."""
-    options = {"store": False, "method": "least-squares", "friction": "viscous",
-               "payload": {"frame": "tool0"}, "validation_fraction": 0.25}
+    options = {
+        "store": False,
+        "method": "least-squares",
+        "friction": "viscous",
+        "payload": {"frame": "tool0"},
+        "validation_fraction": 0.25,
+    }
     arrays = _tensors(log, v=log.v, a=log.a)
     by_json = client.post(ROUTE, json={k: v.tolist() for k, v in arrays.items()} | options)
     by_binary = _post_binary(client, arrays, options)
@@ -118,8 +136,9 @@ def test_a_binary_identify_stores_the_same_variant(client, log):
     """store (the default) makes the same variant as the JSON form of the same log."""
     by_binary = _post_binary(client, _tensors(log), {"friction": "none"})
     assert by_binary.status_code == 200, by_binary.text
-    by_json = client.post(ROUTE, json={k: v.tolist() for k, v in _tensors(log).items()} | {
-        "friction": "none"}).json()
+    by_json = client.post(
+        ROUTE, json={k: v.tolist() for k, v in _tensors(log).items()} | {"friction": "none"}
+    ).json()
     stored = by_binary.json()["robot"]
     assert stored is not None and stored["parent"] == "ur5"
     assert stored["id"] == by_json["robot"]["id"]  # the same log, the same robot
@@ -159,21 +178,24 @@ def _bad(log, change):
     return arrays, fields
 
 
-@pytest.mark.parametrize(("change", "code", "words"), [
-    ("t 2-D", "validation_error", "tensor t has shape [800, 1]; it must be [N]"),
-    ("q 1-D", "validation_error", "tensor q has shape [800]; it must be [N, nq]"),
-    ("no tau", "validation_error", "missing tensor 'tau'"),
-    ("NaN in tau", "validation_error", "tau[3, 2] is nan; every number must be finite"),
-    ("inf in t", "validation_error", "t[7] is inf"),
-    ("unknown tensor", "validation_error", "unknown tensor 'w'"),
-    ("t in metadata", "validation_error", "t is in __metadata__; it goes as a tensor"),
-    ("q of 5", "dimension_mismatch", "each row of q must have 6 entries"),
-    ("a row short", "dimension_mismatch", "v has 799 rows; t has 800"),
-    ("bad friction", "validation_error", "friction"),
-    ("unknown option", "validation_error", "frobnicate"),
-    ("store as text", "validation_error", "store"),
-    ("over the sample limit", "dimension_mismatch", "ROBODYN_MAX_IDENTIFY_SAMPLES"),
-])
+@pytest.mark.parametrize(
+    ("change", "code", "words"),
+    [
+        ("t 2-D", "validation_error", "tensor t has shape [800, 1]; it must be [N]"),
+        ("q 1-D", "validation_error", "tensor q has shape [800]; it must be [N, nq]"),
+        ("no tau", "validation_error", "missing tensor 'tau'"),
+        ("NaN in tau", "validation_error", "tau[3, 2] is nan; every number must be finite"),
+        ("inf in t", "validation_error", "t[7] is inf"),
+        ("unknown tensor", "validation_error", "unknown tensor 'w'"),
+        ("t in metadata", "validation_error", "t is in __metadata__; it goes as a tensor"),
+        ("q of 5", "dimension_mismatch", "each row of q must have 6 entries"),
+        ("a row short", "dimension_mismatch", "v has 799 rows; t has 800"),
+        ("bad friction", "validation_error", "friction"),
+        ("unknown option", "validation_error", "frobnicate"),
+        ("store as text", "validation_error", "store"),
+        ("over the sample limit", "dimension_mismatch", "ROBODYN_MAX_IDENTIFY_SAMPLES"),
+    ],
+)
 def test_bad_binary_bodies_are_422_naming_the_fault(client, log, change, code, words):
     arrays, fields = _bad(log, change)
     detail = _problem(_post_binary(client, arrays, fields), 422, code)
@@ -182,30 +204,41 @@ def test_bad_binary_bodies_are_422_naming_the_fault(client, log, change, code, w
 
 def test_a_wrong_dtype_or_a_broken_file_is_422(client, log):
     body = safetensors.numpy.save({"t": log.t, "q": log.q.astype(np.float32), "tau": log.tau})
-    detail = _problem(client.post(ROUTE, content=body, headers={"Content-Type": BIN}), 422,
-                      "validation_error")
+    detail = _problem(
+        client.post(ROUTE, content=body, headers={"Content-Type": BIN}), 422, "validation_error"
+    )
     assert "tensor q has dtype 'F32'" in detail
-    detail = _problem(client.post(ROUTE, content=b"\x10\x00\x00", headers={
-        "Content-Type": BIN}), 422, "validation_error")
+    detail = _problem(
+        client.post(ROUTE, content=b"\x10\x00\x00", headers={"Content-Type": BIN}),
+        422,
+        "validation_error",
+    )
     assert detail.startswith("binary body:")
 
 
 def test_other_media_types_are_415(client, log):
     for media_type in ("text/csv", "application/vnd.robodyn.binary", "multipart/form-data"):
-        detail = _problem(client.post(ROUTE, content=b"t,q\n", headers={
-            "Content-Type": media_type}), 415, "unsupported_media_type")
+        detail = _problem(
+            client.post(ROUTE, content=b"t,q\n", headers={"Content-Type": media_type}),
+            415,
+            "unsupported_media_type",
+        )
         assert BIN in detail
 
 
 def test_the_openapi_document_declares_the_binary_request(client):
-    operation = client.get("/openapi.json").json()["paths"][
-        "/v1/robots/{robot_id}/identify"]["post"]
+    operation = client.get("/openapi.json").json()["paths"]["/v1/robots/{robot_id}/identify"][
+        "post"
+    ]
     assert set(operation["requestBody"]["content"]) == {"application/json", BIN}
-    assert operation["requestBody"]["content"]["application/json"]["schema"][
-        "$ref"].endswith("/IdentifyRequest")
+    assert operation["requestBody"]["content"]["application/json"]["schema"]["$ref"].endswith(
+        "/IdentifyRequest"
+    )
     # the answer: JSON, or the progress stream of the same JSON; never the binary form
-    assert list(operation["responses"]["200"]["content"]) == ["application/json",
-                                                              "application/x-ndjson"]
+    assert list(operation["responses"]["200"]["content"]) == [
+        "application/json",
+        "application/x-ndjson",
+    ]
     assert operation["x-binary-media-type"] == BIN
     assert "415" in operation["responses"]
 
@@ -220,8 +253,11 @@ def test_a_robot_that_does_not_move_is_a_clear_422(client, registry, log, form):
     tau = np.array([pin.computeGeneralizedGravity(model, data, x) for x in q])
     tau += np.random.default_rng(4).normal(0.0, 0.02, tau.shape)
     arrays = {"t": log.t, "q": q, "tau": tau}
-    response = (client.post(ROUTE, json={k: v.tolist() for k, v in arrays.items()})
-                if form == "json" else _post_binary(client, arrays))
+    response = (
+        client.post(ROUTE, json={k: v.tolist() for k, v in arrays.items()})
+        if form == "json"
+        else _post_binary(client, arrays)
+    )
     detail = _problem(response, 422, "validation_error")
     assert detail.startswith("the log shows too little motion to identify robot 'ur5'")
     assert "every joint barely moves" in detail and "excite every joint" in detail

@@ -15,10 +15,16 @@ def test_metrics_count_requests_by_route_and_robot(api):
     api.post("/v1/robots/ur5/gravity", json={"q": [0] * 6})
     api.post("/v1/robots/ur5/gravity", json={"q": [0] * 5})
     text = api.get("/metrics").text
-    ok = re.search(r'robodyn_requests_total\{method="POST",robot="ur5",'
-                   r'route="/v1/robots/\{robot_id\}/gravity",status="200"\} (\d+)', text)
-    bad = re.search(r'robodyn_requests_total\{method="POST",robot="ur5",'
-                    r'route="/v1/robots/\{robot_id\}/gravity",status="422"\} (\d+)', text)
+    ok = re.search(
+        r'robodyn_requests_total\{method="POST",robot="ur5",'
+        r'route="/v1/robots/\{robot_id\}/gravity",status="200"\} (\d+)',
+        text,
+    )
+    bad = re.search(
+        r'robodyn_requests_total\{method="POST",robot="ur5",'
+        r'route="/v1/robots/\{robot_id\}/gravity",status="422"\} (\d+)',
+        text,
+    )
     assert ok and int(float(ok.group(1))) >= 1
     assert bad and int(float(bad.group(1))) >= 1
     assert 'robodyn_request_duration_seconds_bucket{le="0.001",method="POST",robot="ur5"' in text
@@ -27,8 +33,14 @@ def test_metrics_count_requests_by_route_and_robot(api):
 def test_openapi_documents_every_route_with_units(api):
     doc = api.get("/openapi.json").json()
     paths = doc["paths"]
-    for quantity in ("mass-matrix", "gravity", "coriolis", "nonlinear-effects",
-                     "inverse-dynamics", "forward-dynamics"):
+    for quantity in (
+        "mass-matrix",
+        "gravity",
+        "coriolis",
+        "nonlinear-effects",
+        "inverse-dynamics",
+        "forward-dynamics",
+    ):
         assert "post" in paths[f"/v1/robots/{{robot_id}}/{quantity}"]
     assert {"get", "post"} <= set(paths["/v1/robots"])
     assert {"get", "delete"} <= set(paths["/v1/robots/{robot_id}"])
@@ -45,7 +57,13 @@ def test_robot_info_layout(api):
     assert info["nq"] == 39 and info["nv"] == 38 and info["root_joint"] == "free-flyer"
     root = info["joints"][0]
     assert (root["name"], root["type"], root["idx_q"], root["nq"], root["idx_v"], root["nv"]) == (
-        "root_joint", "free_flyer", 0, 7, 0, 6)
+        "root_joint",
+        "free_flyer",
+        0,
+        7,
+        0,
+        6,
+    )
     assert root["lower"] == [-1.0] * 7 and root["upper"] == [1.0] * 7  # as the loader set them
     assert info["joints"][1]["idx_q"] == 7 and info["joints"][1]["idx_v"] == 6
     assert "half_sitting" in info["reference_configurations"]
@@ -61,13 +79,17 @@ def test_continuous_joint_layout(api):
     info = api.get("/v1/robots/double_pendulum_continuous").json()
     assert info["nq"] == 4 and info["nv"] == 2
     assert [(j["type"], j["nq"], j["nv"]) for j in info["joints"]] == [
-        ("continuous", 2, 1), ("continuous", 2, 1)]
+        ("continuous", 2, 1),
+        ("continuous", 2, 1),
+    ]
 
 
 def test_catalog_findings_are_warnings(api):
     pr2 = api.get("/v1/robots/pr2").json()
-    assert any(w["code"] == "triangle_inequality" and w["element"] == "link"
-               and w["name"] in w["message"] for w in pr2["warnings"])
+    assert any(
+        w["code"] == "triangle_inequality" and w["element"] == "link" and w["name"] in w["message"]
+        for w in pr2["warnings"]
+    )
 
 
 def test_continuous_joints_have_no_position_limits(api):

@@ -17,11 +17,23 @@ def test_stream_answers_equal_http_answers_in_order(api, catalog_registry):
     messages = []
     for i in range(20):
         q, v, a = (x.tolist() for x in random_state(model, rng))
-        quantity = ["mass-matrix", "gravity", "coriolis", "nonlinear-effects",
-                    "inverse-dynamics", "forward-dynamics"][i % 6]
+        quantity = [
+            "mass-matrix",
+            "gravity",
+            "coriolis",
+            "nonlinear-effects",
+            "inverse-dynamics",
+            "forward-dynamics",
+        ][i % 6]
         body = {"q": q, "v": v, "a": a, "tau": a}
-        keep = {"mass-matrix": "q", "gravity": "q", "coriolis": "qv", "nonlinear-effects": "qv",
-                "inverse-dynamics": "qva", "forward-dynamics": "qvt"}[quantity]
+        keep = {
+            "mass-matrix": "q",
+            "gravity": "q",
+            "coriolis": "qv",
+            "nonlinear-effects": "qv",
+            "inverse-dynamics": "qva",
+            "forward-dynamics": "qvt",
+        }[quantity]
         names = {"q": "q", "v": "v", "a": "a", "t": "tau"}
         messages.append((quantity, {names[c]: body[names[c]] for c in keep}))
     with api.websocket_connect("/v1/robots/ur5/stream") as ws:
@@ -52,10 +64,13 @@ def test_stream_errors_are_problems_and_the_stream_stays_open(api):
 def test_stream_binary_messages(api, catalog_registry):
     model = catalog_registry.catalog["talos"].model
     rng = np.random.default_rng(2)
-    q, v, a = (np.stack(x) for x in zip(*[random_state(model, rng) for _ in range(70)],
-                                        strict=True))
-    expected = api.post("/v1/robots/talos/inverse-dynamics",
-                        json={"q": q.tolist(), "v": v.tolist(), "a": a.tolist()}).json()["tau"]
+    q, v, a = (
+        np.stack(x) for x in zip(*[random_state(model, rng) for _ in range(70)], strict=True)
+    )
+    expected = api.post(
+        "/v1/robots/talos/inverse-dynamics",
+        json={"q": q.tolist(), "v": v.tolist(), "a": a.tolist()},
+    ).json()["tau"]
     with api.websocket_connect("/v1/robots/talos/stream") as ws:
         ws.send_bytes(encode_request({"q": q, "v": v, "a": a}, {"quantity": "inverse-dynamics"}))
         got = decode_answer(ws.receive_bytes())["tau"]
@@ -67,8 +82,10 @@ def test_stream_binary_messages(api, catalog_registry):
 
 
 def test_stream_of_an_unknown_robot_is_refused_with_a_404_problem(api):
-    with (pytest.raises(WebSocketDenialResponse) as refused,
-          api.websocket_connect("/v1/robots/no_such_robot/stream")):
+    with (
+        pytest.raises(WebSocketDenialResponse) as refused,
+        api.websocket_connect("/v1/robots/no_such_robot/stream"),
+    ):
         pass
     assert refused.value.status_code == 404
     assert refused.value.headers["content-type"].startswith("application/problem+json")

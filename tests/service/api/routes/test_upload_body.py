@@ -31,10 +31,14 @@ BODIES = {
     "two-descriptions": (b'{"urdf": "<robot/>", "mjcf": "<mujoco/>"}', JSON),
     "many-unknown-members": (
         b'{"urdf": "<robot/>", ' + b", ".join(b'"m%d": 1' % i for i in range(300)) + b"}",
-        JSON),
+        JSON,
+    ),
     "many-wrong-assets": (
-        b'{"urdf": "<robot/>", "assets": {' + b", ".join(b'"a%d": %d' % (i, i)
-                                                          for i in range(500)) + b"}}", JSON),
+        b'{"urdf": "<robot/>", "assets": {'
+        + b", ".join(b'"a%d": %d' % (i, i) for i in range(500))
+        + b"}}",
+        JSON,
+    ),
 }
 
 
@@ -43,8 +47,9 @@ def client(tmp_path_factory: pytest.TempPathFactory):
     data_dir = tmp_path_factory.mktemp("upload-body")
     registry = Registry(data_dir, ["planar_arm"])
     registry.load()
-    with TestClient(create_app(Settings(data_dir=data_dir), registry=registry),
-                    raise_server_exceptions=False) as client:
+    with TestClient(
+        create_app(Settings(data_dir=data_dir), registry=registry), raise_server_exceptions=False
+    ) as client:
         yield client
 
 
@@ -60,8 +65,9 @@ def test_a_body_read_in_a_child_is_answered_as_one_read_inline(client, monkeypat
 
     monkeypatch.setattr(robot_routes, "INLINE_UPLOAD_BYTES", -1)  # every body is "large"
     monkeypatch.setattr(robot_routes, "read_upload_isolated", isolated)
-    isolated_answer = client.post("/v1/robots", content=body,
-                                  headers={"content-type": content_type})
+    isolated_answer = client.post(
+        "/v1/robots", content=body, headers={"content-type": content_type}
+    )
     assert children == [len(body)]
     assert inline.status_code < 500 and inline.status_code != 400, inline.text[:300]
     if name == "valid":  # stored by the first, found by the second
@@ -84,8 +90,11 @@ def test_large_bodies_are_read_in_a_child_small_ones_inline(client, monkeypatch)
     small = client.post("/v1/robots", json={"urdf": "<robot/>", "name": padding[:1000]})
     large = client.post("/v1/robots", json={"urdf": "<robot/>", "name": padding})
     assert small.status_code == large.status_code == 422
-    assert small.json()["errors"] == large.json()["errors"] == [
-        {"loc": "name", "msg": "must have at most 200 characters"}]
+    assert (
+        small.json()["errors"]
+        == large.json()["errors"]
+        == [{"loc": "name", "msg": "must have at most 200 characters"}]
+    )
     assert len(children) == 1 and children[0] > upload_body.INLINE_UPLOAD_BYTES
 
 

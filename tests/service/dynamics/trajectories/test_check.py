@@ -16,15 +16,17 @@ from service.registry import Registry
 
 @pytest.fixture(scope="module")
 def robots(tmp_path_factory: pytest.TempPathFactory) -> Registry:
-    registry = Registry(tmp_path_factory.mktemp("trajectories"),
-                        ["ur5", "panda", "solo12", "double_pendulum_continuous",
-                         "double_pendulum"])
+    registry = Registry(
+        tmp_path_factory.mktemp("trajectories"),
+        ["ur5", "panda", "solo12", "double_pendulum_continuous", "double_pendulum"],
+    )
     registry.load()
     return registry
 
 
-def _motion(nq: int, n: int = 41, duration: float = 2.0, seed: int = 0
-            ) -> tuple[np.ndarray, np.ndarray]:
+def _motion(
+    nq: int, n: int = 41, duration: float = 2.0, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
     """A smooth motion: t [n], q [n, nq] (sums of sines of moderate speed)."""
     rng = np.random.default_rng(seed)
     t = np.linspace(0.0, duration, n)
@@ -65,15 +67,17 @@ def test_cubic_motion_peaks_are_the_closed_form(robots: Registry) -> None:
     q = np.outer(t**3 - 1.5 * t**2, c)  # v = (3t² − 3t) c: peak |v| at t = 0.5
     k = 8
     result = check_trajectory(robot, t, q, samples_per_interval=k)
-    t_eval = np.concatenate([np.linspace(t[i], t[i + 1], k, endpoint=False) for i in range(4)]
-                            + [t[-1:]])
+    t_eval = np.concatenate(
+        [np.linspace(t[i], t[i + 1], k, endpoint=False) for i in range(4)] + [t[-1:]]
+    )
     np.testing.assert_allclose(result.t_eval, t_eval, rtol=0, atol=1e-15)
     v_closed = np.outer(3 * t_eval**2 - 3 * t_eval, c)
     np.testing.assert_allclose(result.v_eval, v_closed, rtol=1e-9, atol=1e-12)
     for j, joint in enumerate(result.joints):
         assert joint["peak_velocity"] == pytest.approx(0.75 * abs(c[j]), rel=1e-9)
         assert joint["velocity_ratio"] == pytest.approx(
-            0.75 * abs(c[j]) / robot.model.velocityLimit[j], rel=1e-9)
+            0.75 * abs(c[j]) / robot.model.velocityLimit[j], rel=1e-9
+        )
 
 
 def test_a_violation_between_samples_is_found(robots: Registry) -> None:
@@ -116,11 +120,12 @@ def test_effort_and_position_violations_with_scales(robots: Registry) -> None:
         if v["kind"] == "effort":
             assert abs(v["limit"]) == pytest.approx(30.0) and abs(v["worst"]) > 30.0
     for joint in result.joints:
-        assert joint["effort_limit"] == pytest.approx(0.2 * robot.model.effortLimit[0]
-                                                      if joint["name"].startswith(("sh", "el"))
-                                                      else 0.2 * 28.0)
-        assert joint["effort_ratio"] == pytest.approx(joint["peak_effort"]
-                                                      / joint["effort_limit"])
+        assert joint["effort_limit"] == pytest.approx(
+            0.2 * robot.model.effortLimit[0]
+            if joint["name"].startswith(("sh", "el"))
+            else 0.2 * 28.0
+        )
+        assert joint["effort_ratio"] == pytest.approx(joint["peak_effort"] / joint["effort_limit"])
     elbow = next(j for j in result.joints if j["name"] == "elbow_joint")
     assert elbow["max_position"] > np.pi and elbow["lower"] == pytest.approx(-np.pi)
 
@@ -136,8 +141,9 @@ def test_work_equals_the_change_of_mechanical_energy(robots: Registry) -> None:
 
     def energy(i: int) -> float:
         v = spline(t[i], 1)
-        return (pin.computeKineticEnergy(model, data, q[i], v)
-                + pin.computePotentialEnergy(model, data, q[i]))
+        return pin.computeKineticEnergy(model, data, q[i], v) + pin.computePotentialEnergy(
+            model, data, q[i]
+        )
 
     work = result.work["positive"] + result.work["negative"]
     assert result.work["positive"] > 0 > result.work["negative"]
@@ -150,8 +156,9 @@ def test_friction_hook_adds_its_torque(robots: Registry) -> None:
     plain = check_trajectory(robot, t, q)
     viscous = np.linspace(1.0, 2.0, 6)
     with_friction = check_trajectory(robot, t, q, friction=lambda v: v * viscous)
-    np.testing.assert_allclose(with_friction.tau, plain.tau + plain.v * viscous, rtol=1e-12,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        with_friction.tau, plain.tau + plain.v * viscous, rtol=1e-12, atol=1e-12
+    )
 
 
 def test_free_flyer_needs_v_and_a(robots: Registry) -> None:
@@ -164,8 +171,9 @@ def test_free_flyer_needs_v_and_a(robots: Registry) -> None:
     result = check_trajectory(robot, t, q, zeros, zeros)
     assert [j["name"] for j in result.joints] == list(robot.joint_types)[1:]  # 1-DoF only
     data = robot.model.createData()
-    np.testing.assert_allclose(result.tau[0], pin.rnea(robot.model, data, q[0], zeros[0],
-                                                       zeros[0]), atol=1e-10)
+    np.testing.assert_allclose(
+        result.tau[0], pin.rnea(robot.model, data, q[0], zeros[0], zeros[0]), atol=1e-10
+    )
     bad = q.copy()
     bad[1, 3:7] = [0.0, 0.0, 0.0, 2.0]
     with pytest.raises(InvalidConfiguration):
@@ -198,22 +206,24 @@ def test_urdf_unset_limits_are_no_limits(robots: Registry) -> None:
         assert joint["max_position"] > 0 or joint["min_position"] < 0  # positions still given
 
 
-@pytest.mark.parametrize(("change", "error", "words"), [
-    (dict(t=[0.0, 1.0, 1.0]), InvalidInput, "t must be strictly increasing: t\\[2\\]"),
-    (dict(t=[0.0, np.nan, 2.0]), InvalidInput, "t contains a non-finite"),
-    (dict(t=[0.0]), InvalidInput, "t has 1 sample"),
-    (dict(q=np.zeros((2, 6))), DimensionMismatch, "q has 2 rows; t has 3"),
-    (dict(q=np.zeros((3, 5))), DimensionMismatch, "nq = 6"),
-    (dict(v=np.zeros((3, 6, 1))), InvalidInput, "v must be 2-D"),
-    (dict(a=np.full((3, 6), np.inf)), InvalidInput, "a contains a non-finite"),
-    (dict(effort_scale=0.0), InvalidInput, "effort_scale must be a finite number greater"),
-    (dict(velocity_scale=-1.0), InvalidInput, "velocity_scale"),
-    (dict(samples_per_interval=0), InvalidInput, "samples_per_interval"),
-    (dict(samples_per_interval=65), InvalidInput, "samples_per_interval"),
-    (dict(samples_per_interval=True), InvalidInput, "samples_per_interval"),
-])
-def test_bad_input_names_the_field(robots: Registry, change: dict, error: type,
-                                   words: str) -> None:
+@pytest.mark.parametrize(
+    ("change", "error", "words"),
+    [
+        (dict(t=[0.0, 1.0, 1.0]), InvalidInput, "t must be strictly increasing: t\\[2\\]"),
+        (dict(t=[0.0, np.nan, 2.0]), InvalidInput, "t contains a non-finite"),
+        (dict(t=[0.0]), InvalidInput, "t has 1 sample"),
+        (dict(q=np.zeros((2, 6))), DimensionMismatch, "q has 2 rows; t has 3"),
+        (dict(q=np.zeros((3, 5))), DimensionMismatch, "nq = 6"),
+        (dict(v=np.zeros((3, 6, 1))), InvalidInput, "v must be 2-D"),
+        (dict(a=np.full((3, 6), np.inf)), InvalidInput, "a contains a non-finite"),
+        (dict(effort_scale=0.0), InvalidInput, "effort_scale must be a finite number greater"),
+        (dict(velocity_scale=-1.0), InvalidInput, "velocity_scale"),
+        (dict(samples_per_interval=0), InvalidInput, "samples_per_interval"),
+        (dict(samples_per_interval=65), InvalidInput, "samples_per_interval"),
+        (dict(samples_per_interval=True), InvalidInput, "samples_per_interval"),
+    ],
+)
+def test_bad_input_names_the_field(robots: Registry, change: dict, error: type, words: str) -> None:
     args = dict(t=[0.0, 1.0, 2.0], q=np.zeros((3, 6)), v=None, a=None)
     args.update(change)
     t, q, v, a = args.pop("t"), args.pop("q"), args.pop("v"), args.pop("a")

@@ -25,8 +25,9 @@ def setup(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient
     settings = Settings(data_dir=data, catalog=CATALOG, max_batch=5000)
     registry = Registry(data, settings.catalog_names())
     registry.load()
-    with TestClient(create_app(settings, registry=registry),
-                    raise_server_exceptions=False) as client:
+    with TestClient(
+        create_app(settings, registry=registry), raise_server_exceptions=False
+    ) as client:
         yield client, registry
 
 
@@ -64,8 +65,9 @@ def test_check_with_v_and_a_on_a_free_flyer(api, setup) -> None:
     q0 = robot.info()["default_configuration"]
     t = [0.0, 0.5, 1.0]
     zeros = np.zeros((3, robot.nv)).tolist()
-    r = api.post("/v1/robots/solo12/trajectory-check",
-                 json={"t": t, "q": [q0] * 3, "v": zeros, "a": zeros})
+    r = api.post(
+        "/v1/robots/solo12/trajectory-check", json={"t": t, "q": [q0] * 3, "v": zeros, "a": zeros}
+    )
     assert r.status_code == 200, r.text
     expected = check_trajectory(robot, t, [q0] * 3, zeros, zeros)
     np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
@@ -75,14 +77,15 @@ def test_check_with_v_and_a_on_a_free_flyer(api, setup) -> None:
 
 def test_retime_answer_equals_the_in_process_retime(api, setup) -> None:
     robot = setup[1].get("ur5")
-    body = {"waypoints": WAYPOINTS.tolist(), "limits": {"effort_scale": 0.8,
-                                                        "acceleration": [4.0] * 6},
-            "sample_dt": 0.02}
+    body = {
+        "waypoints": WAYPOINTS.tolist(),
+        "limits": {"effort_scale": 0.8, "acceleration": [4.0] * 6},
+        "sample_dt": 0.02,
+    }
     r = api.post("/v1/robots/ur5/retime", json=body)
     assert r.status_code == 200, r.text
     answer = r.json()
-    expected = retime(robot, WAYPOINTS, effort_scale=0.8, acceleration=[4.0] * 6,
-                      sample_dt=0.02)
+    expected = retime(robot, WAYPOINTS, effort_scale=0.8, acceleration=[4.0] * 6, sample_dt=0.02)
     assert answer["duration"] == expected.duration
     for key in ("t", "q", "v", "a", "tau"):
         np.testing.assert_array_equal(answer[key], getattr(expected, key))
@@ -90,61 +93,81 @@ def test_retime_answer_equals_the_in_process_retime(api, setup) -> None:
     assert len(answer["check"]["tau"]) == len(answer["t"])
 
 
-@pytest.mark.parametrize(("body", "field"), [
-    ({"t": [0.0, 1.0, 1.0]}, "t must be strictly increasing"),
-    ({"t": [0.0, 1.0, "NaN"]}, "t"),
-    ({"t": [0.0, 1.0]}, "q has 3 samples; t has 2"),
-    ({"t": [0.0], "q": [[0.0] * 6]}, "t has 1 sample"),
-    ({"q": [[0.0] * 5] * 3}, "nq = 6"),
-    ({"v": [[0.0] * 6] * 2}, "batch sizes differ"),
-    ({"effort_scale": 0}, "effort_scale"),
-    ({"velocity_scale": -1.0}, "velocity_scale"),
-    ({"samples_per_interval": 0}, "samples_per_interval"),
-    ({"samples_per_interval": 65}, "samples_per_interval"),
-    ({"t": list(range(5001)), "q": [[0.0] * 6] * 5001}, "q has 5001 rows (states); the limit is "
-     "5000"),
-])
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"t": [0.0, 1.0, 1.0]}, "t must be strictly increasing"),
+        ({"t": [0.0, 1.0, "NaN"]}, "t"),
+        ({"t": [0.0, 1.0]}, "q has 3 samples; t has 2"),
+        ({"t": [0.0], "q": [[0.0] * 6]}, "t has 1 sample"),
+        ({"q": [[0.0] * 5] * 3}, "nq = 6"),
+        ({"v": [[0.0] * 6] * 2}, "batch sizes differ"),
+        ({"effort_scale": 0}, "effort_scale"),
+        ({"velocity_scale": -1.0}, "velocity_scale"),
+        ({"samples_per_interval": 0}, "samples_per_interval"),
+        ({"samples_per_interval": 65}, "samples_per_interval"),
+        (
+            {"t": list(range(5001)), "q": [[0.0] * 6] * 5001},
+            "q has 5001 rows (states); the limit is 5000",
+        ),
+    ],
+)
 def test_bad_check_input_is_a_422_naming_the_field(api, body: dict, field: str) -> None:
     request = {"t": [0.0, 1.0, 2.0], "q": [[0.0] * 6] * 3, **body}
     r = api.post("/v1/robots/ur5/trajectory-check", json=request)
     assert r.status_code == 422, r.text
     problem = r.json()
     assert problem["code"] in ("validation_error", "dimension_mismatch")
-    assert field in problem["detail"] or any(field in str(e.get("loc")) for e in
-                                             problem.get("errors", [])), problem
+    assert field in problem["detail"] or any(
+        field in str(e.get("loc")) for e in problem.get("errors", [])
+    ), problem
 
 
-@pytest.mark.parametrize(("body", "code", "field"), [
-    ({"waypoints": [[0.0] * 6]}, "validation_error", "waypoints has 1 row"),
-    ({"waypoints": [[0.0] * 5, [1.0] * 5]}, "dimension_mismatch", "nq = 6"),
-    ('{"waypoints": [[0, 0, 0, 0, 0, 0], [1e400, 0, 0, 0, 0, 0]]}', "validation_error",
-     "waypoints"),
-    ({"limits": {"velocity_scale": 0}}, "validation_error", "velocity_scale"),
-    ({"limits": {"effort_scale": -2}}, "validation_error", "effort_scale"),
-    ({"limits": {"acceleration": [1.0, 1.0, 0.0, 1.0, 1.0, 1.0]}}, "validation_error",
-     "limits.acceleration"),
-    ({"limits": {"acceleration": [1.0] * 5}}, "dimension_mismatch", "limits.acceleration"),
-    ({"sample_dt": 0}, "validation_error", "sample_dt"),
-    ({"sample_dt": 1e-6}, "validation_error", "sample_dt"),
-    ({"limits": {"effort_scale": 0.3}}, "infeasible_path", "shoulder_lift_joint"),
-])
-def test_bad_retime_input_is_a_422_with_its_code(api, body: dict | str, code: str,
-                                                 field: str) -> None:
+@pytest.mark.parametrize(
+    ("body", "code", "field"),
+    [
+        ({"waypoints": [[0.0] * 6]}, "validation_error", "waypoints has 1 row"),
+        ({"waypoints": [[0.0] * 5, [1.0] * 5]}, "dimension_mismatch", "nq = 6"),
+        (
+            '{"waypoints": [[0, 0, 0, 0, 0, 0], [1e400, 0, 0, 0, 0, 0]]}',
+            "validation_error",
+            "waypoints",
+        ),
+        ({"limits": {"velocity_scale": 0}}, "validation_error", "velocity_scale"),
+        ({"limits": {"effort_scale": -2}}, "validation_error", "effort_scale"),
+        (
+            {"limits": {"acceleration": [1.0, 1.0, 0.0, 1.0, 1.0, 1.0]}},
+            "validation_error",
+            "limits.acceleration",
+        ),
+        ({"limits": {"acceleration": [1.0] * 5}}, "dimension_mismatch", "limits.acceleration"),
+        ({"sample_dt": 0}, "validation_error", "sample_dt"),
+        ({"sample_dt": 1e-6}, "validation_error", "sample_dt"),
+        ({"limits": {"effort_scale": 0.3}}, "infeasible_path", "shoulder_lift_joint"),
+    ],
+)
+def test_bad_retime_input_is_a_422_with_its_code(
+    api, body: dict | str, code: str, field: str
+) -> None:
     if isinstance(body, str):  # JSON text Python's encoder would not write (1e400 → inf)
-        r = api.post("/v1/robots/ur5/retime", content=body,
-                     headers={"content-type": "application/json"})
+        r = api.post(
+            "/v1/robots/ur5/retime", content=body, headers={"content-type": "application/json"}
+        )
     else:
         r = api.post("/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist(), **body})
     assert r.status_code == 422, r.text
     problem = r.json()
     assert problem["code"] == code
-    assert field in problem["detail"] or any(field in str(e.get("loc")) for e in
-                                             problem.get("errors", [])), problem
+    assert field in problem["detail"] or any(
+        field in str(e.get("loc")) for e in problem.get("errors", [])
+    ), problem
 
 
 def test_infeasible_path_names_joint_waypoint_and_fraction(api) -> None:
-    r = api.post("/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist(),
-                                                "limits": {"effort_scale": 0.3}})
+    r = api.post(
+        "/v1/robots/ur5/retime",
+        json={"waypoints": WAYPOINTS.tolist(), "limits": {"effort_scale": 0.3}},
+    )
     problem = r.json()
     assert problem["joint"] == "shoulder_lift_joint" and problem["waypoint"] == 0
     assert 0 < problem["path_fraction"] < 1
@@ -159,13 +182,15 @@ def test_retime_over_the_answer_budget_is_a_413(tmp_path: Path) -> None:
     settings = Settings(data_dir=tmp_path, catalog="ur5", max_answer_bytes=50_000)
     registry = Registry(tmp_path, ["ur5"])
     registry.load()
-    with TestClient(create_app(settings, registry=registry),
-                    raise_server_exceptions=False) as client:
+    with TestClient(
+        create_app(settings, registry=registry), raise_server_exceptions=False
+    ) as client:
         r = client.post("/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist()})
         assert r.status_code == 413 and r.json()["code"] == "payload_too_large", r.text
         assert "sample_dt" in r.json()["detail"]
-        coarse = client.post("/v1/robots/ur5/retime",
-                             json={"waypoints": WAYPOINTS.tolist(), "sample_dt": 0.2})
+        coarse = client.post(
+            "/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist(), "sample_dt": 0.2}
+        )
         assert coarse.status_code == 200, coarse.text
 
 
@@ -176,18 +201,21 @@ def test_both_routes_speak_the_binary_form(api) -> None:
 
     headers = {"content-type": binary.MEDIA_TYPE, "accept": binary.MEDIA_TYPE}
     t, q = _motion()
-    for route, arrays, fields in (("retime", {"waypoints": WAYPOINTS}, {}),
-                                  ("trajectory-check", {"q": q}, {"t": t.tolist()})):
-        r = api.post(f"/v1/robots/ur5/{route}", content=binary.encode(arrays, fields),
-                     headers=headers)
+    for route, arrays, fields in (
+        ("retime", {"waypoints": WAYPOINTS}, {}),
+        ("trajectory-check", {"q": q}, {"t": t.tolist()}),
+    ):
+        r = api.post(
+            f"/v1/robots/ur5/{route}", content=binary.encode(arrays, fields), headers=headers
+        )
         assert r.status_code == 200, r.text
         answer = binary.decode(r.content)
-        as_json = api.post(f"/v1/robots/ur5/{route}",
-                           json={**{k: a.tolist() for k, a in arrays.items()}, **fields}).json()
+        as_json = api.post(
+            f"/v1/robots/ur5/{route}", json={**{k: a.tolist() for k, a in arrays.items()}, **fields}
+        ).json()
         np.testing.assert_array_equal(answer["tau"], as_json["tau"])
         check = answer["check"] if route == "retime" else answer
-        assert check["feasible"] == (as_json["check"] if route == "retime"
-                                     else as_json)["feasible"]
+        assert check["feasible"] == (as_json["check"] if route == "retime" else as_json)["feasible"]
 
 
 def test_a_long_checks_times_may_come_as_a_tensor(tmp_path: Path) -> None:
@@ -204,26 +232,42 @@ def test_a_long_checks_times_may_come_as_a_tensor(tmp_path: Path) -> None:
     n = 60_000
     t = np.cumsum(np.random.default_rng(3).uniform(0.9e-3, 1.1e-3, n))
     q = np.stack([0.4 * np.sin((j + 1) * 0.3 * t) for j in range(6)], axis=1)
-    in_header = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
-        {"q": q}, {"t": t.tolist()}), headers=headers)
+    in_header = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        content=binary.encode({"q": q}, {"t": t.tolist()}),
+        headers=headers,
+    )
     assert in_header.status_code == 422 and "header" in in_header.json()["detail"]
-    as_tensor = api.post("/v1/robots/ur5/trajectory-check",
-                         content=binary.encode({"t": t, "q": q}, {"samples_per_interval": 2}),
-                         headers=headers)
+    as_tensor = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        content=binary.encode({"t": t, "q": q}, {"samples_per_interval": 2}),
+        headers=headers,
+    )
     assert as_tensor.status_code == 200, as_tensor.text[:300]
-    as_json = api.post("/v1/robots/ur5/trajectory-check", json={
-        "t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2})
+    as_json = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        json={"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2},
+    )
     assert as_tensor.json() == as_json.json()
-    twice = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
-        {"t": t[:10], "q": q[:10]}, {"t": t[:10].tolist()}), headers=headers)
+    twice = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        content=binary.encode({"t": t[:10], "q": q[:10]}, {"t": t[:10].tolist()}),
+        headers=headers,
+    )
     assert twice.status_code == 422 and "both" in twice.json()["detail"]
-    flat = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
-        {"t": t[:10].reshape(5, 2), "q": q[:10]}), headers=headers)
+    flat = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        content=binary.encode({"t": t[:10].reshape(5, 2), "q": q[:10]}),
+        headers=headers,
+    )
     assert flat.status_code == 422 and "tensor t has shape [5, 2]" in flat.json()["detail"]
     nan = t[:10].copy()
     nan[3] = np.nan
-    refused = api.post("/v1/robots/ur5/trajectory-check", content=binary.encode(
-        {"t": nan, "q": q[:10]}), headers=headers)
+    refused = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        content=binary.encode({"t": nan, "q": q[:10]}),
+        headers=headers,
+    )
     assert refused.status_code == 422 and refused.json()["code"] == "validation_error"
 
 
@@ -235,15 +279,18 @@ def test_payloads_apply_to_both_routes(api, setup) -> None:
     payloads = [{"frame": "tool0", "mass": 5.0}]
     carrying = robot_with_payloads(setup[1].get("ur5"), payloads)
     t, q = _motion()
-    r = api.post("/v1/robots/ur5/trajectory-check",
-                 json={"t": t.tolist(), "q": q.tolist(), "payloads": payloads})
+    r = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        json={"t": t.tolist(), "q": q.tolist(), "payloads": payloads},
+    )
     assert r.status_code == 200, r.text
     expected = check_trajectory(carrying, t, q)
     np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
     bare = api.post("/v1/robots/ur5/trajectory-check", json={"t": t.tolist(), "q": q.tolist()})
     assert r.json()["joints"][1]["peak_effort"] > bare.json()["joints"][1]["peak_effort"]
-    timed = api.post("/v1/robots/ur5/retime",
-                     json={"waypoints": WAYPOINTS.tolist(), "payloads": payloads})
+    timed = api.post(
+        "/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS.tolist(), "payloads": payloads}
+    )
     assert timed.status_code == 200, timed.text
     assert timed.json()["duration"] == retime(carrying, WAYPOINTS).duration
     assert timed.json()["duration"] > retime(setup[1].get("ur5"), WAYPOINTS).duration
@@ -264,16 +311,20 @@ def test_a_long_motion_is_checked_whole_and_can_be_stopped(tmp_path: Path) -> No
     n = 9_000  # over 50,000 / nv states: run() would cut a batch here
     t = np.linspace(0.0, 30.0, n)
     q = np.outer(np.sin(t), [0.4, -0.9, 1.1, 0.3, -0.5, 0.8])
-    with TestClient(create_app(settings, registry=registry),
-                    raise_server_exceptions=False) as client:
-        r = client.post("/v1/robots/ur5/trajectory-check",
-                        json={"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2})
+    with TestClient(
+        create_app(settings, registry=registry), raise_server_exceptions=False
+    ) as client:
+        r = client.post(
+            "/v1/robots/ur5/trajectory-check",
+            json={"t": t.tolist(), "q": q.tolist(), "samples_per_interval": 2},
+        )
     assert r.status_code == 200, r.text
     expected = check_trajectory(robot, t, q, samples_per_interval=2)
     np.testing.assert_allclose(r.json()["tau"], expected.tau, rtol=1e-12, atol=1e-12)
     for name, arrays, options in (
-            ("trajectory-check", {"q": q}, {"t": t}),
-            ("retime", {"waypoints": WAYPOINTS}, {})):
+        ("trajectory-check", {"q": q}, {"t": t}),
+        ("retime", {"waypoints": WAYPOINTS}, {}),
+    ):
         quantity = dynamics.QUANTITIES[name]
         assert quantity.stoppable
         with pytest.raises(ComputationStopped, match="stopped at"):
@@ -289,8 +340,9 @@ def test_friction_of_an_identified_robot_adds_to_the_checked_torques(api, setup)
 
     registry = setup[1]
     model = registry.get("ur5").model
-    friction = tuple((str(model.names[j]), 0.5 + 0.1 * j, 0.2 * j, -0.05 * j)
-                     for j in range(1, model.njoints))
+    friction = tuple(
+        (str(model.names[j]), 0.5 + 0.1 * j, 0.2 * j, -0.05 * j) for j in range(1, model.njoints)
+    )
     fitted = Fitted(tuple(float(x) for x in inertial_parameters(model)), friction)
     robot, _ = registry.variant("ur5", fitted=fitted, name="ur5 with friction")
     t, q = _motion()

@@ -21,9 +21,10 @@ TOLERANCE = 1e-6  # the guarantee: every limit within 1e-6 relative
 
 @pytest.fixture(scope="module")
 def robots(tmp_path_factory: pytest.TempPathFactory) -> Registry:
-    registry = Registry(tmp_path_factory.mktemp("retime"),
-                        ["ur5", "panda", "solo12", "double_pendulum_continuous",
-                         "double_pendulum"])
+    registry = Registry(
+        tmp_path_factory.mktemp("retime"),
+        ["ur5", "panda", "solo12", "double_pendulum_continuous", "double_pendulum"],
+    )
     registry.load()
     return registry
 
@@ -33,8 +34,7 @@ def _waypoints(count: int, nq: int, seed: int) -> np.ndarray:
 
 
 def _path(waypoints: np.ndarray) -> CubicSpline:
-    knots = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0),
-                                                            axis=1))])
+    knots = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))])
     return CubicSpline(knots, waypoints, bc_type="clamped")
 
 
@@ -75,16 +75,21 @@ def _plain_toppra(robot, waypoints):
     constraints = [
         toppra.constraint.JointVelocityConstraint(model.velocityLimit),
         toppra.constraint.JointTorqueConstraint(
-            lambda q, v, a: pin.rnea(model, data, q, v, a), np.stack([-effort, effort], 1),
+            lambda q, v, a: pin.rnea(model, data, q, v, a),
+            np.stack([-effort, effort], 1),
             np.zeros(robot.nv),
-            discretization_scheme=toppra.constraint.DiscretizationType.Interpolation)]
-    trajectory = toppra.algorithm.TOPPRA(constraints, path, solver_wrapper="seidel"
-                                         ).compute_trajectory(0, 0)
+            discretization_scheme=toppra.constraint.DiscretizationType.Interpolation,
+        ),
+    ]
+    trajectory = toppra.algorithm.TOPPRA(
+        constraints, path, solver_wrapper="seidel"
+    ).compute_trajectory(0, 0)
     return trajectory.duration, trajectory
 
 
-@pytest.mark.parametrize(("robot_id", "count", "seed"), [("ur5", 3, 0), ("ur5", 6, 2),
-                                                         ("panda", 4, 1)])
+@pytest.mark.parametrize(
+    ("robot_id", "count", "seed"), [("ur5", 3, 0), ("ur5", 6, 2), ("panda", 4, 1)]
+)
 def test_never_over_a_limit_and_within_a_few_percent_of_toppra(robots, robot_id, count, seed):
     robot = robots.get(robot_id)
     low, high = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
@@ -142,8 +147,9 @@ def test_samples_are_the_timed_motion(robots):
     np.testing.assert_allclose(dv[inner], a[1:-1][inner], atol=1e-3 * np.abs(a).max())
     data = robot.model.createData()
     for i in range(0, len(t), 397):
-        np.testing.assert_allclose(result.tau[i], pin.rnea(robot.model, data, q[i], v[i], a[i]),
-                                   rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(
+            result.tau[i], pin.rnea(robot.model, data, q[i], v[i], a[i]), rtol=1e-10, atol=1e-9
+        )
     # every sample of the answer, at this fine rate, within the limits
     assert _within(result.tau, robot.model.effortLimit) <= 1 + TOLERANCE
     assert _within(v, robot.model.velocityLimit) <= 1 + TOLERANCE
@@ -164,8 +170,9 @@ def test_path_is_the_clamped_spline_by_distance(robots):
         np.testing.assert_allclose(path(s, order), reference(s, order), rtol=1e-12, atol=1e-12)
     h = 1e-6
     inner = s[1:-1]
-    np.testing.assert_allclose((path(inner + h) - path(inner - h)) / (2 * h), path(inner, 1),
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        (path(inner + h) - path(inner - h)) / (2 * h), path(inner, 1), atol=1e-6
+    )
     np.testing.assert_allclose(path(np.array([0.0, path.length]), 1), 0.0, atol=1e-12)
 
 
@@ -207,8 +214,9 @@ def test_gravity_beyond_the_limit_is_infeasible_where_it_happens(robots):
     spline, data = _path(waypoints), robot.model.createData()
     s = np.linspace(0, spline.x[-1], 20001)
     limit = 0.3 * robot.model.effortLimit
-    over = [np.abs(pin.computeGeneralizedGravity(robot.model, data, spline(si))) > limit
-            for si in s]
+    over = [
+        np.abs(pin.computeGeneralizedGravity(robot.model, data, spline(si))) > limit for si in s
+    ]
     first = next(i for i, o in enumerate(over) if o.any())
     joint = robot.model.names[1 + int(np.flatnonzero(over[first])[0])]
     extra = caught.value.extra
@@ -236,20 +244,34 @@ def test_other_joints_are_unsupported(robots, robot_id):
         retime(robot, np.zeros((2, robot.nq)))
 
 
-@pytest.mark.parametrize(("change", "error", "words"), [
-    (dict(waypoints=np.zeros((1, 6))), InvalidInput, "waypoints has 1 row"),
-    (dict(waypoints=np.zeros((3, 6))), InvalidInput, "all the same configuration"),
-    (dict(waypoints=np.zeros((3, 5))), DimensionMismatch, "nq = 6"),
-    (dict(waypoints=[[0.0] * 6, [np.nan] * 6]), InvalidInput, "waypoints contains a non-finite"),
-    (dict(velocity_scale=0.0), InvalidInput, "limits.velocity_scale"),
-    (dict(effort_scale=float("inf")), InvalidInput, "limits.effort_scale"),
-    (dict(acceleration=[1.0, 1.0, 0.0, 1.0, 1.0, 1.0]), InvalidInput,
-     "limits.acceleration must be greater than 0; entry 2"),
-    (dict(acceleration=[1.0] * 5), DimensionMismatch, "limits.acceleration has 5"),
-    (dict(sample_dt=0.0), InvalidInput, "sample_dt"),
-    (dict(sample_dt=1e-7), InvalidInput, "sample_dt: the motion lasts"),
-    (dict(waypoints=np.zeros((1001, 6))), InvalidInput, "waypoints has 1001 rows; at most 1000"),
-])
+@pytest.mark.parametrize(
+    ("change", "error", "words"),
+    [
+        (dict(waypoints=np.zeros((1, 6))), InvalidInput, "waypoints has 1 row"),
+        (dict(waypoints=np.zeros((3, 6))), InvalidInput, "all the same configuration"),
+        (dict(waypoints=np.zeros((3, 5))), DimensionMismatch, "nq = 6"),
+        (
+            dict(waypoints=[[0.0] * 6, [np.nan] * 6]),
+            InvalidInput,
+            "waypoints contains a non-finite",
+        ),
+        (dict(velocity_scale=0.0), InvalidInput, "limits.velocity_scale"),
+        (dict(effort_scale=float("inf")), InvalidInput, "limits.effort_scale"),
+        (
+            dict(acceleration=[1.0, 1.0, 0.0, 1.0, 1.0, 1.0]),
+            InvalidInput,
+            "limits.acceleration must be greater than 0; entry 2",
+        ),
+        (dict(acceleration=[1.0] * 5), DimensionMismatch, "limits.acceleration has 5"),
+        (dict(sample_dt=0.0), InvalidInput, "sample_dt"),
+        (dict(sample_dt=1e-7), InvalidInput, "sample_dt: the motion lasts"),
+        (
+            dict(waypoints=np.zeros((1001, 6))),
+            InvalidInput,
+            "waypoints has 1001 rows; at most 1000",
+        ),
+    ],
+)
 def test_bad_input_names_the_field(robots, change, error, words):
     args = dict(waypoints=_waypoints(3, 6, 0))
     args.update(change)

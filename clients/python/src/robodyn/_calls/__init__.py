@@ -17,9 +17,12 @@ from robodyn.core import Call
 
 
 def _builders(*modules: ModuleType) -> dict[str, Callable[..., Call[Any]]]:
-    return {name: fn for module in modules for name, fn in vars(module).items()
-            if inspect.isfunction(fn) and fn.__module__ == module.__name__
-            and not name.startswith("_")}
+    return {
+        name: fn
+        for module in modules
+        for name, fn in vars(module).items()
+        if inspect.isfunction(fn) and fn.__module__ == module.__name__ and not name.startswith("_")
+    }
 
 
 BUILDERS = _builders(robots, dynamics, beyond, contacts, trajectories, identification)
@@ -28,5 +31,13 @@ STREAMED = tuple(_builders(dynamics, beyond, contacts, trajectories))
 """The methods a stream offers: the quantities of one robot (`POST /v1/robots/{id}/<quantity>`
 routes the server's WebSocket also answers)."""
 
-__all__ = ["BUILDERS", "STREAMED", "beyond", "contacts", "dynamics", "identification",
-           "robots", "trajectories"]
+__all__ = [
+    "BUILDERS",
+    "STREAMED",
+    "beyond",
+    "contacts",
+    "dynamics",
+    "identification",
+    "robots",
+    "trajectories",
+]

@@ -25,103 +25,189 @@ from robodyn.results import (
 )
 
 
-def mass_matrix(robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
-                ) -> Call[np.ndarray]:
+def mass_matrix(
+    robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+) -> Call[np.ndarray]:
     return request(robot_id, "mass-matrix", array("mass_matrix", 2), payloads=payloads, q=q)
 
 
-def gravity(robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
-            ) -> Call[np.ndarray]:
+def gravity(
+    robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+) -> Call[np.ndarray]:
     return request(robot_id, "gravity", array("gravity", 1), payloads=payloads, q=q)
 
 
 def _coriolis(body: Any, batched: bool, rows: int | None) -> tuple[np.ndarray, np.ndarray]:
-    return (answer_array(body, "coriolis_matrix", 2, batched, rows),
-            answer_array(body, "coriolis_forces", 1, batched, rows))
+    return (
+        answer_array(body, "coriolis_matrix", 2, batched, rows),
+        answer_array(body, "coriolis_forces", 1, batched, rows),
+    )
 
 
-def coriolis(robot_id: str, q: ArrayLike, v: ArrayLike, *,
-             payloads: PayloadsLike | None = None) -> Call[tuple[np.ndarray, np.ndarray]]:
+def coriolis(
+    robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+) -> Call[tuple[np.ndarray, np.ndarray]]:
     return request(robot_id, "coriolis", _coriolis, payloads=payloads, q=q, v=v)
 
 
-def nonlinear_effects(robot_id: str, q: ArrayLike, v: ArrayLike, *,
-                      payloads: PayloadsLike | None = None) -> Call[np.ndarray]:
-    return request(robot_id, "nonlinear-effects", array("nonlinear_effects", 1),
-                   payloads=payloads, q=q, v=v)
+def nonlinear_effects(
+    robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+) -> Call[np.ndarray]:
+    return request(
+        robot_id, "nonlinear-effects", array("nonlinear_effects", 1), payloads=payloads, q=q, v=v
+    )
 
 
-def inverse_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
-                     external_forces: Sequence[Mapping[str, Any]] | None = None,
-                     payloads: PayloadsLike | None = None, friction: bool = False
-                     ) -> Call[np.ndarray]:
+def inverse_dynamics(
+    robot_id: str,
+    q: ArrayLike,
+    v: ArrayLike,
+    a: ArrayLike,
+    *,
+    external_forces: Sequence[Mapping[str, Any]] | None = None,
+    payloads: PayloadsLike | None = None,
+    friction: bool = False,
+) -> Call[np.ndarray]:
     options = request_options.external_forces(external_forces)
     if friction:
         options = {**options, "friction": True}
-    return request(robot_id, "inverse-dynamics", array("tau", 1), options, payloads=payloads,
-                   q=q, v=v, a=a)
+    return request(
+        robot_id, "inverse-dynamics", array("tau", 1), options, payloads=payloads, q=q, v=v, a=a
+    )
 
 
-def forward_dynamics(robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
-                     external_forces: Sequence[Mapping[str, Any]] | None = None,
-                     payloads: PayloadsLike | None = None
-                     ) -> Call[np.ndarray]:
-    return request(robot_id, "forward-dynamics", array("a", 1),
-                   request_options.external_forces(external_forces), payloads=payloads,
-                   q=q, v=v, tau=tau)
+def forward_dynamics(
+    robot_id: str,
+    q: ArrayLike,
+    v: ArrayLike,
+    tau: ArrayLike,
+    *,
+    external_forces: Sequence[Mapping[str, Any]] | None = None,
+    payloads: PayloadsLike | None = None,
+) -> Call[np.ndarray]:
+    return request(
+        robot_id,
+        "forward-dynamics",
+        array("a", 1),
+        request_options.external_forces(external_forces),
+        payloads=payloads,
+        q=q,
+        v=v,
+        tau=tau,
+    )
 
 
-def inverse_dynamics_derivatives(robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
-                                 payloads: PayloadsLike | None = None
-                                 ) -> Call[InverseDynamicsDerivatives]:
-    return request(robot_id, "inverse-dynamics-derivatives",
-                   InverseDynamicsDerivatives.from_json, payloads=payloads, q=q, v=v, a=a)
+def inverse_dynamics_derivatives(
+    robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *, payloads: PayloadsLike | None = None
+) -> Call[InverseDynamicsDerivatives]:
+    return request(
+        robot_id,
+        "inverse-dynamics-derivatives",
+        InverseDynamicsDerivatives.from_json,
+        payloads=payloads,
+        q=q,
+        v=v,
+        a=a,
+    )
 
 
-def forward_dynamics_derivatives(robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
-                                 *, payloads: PayloadsLike | None = None
-                                 ) -> Call[ForwardDynamicsDerivatives]:
-    return request(robot_id, "forward-dynamics-derivatives",
-                   ForwardDynamicsDerivatives.from_json, payloads=payloads, q=q, v=v, tau=tau)
+def forward_dynamics_derivatives(
+    robot_id: str,
+    q: ArrayLike,
+    v: ArrayLike,
+    tau: ArrayLike,
+    *,
+    payloads: PayloadsLike | None = None,
+) -> Call[ForwardDynamicsDerivatives]:
+    return request(
+        robot_id,
+        "forward-dynamics-derivatives",
+        ForwardDynamicsDerivatives.from_json,
+        payloads=payloads,
+        q=q,
+        v=v,
+        tau=tau,
+    )
 
 
-def centroidal(robot_id: str, q: ArrayLike, v: ArrayLike, *,
-               payloads: PayloadsLike | None = None) -> Call[Centroidal]:
+def centroidal(
+    robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+) -> Call[Centroidal]:
     return request(robot_id, "centroidal", Centroidal.from_json, payloads=payloads, q=q, v=v)
 
 
-def simulate(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
-             tau: ArrayLike | Mapping[str, Any] | None = None,
-             controller: Mapping[str, Any] | None = None, integrator: Integrator | None = None,
-             contacts: ContactsLike | None = None, damping: float = 0.0,
-             payloads: PayloadsLike | None = None) -> Call[Trajectory | ContactTrajectory]:
+def simulate(
+    robot_id: str,
+    q: ArrayLike,
+    v: ArrayLike,
+    *,
+    dt: float,
+    steps: int,
+    tau: ArrayLike | Mapping[str, Any] | None = None,
+    controller: Mapping[str, Any] | None = None,
+    integrator: Integrator | None = None,
+    contacts: ContactsLike | None = None,
+    damping: float = 0.0,
+    payloads: PayloadsLike | None = None,
+) -> Call[Trajectory | ContactTrajectory]:
     """Always JSON: a torque schedule is a body field, too big for a binary header. Without
     contacts, more than `progress.CHUNK_STEPS` steps can run in chunks of steps."""
     options = request_options.simulation(dt, steps, tau, controller, integrator)
     call: Call[Trajectory | ContactTrajectory]
     if contacts is not None:  # a contact set holds its frames where the rollout starts
-        call = request(robot_id, "simulate", ContactTrajectory.from_json,
-                       {**options, **contact_options(contacts, damping)}, payloads=payloads,
-                       binary_form=False, q=q, v=v)
+        call = request(
+            robot_id,
+            "simulate",
+            ContactTrajectory.from_json,
+            {**options, **contact_options(contacts, damping)},
+            payloads=payloads,
+            binary_form=False,
+            q=q,
+            v=v,
+        )
         return call
-    call = request(robot_id, "simulate", Trajectory.from_json, options, payloads=payloads,
-                   binary_form=False, q=q, v=v)
+    call = request(
+        robot_id,
+        "simulate",
+        Trajectory.from_json,
+        options,
+        payloads=payloads,
+        binary_form=False,
+        q=q,
+        v=v,
+    )
     if steps <= progress.CHUNK_STEPS:
         return call
 
     def plan() -> progress.Plan[Trajectory | ContactTrajectory]:
-        return _simulation_chunks(robot_id, q, v, dt=dt, steps=steps, tau=tau,
-                                  controller=controller, integrator=integrator,
-                                  payloads=payloads)
+        return _simulation_chunks(
+            robot_id,
+            q,
+            v,
+            dt=dt,
+            steps=steps,
+            tau=tau,
+            controller=controller,
+            integrator=integrator,
+            payloads=payloads,
+        )
 
     return replace(call, chunks=progress.Chunks(steps, "steps", progress.CHUNK_STEPS, plan))
 
 
-def _simulation_chunks(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
-                       tau: ArrayLike | Mapping[str, Any] | None,
-                       controller: Mapping[str, Any] | None, integrator: Integrator | None,
-                       payloads: PayloadsLike | None, chunk: int = progress.CHUNK_STEPS
-                       ) -> progress.Plan[Trajectory]:
+def _simulation_chunks(
+    robot_id: str,
+    q: ArrayLike,
+    v: ArrayLike,
+    *,
+    dt: float,
+    steps: int,
+    tau: ArrayLike | Mapping[str, Any] | None,
+    controller: Mapping[str, Any] | None,
+    integrator: Integrator | None,
+    payloads: PayloadsLike | None,
+    chunk: int = progress.CHUNK_STEPS,
+) -> progress.Plan[Trajectory]:
     """`simulate` as consecutive simulations of at most `chunk` steps, each starting from the
     last state of the one before (see `robodyn.progress.Plan`): the same trajectory, bit for
     bit, as one request (t is dt × step index in both)."""
@@ -134,15 +220,33 @@ def _simulation_chunks(robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, 
     done = 0
     while done < steps:
         n = min(chunk, steps - done)
-        part_tau = schedule[done:done + n] if schedule is not None else tau
-        part: Trajectory = yield (simulate(robot_id, q, v, dt=dt, steps=n, tau=part_tau,
-                                           controller=controller, integrator=integrator,
-                                           payloads=payloads), done + n)
-        parts.append(part if not parts else Trajectory(*(x[..., 1:, :] if x.ndim > part.t.ndim
-                                                          else x[..., 1:] for x in part)))
+        part_tau = schedule[done : done + n] if schedule is not None else tau
+        part: Trajectory = yield (
+            simulate(
+                robot_id,
+                q,
+                v,
+                dt=dt,
+                steps=n,
+                tau=part_tau,
+                controller=controller,
+                integrator=integrator,
+                payloads=payloads,
+            ),
+            done + n,
+        )
+        parts.append(
+            part
+            if not parts
+            else Trajectory(*(x[..., 1:, :] if x.ndim > part.t.ndim else x[..., 1:] for x in part))
+        )
         q, v = part.q[..., -1, :], part.v[..., -1, :]
         done += n
-    joined = Trajectory(*(np.concatenate(xs, axis=-2 if xs[0].ndim > parts[0].t.ndim else -1)
-                          for xs in zip(*parts, strict=True)))
+    joined = Trajectory(
+        *(
+            np.concatenate(xs, axis=-2 if xs[0].ndim > parts[0].t.ndim else -1)
+            for xs in zip(*parts, strict=True)
+        )
+    )
     t = np.broadcast_to(dt * np.arange(steps + 1), joined.t.shape).copy()
     return joined._replace(t=t)

@@ -25,8 +25,12 @@ METHODS: tuple[str, ...] = ("least-squares", "physically-consistent")
 
 
 def inertial_parameters(robot_id: str) -> Call[InertialParameters]:
-    return route_call("GET", f"{ROBOT}/inertial-parameters",
-                      lambda status, body: InertialParameters.from_json(body), robot_id)
+    return route_call(
+        "GET",
+        f"{ROBOT}/inertial-parameters",
+        lambda status, body: InertialParameters.from_json(body),
+        robot_id,
+    )
 
 
 def _regressor(body: Any, batched: bool, rows: int | None) -> np.ndarray:
@@ -58,19 +62,32 @@ def _read(body: Any, batched: bool, rows: int | None) -> Identification:
     return Identification.from_json(body)
 
 
-def identify(robot_id: str, t: ArrayLike, q: ArrayLike, tau: ArrayLike, *,
-             v: ArrayLike | None = None, a: ArrayLike | None = None,
-             friction: Friction = "coulomb-viscous",
-             method: Method = "physically-consistent", weighted: bool = True,
-             validation_fraction: float = 0.2, filter_hz: float | None = None,
-             store: bool = True, payload_frame: str | None = None,
-             include_series: bool = False) -> Call[Identification]:
+def identify(
+    robot_id: str,
+    t: ArrayLike,
+    q: ArrayLike,
+    tau: ArrayLike,
+    *,
+    v: ArrayLike | None = None,
+    a: ArrayLike | None = None,
+    friction: Friction = "coulomb-viscous",
+    method: Method = "physically-consistent",
+    weighted: bool = True,
+    validation_fraction: float = 0.2,
+    filter_hz: float | None = None,
+    store: bool = True,
+    payload_frame: str | None = None,
+    include_series: bool = False,
+) -> Call[Identification]:
     times = _times(t)
     options: dict[str, Any] = {
         "friction": choice("friction", friction, FRICTIONS),
-        "method": choice("method", method, METHODS), "weighted": bool(weighted),
+        "method": choice("method", method, METHODS),
+        "weighted": bool(weighted),
         "validation_fraction": _positive("validation_fraction", validation_fraction),
-        "store": bool(store), "include_series": bool(include_series)}
+        "store": bool(store),
+        "include_series": bool(include_series),
+    }
     if filter_hz is not None:
         options["filter_hz"] = _positive("filter_hz", filter_hz)
     if payload_frame is not None:
@@ -78,8 +95,18 @@ def identify(robot_id: str, t: ArrayLike, q: ArrayLike, tau: ArrayLike, *,
     q_rows, tau_rows = np.asarray(q, dtype=object), np.asarray(tau, dtype=object)
     if q_rows.ndim != 2 or tau_rows.ndim != 2:
         raise InputError("q and tau must be 2-D: one row per sample (N × nq, N × nv)")
-    call = request(robot_id, "identify", _read, options, optional=("v", "a"),
-                   independent_rows=False, q=q, tau=tau, v=v, a=a)
+    call = request(
+        robot_id,
+        "identify",
+        _read,
+        options,
+        optional=("v", "a"),
+        independent_rows=False,
+        q=q,
+        tau=tau,
+        v=v,
+        a=a,
+    )
     # t is one of the log's arrays, not a state's: added after the joint-space inputs are
     # checked together (a list in JSON, a tensor in the binary form)
     return replace(call, arrays={"t": times, **(call.arrays or {})})

@@ -26,8 +26,9 @@ def health() -> Call[dict[str, Any]]:
 
 
 def ready() -> Call[bool]:
-    return route_call("GET", "/health/ready", lambda status, body: status != 503,
-                      accept=frozenset({503}))
+    return route_call(
+        "GET", "/health/ready", lambda status, body: status != 503, accept=frozenset({503})
+    )
 
 
 def robots() -> Call[RobotList]:
@@ -39,28 +40,39 @@ def robot(robot_id: str) -> Call[RobotInfo]:
 
 
 def inertias(robot_id: str) -> Call[Inertias]:
-    return route_call("GET", f"{ROBOT}/inertias",
-                      lambda status, body: Inertias.from_json(body), robot_id)
+    return route_call(
+        "GET", f"{ROBOT}/inertias", lambda status, body: Inertias.from_json(body), robot_id
+    )
 
 
 def equations(robot_id: str) -> Call[Equations]:
-    return route_call("GET", f"{ROBOT}/equations",
-                      lambda status, body: Equations.from_json(body), robot_id)
+    return route_call(
+        "GET", f"{ROBOT}/equations", lambda status, body: Equations.from_json(body), robot_id
+    )
 
 
 def _created(status: int, body: Any) -> RobotInfo:
     return RobotInfo.from_json(body, created=status == 201)
 
 
-def upload(source: Source | None = None, *, urdf: Source | None = None,
-           mjcf: Source | None = None, xacro: Source | None = None,
-           xacro_args: Mapping[str, str] | None = None,
-           assets: Mapping[str, AssetValue] | None = None, collect_assets: bool = True,
-           root_joint: RootJoint = "fixed", name: str | None = None,
-           gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
-           locked_joints: Mapping[str, ArrayLike] | None = None) -> Call[RobotInfo]:
-    body = upload_body(source, urdf=urdf, mjcf=mjcf, xacro=xacro, assets=assets,
-                       collect_assets=collect_assets)
+def upload(
+    source: Source | None = None,
+    *,
+    urdf: Source | None = None,
+    mjcf: Source | None = None,
+    xacro: Source | None = None,
+    xacro_args: Mapping[str, str] | None = None,
+    assets: Mapping[str, AssetValue] | None = None,
+    collect_assets: bool = True,
+    root_joint: RootJoint = "fixed",
+    name: str | None = None,
+    gravity: ArrayLike | None = None,
+    inertia_check: InertiaCheck | None = None,
+    locked_joints: Mapping[str, ArrayLike] | None = None,
+) -> Call[RobotInfo]:
+    body = upload_body(
+        source, urdf=urdf, mjcf=mjcf, xacro=xacro, assets=assets, collect_assets=collect_assets
+    )
     if xacro_args is not None:
         body["xacro_args"] = {str(k): str(v) for k, v in xacro_args.items()}
     body["root_joint"] = root_joint
@@ -79,17 +91,22 @@ def delete(robot_id: str) -> Call[None]:
     return route_call("DELETE", ROBOT, lambda status, body: None, robot_id, idempotent=False)
 
 
-def reduce(robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str | None = None
-           ) -> Call[RobotInfo]:
+def reduce(
+    robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str | None = None
+) -> Call[RobotInfo]:
     body: dict[str, Any] = {"locked_joints": _locked_joints(locked_joints)}
     if name is not None:
         body["name"] = name
     return route_call("POST", f"{ROBOT}/reduce", _created, robot_id, body)
 
 
-def variant(robot_id: str, *, payloads: PayloadsLike | None = None,
-            locked_joints: Mapping[str, ArrayLike] | None = None, name: str | None = None
-            ) -> Call[RobotInfo]:
+def variant(
+    robot_id: str,
+    *,
+    payloads: PayloadsLike | None = None,
+    locked_joints: Mapping[str, ArrayLike] | None = None,
+    name: str | None = None,
+) -> Call[RobotInfo]:
     body: dict[str, Any] = payloads_body(payloads)
     if locked_joints is not None:
         body["locked_joints"] = _locked_joints(locked_joints)
@@ -107,16 +124,19 @@ def _locked_joints(locked: Mapping[str, ArrayLike]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name, value in locked.items():
         if not isinstance(name, str):
-            raise InputError(f"locked_joints keys must be joint names (str), not "
-                             f"{type(name).__name__}")
+            raise InputError(
+                f"locked_joints keys must be joint names (str), not {type(name).__name__}"
+            )
         try:
             arr = np.asarray(value, dtype=np.float64)
         except (ValueError, TypeError):
-            raise InputError(f"locked_joints['{name}'] must be a number or a list of numbers"
-                             ) from None
+            raise InputError(
+                f"locked_joints['{name}'] must be a number or a list of numbers"
+            ) from None
         if arr.ndim > 1 or arr.size == 0:
-            raise InputError(f"locked_joints['{name}'] must be a number or a non-empty 1-D "
-                             "list of numbers")
+            raise InputError(
+                f"locked_joints['{name}'] must be a number or a non-empty 1-D list of numbers"
+            )
         if not np.all(np.isfinite(arr)):
             raise InputError(f"locked_joints['{name}'] must be finite")
         out[name] = float(arr) if arr.ndim == 0 else arr.tolist()

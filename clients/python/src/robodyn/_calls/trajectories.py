@@ -16,35 +16,73 @@ from robodyn.payloads import PayloadsLike
 from robodyn.trajectories import Retimed, TrajectoryCheck, positive, times
 
 
-def trajectory_check(robot_id: str, t: ArrayLike, q: ArrayLike, *, v: ArrayLike | None = None,
-                     a: ArrayLike | None = None, effort_scale: float = 1.0,
-                     velocity_scale: float = 1.0, samples_per_interval: int = 4,
-                     friction: bool = False,
-                     payloads: PayloadsLike | None = None) -> Call[TrajectoryCheck]:
-    if isinstance(samples_per_interval, bool) or not isinstance(samples_per_interval, int) \
-            or not 1 <= samples_per_interval <= 64:
+def trajectory_check(
+    robot_id: str,
+    t: ArrayLike,
+    q: ArrayLike,
+    *,
+    v: ArrayLike | None = None,
+    a: ArrayLike | None = None,
+    effort_scale: float = 1.0,
+    velocity_scale: float = 1.0,
+    samples_per_interval: int = 4,
+    friction: bool = False,
+    payloads: PayloadsLike | None = None,
+) -> Call[TrajectoryCheck]:
+    if (
+        isinstance(samples_per_interval, bool)
+        or not isinstance(samples_per_interval, int)
+        or not 1 <= samples_per_interval <= 64
+    ):
         raise InputError("samples_per_interval must be an integer from 1 to 64")
     sample_times = times(t)
-    options = {"effort_scale": positive("effort_scale", effort_scale),
-               "velocity_scale": positive("velocity_scale", velocity_scale),
-               "samples_per_interval": samples_per_interval}
+    options = {
+        "effort_scale": positive("effort_scale", effort_scale),
+        "velocity_scale": positive("velocity_scale", velocity_scale),
+        "samples_per_interval": samples_per_interval,
+    }
     if friction:
         options["friction"] = True
-    call = request(robot_id, "trajectory-check", TrajectoryCheck.from_json, options,
-                   payloads=payloads, optional=("v", "a"), independent_rows=False, q=q, v=v,
-                   a=a)
+    call = request(
+        robot_id,
+        "trajectory-check",
+        TrajectoryCheck.from_json,
+        options,
+        payloads=payloads,
+        optional=("v", "a"),
+        independent_rows=False,
+        q=q,
+        v=v,
+        a=a,
+    )
     # t is one number per sample, not a joint-space input: added after those are checked (a
     # list in JSON, a tensor in the binary form, where a header of 60,000 times would not fit)
     return replace(call, arrays={"t": sample_times, **(call.arrays or {})})
 
 
-def retime(robot_id: str, waypoints: ArrayLike, *, velocity_scale: float = 1.0,
-           effort_scale: float = 1.0, acceleration: ArrayLike | None = None,
-           sample_dt: float = 0.01, payloads: PayloadsLike | None = None) -> Call[Retimed]:
-    limits: dict[str, Any] = {"velocity_scale": positive("velocity_scale", velocity_scale),
-                              "effort_scale": positive("effort_scale", effort_scale)}
+def retime(
+    robot_id: str,
+    waypoints: ArrayLike,
+    *,
+    velocity_scale: float = 1.0,
+    effort_scale: float = 1.0,
+    acceleration: ArrayLike | None = None,
+    sample_dt: float = 0.01,
+    payloads: PayloadsLike | None = None,
+) -> Call[Retimed]:
+    limits: dict[str, Any] = {
+        "velocity_scale": positive("velocity_scale", velocity_scale),
+        "effort_scale": positive("effort_scale", effort_scale),
+    }
     if acceleration is not None:
         limits["acceleration"] = [float(x) for x in joint_array("acceleration", acceleration)]
     options = {"limits": limits, "sample_dt": positive("sample_dt", sample_dt)}
-    return request(robot_id, "retime", Retimed.from_json, options, payloads=payloads,
-                   independent_rows=False, waypoints=waypoints)
+    return request(
+        robot_id,
+        "retime",
+        Retimed.from_json,
+        options,
+        payloads=payloads,
+        independent_rows=False,
+        waypoints=waypoints,
+    )

@@ -11,10 +11,22 @@ from robodyn._methods.identification import AsyncIdentificationMethods, Identifi
 from robodyn._methods.robots import AsyncRobotMethods, RobotMethods
 from robodyn._methods.trajectories import AsyncTrajectoryMethods, TrajectoryMethods
 
-SYNC = (RobotMethods, DynamicsMethods, BeyondMethods, ContactMethods, TrajectoryMethods,
-        IdentificationMethods)
+SYNC = (
+    RobotMethods,
+    DynamicsMethods,
+    BeyondMethods,
+    ContactMethods,
+    TrajectoryMethods,
+    IdentificationMethods,
+)
 """The method classes `Client` joins (`AsyncClient` joins the `ASYNC` twins, in order)."""
-ASYNC = (AsyncRobotMethods, AsyncDynamicsMethods, AsyncBeyondMethods, AsyncContactMethods,
-         AsyncTrajectoryMethods, AsyncIdentificationMethods)
+ASYNC = (
+    AsyncRobotMethods,
+    AsyncDynamicsMethods,
+    AsyncBeyondMethods,
+    AsyncContactMethods,
+    AsyncTrajectoryMethods,
+    AsyncIdentificationMethods,
+)
 
 __all__ = ["ASYNC", "SYNC"]

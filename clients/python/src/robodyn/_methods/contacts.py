@@ -20,9 +20,17 @@ from robodyn.payloads import PayloadsLike
 class ContactMethods(SyncSender):
     """The contact methods of `Client`."""
 
-    def contact_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
-                         contacts: ContactsLike, *, damping: float = 0.0,
-                         payloads: PayloadsLike | None = None) -> ContactDynamics:
+    def contact_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike,
+        contacts: ContactsLike,
+        *,
+        damping: float = 0.0,
+        payloads: PayloadsLike | None = None,
+    ) -> ContactDynamics:
         """`ContactDynamics` (a, contact_forces): constrained forward dynamics with rigid contacts,
         M a + h = τ + Jcᵀ λ with Jc a + γ = 0. `contacts`: a list of `{"frame": name, "type":
         "point" | "6d"}` (a robot's feet: `RobotInfo.contact_frames`). `a` has shape (nv,) and
@@ -32,12 +40,23 @@ class ContactMethods(SyncSender):
         rank-deficient contact set unless `damping` μ > 0 (the regularized solution). `payloads`:
         rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return self._send(calls.contact_dynamics(robot_id, q, v, tau, contacts, damping=damping,
-                                                 payloads=payloads))
+        return self._send(
+            calls.contact_dynamics(
+                robot_id, q, v, tau, contacts, damping=damping, payloads=payloads
+            )
+        )
 
-    def contact_inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike,
-                                 contacts: ContactsLike, *, damping: float = 0.0,
-                                 payloads: PayloadsLike | None = None) -> ContactInverseDynamics:
+    def contact_inverse_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        contacts: ContactsLike,
+        *,
+        damping: float = 0.0,
+        payloads: PayloadsLike | None = None,
+    ) -> ContactInverseDynamics:
         """`ContactInverseDynamics` (tau, contact_forces, residual): the joint torques τ (zero on a
         floating base's root rows) and the minimum-norm contact forces λ with M a + h = τ + Jcᵀ λ;
         `residual` is the 2-norm of the root wrench no contact force can produce (0 when the
@@ -46,29 +65,56 @@ class ContactMethods(SyncSender):
         pull. For a fixed-base robot λ = 0 and τ = M a + h. Errors as `contact_dynamics`.
         `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return self._send(calls.contact_inverse_dynamics(robot_id, q, v, a, contacts,
-                                                         damping=damping, payloads=payloads))
+        return self._send(
+            calls.contact_inverse_dynamics(
+                robot_id, q, v, a, contacts, damping=damping, payloads=payloads
+            )
+        )
 
-    def impulse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, contacts: ContactsLike,
-                         *, restitution: float = 0.0, damping: float = 0.0,
-                         payloads: PayloadsLike | None = None) -> ImpulseDynamics:
+    def impulse_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        contacts: ContactsLike,
+        *,
+        restitution: float = 0.0,
+        damping: float = 0.0,
+        payloads: PayloadsLike | None = None,
+    ) -> ImpulseDynamics:
         """`ImpulseDynamics` (v, contact_impulses): the velocity just after a rigid impact at
         `contacts`, M (v⁺ − v⁻) = Jcᵀ Λ with Jc v⁺ = −e Jc v⁻ (`restitution` e in [0, 1]), and the
         impulses Λ in N·s (N·m·s), laid out like contact forces. The shapes: v (nv,), Λ (m,); a
         leading axis N for a batch. Errors as `contact_dynamics`. `payloads`: rigid bodies the
         robot holds (`Payload`s), added to its model for this call.
         """
-        return self._send(calls.impulse_dynamics(robot_id, q, v, contacts,
-                                                 restitution=restitution, damping=damping,
-                                                 payloads=payloads))
+        return self._send(
+            calls.impulse_dynamics(
+                robot_id,
+                q,
+                v,
+                contacts,
+                restitution=restitution,
+                damping=damping,
+                payloads=payloads,
+            )
+        )
 
 
 class AsyncContactMethods(AsyncSender):
     """The contact methods of `AsyncClient`."""
 
-    async def contact_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike,
-                               contacts: ContactsLike, *, damping: float = 0.0,
-                               payloads: PayloadsLike | None = None) -> ContactDynamics:
+    async def contact_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike,
+        contacts: ContactsLike,
+        *,
+        damping: float = 0.0,
+        payloads: PayloadsLike | None = None,
+    ) -> ContactDynamics:
         """`ContactDynamics` (a, contact_forces): constrained forward dynamics with rigid contacts,
         M a + h = τ + Jcᵀ λ with Jc a + γ = 0. `contacts`: a list of `{"frame": name, "type":
         "point" | "6d"}` (a robot's feet: `RobotInfo.contact_frames`). `a` has shape (nv,) and
@@ -78,13 +124,23 @@ class AsyncContactMethods(AsyncSender):
         rank-deficient contact set unless `damping` μ > 0 (the regularized solution). `payloads`:
         rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return await self._send(calls.contact_dynamics(robot_id, q, v, tau, contacts,
-                                                       damping=damping, payloads=payloads))
+        return await self._send(
+            calls.contact_dynamics(
+                robot_id, q, v, tau, contacts, damping=damping, payloads=payloads
+            )
+        )
 
-    async def contact_inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike,
-                                       a: ArrayLike, contacts: ContactsLike, *,
-                                       damping: float = 0.0, payloads: PayloadsLike | None = None
-                                      ) -> ContactInverseDynamics:
+    async def contact_inverse_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        contacts: ContactsLike,
+        *,
+        damping: float = 0.0,
+        payloads: PayloadsLike | None = None,
+    ) -> ContactInverseDynamics:
         """`ContactInverseDynamics` (tau, contact_forces, residual): the joint torques τ (zero on a
         floating base's root rows) and the minimum-norm contact forces λ with M a + h = τ + Jcᵀ λ;
         `residual` is the 2-norm of the root wrench no contact force can produce (0 when the
@@ -93,19 +149,37 @@ class AsyncContactMethods(AsyncSender):
         pull. For a fixed-base robot λ = 0 and τ = M a + h. Errors as `contact_dynamics`.
         `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return await self._send(calls.contact_inverse_dynamics(robot_id, q, v, a, contacts,
-                                                               damping=damping, payloads=payloads))
+        return await self._send(
+            calls.contact_inverse_dynamics(
+                robot_id, q, v, a, contacts, damping=damping, payloads=payloads
+            )
+        )
 
-    async def impulse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike,
-                               contacts: ContactsLike, *, restitution: float = 0.0,
-                               damping: float = 0.0, payloads: PayloadsLike | None = None
-                              ) -> ImpulseDynamics:
+    async def impulse_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        contacts: ContactsLike,
+        *,
+        restitution: float = 0.0,
+        damping: float = 0.0,
+        payloads: PayloadsLike | None = None,
+    ) -> ImpulseDynamics:
         """`ImpulseDynamics` (v, contact_impulses): the velocity just after a rigid impact at
         `contacts`, M (v⁺ − v⁻) = Jcᵀ Λ with Jc v⁺ = −e Jc v⁻ (`restitution` e in [0, 1]), and the
         impulses Λ in N·s (N·m·s), laid out like contact forces. The shapes: v (nv,), Λ (m,); a
         leading axis N for a batch. Errors as `contact_dynamics`. `payloads`: rigid bodies the
         robot holds (`Payload`s), added to its model for this call.
         """
-        return await self._send(calls.impulse_dynamics(robot_id, q, v, contacts,
-                                                       restitution=restitution, damping=damping,
-                                                       payloads=payloads))
+        return await self._send(
+            calls.impulse_dynamics(
+                robot_id,
+                q,
+                v,
+                contacts,
+                restitution=restitution,
+                damping=damping,
+                payloads=payloads,
+            )
+        )

@@ -32,8 +32,9 @@ from robodyn.results import (
 class DynamicsMethods(SyncSender):
     """The equation-of-motion methods of `Client`."""
 
-    def mass_matrix(self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
-                   ) -> np.ndarray:
+    def mass_matrix(
+        self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> np.ndarray:
         """M(q), the joint-space inertia matrix (CRBA): symmetric positive definite, kg·m² (kg on
         prismatic rows), shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). The kinetic energy
         is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for
@@ -41,16 +42,18 @@ class DynamicsMethods(SyncSender):
         """
         return self._send(calls.mass_matrix(robot_id, q, payloads=payloads))
 
-    def gravity(self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
-               ) -> np.ndarray:
+    def gravity(
+        self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> np.ndarray:
         """g(q), the generalized gravity torques (the gradient of the potential energy), N·m or N,
         shape (nv,), or (N, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot holds
         (`Payload`s), added to its model for this call.
         """
         return self._send(calls.gravity(robot_id, q, payloads=payloads))
 
-    def coriolis(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
-                 payloads: PayloadsLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def coriolis(
+        self, robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(C, C v): the Coriolis/centrifugal matrix C(q, v) with Ṁ = C + Cᵀ, N·m·s, shape (nv,
         nv), and the forces C(q, v) v, N·m or N, shape (nv,); with a batch axis N for inputs of
         shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`s), added to
@@ -58,18 +61,26 @@ class DynamicsMethods(SyncSender):
         """
         return self._send(calls.coriolis(robot_id, q, v, payloads=payloads))
 
-    def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
-                          payloads: PayloadsLike | None = None) -> np.ndarray:
+    def nonlinear_effects(
+        self, robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> np.ndarray:
         """h(q, v) = C(q, v) v + g(q) (gravity included, as in Pinocchio), N·m or N, shape (nv,),
         or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to its
         model for this call.
         """
         return self._send(calls.nonlinear_effects(robot_id, q, v, payloads=payloads))
 
-    def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
-                         external_forces: Sequence[Mapping[str, Any]] | None = None,
-                         payloads: PayloadsLike | None = None, friction: bool = False
-                         ) -> np.ndarray:
+    def inverse_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        *,
+        external_forces: Sequence[Mapping[str, Any]] | None = None,
+        payloads: PayloadsLike | None = None,
+        friction: bool = False,
+    ) -> np.ndarray:
         """τ = M(q) a + C(q, v) v + g(q) (RNEA): the generalized forces, N·m or N, that give the
         accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch. `external_forces`:
         wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
@@ -78,25 +89,48 @@ class DynamicsMethods(SyncSender):
         (`Payload`s), added to its model for this call. `friction`: add the joints' friction
         (offset + Coulomb sign(v) + viscous v) of a robot stored by `identify`.
         """
-        return self._send(calls.inverse_dynamics(robot_id, q, v, a,
-                                                 external_forces=external_forces,
-                                                 payloads=payloads, friction=friction))
+        return self._send(
+            calls.inverse_dynamics(
+                robot_id,
+                q,
+                v,
+                a,
+                external_forces=external_forces,
+                payloads=payloads,
+                friction=friction,
+            )
+        )
 
-    def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
-                         external_forces: Sequence[Mapping[str, Any]] | None = None,
-                         payloads: PayloadsLike | None = None) -> np.ndarray:
+    def forward_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike,
+        *,
+        external_forces: Sequence[Mapping[str, Any]] | None = None,
+        payloads: PayloadsLike | None = None,
+    ) -> np.ndarray:
         """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) (ABA): the accelerations, rad/s² or m/s², that the
         generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch.
         `external_forces` as for `inverse_dynamics`: then a = M⁻¹ (τ − C v − g + Σ Jᵀ w).
         `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return self._send(calls.forward_dynamics(robot_id, q, v, tau,
-                                                 external_forces=external_forces,
-                                                 payloads=payloads))
+        return self._send(
+            calls.forward_dynamics(
+                robot_id, q, v, tau, external_forces=external_forces, payloads=payloads
+            )
+        )
 
-    def inverse_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike,
-                                     *, payloads: PayloadsLike | None = None
-                                    ) -> InverseDynamicsDerivatives:
+    def inverse_dynamics_derivatives(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        *,
+        payloads: PayloadsLike | None = None,
+    ) -> InverseDynamicsDerivatives:
         """(∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q)) of inverse dynamics (analytical RNEA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch. ∂/∂q is on the tangent space: nv columns, along
         q ⊕ δq (for a free-flyer, δq's first 6 entries are a displacement in the base frame).
@@ -104,18 +138,26 @@ class DynamicsMethods(SyncSender):
         """
         return self._send(calls.inverse_dynamics_derivatives(robot_id, q, v, a, payloads=payloads))
 
-    def forward_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
-                                     tau: ArrayLike, *, payloads: PayloadsLike | None = None
-                                    ) -> ForwardDynamicsDerivatives:
+    def forward_dynamics_derivatives(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike,
+        *,
+        payloads: PayloadsLike | None = None,
+    ) -> ForwardDynamicsDerivatives:
         """(∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹) of forward dynamics (analytical ABA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch; ∂/∂q on the tangent space (nv columns).
         `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return self._send(calls.forward_dynamics_derivatives(robot_id, q, v, tau,
-                                                             payloads=payloads))
+        return self._send(
+            calls.forward_dynamics_derivatives(robot_id, q, v, tau, payloads=payloads)
+        )
 
-    def centroidal(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
-                   payloads: PayloadsLike | None = None) -> Centroidal:
+    def centroidal(
+        self, robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> Centroidal:
         """(momentum, momentum_matrix, center_of_mass): the centroidal momentum h = A(q) v, shape
         (6,), linear (kg·m/s) then angular (kg·m²/s) about the centre of mass in world-aligned
         axes; the centroidal momentum matrix A(q), shape (6, nv); the centre of mass, shape (3,),
@@ -124,12 +166,22 @@ class DynamicsMethods(SyncSender):
         """
         return self._send(calls.centroidal(robot_id, q, v, payloads=payloads))
 
-    def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
-                 tau: ArrayLike | Mapping[str, Any] | None = None,
-                 controller: Mapping[str, Any] | None = None, integrator: Integrator | None = None,
-                 contacts: ContactsLike | None = None, damping: float = 0.0,
-                 progress: _progress.Progress = None, payloads: PayloadsLike | None = None
-                ) -> Trajectory | ContactTrajectory:
+    def simulate(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        *,
+        dt: float,
+        steps: int,
+        tau: ArrayLike | Mapping[str, Any] | None = None,
+        controller: Mapping[str, Any] | None = None,
+        integrator: Integrator | None = None,
+        contacts: ContactsLike | None = None,
+        damping: float = 0.0,
+        progress: _progress.Progress = None,
+        payloads: PayloadsLike | None = None,
+    ) -> Trajectory | ContactTrajectory:
         """Integrate forward dynamics from (q, v) for `steps` steps of `dt` seconds: a `Trajectory`
         (t, q, v, mechanical_energy) of steps + 1 samples, q of shape (steps + 1, nq), v (steps +
         1, nv); with a leading axis N for initial states of shape (N, nq), (N, nv). `tau`: nv
@@ -145,17 +197,30 @@ class DynamicsMethods(SyncSender):
         rollout with `contacts` is never chunked by steps. `payloads`: rigid bodies the robot holds
         (`Payload`s), added to its model for this call.
         """
-        return self._send(calls.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
-                                         controller=controller, integrator=integrator,
-                                         contacts=contacts, damping=damping, payloads=payloads),
-                          progress)
+        return self._send(
+            calls.simulate(
+                robot_id,
+                q,
+                v,
+                dt=dt,
+                steps=steps,
+                tau=tau,
+                controller=controller,
+                integrator=integrator,
+                contacts=contacts,
+                damping=damping,
+                payloads=payloads,
+            ),
+            progress,
+        )
 
 
 class AsyncDynamicsMethods(AsyncSender):
     """The equation-of-motion methods of `AsyncClient`."""
 
-    async def mass_matrix(self, robot_id: str, q: ArrayLike, *,
-                          payloads: PayloadsLike | None = None) -> np.ndarray:
+    async def mass_matrix(
+        self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> np.ndarray:
         """M(q), the joint-space inertia matrix (CRBA): symmetric positive definite, kg·m² (kg on
         prismatic rows), shape (nv, nv), or (N, nv, nv) for q of shape (N, nq). The kinetic energy
         is ½ vᵀ M v. `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for
@@ -163,16 +228,18 @@ class AsyncDynamicsMethods(AsyncSender):
         """
         return await self._send(calls.mass_matrix(robot_id, q, payloads=payloads))
 
-    async def gravity(self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
-                     ) -> np.ndarray:
+    async def gravity(
+        self, robot_id: str, q: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> np.ndarray:
         """g(q), the generalized gravity torques (the gradient of the potential energy), N·m or N,
         shape (nv,), or (N, nv) for q of shape (N, nq). `payloads`: rigid bodies the robot holds
         (`Payload`s), added to its model for this call.
         """
         return await self._send(calls.gravity(robot_id, q, payloads=payloads))
 
-    async def coriolis(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
-                       payloads: PayloadsLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+    async def coriolis(
+        self, robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(C, C v): the Coriolis/centrifugal matrix C(q, v) with Ṁ = C + Cᵀ, N·m·s, shape (nv,
         nv), and the forces C(q, v) v, N·m or N, shape (nv,); with a batch axis N for inputs of
         shape (N, nq) and (N, nv). `payloads`: rigid bodies the robot holds (`Payload`s), added to
@@ -180,18 +247,26 @@ class AsyncDynamicsMethods(AsyncSender):
         """
         return await self._send(calls.coriolis(robot_id, q, v, payloads=payloads))
 
-    async def nonlinear_effects(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
-                                payloads: PayloadsLike | None = None) -> np.ndarray:
+    async def nonlinear_effects(
+        self, robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> np.ndarray:
         """h(q, v) = C(q, v) v + g(q) (gravity included, as in Pinocchio), N·m or N, shape (nv,),
         or (N, nv) for a batch. `payloads`: rigid bodies the robot holds (`Payload`s), added to its
         model for this call.
         """
         return await self._send(calls.nonlinear_effects(robot_id, q, v, payloads=payloads))
 
-    async def inverse_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike, *,
-                               external_forces: Sequence[Mapping[str, Any]] | None = None,
-                               payloads: PayloadsLike | None = None, friction: bool = False
-                               ) -> np.ndarray:
+    async def inverse_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        *,
+        external_forces: Sequence[Mapping[str, Any]] | None = None,
+        payloads: PayloadsLike | None = None,
+        friction: bool = False,
+    ) -> np.ndarray:
         """τ = M(q) a + C(q, v) v + g(q) (RNEA): the generalized forces, N·m or N, that give the
         accelerations a (rad/s² or m/s²); shape (nv,), or (N, nv) for a batch. `external_forces`:
         wrenches the environment applies, `[{"frame": "tool0", "wrench": [fx, fy, fz, tx, ty, tz],
@@ -200,45 +275,77 @@ class AsyncDynamicsMethods(AsyncSender):
         (`Payload`s), added to its model for this call. `friction`: add the joints' friction
         (offset + Coulomb sign(v) + viscous v) of a robot stored by `identify`.
         """
-        return await self._send(calls.inverse_dynamics(robot_id, q, v, a,
-                                                       external_forces=external_forces,
-                                                       payloads=payloads, friction=friction))
+        return await self._send(
+            calls.inverse_dynamics(
+                robot_id,
+                q,
+                v,
+                a,
+                external_forces=external_forces,
+                payloads=payloads,
+                friction=friction,
+            )
+        )
 
-    async def forward_dynamics(self, robot_id: str, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *,
-                               external_forces: Sequence[Mapping[str, Any]] | None = None,
-                               payloads: PayloadsLike | None = None) -> np.ndarray:
+    async def forward_dynamics(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike,
+        *,
+        external_forces: Sequence[Mapping[str, Any]] | None = None,
+        payloads: PayloadsLike | None = None,
+    ) -> np.ndarray:
         """a = M(q)⁻¹ (τ − C(q, v) v − g(q)) (ABA): the accelerations, rad/s² or m/s², that the
         generalized forces τ (N·m or N) produce; shape (nv,), or (N, nv) for a batch.
         `external_forces` as for `inverse_dynamics`: then a = M⁻¹ (τ − C v − g + Σ Jᵀ w).
         `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return await self._send(calls.forward_dynamics(robot_id, q, v, tau,
-                                                       external_forces=external_forces,
-                                                       payloads=payloads))
+        return await self._send(
+            calls.forward_dynamics(
+                robot_id, q, v, tau, external_forces=external_forces, payloads=payloads
+            )
+        )
 
-    async def inverse_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
-                                           a: ArrayLike, *, payloads: PayloadsLike | None = None
-                                          ) -> InverseDynamicsDerivatives:
+    async def inverse_dynamics_derivatives(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        *,
+        payloads: PayloadsLike | None = None,
+    ) -> InverseDynamicsDerivatives:
         """(∂τ/∂q, ∂τ/∂v, ∂τ/∂a = M(q)) of inverse dynamics (analytical RNEA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch. ∂/∂q is on the tangent space: nv columns, along
         q ⊕ δq (for a free-flyer, δq's first 6 entries are a displacement in the base frame).
         `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return await self._send(calls.inverse_dynamics_derivatives(robot_id, q, v, a,
-                                                                   payloads=payloads))
+        return await self._send(
+            calls.inverse_dynamics_derivatives(robot_id, q, v, a, payloads=payloads)
+        )
 
-    async def forward_dynamics_derivatives(self, robot_id: str, q: ArrayLike, v: ArrayLike,
-                                           tau: ArrayLike, *, payloads: PayloadsLike | None = None
-                                          ) -> ForwardDynamicsDerivatives:
+    async def forward_dynamics_derivatives(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        tau: ArrayLike,
+        *,
+        payloads: PayloadsLike | None = None,
+    ) -> ForwardDynamicsDerivatives:
         """(∂a/∂q, ∂a/∂v, ∂a/∂τ = M(q)⁻¹) of forward dynamics (analytical ABA derivatives), each of
         shape (nv, nv), or (N, nv, nv) for a batch; ∂/∂q on the tangent space (nv columns).
         `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this call.
         """
-        return await self._send(calls.forward_dynamics_derivatives(robot_id, q, v, tau,
-                                                                   payloads=payloads))
+        return await self._send(
+            calls.forward_dynamics_derivatives(robot_id, q, v, tau, payloads=payloads)
+        )
 
-    async def centroidal(self, robot_id: str, q: ArrayLike, v: ArrayLike, *,
-                         payloads: PayloadsLike | None = None) -> Centroidal:
+    async def centroidal(
+        self, robot_id: str, q: ArrayLike, v: ArrayLike, *, payloads: PayloadsLike | None = None
+    ) -> Centroidal:
         """(momentum, momentum_matrix, center_of_mass): the centroidal momentum h = A(q) v, shape
         (6,), linear (kg·m/s) then angular (kg·m²/s) about the centre of mass in world-aligned
         axes; the centroidal momentum matrix A(q), shape (6, nv); the centre of mass, shape (3,),
@@ -247,12 +354,22 @@ class AsyncDynamicsMethods(AsyncSender):
         """
         return await self._send(calls.centroidal(robot_id, q, v, payloads=payloads))
 
-    async def simulate(self, robot_id: str, q: ArrayLike, v: ArrayLike, *, dt: float, steps: int,
-                       tau: ArrayLike | Mapping[str, Any] | None = None,
-                       controller: Mapping[str, Any] | None = None,
-                       integrator: Integrator | None = None, contacts: ContactsLike | None = None,
-                       damping: float = 0.0, progress: _progress.Progress = None,
-                       payloads: PayloadsLike | None = None) -> Trajectory | ContactTrajectory:
+    async def simulate(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        *,
+        dt: float,
+        steps: int,
+        tau: ArrayLike | Mapping[str, Any] | None = None,
+        controller: Mapping[str, Any] | None = None,
+        integrator: Integrator | None = None,
+        contacts: ContactsLike | None = None,
+        damping: float = 0.0,
+        progress: _progress.Progress = None,
+        payloads: PayloadsLike | None = None,
+    ) -> Trajectory | ContactTrajectory:
         """Integrate forward dynamics from (q, v) for `steps` steps of `dt` seconds: a `Trajectory`
         (t, q, v, mechanical_energy) of steps + 1 samples, q of shape (steps + 1, nq), v (steps +
         1, nv); with a leading axis N for initial states of shape (N, nq), (N, nv). `tau`: nv
@@ -268,7 +385,19 @@ class AsyncDynamicsMethods(AsyncSender):
         rollout with `contacts` is never chunked by steps. `payloads`: rigid bodies the robot holds
         (`Payload`s), added to its model for this call.
         """
-        return await self._send(calls.simulate(robot_id, q, v, dt=dt, steps=steps, tau=tau,
-                                               controller=controller, integrator=integrator,
-                                               contacts=contacts, damping=damping,
-                                               payloads=payloads), progress)
+        return await self._send(
+            calls.simulate(
+                robot_id,
+                q,
+                v,
+                dt=dt,
+                steps=steps,
+                tau=tau,
+                controller=controller,
+                integrator=integrator,
+                contacts=contacts,
+                damping=damping,
+                payloads=payloads,
+            ),
+            progress,
+        )

@@ -33,14 +33,25 @@ class IdentificationMethods(SyncSender):
         """
         return self._send(calls.regressor(robot_id, q, v, a))
 
-    def identify(self, robot_id: str, t: ArrayLike, q: ArrayLike, tau: ArrayLike, *,
-                 v: ArrayLike | None = None, a: ArrayLike | None = None,
-                 friction: Friction = "coulomb-viscous",
-                 method: Method = "physically-consistent", weighted: bool = True,
-                 validation_fraction: float = 0.2, filter_hz: float | None = None,
-                 store: bool = True, payload_frame: str | None = None,
-                 include_series: bool = False,
-                 progress: _progress.Progress = None) -> Identification:
+    def identify(
+        self,
+        robot_id: str,
+        t: ArrayLike,
+        q: ArrayLike,
+        tau: ArrayLike,
+        *,
+        v: ArrayLike | None = None,
+        a: ArrayLike | None = None,
+        friction: Friction = "coulomb-viscous",
+        method: Method = "physically-consistent",
+        weighted: bool = True,
+        validation_fraction: float = 0.2,
+        filter_hz: float | None = None,
+        store: bool = True,
+        payload_frame: str | None = None,
+        include_series: bool = False,
+        progress: _progress.Progress = None,
+    ) -> Identification:
         """Identify a fixed-base robot's inertial parameters and friction from a logged motion,
         and (with `store`, the default) store the identified robot as a variant.
 
@@ -70,10 +81,25 @@ class IdentificationMethods(SyncSender):
         the server streams the fit's stages as they start, once the log is checked (base
         parameters, regressor, fit, validation: done 1 to 4 of 5; `robodyn.progress`).
         """
-        return self._send(calls.identify(
-            robot_id, t, q, tau, v=v, a=a, friction=friction, method=method, weighted=weighted,
-            validation_fraction=validation_fraction, filter_hz=filter_hz, store=store,
-            payload_frame=payload_frame, include_series=include_series), progress)
+        return self._send(
+            calls.identify(
+                robot_id,
+                t,
+                q,
+                tau,
+                v=v,
+                a=a,
+                friction=friction,
+                method=method,
+                weighted=weighted,
+                validation_fraction=validation_fraction,
+                filter_hz=filter_hz,
+                store=store,
+                payload_frame=payload_frame,
+                include_series=include_series,
+            ),
+            progress,
+        )
 
 
 class AsyncIdentificationMethods(AsyncSender):
@@ -88,8 +114,9 @@ class AsyncIdentificationMethods(AsyncSender):
         """
         return await self._send(calls.inertial_parameters(robot_id))
 
-    async def regressor(self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike
-                        ) -> np.ndarray:
+    async def regressor(
+        self, robot_id: str, q: ArrayLike, v: ArrayLike, a: ArrayLike
+    ) -> np.ndarray:
         """The joint torque regressor Y(q, v, a) (Pinocchio's computeJointTorqueRegressor), linear
         in the inertial parameters: τ = Y π + armature ∘ a with π from `inertial_parameters`.
         Shape (nv, 10 · bodies), or (N, nv, 10 · bodies) for a batch of N states; entries in the
@@ -97,14 +124,25 @@ class AsyncIdentificationMethods(AsyncSender):
         """
         return await self._send(calls.regressor(robot_id, q, v, a))
 
-    async def identify(self, robot_id: str, t: ArrayLike, q: ArrayLike, tau: ArrayLike, *,
-                       v: ArrayLike | None = None, a: ArrayLike | None = None,
-                       friction: Friction = "coulomb-viscous",
-                       method: Method = "physically-consistent", weighted: bool = True,
-                       validation_fraction: float = 0.2, filter_hz: float | None = None,
-                       store: bool = True, payload_frame: str | None = None,
-                       include_series: bool = False,
-                 progress: _progress.Progress = None) -> Identification:
+    async def identify(
+        self,
+        robot_id: str,
+        t: ArrayLike,
+        q: ArrayLike,
+        tau: ArrayLike,
+        *,
+        v: ArrayLike | None = None,
+        a: ArrayLike | None = None,
+        friction: Friction = "coulomb-viscous",
+        method: Method = "physically-consistent",
+        weighted: bool = True,
+        validation_fraction: float = 0.2,
+        filter_hz: float | None = None,
+        store: bool = True,
+        payload_frame: str | None = None,
+        include_series: bool = False,
+        progress: _progress.Progress = None,
+    ) -> Identification:
         """Identify a fixed-base robot's inertial parameters and friction from a logged motion,
         and (with `store`, the default) store the identified robot as a variant.
 
@@ -134,7 +172,22 @@ class AsyncIdentificationMethods(AsyncSender):
         the server streams the fit's stages as they start, once the log is checked (base
         parameters, regressor, fit, validation: done 1 to 4 of 5; `robodyn.progress`).
         """
-        return await self._send(calls.identify(
-            robot_id, t, q, tau, v=v, a=a, friction=friction, method=method, weighted=weighted,
-            validation_fraction=validation_fraction, filter_hz=filter_hz, store=store,
-            payload_frame=payload_frame, include_series=include_series), progress)
+        return await self._send(
+            calls.identify(
+                robot_id,
+                t,
+                q,
+                tau,
+                v=v,
+                a=a,
+                friction=friction,
+                method=method,
+                weighted=weighted,
+                validation_fraction=validation_fraction,
+                filter_hz=filter_hz,
+                store=store,
+                payload_frame=payload_frame,
+                include_series=include_series,
+            ),
+            progress,
+        )

@@ -42,13 +42,22 @@ class RobotMethods(SyncSender):
         """
         return self._send(calls.robot(robot_id))
 
-    def upload(self, source: Source | None = None, *, urdf: Source | None = None,
-               mjcf: Source | None = None, xacro: Source | None = None,
-               xacro_args: Mapping[str, str] | None = None,
-               assets: Mapping[str, AssetValue] | None = None, collect_assets: bool = True,
-               root_joint: RootJoint = "fixed", name: str | None = None,
-               gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
-               locked_joints: Mapping[str, ArrayLike] | None = None) -> RobotInfo:
+    def upload(
+        self,
+        source: Source | None = None,
+        *,
+        urdf: Source | None = None,
+        mjcf: Source | None = None,
+        xacro: Source | None = None,
+        xacro_args: Mapping[str, str] | None = None,
+        assets: Mapping[str, AssetValue] | None = None,
+        collect_assets: bool = True,
+        root_joint: RootJoint = "fixed",
+        name: str | None = None,
+        gravity: ArrayLike | None = None,
+        inertia_check: InertiaCheck | None = None,
+        locked_joints: Mapping[str, ArrayLike] | None = None,
+    ) -> RobotInfo:
         """Store a model on the server and return its `RobotInfo` (`created` tells whether it is
         new). The id is derived from the content, options and assets, so the same upload gives the
         same id.
@@ -67,11 +76,22 @@ class RobotMethods(SyncSender):
         implausible inertias. `locked_joints` (joint name → position, see `reduce`) stores only the
         reduced model. Raises `InvalidModelError` for a description that is not a usable model.
         """
-        return self._send(calls.upload(source, urdf=urdf, mjcf=mjcf, xacro=xacro,
-                                       xacro_args=xacro_args, assets=assets,
-                                       collect_assets=collect_assets, root_joint=root_joint,
-                                       name=name, gravity=gravity, inertia_check=inertia_check,
-                                       locked_joints=locked_joints))
+        return self._send(
+            calls.upload(
+                source,
+                urdf=urdf,
+                mjcf=mjcf,
+                xacro=xacro,
+                xacro_args=xacro_args,
+                assets=assets,
+                collect_assets=collect_assets,
+                root_joint=root_joint,
+                name=name,
+                gravity=gravity,
+                inertia_check=inertia_check,
+                locked_joints=locked_joints,
+            )
+        )
 
     def delete(self, robot_id: str) -> None:
         """Delete an uploaded model. Raises `CatalogRobotError` for a catalog robot and
@@ -79,8 +99,9 @@ class RobotMethods(SyncSender):
         """
         return self._send(calls.delete(robot_id))
 
-    def reduce(self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *,
-               name: str | None = None) -> RobotInfo:
+    def reduce(
+        self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str | None = None
+    ) -> RobotInfo:
         """Store the reduced model of any robot (catalog or upload) with `locked_joints` locked and
         return its `RobotInfo` (a new durable id; `created` tells whether it is new, and
         `raw["reduced_from"]` names the base robot and each locked joint's q entries).
@@ -118,9 +139,14 @@ class RobotMethods(SyncSender):
         """
         return self._send(calls.equations(robot_id))
 
-    def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
-                locked_joints: Mapping[str, ArrayLike] | None = None,
-                name: str | None = None) -> RobotInfo:
+    def variant(
+        self,
+        robot_id: str,
+        *,
+        payloads: PayloadsLike | None = None,
+        locked_joints: Mapping[str, ArrayLike] | None = None,
+        name: str | None = None,
+    ) -> RobotInfo:
         """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
         the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
         that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
@@ -131,8 +157,10 @@ class RobotMethods(SyncSender):
         for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
         frame the robot lacks.
         """
-        return self._send(calls.variant(robot_id, payloads=payloads,
-                                        locked_joints=locked_joints, name=name))
+        return self._send(
+            calls.variant(robot_id, payloads=payloads, locked_joints=locked_joints, name=name)
+        )
+
 
 class AsyncRobotMethods(AsyncSender):
     """The service and robot methods of `AsyncClient`."""
@@ -158,13 +186,22 @@ class AsyncRobotMethods(AsyncSender):
         """
         return await self._send(calls.robot(robot_id))
 
-    async def upload(self, source: Source | None = None, *, urdf: Source | None = None,
-                     mjcf: Source | None = None, xacro: Source | None = None,
-                     xacro_args: Mapping[str, str] | None = None,
-                     assets: Mapping[str, AssetValue] | None = None, collect_assets: bool = True,
-                     root_joint: RootJoint = "fixed", name: str | None = None,
-                     gravity: ArrayLike | None = None, inertia_check: InertiaCheck | None = None,
-                     locked_joints: Mapping[str, ArrayLike] | None = None) -> RobotInfo:
+    async def upload(
+        self,
+        source: Source | None = None,
+        *,
+        urdf: Source | None = None,
+        mjcf: Source | None = None,
+        xacro: Source | None = None,
+        xacro_args: Mapping[str, str] | None = None,
+        assets: Mapping[str, AssetValue] | None = None,
+        collect_assets: bool = True,
+        root_joint: RootJoint = "fixed",
+        name: str | None = None,
+        gravity: ArrayLike | None = None,
+        inertia_check: InertiaCheck | None = None,
+        locked_joints: Mapping[str, ArrayLike] | None = None,
+    ) -> RobotInfo:
         """Store a model on the server and return its `RobotInfo` (`created` tells whether it is
         new). The id is derived from the content, options and assets, so the same upload gives the
         same id.
@@ -183,12 +220,22 @@ class AsyncRobotMethods(AsyncSender):
         implausible inertias. `locked_joints` (joint name → position, see `reduce`) stores only the
         reduced model. Raises `InvalidModelError` for a description that is not a usable model.
         """
-        return await self._send(calls.upload(source, urdf=urdf, mjcf=mjcf, xacro=xacro,
-                                             xacro_args=xacro_args, assets=assets,
-                                             collect_assets=collect_assets,
-                                             root_joint=root_joint, name=name, gravity=gravity,
-                                             inertia_check=inertia_check,
-                                             locked_joints=locked_joints))
+        return await self._send(
+            calls.upload(
+                source,
+                urdf=urdf,
+                mjcf=mjcf,
+                xacro=xacro,
+                xacro_args=xacro_args,
+                assets=assets,
+                collect_assets=collect_assets,
+                root_joint=root_joint,
+                name=name,
+                gravity=gravity,
+                inertia_check=inertia_check,
+                locked_joints=locked_joints,
+            )
+        )
 
     async def delete(self, robot_id: str) -> None:
         """Delete an uploaded model. Raises `CatalogRobotError` for a catalog robot and
@@ -196,8 +243,9 @@ class AsyncRobotMethods(AsyncSender):
         """
         return await self._send(calls.delete(robot_id))
 
-    async def reduce(self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *,
-                     name: str | None = None) -> RobotInfo:
+    async def reduce(
+        self, robot_id: str, locked_joints: Mapping[str, ArrayLike], *, name: str | None = None
+    ) -> RobotInfo:
         """Store the reduced model of any robot (catalog or upload) with `locked_joints` locked and
         return its `RobotInfo` (a new durable id; `created` tells whether it is new, and
         `raw["reduced_from"]` names the base robot and each locked joint's q entries).
@@ -235,9 +283,14 @@ class AsyncRobotMethods(AsyncSender):
         """
         return await self._send(calls.equations(robot_id))
 
-    async def variant(self, robot_id: str, *, payloads: PayloadsLike | None = None,
-                      locked_joints: Mapping[str, ArrayLike] | None = None,
-                      name: str | None = None) -> RobotInfo:
+    async def variant(
+        self,
+        robot_id: str,
+        *,
+        payloads: PayloadsLike | None = None,
+        locked_joints: Mapping[str, ArrayLike] | None = None,
+        name: str | None = None,
+    ) -> RobotInfo:
         """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
         the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
         that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
@@ -248,5 +301,6 @@ class AsyncRobotMethods(AsyncSender):
         for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
         frame the robot lacks.
         """
-        return await self._send(calls.variant(robot_id, payloads=payloads,
-                                              locked_joints=locked_joints, name=name))
+        return await self._send(
+            calls.variant(robot_id, payloads=payloads, locked_joints=locked_joints, name=name)
+        )

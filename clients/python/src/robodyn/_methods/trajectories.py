@@ -14,12 +14,21 @@ from robodyn.trajectories import Retimed, TrajectoryCheck
 class TrajectoryMethods(SyncSender):
     """The trajectory methods of `Client`."""
 
-    def trajectory_check(self, robot_id: str, t: ArrayLike, q: ArrayLike, *,
-                         v: ArrayLike | None = None, a: ArrayLike | None = None,
-                         effort_scale: float = 1.0, velocity_scale: float = 1.0,
-                         samples_per_interval: int = 4, friction: bool = False,
-                         payloads: PayloadsLike | None = None,
-                         progress: _progress.Progress = None) -> TrajectoryCheck:
+    def trajectory_check(
+        self,
+        robot_id: str,
+        t: ArrayLike,
+        q: ArrayLike,
+        *,
+        v: ArrayLike | None = None,
+        a: ArrayLike | None = None,
+        effort_scale: float = 1.0,
+        velocity_scale: float = 1.0,
+        samples_per_interval: int = 4,
+        friction: bool = False,
+        payloads: PayloadsLike | None = None,
+        progress: _progress.Progress = None,
+    ) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
         and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
@@ -37,15 +46,34 @@ class TrajectoryMethods(SyncSender):
         (the client's by default): the server streams the count of evaluated points as it
         checks (`robodyn.progress`).
         """
-        return self._send(calls.trajectory_check(
-            robot_id, t, q, v=v, a=a, effort_scale=effort_scale, velocity_scale=velocity_scale,
-            samples_per_interval=samples_per_interval, friction=friction,
-            payloads=payloads), progress)
+        return self._send(
+            calls.trajectory_check(
+                robot_id,
+                t,
+                q,
+                v=v,
+                a=a,
+                effort_scale=effort_scale,
+                velocity_scale=velocity_scale,
+                samples_per_interval=samples_per_interval,
+                friction=friction,
+                payloads=payloads,
+            ),
+            progress,
+        )
 
-    def retime(self, robot_id: str, waypoints: ArrayLike, *, velocity_scale: float = 1.0,
-               effort_scale: float = 1.0, acceleration: ArrayLike | None = None,
-               sample_dt: float = 0.01, payloads: PayloadsLike | None = None,
-               progress: _progress.Progress = None) -> Retimed:
+    def retime(
+        self,
+        robot_id: str,
+        waypoints: ArrayLike,
+        *,
+        velocity_scale: float = 1.0,
+        effort_scale: float = 1.0,
+        acceleration: ArrayLike | None = None,
+        sample_dt: float = 0.01,
+        payloads: PayloadsLike | None = None,
+        progress: _progress.Progress = None,
+    ) -> Retimed:
         """`Retimed`: the time-optimal motion, from rest to rest, along the clamped cubic
         spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
         distance),
@@ -61,20 +89,38 @@ class TrajectoryMethods(SyncSender):
         or True for a tqdm bar (the client's by default): the server streams its steps (path,
         TOPP-RA and correction, samples and their check; `robodyn.progress`).
         """
-        return self._send(calls.retime(robot_id, waypoints, velocity_scale=velocity_scale,
-                                       effort_scale=effort_scale, acceleration=acceleration,
-                                       sample_dt=sample_dt, payloads=payloads), progress)
+        return self._send(
+            calls.retime(
+                robot_id,
+                waypoints,
+                velocity_scale=velocity_scale,
+                effort_scale=effort_scale,
+                acceleration=acceleration,
+                sample_dt=sample_dt,
+                payloads=payloads,
+            ),
+            progress,
+        )
 
 
 class AsyncTrajectoryMethods(AsyncSender):
     """The trajectory methods of `AsyncClient`."""
 
-    async def trajectory_check(self, robot_id: str, t: ArrayLike, q: ArrayLike, *,
-                               v: ArrayLike | None = None, a: ArrayLike | None = None,
-                               effort_scale: float = 1.0, velocity_scale: float = 1.0,
-                               samples_per_interval: int = 4, friction: bool = False,
-                               payloads: PayloadsLike | None = None,
-                               progress: _progress.Progress = None) -> TrajectoryCheck:
+    async def trajectory_check(
+        self,
+        robot_id: str,
+        t: ArrayLike,
+        q: ArrayLike,
+        *,
+        v: ArrayLike | None = None,
+        a: ArrayLike | None = None,
+        effort_scale: float = 1.0,
+        velocity_scale: float = 1.0,
+        samples_per_interval: int = 4,
+        friction: bool = False,
+        payloads: PayloadsLike | None = None,
+        progress: _progress.Progress = None,
+    ) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
         and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
@@ -92,16 +138,34 @@ class AsyncTrajectoryMethods(AsyncSender):
         (the client's by default): the server streams the count of evaluated points as it
         checks (`robodyn.progress`).
         """
-        return await self._send(calls.trajectory_check(
-            robot_id, t, q, v=v, a=a, effort_scale=effort_scale, velocity_scale=velocity_scale,
-            samples_per_interval=samples_per_interval, friction=friction,
-            payloads=payloads), progress)
+        return await self._send(
+            calls.trajectory_check(
+                robot_id,
+                t,
+                q,
+                v=v,
+                a=a,
+                effort_scale=effort_scale,
+                velocity_scale=velocity_scale,
+                samples_per_interval=samples_per_interval,
+                friction=friction,
+                payloads=payloads,
+            ),
+            progress,
+        )
 
-    async def retime(self, robot_id: str, waypoints: ArrayLike, *,
-                     velocity_scale: float = 1.0, effort_scale: float = 1.0,
-                     acceleration: ArrayLike | None = None, sample_dt: float = 0.01,
-                     payloads: PayloadsLike | None = None,
-                     progress: _progress.Progress = None) -> Retimed:
+    async def retime(
+        self,
+        robot_id: str,
+        waypoints: ArrayLike,
+        *,
+        velocity_scale: float = 1.0,
+        effort_scale: float = 1.0,
+        acceleration: ArrayLike | None = None,
+        sample_dt: float = 0.01,
+        payloads: PayloadsLike | None = None,
+        progress: _progress.Progress = None,
+    ) -> Retimed:
         """`Retimed`: the time-optimal motion, from rest to rest, along the clamped cubic
         spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
         distance),
@@ -117,7 +181,15 @@ class AsyncTrajectoryMethods(AsyncSender):
         or True for a tqdm bar (the client's by default): the server streams its steps (path,
         TOPP-RA and correction, samples and their check; `robodyn.progress`).
         """
-        return await self._send(calls.retime(robot_id, waypoints, velocity_scale=velocity_scale,
-                                             effort_scale=effort_scale,
-                                             acceleration=acceleration, sample_dt=sample_dt,
-                                             payloads=payloads), progress)
+        return await self._send(
+            calls.retime(
+                robot_id,
+                waypoints,
+                velocity_scale=velocity_scale,
+                effort_scale=effort_scale,
+                acceleration=acceleration,
+                sample_dt=sample_dt,
+                payloads=payloads,
+            ),
+            progress,
+        )

@@ -45,7 +45,8 @@ class States:
 
     @property
     def count(self) -> int:
-        return next(iter(self.arrays.values())).shape[0]
+        count: int = next(iter(self.arrays.values())).shape[0]
+        return count
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.arrays[name]

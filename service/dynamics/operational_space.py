@@ -90,7 +90,8 @@ def _singular(
 
 def _task_inertia(sigma: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """Λ = V diag(1/σ) Vᵀ from the eigen-decomposition of (J M⁻¹ Jᵀ + λ² I): symmetric."""
-    return (vectors / sigma) @ vectors.T
+    inertia: np.ndarray = (vectors / sigma) @ vectors.T
+    return inertia
 
 
 def operational_space(

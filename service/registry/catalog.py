@@ -45,7 +45,8 @@ class CatalogEntry:
 
     def path(self, key: str) -> Path:
         base = CATALOG_DIR if self.spec.get("bundled") else erd_robots_dir()
-        return base / self.spec[key]
+        path: Path = base / self.spec[key]
+        return path
 
 
 def catalog_entries() -> list[CatalogEntry]:

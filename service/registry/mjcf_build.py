@@ -227,14 +227,15 @@ class _Builder:
 
     def configuration(self, qpos: np.ndarray) -> np.ndarray:
         """Pinocchio's q of a MuJoCo qpos (a root joint robodyn added is at its neutral)."""
-        q = pin.neutral(self.model)
+        q: np.ndarray = pin.neutral(self.model)
         q[self.q_index] = qpos
         return q
 
 
 def _rotated(iquat: np.ndarray, moments: np.ndarray) -> np.ndarray:
     R = se3(iquat, np.zeros(3)).rotation
-    return R @ np.diag(np.asarray(moments, dtype=float)) @ R.T
+    inertia: np.ndarray = R @ np.diag(np.asarray(moments, dtype=float)) @ R.T
+    return inertia
 
 
 def _notes(mj: Any) -> list[Finding]:

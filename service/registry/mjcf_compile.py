@@ -45,7 +45,9 @@ def parse_xml(text: str | bytes, what: str, limits: Limits) -> Element:
     """Parse XML safely (no DTD, entities or external references), within the element and
     nesting caps; `what` names the file in messages."""
     try:
-        root = SafeET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+        root: Element = SafeET.fromstring(
+            text, forbid_dtd=True, forbid_entities=True, forbid_external=True
+        )
     except DefusedXmlException:
         raise InvalidModel(
             f"{what}: the XML has a DTD, entity or external reference; these are refused"

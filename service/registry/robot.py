@@ -61,7 +61,8 @@ PARALLEL_THREADS = max(1, len(CPUS))
 def joint_type(joint: Any) -> str:
     """The robodyn name of a Pinocchio joint's type (its short name when unknown)."""
     short = joint.shortname()
-    return _JOINT_TYPES.get(short, short)
+    name: str = _JOINT_TYPES.get(short, short)
+    return name
 
 
 def floating_root_nv(model: Any) -> int:

@@ -85,8 +85,7 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
     if isinstance(content, bytes) and len(content) > BINARY_PIECE_BYTES:
         view = memoryview(content)  # pieces, so that `send` returns once they are read
         content = [
-            view[i : i + BINARY_PIECE_BYTES]  # type: ignore[misc]
-            for i in range(0, len(content), BINARY_PIECE_BYTES)
+            view[i : i + BINARY_PIECE_BYTES] for i in range(0, len(content), BINARY_PIECE_BYTES)
         ]
     if isinstance(content, list):
         await _send_pieces(send, content)

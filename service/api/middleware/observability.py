@@ -193,7 +193,8 @@ def _request_id(scope: Scope) -> str:
     for name, value in scope["headers"]:
         if name == b"x-request-id":
             if _REQUEST_ID_FORMAT.fullmatch(value):
-                return value.decode("ascii")
+                request_id: str = value.decode("ascii")
+                return request_id
             break
     return f"{random.getrandbits(128):032x}"  # an id, not a secret: no need for os.urandom
 

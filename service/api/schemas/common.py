@@ -213,7 +213,7 @@ def with_common_options(model: type[BaseModel]) -> type[BaseModel]:
     here."""
     from service.api.schemas.payloads import Payload, payloads_field
 
-    return create_model(  # type: ignore[call-overload, no-any-return]
+    return create_model(
         model.__name__,
         __base__=model,
         __module__=model.__module__,

@@ -55,7 +55,7 @@ class Contact(StrictRequest):
 
 
 def _contacts_field() -> list[Contact]:
-    return Field(
+    field: list[Contact] = Field(
         max_length=MAX_CONTACTS,
         json_schema_extra={"minItems": 1},
         description=(
@@ -64,6 +64,7 @@ def _contacts_field() -> list[Contact]:
             + "."
         ),
     )
+    return field
 
 
 def damping_field() -> float:

@@ -95,10 +95,12 @@ def to_sympy(series: Series) -> sp.Expr:
 
 def text(expr: sp.Expr) -> str:
     """The expression as text `sympify` reads back to it (SymPy's str printer)."""
-    return sp.sstr(expr, full_prec=False)
+    text: str = sp.sstr(expr, full_prec=False)
+    return text
 
 
 def latex(expr: sp.Expr, n: int) -> str:
     """The expression as LaTeX (SymPy's printer), dq_i written \\dot{q}_{i}."""
     names = {velocity(i): rf"\dot{{q}}_{{{i + 1}}}" for i in range(n)}
-    return sp.latex(expr, symbol_names=names)
+    latex: str = sp.latex(expr, symbol_names=names)
+    return latex

@@ -110,7 +110,8 @@ def friction_torque(
     v: np.ndarray, coulomb: np.ndarray, viscous: np.ndarray, offset: np.ndarray
 ) -> np.ndarray:
     """τ_f = offset + coulomb ∘ sign(v) + viscous ∘ v for velocities v (N, nv) or (nv,)."""
-    return offset + coulomb * np.sign(v) + viscous * v
+    friction: np.ndarray = offset + coulomb * np.sign(v) + viscous * v
+    return friction
 
 
 def inertial_parameters_answer(robot: Robot) -> dict[str, Any]:

@@ -47,7 +47,8 @@ class Family:
 
     def values(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """f at every point for path speeds² x and accelerations u of shape (N, p): (N, p, J)."""
-        return self.A * u[..., None] + self.B * x[..., None] + self.C
+        f: np.ndarray = self.A * u[..., None] + self.B * x[..., None] + self.C
+        return f
 
     def rows(
         self, theta: np.ndarray, deltas: np.ndarray, tightening: np.ndarray

@@ -21,14 +21,17 @@ import numpy as np
 def curvature_margin(f: np.ndarray) -> np.ndarray:
     """max |second difference| / 8 over axis 1 of f (N, p, ...) with p ≥ 3: (N, ...)."""
     second = f[:, :-2] - 2.0 * f[:, 1:-1] + f[:, 2:]
-    return np.abs(second).max(axis=1) / 8.0
+    margin: np.ndarray = np.abs(second).max(axis=1) / 8.0
+    return margin
 
 
 def upper_envelope(f: np.ndarray) -> np.ndarray:
     """The estimated maximum of f over each interval: f (N, p, ...) → (N, ...)."""
-    return f.max(axis=1) + curvature_margin(f)
+    upper: np.ndarray = f.max(axis=1) + curvature_margin(f)
+    return upper
 
 
 def lower_envelope(f: np.ndarray) -> np.ndarray:
     """The estimated minimum of f over each interval: f (N, p, ...) → (N, ...)."""
-    return f.min(axis=1) - curvature_margin(f)
+    lower: np.ndarray = f.min(axis=1) - curvature_margin(f)
+    return lower

@@ -128,7 +128,8 @@ def ratios(family: Family, profile: Profile, theta: np.ndarray) -> np.ndarray:
     worst = (upper_envelope(f) / family.upper).max(axis=0)
     if family.lower is not None:
         worst = np.maximum(worst, (lower_envelope(f) / family.lower).max(axis=0))
-    return worst
+    ratio: np.ndarray = worst
+    return ratio
 
 
 def slowdown(family: Family, profile: Profile, theta: np.ndarray, target: float) -> np.ndarray:

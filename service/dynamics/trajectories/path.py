@@ -48,7 +48,8 @@ class WaypointPath:
 
     def __call__(self, s: np.ndarray, order: int = 0) -> np.ndarray:
         """q(s) (order 0), q'(s) (1) or q''(s) (2) at path positions s [n]: (n, nq)."""
-        return (self.spline, self._d1, self._d2)[order](s)
+        derivative: np.ndarray = (self.spline, self._d1, self._d2)[order](s)
+        return derivative
 
     def where(self, s: float) -> tuple[int, float]:
         """(the caller's index of the waypoint that starts the segment holding s, the path

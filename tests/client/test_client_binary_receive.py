@@ -1,6 +1,6 @@
 """How the clients read binary answers: a successful one with a Content-Length goes straight
 into one preallocated buffer (`core.Receiver`); anything else (content-coded, no length, an
-error) through httpx as before. Both give the same, writable arrays."""
+error) through httpx's own reading. Both give the same, writable arrays."""
 
 from __future__ import annotations
 

@@ -158,7 +158,7 @@ def test_a_joint_named_twice_in_a_name_keyed_object_is_a_422(api, ur5, path):
 
 
 def test_keys_repeated_outside_name_keyed_inputs_are_not_scanned(api):
-    """Plain-array bodies pay no second parse (JSON keeps the last `q`, as before)."""
+    """Plain-array bodies pay no second parse (JSON keeps the last `q`, as a JSON parser does)."""
     text = '{"q": [0, 0, 0, 0, 0, 0], "q": [0, -1, 1, 0, 0, 0]}'
     r = api.post(
         "/v1/robots/ur5/gravity", content=text, headers={"content-type": "application/json"}

@@ -2,7 +2,7 @@
 and the routes, the OpenAPI document and the stream are all derived from it.
 
 `fixtures/openapi_operations.json` is the list of (method, path, operationId) of /openapi.json
-as it was before the API was laid out in folders: the document must keep every operation and
+recorded from the published API: the document must keep every operation and
 its operationId (generated clients call them by it)."""
 
 from __future__ import annotations

@@ -126,9 +126,9 @@ def _gravity_torques(robot, q, noise, seed=0):
 
 @pytest.mark.parametrize(("noise", "given"), [(0.05, False), (0.0, False), (0.0, True)])
 def test_a_robot_that_does_not_move_is_refused_before_the_fit(ur5, log, noise, given):
-    """Constant q, τ = g(q) (+ noise): nothing but gravity at one configuration. Without noise
-    the fit used to be not finite (non_finite_result); now a clear validation error naming
-    every joint and its range, whatever the method."""
+    """Constant q, τ = g(q) (+ noise): nothing but gravity at one configuration. With or without
+    noise, whatever the method: a validation error naming every joint and its range, before
+    any fit (a noiseless fit of such a log is not finite)."""
     q = np.repeat(log.q[:1], log.t.size, axis=0)
     q[:, 0] += 0.004 * np.sin(2 * np.pi * log.t)  # a 1 Hz tremor of 0.008 rad: "still"
     tau = _gravity_torques(ur5, q, noise)

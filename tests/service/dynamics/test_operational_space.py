@@ -238,7 +238,7 @@ def test_damping_regularizes_a_singular_configuration(api, catalog_registry):
     close(Lambda, np.linalg.inv(A + lam**2 * np.eye(6)), 1e-8)
     assert np.linalg.eigvalsh(Lambda)[-1] <= 1 / lam**2 * (1 + 1e-9)  # ‖Λ‖ ≤ 1/λ²
     close(got["dynamically_consistent_inverse"], np.linalg.solve(M, J.T) @ Lambda, 1e-8)
-    close(J @ got["dynamically_consistent_inverse"], A @ Lambda, 1e-8)  # no longer I
+    close(J @ got["dynamically_consistent_inverse"], A @ Lambda, 1e-8)  # not I
     assert not np.allclose(J @ got["dynamically_consistent_inverse"], np.eye(6), atol=1e-3)
     # a damping far below the rounding level of σ_max does not regularize anything
     body = post(api, "ur5", "operational-space", 422, q=q, frame="tool0", damping=1e-12)

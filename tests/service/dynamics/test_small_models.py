@@ -1,5 +1,6 @@
-"""Robots with one degree of freedom, shared frame names, and the numerical inputs that used to
-give 500s (answers shaped by the binding, failed solves, ragged or oversized inputs): every
+"""Robots with one degree of freedom, shared frame names, and numerical inputs that stress
+the binding and the solvers (answers shaped by the binding, failed solves, ragged or oversized
+inputs): every
 answer is shaped from nv and the task, whatever the Pinocchio binding hands back, and failures
 of linear algebra or of shapes are 422s."""
 
@@ -340,7 +341,7 @@ FIXED_ONLY = PENDULUM.replace('type="revolute"', 'type="fixed"')
 
 def test_a_model_without_a_moving_joint_is_refused_at_upload(small):
     """nv = 0: no dynamics, and Pinocchio's frame Jacobians crash the process on such a model
-    (found by the full sweep) — refused when built, whatever the format."""
+    — refused when built, whatever the format."""
     client, *_ = small
     no_joint_mjcf = (
         '<mujoco model="still"><worldbody><body name="b"><inertial pos="0 0 0" '
@@ -396,7 +397,7 @@ def test_a_stored_model_without_a_moving_joint_is_not_served(tmp_path):
 
 def test_a_robot_whose_link_and_joint_share_names_can_be_reduced(tmp_path):
     """Pinocchio's own reduction fails on shared frame names (anymal_c: link and joint
-    'LF_HAA'; found by the full sweep). M of the reduced robot is M of the base with the
+    'LF_HAA'). M of the reduced robot is M of the base with the
     locked joint's row and column removed, at the locked value."""
     from fastapi.testclient import TestClient
 
@@ -436,7 +437,7 @@ def test_a_robot_whose_link_and_joint_share_names_can_be_reduced(tmp_path):
 
 def test_the_talos_legs_catalog_robot_can_be_reduced(tmp_path):
     """talos_legs is assembled joint by joint from talos; its lower velocity and effort bounds
-    must follow, or Pinocchio's reduction refuses it (found by the full sweep)."""
+    must follow, or Pinocchio's reduction refuses it."""
     from service.registry import Registry
 
     registry = Registry(tmp_path, ["talos_legs"])

@@ -132,7 +132,7 @@ async def _app(scope: dict[str, Any], receive: Any, send: Any) -> None:
 
 def test_a_request_goes_through_the_subclass_as_expected() -> None:
     """The attributes read and written exist on a live protocol and cycle, and an answer made
-    through them is framed as before (one write, content-length kept)."""
+    through them is framed as uvicorn frames it (one write, content-length kept)."""
 
     async def run() -> tuple[HardenedHttpToolsProtocol, Any, FakeTransport]:
         config = uvicorn.Config(_app, http=HardenedHttpToolsProtocol, lifespan="off")

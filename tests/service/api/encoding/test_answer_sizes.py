@@ -81,7 +81,7 @@ def test_a_long_trajectory_with_joint_names_is_a_safetensors_file(api, catalog_r
     40,000-step Talos answer was a 117 MB header no safetensors reader opens); the joint
     layout is given once in `__metadata__`; the Python client's reader reads it too."""
     talos = catalog_registry.catalog["talos"]
-    steps = 4_000  # the header no longer grows with the steps: see the slow twin below
+    steps = 4_000  # the header does not grow with the steps: see the slow twin below
     r = api.post(
         "/v1/robots/talos/simulate",
         headers={"accept": BINARY_MEDIA_TYPE},

@@ -245,8 +245,8 @@ def test_the_openapi_document_declares_the_binary_request(client):
 
 @pytest.mark.parametrize("form", ["json", "binary"])
 def test_a_robot_that_does_not_move_is_a_clear_422(client, registry, log, form):
-    """Constant q, τ = g(q) + noise: before, a 422 non_finite_result (without noise) or a fit
-    of nothing; now a validation_error that names every joint and says what is needed."""
+    """Constant q, τ = g(q) + noise: a validation_error that names every joint and says
+    what is needed, before any fit (which would be not finite, or a fit of nothing)."""
     model = registry.get("ur5").model
     q = np.repeat(log.q[:1], log.t.size, axis=0)
     data = model.createData()

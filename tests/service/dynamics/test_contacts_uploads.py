@@ -129,7 +129,8 @@ def _post(client: TestClient, robot_id: str, quantity: str, **body) -> dict[str,
 
 def test_simulate_resolves_a_shared_name_to_the_links_body_frame(client, registry):
     """A point contact on "link3" (a joint and a link of that name) in simulate answers 200
-    (Pinocchio's lookup by name alone raises "Several frames match the filter"), and the body frame's origin stays put
+    (Pinocchio's lookup by name alone raises "Several frames match the filter"), and the body
+    frame's origin stays put
     while the floating arm swings about it under gravity."""
     robot_id = _upload(client, urdf=SAME_NAME_ARM, root_joint="free-flyer")
     model = registry.get(robot_id).model

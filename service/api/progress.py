@@ -34,6 +34,8 @@ import orjson
 from starlette.requests import Request
 from starlette.types import Receive, Scope, Send
 
+from service.api.encoding.accept import prefers
+from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.problems.handlers import handler_for
 from service.errors import problem_document
 
@@ -50,17 +52,11 @@ Produce = Callable[[], Awaitable[Content]]
 
 
 def wants_progress(scope: Scope) -> bool:
-    """Whether the request's `Accept` header asks for the progress stream."""
+    """Whether the request's `Accept` header asks for the progress stream: named with q > 0
+    and not below JSON or the binary form (`service.api.encoding.accept`)."""
     for name, value in scope["headers"]:
         if name == b"accept":
-            for media_range in value.decode("latin-1").lower().split(","):
-                media_type, *parameters = (part.strip() for part in media_range.split(";"))
-                if media_type == PROGRESS_MEDIA_TYPE:
-                    return not any(
-                        p.replace(" ", "") in ("q=0", "q=0.0", "q=0.00", "q=0.000")
-                        for p in parameters
-                    )
-            return False
+            return prefers(value.decode("latin-1"), PROGRESS_MEDIA_TYPE, BINARY_MEDIA_TYPE)
     return False
 
 

@@ -26,6 +26,7 @@ from service.api import inputs
 from service.api.cancellation import cancellable
 from service.api.deps import check_api_key_for_all
 from service.api.encoding import binary
+from service.api.encoding.accept import prefers
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
@@ -349,7 +350,7 @@ class Endpoint:
             arrays, options = await off_loop(request, self.parse_json, body)
         else:
             arrays, options = self.parse_json(body)
-        as_binary = binary.BINARY_MEDIA_TYPE in accept and not json_only
+        as_binary = not json_only and prefers(accept, binary.BINARY_MEDIA_TYPE)
         result = await self.compute(request, robot, arrays, options, as_binary)
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
         if request.scope["robodyn"]["large"]:

@@ -80,7 +80,8 @@ class Settings(BaseSettings):
         description="Longest time a dynamics request computed off the event loop "
         "(a large batch, a simulation, a contact batch) may compute, in seconds from the "
         "start of its computation; past it the computation stops between chunks or steps and "
-        "the answer is 503 overloaded (it also stops at once when the client disconnects).",
+        "the answer is 504 deadline_exceeded (it also stops at once when the client "
+        "disconnects).",
     )
     max_answer_bytes_in_flight: int = Field(
         1024 * 1024 * 1024,

@@ -38,13 +38,23 @@ MAX_DETAIL_CHARS = 4000
 _SUGGESTED_NAME_CHARS = 64  # a name longer than this (or unprintable) gets no suggestion
 
 
-def did_you_mean(name: str, valid: Iterable[str], most: int = 3) -> str:
-    """ " (did you mean 'tool0'?)" when `valid` has names close to the unknown `name` (by
-    difflib's similarity ratio ≥ 0.6, best first, at most `most`), else "". Meant to follow the
-    quoted unknown name in an error's detail."""
-    if not name or len(name) > _SUGGESTED_NAME_CHARS or not name.isprintable():
+def did_you_mean(
+    name: str, valid: Iterable[str], most: int = 3, longest: int = _SUGGESTED_NAME_CHARS
+) -> str:
+    """ " (did you mean 'tool0'?)" when `valid` has names close to the unknown `name` (the
+    names equal to it but for case first, then by difflib's similarity ratio ≥ 0.6 of the
+    lower-cased names, best first, at most `most`), else "". Meant to follow the quoted
+    unknown name in an error's detail."""
+    if not name or len(name) > longest or not name.isprintable():
         return ""
-    close = difflib.get_close_matches(name, list(valid), n=most, cutoff=0.6)
+    by_lower: dict[str, list[str]] = {}
+    for candidate in valid:
+        by_lower.setdefault(candidate.lower(), []).append(candidate)
+    lower = name.lower()
+    close = list(by_lower.get(lower, []))
+    for match in difflib.get_close_matches(lower, list(by_lower), n=most, cutoff=0.6):
+        close.extend(c for c in by_lower[match] if c not in close)
+    close = close[:most]
     if not close:
         return ""
     quoted = [f"'{c}'" for c in close]

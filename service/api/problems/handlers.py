@@ -14,7 +14,7 @@ from starlette.responses import Response
 
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.problems.validation_errors import MAX_ERRORS_READ, TOO_MANY, user_errors
-from service.errors import ALL_ERRORS, RobodynError, problem_document
+from service.errors import ALL_ERRORS, RobodynError, did_you_mean, problem_document
 
 log = logging.getLogger("robodyn.api")
 
@@ -169,7 +169,7 @@ async def _on_http_error(request: Request, exc: Exception) -> Response:
     )
     code, title = _HTTP_CODES.get(exc.status_code, fallback)
     if code == "not_found":
-        detail = "no such route; see /openapi.json or /docs for the API"
+        detail = f"no such route{_close_routes(request)}; see /openapi.json or /docs for the API"
     elif code == "method_not_allowed":
         detail = f"method {request.method} is not allowed on this route"
     elif code == "payload_too_large":  # raised by BodyLimitMiddleware, which names the limit
@@ -178,6 +178,26 @@ async def _on_http_error(request: Request, exc: Exception) -> Response:
         detail = str(exc.detail) if isinstance(exc.detail, str) else title
     headers = dict(exc.headers) if exc.headers else None
     return problem(code, title, detail, headers)
+
+
+_LONGEST_PATH_SUGGESTED = 200  # characters; a longer path gets no suggestion
+
+
+def _close_routes(request: Request) -> str:
+    """ " (did you mean '/v1/robots/ur5/mass-matrix'?)" for a path close to a route of the API:
+    each path template of the OpenAPI document with its parameters filled by the path's own
+    segments (a template of as many segments), compared by `did_you_mean`."""
+    path = request.url.path
+    if len(path) > _LONGEST_PATH_SUGGESTED:
+        return ""
+    segments = path.strip("/").split("/")
+    filled = []
+    for template in request.app.openapi().get("paths", {}):
+        parts = template.strip("/").split("/")
+        if len(parts) == len(segments):
+            pairs = zip(parts, segments, strict=True)
+            filled.append("/" + "/".join(s if p.startswith("{") else p for p, s in pairs))
+    return did_you_mean(path, filled, most=2, longest=_LONGEST_PATH_SUGGESTED)
 
 
 async def _on_unexpected(request: Request, exc: Exception) -> Response:

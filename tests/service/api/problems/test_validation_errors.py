@@ -86,6 +86,35 @@ def test_did_you_mean():
     assert did_you_mean("gripper", ["tool0", "base_link"]) == ""
     assert did_you_mean("ur6", ["ur5", "ur10", "panda"]).startswith(" (did you mean 'ur5'")
     assert did_you_mean("x" * 65, ["x" * 65]) == ""
+    # case differences first (difflib alone finds 'UR5' and 'ur5' too far apart)
+    assert did_you_mean("UR5", ["ur3", "ur5", "panda"]) == " (did you mean 'ur5' or 'ur3'?)"
+    assert did_you_mean("Tool0", ["tool0", "TOOL0"], most=1) == " (did you mean 'tool0'?)"
+
+
+def test_an_unknown_robot_in_another_case_is_named(api):
+    problem = assert_problem(api.get("/v1/robots/UR5"), 404, "robot_not_found")
+    assert "no robot has id 'UR5' (did you mean 'ur5'" in problem["detail"]
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "meant"),
+    [
+        ("post", "/v1/robots/ur5/mas-matrix", "/v1/robots/ur5/mass-matrix"),
+        ("post", "/v1/robots/ur5/Inverse-Dynamics", "/v1/robots/ur5/inverse-dynamics"),
+        ("get", "/v1/robot/ur5", "/v1/robots/ur5"),
+        ("get", "/v1/robots/panda/inertia", "/v1/robots/panda/inertias"),
+    ],
+)
+def test_a_mistyped_route_gets_close_routes(api, method, path, meant):
+    """The route's template filled with the request's own segments (the robot id kept)."""
+    problem = assert_problem(getattr(api, method)(path), 404, "not_found")
+    assert problem["detail"].startswith(f"no such route (did you mean '{meant}'")
+
+
+def test_a_route_far_from_every_route_gets_no_suggestion(api):
+    for path in ("/nothing/at/all", "/v1/robots/ur5/" + "x" * 300):
+        problem = assert_problem(api.get(path), 404, "not_found")
+        assert problem["detail"] == "no such route; see /openapi.json or /docs for the API"
 
 
 def test_an_unknown_frame_gets_close_matches(api):

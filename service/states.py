@@ -127,11 +127,38 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
         if arr.shape[1] != expected:
             what = "each state of " + name if batched else name
             raise DimensionMismatch(
-                f"{what} has {arr.shape[1]} entries; robot '{robot.id}' has {dim_name} = {expected}"
+                f"{what} has {arr.shape[1]} entries; robot '{robot.id}' has {dim_name} = "
+                f"{expected}{_left_out(robot, dim_name, arr.shape[1])}"
             )
     if "q" in arrays:
         arrays["q"] = configurations(robot, arrays["q"])
     return States(arrays=arrays, batched=batched)
+
+
+_JOINTS_SHOWN = 4  # joints named in a dimension mismatch's hint, at most
+
+
+def _left_out(robot: Robot, dim_name: str, given: int) -> str:
+    """What a vector of `given` entries (fewer than `dim_name`) leaves out: the joints whose
+    entries come after them, and the two ways to leave joints out on purpose. "" when `given`
+    is not fewer, or ends inside a joint."""
+    model = robot.model
+    last = [
+        (model.names[j], int(getattr(model.joints[j], f"idx_{dim_name[1]}")))
+        for j in range(1, model.njoints)
+        if getattr(model.joints[j], dim_name) > 0
+    ]
+    missing = [name for name, start in last if start >= given]
+    if given >= getattr(robot, dim_name) or not missing or all(s != given for _, s in last):
+        return ""
+    shown = ", ".join(f"'{n}'" for n in missing[:_JOINTS_SHOWN])
+    more = f" and {len(missing) - _JOINTS_SHOWN} more" if len(missing) > _JOINTS_SHOWN else ""
+    return (
+        f"; the entries of {len(missing)} joint(s) are missing ({shown}{more}, in model "
+        'order): send them too, or key the vectors by joint name with "fill": "neutral" '
+        "(the joints left out held at their neutral position and at rest), or store the "
+        f'robot without them (POST /v1/robots/{robot.id}/reduce with "locked_joints")'
+    )
 
 
 def configurations(robot: Robot, q: np.ndarray) -> np.ndarray:

@@ -82,11 +82,37 @@ def test_validation_error_names_the_field(api):
     assert body["detail"] == "v: Field required"
 
 
+def test_a_vector_without_the_panda_fingers_says_how_to_leave_them_out(api):
+    """The Panda's 9 joints end with its two finger joints: 7 values name them and the ways to
+    leave joints out (fill with names, a reduced model), and each way answers."""
+    detail = assert_problem(
+        api.post("/v1/robots/panda/gravity", json={"q": [0.1] * 7}), 422, "dimension_mismatch"
+    )["detail"]
+    assert "robot 'panda' has nq = 9" in detail
+    assert "2 joint(s) are missing ('panda_finger_joint1', 'panda_finger_joint2'" in detail
+    assert '"fill": "neutral"' in detail and "POST /v1/robots/panda/reduce" in detail
+    arm = {f"panda_joint{i}": 0.1 for i in range(1, 8)}
+    filled = api.post("/v1/robots/panda/gravity", json={"q": arm, "fill": "neutral"})
+    full = api.post("/v1/robots/panda/gravity", json={"q": [0.1] * 7 + [0.0, 0.0]})
+    assert filled.status_code == full.status_code == 200
+    assert filled.json() == full.json()
+    # more entries than joints, or a count that ends inside a joint: no joints to name
+    detail = assert_problem(
+        api.post("/v1/robots/panda/gravity", json={"q": [0.1] * 10}), 422, "dimension_mismatch"
+    )["detail"]
+    assert detail == "q has 10 entries; robot 'panda' has nq = 9"
+    detail = assert_problem(
+        api.post("/v1/robots/solo12/gravity", json={"q": [0.0] * 5}), 422, "dimension_mismatch"
+    )["detail"]
+    assert detail == "q has 5 entries; robot 'solo12' has nq = 19"
+
+
 def test_dimension_mismatch_says_what_was_expected(api):
     body = assert_problem(
         api.post("/v1/robots/ur5/gravity", json={"q": [0] * 5}), 422, "dimension_mismatch"
     )
-    assert body["detail"] == "q has 5 entries; robot 'ur5' has nq = 6"
+    assert body["detail"].startswith("q has 5 entries; robot 'ur5' has nq = 6; ")
+    assert "('wrist_3_joint', in model order)" in body["detail"]
     body = assert_problem(
         api.post("/v1/robots/talos/coriolis", json={"q": [0] * 6 + [1] + [0] * 32, "v": [0] * 39}),
         422,

@@ -19,6 +19,7 @@ entry with the count. Every name echoed in a location is shortened to 64 charact
 from __future__ import annotations
 
 import itertools
+import json
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -218,8 +219,14 @@ def user_errors(
     for e in _resolve(errors):
         msg = e.msg
         if e.type == "extra_forbidden" and schema is not None and e.loc:
-            allowed = _members(schema, schemas or {}, _body_path(e.loc)[:-1])
-            msg += did_you_mean(str(e.loc[-1]), allowed)
+            where, name = _body_path(e.loc)[:-1], str(e.loc[-1])
+            close = did_you_mean(name, _members(schema, schemas or {}, where))
+            owners = _owners(schema, schemas or {}, where, name) if not close else []
+            if owners:
+                shown = " or ".join(f"`{o}`" for o, _ in owners[:3])
+                owner, example = owners[0]
+                close = f" (it is a member of {shown}: {{{json.dumps(owner)}: {example}}})"
+            msg += close
         out.append({"loc": _location(e.loc), "msg": msg})
     return out
 
@@ -238,6 +245,21 @@ def _members(schema: dict[str, Any], schemas: dict[str, Any], path: tuple[Any, .
     return [
         name for node in _alternatives_of(nodes, schemas) for name in node.get("properties", {})
     ]
+
+
+def _owners(
+    schema: dict[str, Any], schemas: dict[str, Any], path: tuple[Any, ...], name: str
+) -> list[tuple[str, str]]:
+    """The members of the object at `path` whose own object (or array of objects) allows a
+    member `name`: where a member sent one level too high belongs (`limits` of `retime`),
+    each with the shape of its value (`{...}` or `[{...}]`)."""
+    owners: list[tuple[str, str]] = []
+    for member in _members(schema, schemas, path):
+        if name in _members(schema, schemas, (*path, member)):
+            owners.append((member, "{...}"))
+        elif name in _members(schema, schemas, (*path, member, 0)):
+            owners.append((member, "[{...}]"))
+    return owners
 
 
 def _alternatives_of(nodes: list[dict[str, Any]], schemas: dict[str, Any]) -> list[dict[str, Any]]:

@@ -184,3 +184,29 @@ def test_an_unknown_member_gets_close_matches(api, path, body, loc, meant):
         "loc": loc,
         "msg": f"is not a field of this request (did you mean '{meant}'?)",
     } in problem["errors"]
+
+
+@pytest.mark.parametrize(
+    ("path", "body", "msg"),
+    [
+        (
+            "retime",
+            {"waypoints": [[0.0] * 6, [0.5] + [0.0] * 5], "acceleration": 1.0},
+            'is not a field of this request (it is a member of `limits`: {"limits": {...}})',
+        ),
+        (
+            "retime",
+            {"waypoints": [[0.0] * 6, [0.5] + [0.0] * 5], "velocity_scale": 0.5},
+            'is not a field of this request (it is a member of `limits`: {"limits": {...}})',
+        ),
+        (
+            "gravity",
+            {"q": [0.0] * 6, "mass": 3.0},
+            'is not a field of this request (it is a member of `payloads`: {"payloads": [{...}]})',
+        ),
+    ],
+)
+def test_a_member_sent_one_level_too_high_is_pointed_to_its_object(api, path, body, msg):
+    problem = assert_problem(api.post(f"/v1/robots/ur5/{path}", json=body), 422, "validation_error")
+    (wrong,) = set(body) - {"waypoints", "q"}
+    assert {"loc": wrong, "msg": msg} in problem["errors"]

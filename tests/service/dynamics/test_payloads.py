@@ -5,6 +5,7 @@ contact forces of a standing robot), and every bad payload is a named domain err
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -272,3 +273,43 @@ def test_limits_of_a_payload_list(catalog_registry):
     rod = np.diag([0.0, 0.25, 0.25]).tolist()
     placed = check_payloads(robot, [{"frame": "tool0", "mass": 1.0, "inertia": rod}])
     assert placed[0].inertia == tuple(tuple(row) for row in rod)
+
+
+def _flange_table() -> list[list[str]]:
+    """The rows of docs/payloads.md's table of the catalog arms' flange frames."""
+    text = (Path(__file__).parents[3] / "docs" / "payloads.md").read_text()
+    section = text.split("### The flange frames of the catalog arms", 1)[1].split("\n\n")[2]
+    rows = [
+        [cell.strip().strip("`") for cell in line.strip("|").split("|")]
+        for line in section.splitlines()
+    ]
+    return [r for r in rows[2:] if r]
+
+
+_AXES = {"+x": (0, 1), "-x": (0, -1), "+y": (1, 1), "-y": (1, -1), "+z": (2, 1), "-z": (2, -1)}
+
+
+@pytest.mark.parametrize("row", _flange_table(), ids=lambda r: f"{r[0]}-{r[1]}")
+def test_the_documented_flange_axes_are_the_models(catalog_registry, row):
+    """Each documented flange frame: its axis 'out of the flange' points from the last joint's
+    origin to the frame's origin, at the documented distance, and the last joint turns about
+    the documented axis of the frame (Pinocchio's frame Jacobian, LOCAL), at any q."""
+    robot_id, frame, out, joint_axis, distance = row
+    robot = catalog_registry.catalog[robot_id]
+    model, data = robot.model, robot.model.createData()
+    fid = model.getFrameId(frame)
+    joint = model.frames[fid].parentJoint
+    for q in (pin.neutral(model), pin.randomConfiguration(model)):
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        oMf, oMj = data.oMf[fid], data.oMi[joint]
+        offset = oMf.rotation.T @ (oMf.translation - oMj.translation)  # in the frame's axes
+        index, sign = _AXES[out.replace("−", "-")]
+        np.testing.assert_allclose(
+            offset / np.linalg.norm(offset), sign * np.eye(3)[index], atol=1e-9
+        )
+        assert np.linalg.norm(offset) == pytest.approx(float(distance.split()[0]), abs=5e-5)
+        J = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
+        index, sign = _AXES[joint_axis.replace("−", "-")]
+        axis = J[3:, model.joints[joint].idx_v]
+        np.testing.assert_allclose(axis, sign * np.eye(3)[index], atol=1e-9)

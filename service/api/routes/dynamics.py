@@ -44,6 +44,9 @@ PREFIX = "/v1/robots"
 # and JSON bodies bigger than INLINE_BODY_BYTES parsed there: on the event loop they would
 # stall every other request (a 10,000-state Talos JSON body takes ~0.25 s to parse).
 INLINE_WORK = 2_000
+# An answer of more numbers than this (about 0.6 MB of JSON) is computed and encoded off the
+# event loop however little work it is (a regressor of a few states of a humanoid).
+INLINE_ANSWER_NUMBERS = 32_768
 INLINE_BODY_BYTES = 64 * 1024
 
 _PROBLEMS: dict[int | str, dict[str, Any]] = {
@@ -269,7 +272,9 @@ class Endpoint:
             self._check_size(robot, states, options, sizing)
             large = (
                 states.count * robot.nv if work is None else work(robot, states, options)
-            ) > INLINE_WORK
+            ) > INLINE_WORK or states.count * self.quantity.answer_size(
+                robot, options, "v" in states.arrays
+            ) > INLINE_ANSWER_NUMBERS
             if large:
                 async with cancellable(request, self.quantity.name) as stop:
                     result = await off_loop(

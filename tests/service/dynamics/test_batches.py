@@ -93,6 +93,38 @@ def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api
     )
 
 
+def test_a_large_answer_of_little_work_is_computed_and_encoded_off_the_event_loop(
+    api, catalog_registry, monkeypatch
+):
+    """Talos' regressor: 4 states are little work (4 × nv) but an answer of 4 × nv × 10 × bodies
+    numbers (about 2 MB of JSON): it is computed and encoded in worker threads, and it is
+    the same answer as state by state."""
+    from service.api.encoding import answers
+    from service.api.routes import dynamics as routes
+
+    talos = catalog_registry.catalog["talos"]
+    per_state = talos.nv * 10 * (talos.model.njoints - 1)
+    states = 4
+    assert states * talos.nv < routes.INLINE_WORK < routes.INLINE_ANSWER_NUMBERS
+    assert states * per_state > routes.INLINE_ANSWER_NUMBERS
+    calls = record_off_loop(monkeypatch, routes)
+    rng = np.random.default_rng(5)
+    q = np.repeat(talos.default_configuration[None], states, 0)
+    v, a = rng.uniform(-1, 1, (2, states, talos.nv))
+    r = api.post(
+        "/v1/robots/talos/regressor", json={"q": q.tolist(), "v": v.tolist(), "a": a.tolist()}
+    )
+    assert r.status_code == 200
+    assert calls[-1] == answers.json_pieces.__name__ and "run" in calls
+    one = api.post(
+        "/v1/robots/talos/regressor",
+        json={"q": q[0].tolist(), "v": v[0].tolist(), "a": a[0].tolist()},
+    )
+    np.testing.assert_array_equal(
+        np.array(r.json()["regressor"])[0], np.array(one.json()["regressor"])
+    )
+
+
 @pytest.mark.parametrize(
     "quantity", ["gravity", "nonlinear-effects", "inverse-dynamics", "forward-dynamics"]
 )

@@ -42,6 +42,7 @@ class States:
     arrays: dict[str, np.ndarray]
     batched: bool
     first: int = 0
+    warnings: tuple[str, ...] = ()  # what is computed as given but likely a mistake
 
     @property
     def count(self) -> int:
@@ -130,9 +131,12 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
                 f"{what} has {arr.shape[1]} entries; robot '{robot.id}' has {dim_name} = "
                 f"{expected}{_left_out(robot, dim_name, arr.shape[1])}"
             )
+    warnings: tuple[str, ...] = ()
     if "q" in arrays:
+        far = angles_far_outside(robot, arrays["q"])
+        warnings = (far,) if far else ()
         arrays["q"] = configurations(robot, arrays["q"])
-    return States(arrays=arrays, batched=batched)
+    return States(arrays=arrays, batched=batched, warnings=warnings)
 
 
 _JOINTS_SHOWN = 4  # joints named in a dimension mismatch's hint, at most
@@ -168,6 +172,29 @@ def configurations(robot: Robot, q: np.ndarray) -> np.ndarray:
     states, a PD target) passes here; other robots' q is returned as it is."""
     check_configuration(robot, q)
     return q if robot.q_from_api is None else robot.pinocchio_q(q)
+
+
+def angles_far_outside(robot: Robot, q: np.ndarray) -> str | None:
+    """A warning when the angle of a revolute joint with a finite range lies a whole turn
+    (2π rad) or more outside it in some state of q (the API's order), else None: most often
+    an angle given in degrees. It may also be a state a simulation reached (limits are not
+    enforced there), so it is computed as given, with the warning."""
+    names, index, lower, upper = robot.angle_ranges
+    if not index.size:
+        return None
+    angles = q[:, index]
+    beyond = np.maximum(lower - angles, angles - upper)
+    state, joint = np.unravel_index(np.argmax(beyond), beyond.shape)
+    if not beyond[state, joint] >= 2 * np.pi:
+        return None
+    value = float(angles[state, joint])
+    where = f"state {int(state)}: " if q.shape[0] > 1 else ""
+    return (
+        f"{where}q[{int(index[joint])}] = {value:.6g} rad, the angle of revolute joint "
+        f"'{names[joint]}', is {beyond[state, joint] / (2 * np.pi):.3g} turns outside its range "
+        f"[{lower[joint]:.6g}, {upper[joint]:.6g}] rad; angles are in radians ({value:.6g} "
+        f"degrees would be {np.radians(value):.6g} rad)"
+    )
 
 
 def check_configuration(robot: Robot, q: np.ndarray) -> None:

@@ -127,14 +127,27 @@ class Robot:
         self.nv: int = int(self.model.nv)
         self.unit_joints: list[tuple[str, int, int]] = []  # (joint name, q start, q end)
         self.joint_types: dict[str, str] = {}
+        ranged: list[tuple[str, int, float, float]] = []  # revolute joints of finite range
         for jid in range(1, self.model.njoints):
             jm = self.model.joints[jid]
             self.joint_types[self.model.names[jid]] = joint_type(jm)
+            lower = float(self.model.lowerPositionLimit[jm.idx_q]) if jm.nq == 1 else 0.0
+            upper = float(self.model.upperPositionLimit[jm.idx_q]) if jm.nq == 1 else 0.0
+            if joint_type(jm) == "revolute" and -1e9 < lower < upper < 1e9:
+                ranged.append((self.model.names[jid], jm.idx_q, lower, upper))
             part = UNIT_PARTS.get(joint_type(jm))
             if part is not None:
                 self.unit_joints.append(
                     (self.model.names[jid], jm.idx_q + part[0], jm.idx_q + part[1])
                 )
+        # (names, q indices, lower, upper in rad): `service.states.check_configuration` refuses
+        # an angle a whole turn or more outside its range (an angle given in degrees)
+        self.angle_ranges: tuple[list[str], np.ndarray, np.ndarray, np.ndarray] = (
+            [r[0] for r in ranged],
+            np.array([r[1] for r in ranged], dtype=int),
+            np.array([r[2] for r in ranged]),
+            np.array([r[3] for r in ranged]),
+        )
         # The mass the dynamics moves (every body a joint moves, payloads included: RobotInfo's
         # `total_mass` and `moving_mass`) and the mass of the links fixed to the world (a fixed
         # base's base link: it takes no part in the dynamics; Pinocchio keeps it in the

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import builtins
 import pickle
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -208,3 +209,19 @@ def test_errors_survive_pickling() -> None:
         assert type(copy) is type(err) and str(copy) == str(err)
         assert vars(copy) == vars(err)
     assert str(api) == "401 unauthorized: send a key" and api.errno is None
+
+
+def test_an_angle_in_degrees_is_computed_with_a_warning(server: str) -> None:
+    """The server computes q as given and says in `Robodyn-Warning` that an angle lies many
+    turns outside its joint's range; the client turns that into a RobodynWarning, and the
+    answer is the one of the same q without a warning filter."""
+    q = np.array([0.0, -1.2, 90.0, 0.0, 0.0, 0.0])  # the elbow at "90"
+    with robodyn.Client(server) as client:
+        with pytest.warns(robodyn.RobodynWarning, match=r"elbow_joint.*90 degrees would be 1.5708"):
+            g = client.gravity("ur5", q)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", robodyn.RobodynWarning)
+            plain = client.gravity("ur5", np.array([0.0, -1.2, 1.5, 0.0, 0.0, 0.0]))
+            with pytest.raises(robodyn.RobodynWarning):
+                client.gravity("ur5", q)
+    assert g.shape == plain.shape == (6,)

@@ -19,7 +19,7 @@ from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.encoding.in_flight import release_answer_bytes
 from service.api.problems.handlers import handler_for
 from service.api.progress import ProgressAnswer, wants_progress
-from service.api.routes.dynamics import ENDPOINTS, PREFIX
+from service.api.routes.dynamics import ENDPOINTS, PREFIX, warning_headers
 from service.errors import InvalidInput
 
 _START = PREFIX + "/"
@@ -79,6 +79,7 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
             "headers": [
                 (b"content-length", str(length).encode()),
                 (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode()),
+                *((k.encode(), v.encode()) for k, v in warning_headers(scope)),
             ],
         }
     )

@@ -288,6 +288,7 @@ class Endpoint:
             "batch_size": states.count,
             "compute_seconds": time.perf_counter() - started,
             "large": large,
+            "warnings": states.warnings,
         }
         if named:
             keyed = inputs.joint_layout if as_binary else inputs.by_name
@@ -391,8 +392,20 @@ class Endpoint:
         finally:
             release_answer_bytes(request.scope, request.app)
         return Response(
-            content if isinstance(content, bytes) else b"".join(content), media_type=media_type
+            content if isinstance(content, bytes) else b"".join(content),
+            media_type=media_type,
+            headers=dict(warning_headers(request.scope)),
         )
+
+
+WARNING_HEADER = "robodyn-warning"
+
+
+def warning_headers(scope: Any) -> list[tuple[str, str]]:
+    """The answer's `Robodyn-Warning` header: what the request's inputs were computed as given
+    despite (an angle far outside its joint's range), at most one, in ASCII."""
+    warnings = scope.get("robodyn", {}).get("warnings") or ()
+    return [(WARNING_HEADER, w.encode("ascii", "replace").decode()) for w in warnings[:1]]
 
 
 # Built once: an endpoint holds no per-app state (it reads the app from each request).

@@ -8,6 +8,7 @@ and hand the response to `read_response`. That is the only difference between th
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
@@ -17,7 +18,7 @@ import numpy as np
 
 from robodyn import binary
 from robodyn.arrays import to_json
-from robodyn.errors import APIError, ResponseFormatError, error_class
+from robodyn.errors import APIError, ResponseFormatError, RobodynWarning, error_class
 from robodyn.progress import Chunks
 
 T = TypeVar("T")
@@ -145,6 +146,9 @@ class Receiver:
         return self.content
 
 
+WARNING_HEADER = "robodyn-warning"  # what the server computed as given but finds doubtful
+
+
 def read_response(call: Call[T], response: httpx.Response, received: bytearray | None = None) -> T:
     """The result of `call` from its answer; an `APIError` subclass for an error status.
     `received` is the body already read into a buffer (see `binary_length`), if it was."""
@@ -153,6 +157,9 @@ def read_response(call: Call[T], response: httpx.Response, received: bytearray |
         return call.read(status, None)
     if not 200 <= status <= 299:
         raise api_error(response)
+    warning = response.headers.get(WARNING_HEADER)
+    if warning:
+        warnings.warn(f"{call.method} {call.path}: {warning}", RobodynWarning, stacklevel=4)
     body: Any = None
     if received is not None or response.content:
         is_binary = response.headers.get("content-type", "").startswith(binary.MEDIA_TYPE)

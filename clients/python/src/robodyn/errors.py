@@ -52,6 +52,12 @@ class RobodynError(Exception):
     """Base of every exception raised by the robodyn client."""
 
 
+class RobodynWarning(UserWarning):
+    """The server computed the request as given, but its `Robodyn-Warning` answer header says
+    an input looks like a mistake (an angle many turns outside its joint's range: degrees sent
+    as radians). Turn it into an error with `warnings.simplefilter("error", RobodynWarning)`."""
+
+
 class InputError(RobodynError, ValueError):
     """An argument was rejected before anything was sent (not numeric, not finite, bad shape)."""
 

@@ -6,6 +6,7 @@ import json
 import re
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from fastapi.testclient import TestClient
 
@@ -416,3 +417,24 @@ def test_other_framework_4xx_are_bad_requests(api):
     r = asyncio.run(_on_http_error(request, HTTPException(status_code=429, detail="slow down")))
     # a framework 4xx without a code of its own is a 400 bad_request, never a 500
     assert r.status_code == 400 and json.loads(r.body)["code"] == "bad_request"
+
+
+def test_an_angle_far_outside_its_range_is_computed_with_a_warning(api, catalog_registry):
+    """An elbow at 90 "rad" (degrees sent as radians): answered as given (it may be a state a
+    simulation reached), with a `Robodyn-Warning` header naming the joint, its range and the
+    angle in degrees; in a batch, the state. Within a turn of the range: no header."""
+    q = [0.0, -1.2, 90.0, 0.0, 0.0, 0.0]
+    r = api.post("/v1/robots/ur5/gravity", json={"q": q})
+    assert r.status_code == 200
+    model = catalog_registry.catalog["ur5"].model
+    np.testing.assert_allclose(
+        r.json()["gravity"], pin.computeGeneralizedGravity(model, model.createData(), np.array(q))
+    )
+    assert r.headers["robodyn-warning"] == (
+        "q[2] = 90 rad, the angle of revolute joint 'elbow_joint', is 13.8 turns outside its "
+        "range [-3.14159, 3.14159] rad; angles are in radians (90 degrees would be 1.5708 rad)"
+    )
+    batch = api.post("/v1/robots/ur5/gravity", json={"q": [[0.0] * 6, q]})
+    assert batch.headers["robodyn-warning"].startswith("state 1: q[2] = 90 rad")
+    near = api.post("/v1/robots/ur5/gravity", json={"q": [0.0, -1.2, 3.14 + 6.2, 0.0, 0.0, 0.0]})
+    assert near.status_code == 200 and "robodyn-warning" not in near.headers

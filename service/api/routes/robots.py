@@ -196,7 +196,8 @@ async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep
         422: {
             "model": Problem,
             "description": "validation_error (a bad payload, "
-            "named by its index; an unknown joint; no modification), "
+            "named by its index; an unknown joint; no modification; a parent 32 variants "
+            "deep, MAX_VARIANT_DEPTH), "
             "unknown_frame, invalid_configuration, invalid_model",
         },
     },

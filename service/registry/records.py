@@ -10,13 +10,19 @@ Two kinds of record:
   `gravity` (3 numbers, m/s², or null for an MJCF's own), `name`, `warnings`, `summary`, and
   where the upload has them `assets` (key → SHA-256), `xacro_args`, `expanded_urdf` (what
   rebuilds a xacro: the server never expands one outside a builder process), `visuals`;
-- a reduced model (`format` "reduced"): `base` (what rebuilds the base: a catalog name, or an
-  upload's id with its record embedded), `locked_joints` (joint name → positions), `name`,
-  `warnings`, `summary`;
-- a variant carrying payloads (`format` "variant"): `base` as above, `payloads` (at least one:
-  `frame`, `mass`, `center_of_mass`, `inertia`, checked when stored), `locked_joints` (may be
-  empty), `name`, `warnings`, `summary`.
-Reduced models and variants also keep `locked_request` and `modifications` (as requested).
+- a variant (`format` "reduced" for locked joints alone, else "variant"): its own
+  modifications, `payloads` (at least one for "variant": `frame`, `mass`, `center_of_mass`,
+  `inertia`, checked when stored), `locked_joints` (joint name → positions; required for
+  "reduced"), identified `inertial_parameters` and `friction`, then `name`, `warnings`,
+  `summary`, and its lineage, flat: `base`, the root it derives from (a catalog robot by name,
+  or an upload by id with the members of its description record that rebuild it), and
+  `steps`, the variants between that root and the variant's parent, root first, each with its
+  `id` and its own modifications (`Step`). The parent is the last step (the root without
+  steps). A variant also keeps `locked_request` and `modifications` (as requested).
+
+Records written in the nested form (a variant's `base.record` holding its parent's whole
+record, itself nesting its parent's, down to the root) are flattened on read (`flat`) before
+they are checked, so checking a record costs time linear in its size whatever its depth.
 """
 
 from __future__ import annotations
@@ -24,6 +30,19 @@ from __future__ import annotations
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+VARIANT_FORMATS = ("reduced", "variant")
+STEP_KEYS = (
+    "format",
+    "name",
+    "warnings",
+    "locked_joints",
+    "payloads",
+    "inertial_parameters",
+    "friction",
+    "modifications",
+)
+"""The members of a variant's record that its `Step` in a descendant's lineage keeps."""
 
 
 class _Member(BaseModel):
@@ -41,15 +60,12 @@ class Summary(_Member):
     root_joint: str
 
 
-class _Embedded(_Member):
-    """What rebuilds a model (a record embedded in a reduced model's `base`)."""
+class EmbeddedDescription(_Member):
+    """What rebuilds an uploaded description (the root of a variant's lineage)."""
 
     format: str
     name: str | None = None
     warnings: list[dict[str, Any]] = []
-
-
-class EmbeddedDescription(_Embedded):
     description: str
     root_joint: str
     # None: an MJCF's own <option gravity>
@@ -58,12 +74,6 @@ class EmbeddedDescription(_Embedded):
     xacro_args: dict[str, str] | None = None
     expanded_urdf: str | None = None  # a xacro's expansion: what rebuilds it
     visuals: list[dict[str, Any]] | None = None  # an MJCF's visuals (from MuJoCo)
-
-
-class EmbeddedReduced(_Embedded):
-    format: Literal["reduced"]
-    base: BaseSpec
-    locked_joints: dict[str, list[float]]
 
 
 class StoredPayload(_Member):
@@ -84,9 +94,11 @@ class StoredFriction(_Member):
     offset: float
 
 
-class EmbeddedVariant(_Embedded):
-    format: Literal["variant"]
-    base: BaseSpec
+class _Modifications(_Member):
+    """A variant's own modifications (`service.registry.variants`)."""
+
+    name: str | None = None
+    warnings: list[dict[str, Any]] = []
     payloads: list[StoredPayload] = []
     locked_joints: dict[str, list[float]] = {}
     # identified values (service.registry.variants.Fitted)
@@ -94,16 +106,19 @@ class EmbeddedVariant(_Embedded):
     friction: list[StoredFriction] | None = None
 
 
+class Step(_Modifications):
+    """One variant of a lineage: its id and its own modifications."""
+
+    id: str
+    format: Literal["reduced", "variant"]
+
+
 class BaseSpec(_Member):
-    """The base of a reduced model: a catalog robot by name, or an upload with its record."""
+    """The root of a lineage: a catalog robot by name, or an upload with its record."""
 
     source: Literal["catalog", "upload"]
     id: str
-    record: EmbeddedReduced | EmbeddedVariant | EmbeddedDescription | None = None
-
-
-EmbeddedReduced.model_rebuild()
-EmbeddedVariant.model_rebuild()
+    record: EmbeddedDescription | None = None
 
 
 class DescriptionRecord(EmbeddedDescription):
@@ -112,28 +127,53 @@ class DescriptionRecord(EmbeddedDescription):
     summary: Summary
 
 
-class ReducedRecord(EmbeddedReduced):
+class _LineageRecord(_Modifications):
     id: str
     name: str
     summary: Summary
+    base: BaseSpec
+    steps: list[Step] = []
 
 
-class VariantRecord(EmbeddedVariant):
-    id: str
-    name: str
-    summary: Summary
+class VariantRecord(_LineageRecord):
+    format: Literal["variant"]
+
+
+class ReducedRecord(_LineageRecord):
+    format: Literal["reduced"]
+    locked_joints: dict[str, list[float]]
 
 
 _KINDS: dict[str, type[_Member]] = {"reduced": ReducedRecord, "variant": VariantRecord}
 
 
+def flat(record: dict[str, Any]) -> dict[str, Any]:
+    """A variant's record in the flat form: `record` itself if it has `steps` or is not a
+    variant; else its nested `base` (each level's `record` holding the parent's record) walked
+    down to the root, one `Step` per variant met (without reading anything twice). Whatever
+    is not the expected shape is left where it is found, for `check_record` to name."""
+    if record.get("format") not in VARIANT_FORMATS or "steps" in record:
+        return record
+    steps: list[dict[str, Any]] = []
+    spec = record.get("base")
+    while isinstance(spec, dict):
+        parent = spec.get("record")
+        if not isinstance(parent, dict) or parent.get("format") not in VARIANT_FORMATS:
+            break
+        steps.append({"id": spec.get("id"), **{k: parent[k] for k in STEP_KEYS if k in parent}})
+        spec = parent.get("base")
+    steps.reverse()
+    return {**record, "base": spec, "steps": steps}
+
+
 def check_record(record: Any, model_id: str) -> dict[str, Any]:
-    """`record` itself if it is a complete record of model `model_id`; otherwise ValueError
-    with a one-line reason (the first problem found)."""
+    """`record` (a variant's in the flat form) if it is a complete record of model
+    `model_id`; otherwise ValueError with a one-line reason (the first problem found)."""
     if not isinstance(record, dict):
         raise ValueError("the record is not a JSON object")
     if record.get("id") != model_id:
         raise ValueError("the record does not match its file name")
+    record = flat(record)
     kind = _KINDS.get(str(record.get("format")), DescriptionRecord)
     try:
         kind.model_validate(record)

@@ -1,11 +1,16 @@
 """The registry: catalog robots and uploaded models, looked up by id.
 
-Catalog robots are loaded once at start-up. Uploaded models (URDF, MJCF, and variants of any
-robot: payloads and/or locked joints, `service.registry.variants`) live in the durable store;
-any process that shares the data directory (a second worker or replica) finds and rebuilds them
-on first use, and a deletion anywhere is seen everywhere on the next lookup. A variant's record
-embeds what rebuilds its parent (the parent's own record, or its catalog name), so it survives
-the deletion of its parent.
+Catalog robots are loaded once at start-up; then the registry is ready. Uploaded models
+(URDF, MJCF, and variants of any robot: payloads and/or locked joints,
+`service.registry.variants`) live in the durable store, and every process that shares the data
+directory (this one after a restart, a second worker or replica) builds each from its record
+on first use: start-up reads no record, and a model never asked for is never built. A deletion
+anywhere is seen everywhere on the next lookup. A variant's record holds its lineage, flat
+(`service.registry.lineage`: the root's record or catalog name, and each variant between), so
+it survives the deletion of its parent and rebuilds in time linear in its depth.
+
+The robot list is served in pages (`service.registry.robot_pages`) from the summaries of the
+stored records, each read once (records never change under their id).
 """
 
 from __future__ import annotations
@@ -23,12 +28,14 @@ from service.registry.build import build_model, check_moves, reference_configura
 from service.registry.build_process import build_upload
 from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.catalog import load_catalog
+from service.registry.lineage import Lineage, child_lineage
 from service.registry.payloads import PlacedPayload
+from service.registry.records import VARIANT_FORMATS
 from service.registry.reduce import LockedValue, as_lists, locked_configuration
 from service.registry.robot import Robot
+from service.registry.robot_pages import MAX_PAGE, Page, page
 from service.registry.store import ModelStore, content_id
 from service.registry.upload_formats import (
-    REBUILD_KEYS,
     after_build,
     check_findings,
     mesh_paths,
@@ -74,8 +81,10 @@ class Registry:
         self.build_slots = build_slots or BuildSlots(build_slot_count(0), build_timeout_s)
         self.catalog: dict[str, Robot] = {}
         self.catalog_failures: dict[str, str] = {}
-        self.uploads: dict[str, Robot] = {}
-        self._bases: dict[str, Robot] = {}  # catalog robots not served here, bases of reductions
+        self.uploads: dict[str, Robot] = {}  # stored models built here, by id
+        # ancestors built to rebuild a variant: catalog robots not served here, the root and
+        # the steps of lineages (`_lineage_parent`)
+        self._bases: dict[str, Robot] = {}
         self.ready = False
         self._lock = threading.Lock()
         self._summaries: dict[str, dict[str, Any]] = {}  # stored id → summary (read once)
@@ -86,23 +95,19 @@ class Registry:
     # -- start-up -------------------------------------------------------------------------
 
     def load(self) -> None:
-        """Load the catalog and every stored upload; then the registry is ready."""
+        """Load the catalog; then the registry is ready. Stored models are built on first use
+        (`get`), so start-up takes the same time whatever the store holds."""
         started = time.perf_counter()
         self.catalog, self.catalog_failures = load_catalog(self.catalog_names)
-        # uploads first, then variants ("r-", "v-" ids), which may derive from them
-        for model_id in sorted(self.store.ids(), key=lambda i: i.startswith(("r-", "v-"))):
-            try:
-                self._load_stored(model_id)
-            except Exception as exc:  # a bad record must not stop the service
-                log.error("stored model %s not loaded: %s", model_id, exc)
         self.ready = True
         log.info(
-            "registry ready: %d catalog robots, %d uploads in %.2f s (%d not loaded: %s)",
+            "registry ready: %d catalog robots in %.2f s (%d not loaded: %s); %d stored models, "
+            "each built on first use",
             len(self.catalog),
-            len(self.uploads),
             time.perf_counter() - started,
             len(self.catalog_failures),
             ", ".join(sorted(self.catalog_failures)) or "-",
+            len(self.store.ids()),
         )
 
     def _load_stored(self, model_id: str) -> Robot | None:
@@ -115,25 +120,12 @@ class Registry:
         return robot
 
     def _robot_from_record(self, model_id: str, record: Mapping[str, Any]) -> Robot:
-        """Rebuild a stored model in process (its description was validated when uploaded)."""
+        """Rebuild a stored model in process (its description was validated when uploaded; a
+        variant's `record` is in the flat form `ModelStore.read` gives)."""
         fmt = record.get("format", "urdf")
-        if fmt in ("reduced", "variant"):
-            base = self._base_robot(record["base"])
-            locked = {k: [float(x) for x in v] for k, v in record["locked_joints"].items()}
-            payloads = [PlacedPayload.from_dict(p) for p in record.get("payloads", [])]
-            fitted = Fitted.from_dict(record)
-            changes = record.get("modifications") or modifications(
-                payloads, record.get("locked_request", locked), fitted
-            )
-            return variant_robot(
-                base,
-                payloads,
-                locked,
-                robot_id=model_id,
-                name=record.get("name", model_id),
-                changes=changes,
-                fitted=fitted,
-            )
+        if fmt in VARIANT_FORMATS:
+            parent = self._lineage_parent(record["base"], record["steps"])
+            return _variant_of(parent, model_id, record)
         fmt, text, assets = rebuild_inputs(record, self.assets)
         model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
         check_moves(model)  # a record stored before nv = 0 was refused is not served
@@ -150,9 +142,24 @@ class Registry:
             mujoco_qpos=fmt == "mjcf",
         )
 
+    def _lineage_parent(self, base: Mapping[str, Any], steps: Sequence[Mapping[str, Any]]) -> Robot:
+        """The parent of a variant whose lineage is (base, steps): from the deepest of its
+        ancestors built here already, each step after it built once (and kept)."""
+        start, robot = len(steps), None
+        while start > 0 and robot is None:
+            start -= 1
+            robot = self.uploads.get(steps[start]["id"]) or self._bases.get(steps[start]["id"])
+        if robot is None:
+            start, robot = -1, self._base_robot(base)
+        for step in steps[start + 1 :]:
+            robot = _variant_of(robot, step["id"], step)
+            with self._lock:
+                self._bases[step["id"]] = robot
+        return robot
+
     def _base_robot(self, spec: Mapping[str, Any]) -> Robot:
-        """The base of a reduced model: a catalog robot (loaded here if this server does not
-        serve it) or an upload (served here, or rebuilt from the record embedded in `spec`)."""
+        """The root of a lineage: a catalog robot (loaded here if this server does not serve
+        it) or an upload (served here, or rebuilt from the record in `spec`)."""
         base_id = spec["id"]
         robot = (
             self.catalog.get(base_id) if spec["source"] == "catalog" else self.uploads.get(base_id)
@@ -204,28 +211,40 @@ class Registry:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
         return robot
 
-    def summaries(self) -> list[dict[str, Any]]:
-        """Every served robot's summary: catalog first, then stored models by id. Blocking
-        (it lists the store's directory): call it off the event loop."""
+    def robot_page(self, limit: int, cursor: str | None = None) -> Page:
+        """A page of the robot list (`robot_pages.page`): catalog first, then stored models by
+        id. Blocking (it lists the store's directory and reads the records of the page not
+        read yet): call it off the event loop."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
-        out = [r.summary() for r in self.catalog.values()]
+        catalog = [r.summary() for r in self.catalog.values()]
         ids = self.store.ids()
         with self._summaries_lock:
-            for model_id in ids:
-                # Records never change under their id (it is derived from their content), so
-                # each is read once; the listing still sees other replicas' uploads and
-                # deletions.
-                summary = self._summaries.get(model_id)
-                if summary is None:
-                    record = self.store.read(model_id)
-                    if record is None:
-                        continue
-                    summary = self._summaries[model_id] = record["summary"]
-                out.append(summary)
             for gone in set(self._summaries).difference(ids):
                 del self._summaries[gone]
-        return out
+            return page(catalog, ids, self._summary, limit, cursor)
+
+    def summaries(self) -> list[dict[str, Any]]:
+        """Every served robot's summary, in the order of the list's pages. Blocking."""
+        out, cursor = [], None
+        while True:
+            listed = self.robot_page(MAX_PAGE, cursor)
+            out += listed.robots
+            if listed.next_cursor is None:
+                return out
+            cursor = listed.next_cursor
+
+    def _summary(self, model_id: str) -> dict[str, Any] | None:
+        """A stored model's summary, None for an unreadable record. Records never change
+        under their id (it is derived from their content), so each is read once; the listing
+        still sees other replicas' uploads and deletions. Under `_summaries_lock`."""
+        summary = self._summaries.get(model_id)
+        if summary is None:
+            record = self.store.read(model_id)
+            if record is None:
+                return None
+            summary = self._summaries[model_id] = record["summary"]
+        return summary
 
     # -- uploads and deletions ------------------------------------------------------------
 
@@ -301,12 +320,8 @@ class Registry:
         with self.assets.storing():  # the files are named by a record before any sweep
             self.assets.put(files)
             if request is not None:
-                spec = {
-                    "source": "upload",
-                    "id": model_id,
-                    "record": {**record, "name": robot.name, "warnings": warnings},
-                }
-                return self._store_variant(robot, spec, (), request, name), True
+                lineage = child_lineage(model_id, record, robot.name, warnings)
+                return self._store_variant(robot, lineage, (), request, name), True
             record.update(
                 id=model_id,
                 name=robot.name,
@@ -355,39 +370,18 @@ class Registry:
             return self.get(target), False
         # the base's assets stay named from reading its record until the variant's is written
         with self.assets.storing():
-            if base.source == "catalog":
-                spec: dict[str, Any] = {"source": "catalog", "id": base.id}
-            else:
+            record = None
+            if base.source != "catalog":
                 record = self.store.read(base.id)
                 if record is None:
                     raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
-                keys = (
-                    (
-                        "format",
-                        "base",
-                        "locked_joints",
-                        "payloads",
-                        "inertial_parameters",
-                        "friction",
-                    )
-                    if record.get("format") in ("reduced", "variant")
-                    else REBUILD_KEYS
-                )
-                spec = {
-                    "source": "upload",
-                    "id": base.id,
-                    "record": {
-                        **{k: record[k] for k in keys if k in record},
-                        "name": base.name,
-                        "warnings": base.warnings,
-                    },
-                }
-            return self._store_variant(base, spec, payloads, request, name, fitted), True
+            lineage = child_lineage(base.id, record, base.name, base.warnings)
+            return self._store_variant(base, lineage, payloads, request, name, fitted), True
 
     def _store_variant(
         self,
         base: Robot,
-        spec: dict[str, Any],
+        lineage: Lineage,
         payloads: Sequence[PlacedPayload],
         request: dict[str, list[float]],
         name: str | None,
@@ -395,7 +389,7 @@ class Registry:
     ) -> Robot:
         fitted = fitted or NOTHING_FITTED
         locked = locked_configuration(base, request) if request else {}
-        model_id = variant_id(spec["id"], payloads, request, fitted)
+        model_id = variant_id(base.id, payloads, request, fitted)
         changes = modifications(payloads, request, fitted)
         kind = "variant" if payloads or fitted else "reduced"
         robot = variant_robot(
@@ -409,7 +403,8 @@ class Registry:
         )
         record: dict[str, Any] = {
             "format": kind,
-            "base": spec,
+            "base": lineage[0],
+            "steps": lineage[1],
             "locked_joints": locked,
             "locked_request": request,
             "modifications": changes,
@@ -459,11 +454,31 @@ class Registry:
 
 
 def _asset_shas(record: Mapping[str, Any]) -> Iterator[str]:
-    """The SHA-256 of the asset files a record (or the base record it embeds) names."""
+    """The SHA-256 of the asset files a record (or its lineage's root, for a variant) names."""
     yield from (record.get("assets") or {}).values()
     base = record.get("base")
     if isinstance(base, Mapping) and isinstance(base.get("record"), Mapping):
-        yield from _asset_shas(base["record"])
+        yield from (base["record"].get("assets") or {}).values()
+
+
+def _variant_of(parent: Robot, model_id: str, record: Mapping[str, Any]) -> Robot:
+    """The variant `model_id` of `parent` with the modifications of `record` (a variant's
+    record, or a `Step` of a lineage)."""
+    locked = {k: [float(x) for x in v] for k, v in record.get("locked_joints", {}).items()}
+    payloads = [PlacedPayload.from_dict(p) for p in record.get("payloads", [])]
+    fitted = Fitted.from_dict(record)
+    changes = record.get("modifications") or modifications(
+        payloads, record.get("locked_request", locked), fitted
+    )
+    return variant_robot(
+        parent,
+        payloads,
+        locked,
+        robot_id=model_id,
+        name=record.get("name") or model_id,
+        changes=changes,
+        fitted=fitted,
+    )
 
 
 def _shown(robot_id: str) -> str:

@@ -1,8 +1,8 @@
 """The durable, content-addressed store of uploaded models.
 
 One JSON record per model at `<data_dir>/models/<id>.json` holding what is needed to rebuild it
-(the description text and the upload options; for a reduced model its base's record or catalog
-name and the locked joints) plus its summary. Writes are atomic: write a temporary file, fsync,
+(the description text and the upload options; for a variant its modifications and its lineage,
+`service.registry.lineage`) plus its summary. Writes are atomic: write a temporary file, fsync,
 rename over the final name, fsync the directory. A record is therefore either absent or
 complete; an unreadable one, or one that is valid JSON but incomplete (checked against the
 schema of `service.registry.records`), is skipped with one log line. Temporary files left by

@@ -12,8 +12,9 @@ A variant is its parent with, in this order,
 Its id is derived from the parent's id and the canonical modifications (payloads in canonical
 order, numbers as float64), so the same variant gets the same id on every replica and a second
 request for it finds the stored one. A variant with locked joints alone is a reduced model and
-keeps the id it had as one (`reduced_id`, "r-..."); with payloads it is "v-...". Its record embeds
-what rebuilds the parent (`Registry`), so deleting the parent leaves the variant working.
+keeps the id it had as one (`reduced_id`, "r-..."); with payloads it is "v-...". Its record holds
+its lineage (`service.registry.lineage`: the root and each variant between), so deleting the
+parent leaves the variant working.
 """
 
 from __future__ import annotations

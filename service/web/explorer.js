@@ -3,7 +3,7 @@
 // also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
 import { EquationsView } from "./equations_view.js";
 import { IdentificationView } from "./view_identification.js";
-import { api, Problem, robotPath } from "./http.js";
+import { allRobots, api, Problem, robotPath } from "./http.js";
 import { finite, jointCoordinates } from "./joint_coordinates.js";
 import { fmt, renderHeatmap, renderNumbers } from "./mass_matrix_view.js";
 import { PayloadPanel } from "./payload_panel.js";
@@ -266,7 +266,7 @@ function hashRobot() {
 async function refreshRobots() {
   const select = el("robot");
   const current = select.value;
-  const { robots } = await api("v1/robots");
+  const robots = await allRobots();
   fillRobotList(robots);
   if (robots.some((r) => r.id === current)) select.value = current;
   return robots.map((r) => r.id);
@@ -318,7 +318,7 @@ function fillRobotList(robots) {
 }
 
 async function loadRobots(chosen) {
-  const { robots } = await api("v1/robots");
+  const robots = await allRobots();
   fillRobotList(robots);
   const select = el("robot");
   const ids = robots.map((r) => r.id);

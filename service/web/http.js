@@ -31,6 +31,20 @@ async function jsonOf(res) {
   return json;
 }
 
+// Every robot the service serves: the pages of GET v1/robots, following `next_cursor` until
+// it is null (the catalog first, then stored models by id).
+export async function allRobots() {
+  const robots = [];
+  let cursor = null;
+  do {
+    const after = cursor ? `&cursor=${encodeURIComponent(cursor)}` : "";
+    const page = await api(`v1/robots?limit=1000${after}`);
+    robots.push(...page.robots);
+    cursor = page.next_cursor;
+  } while (cursor);
+  return robots;
+}
+
 export const robotPath = (id, quantity) =>
   `v1/robots/${encodeURIComponent(id)}${quantity ? "/" + quantity : ""}`;
 

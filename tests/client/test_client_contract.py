@@ -106,6 +106,7 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "health": (),
     "ready": (),
     "robots": (),
+    "robot_page": (),
     "robot": ("r",),
     "upload": ("<robot/>",),
     "delete": ("r",),

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Request, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
 from starlette.concurrency import run_in_threadpool
 
 from service.api.deps import RegistryDep, require_api_key
@@ -21,6 +21,7 @@ from service.api.upload_body import (
 )
 from service.dynamics.body_inertias import body_inertias
 from service.dynamics.payloads import check_payloads
+from service.registry.robot_pages import DEFAULT_PAGE, MAX_PAGE
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 
@@ -30,10 +31,41 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 }
 
 
-@router.get("", response_model=RobotList, summary="List catalog robots and uploaded models")
-async def list_robots(registry: RegistryDep) -> Response:
-    summaries = await run_in_threadpool(registry.summaries)  # reads the store's directory
-    return JSONAnswer({"robots": summaries, "unavailable": registry.catalog_failures})
+@router.get(
+    "",
+    response_model=RobotList,
+    responses={422: {"model": Problem, "description": "validation_error (limit, cursor)"}},
+    summary="List catalog robots and uploaded models, a page at a time",
+)
+async def list_robots(
+    registry: RegistryDep,
+    limit: Annotated[
+        int,
+        Query(
+            ge=1,
+            le=MAX_PAGE,
+            description=f"The most robots on the page: 1 to {MAX_PAGE}, {DEFAULT_PAGE} by "
+            "default (enough for the whole catalog on the first page).",
+        ),
+    ] = DEFAULT_PAGE,
+    cursor: Annotated[
+        str | None,
+        Query(
+            max_length=200,
+            description="The `next_cursor` of the previous page; leave it out for the first.",
+        ),
+    ] = None,
+) -> Response:
+    """The robots this server serves, a page at a time: the catalog first, then stored
+    models by id; follow `next_cursor` until it is null for the whole list."""
+    listed = await run_in_threadpool(registry.robot_page, limit, cursor)  # reads the store
+    return JSONAnswer(
+        {
+            "robots": listed.robots,
+            "unavailable": registry.catalog_failures,
+            "next_cursor": listed.next_cursor,
+        }
+    )
 
 
 @router.get(
@@ -164,7 +196,8 @@ async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep
         422: {
             "model": Problem,
             "description": "validation_error (a bad payload, "
-            "named by its index; an unknown joint; no modification), "
+            "named by its index; an unknown joint; no modification; a parent 32 variants "
+            "deep, MAX_VARIANT_DEPTH), "
             "unknown_frame, invalid_configuration, invalid_model",
         },
     },

@@ -169,9 +169,18 @@ class RobotSummary(BaseModel):
 
 
 class RobotList(BaseModel):
-    robots: list[RobotSummary]
+    robots: list[RobotSummary] = Field(
+        description="A page of the list: the catalog's robots in catalog order, then the "
+        "stored models (uploads and variants) by id. The first page with the default `limit` "
+        "holds every catalog robot."
+    )
     unavailable: dict[str, str] = Field(
         description="Catalog robots this server could not load, with the reason."
+    )
+    next_cursor: str | None = Field(
+        None,
+        description="Where the next page starts: pass it as `cursor` (unchanged; it is "
+        "opaque). null on the last page.",
     )
 
 

@@ -170,12 +170,15 @@ class RobotSummary:
 
 @dataclass(frozen=True)
 class RobotList(Sequence[RobotSummary]):
-    """The answer of `robots()`: a sequence of `RobotSummary`, plus `unavailable`, the catalog
-    robots the server could not load (id → reason). `"ur5" in robots` tests an id."""
+    """The answer of `robots()` (every robot) and `robot_page()` (one page of the list): a
+    sequence of `RobotSummary`, plus `unavailable`, the catalog robots the server could not
+    load (id → reason), and `next_cursor`, where the next page starts (None after the last
+    page, and for `robots()`). `"ur5" in robots` tests an id."""
 
     robots: tuple[RobotSummary, ...]
     unavailable: Mapping[str, str]
     raw: Mapping[str, Any] = field(repr=False, compare=False)
+    next_cursor: str | None = None
 
     @property
     def ids(self) -> list[str]:
@@ -199,7 +202,16 @@ class RobotList(Sequence[RobotSummary]):
             robots=tuple(RobotSummary.from_json(r) for r in data["robots"]),
             unavailable=_frozen(data.get("unavailable") or {}),
             raw=_frozen(data),
+            next_cursor=data.get("next_cursor"),
         )
+
+    @classmethod
+    def joined(cls, pages: Sequence[RobotList]) -> RobotList:
+        """The whole list from its pages, in order (`unavailable` from the last page)."""
+        robots = tuple(r for p in pages for r in p.robots)
+        unavailable = pages[-1].unavailable
+        raw = {"robots": [r.raw for r in robots], "unavailable": unavailable, "next_cursor": None}
+        return cls(robots=robots, unavailable=unavailable, raw=_frozen(raw))
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,7 +5,9 @@ form. (The clients' docstrings describe them.)"""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
+from urllib.parse import urlencode
 
 import numpy as np
 
@@ -31,8 +33,21 @@ def ready() -> Call[bool]:
     )
 
 
-def robots() -> Call[RobotList]:
-    return route_call("GET", "/v1/robots", lambda status, body: RobotList.from_json(body))
+def robots(*, page_size: int | None = None) -> Call[RobotList]:
+    # the first page: the client method follows `next_cursor` with `robot_page`
+    return robot_page(page_size)
+
+
+def robot_page(limit: int | None = None, cursor: str | None = None) -> Call[RobotList]:
+    # the largest limit is the server's (1000): a larger one is its 422
+    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
+        raise InputError(f"limit is {limit!r}; give a whole number of robots, at least 1")
+    if cursor is not None and not isinstance(cursor, str):
+        raise TypeError(f"cursor must be a str (a page's next_cursor), not {type(cursor).__name__}")
+    query = {k: v for k, v in (("limit", limit), ("cursor", cursor)) if v is not None}
+    path = "/v1/robots" + (f"?{urlencode(query)}" if query else "")
+    call = route_call("GET", "/v1/robots", lambda status, body: RobotList.from_json(body))
+    return replace(call, path=path)
 
 
 def robot(robot_id: str) -> Call[RobotInfo]:

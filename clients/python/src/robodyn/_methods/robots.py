@@ -29,11 +29,23 @@ class RobotMethods(SyncSender):
         """Readiness: True once the server has loaded its catalog and can compute, False before."""
         return self._send(calls.ready())
 
-    def robots(self) -> RobotList:
+    def robots(self, *, page_size: int | None = None) -> RobotList:
         """Every robot the server serves, catalog and uploads: a `RobotList` of `RobotSummary`
-        (with `unavailable`: catalog robots the server could not load, and why).
+        (with `unavailable`: catalog robots the server could not load, and why), gathered by
+        following the list's pages (`page_size` robots each, the server's default if None).
         """
-        return self._send(calls.robots())
+        pages = [self._send(calls.robots(page_size=page_size))]
+        while pages[-1].next_cursor is not None:
+            pages.append(self._send(calls.robot_page(page_size, pages[-1].next_cursor)))
+        return RobotList.joined(pages)
+
+    def robot_page(self, limit: int | None = None, cursor: str | None = None) -> RobotList:
+        """One page of the robot list: at most `limit` robots (the server's default if None,
+        at most 1000) from `cursor` (None: the first page; else the `next_cursor` of the page
+        before), and the page's `next_cursor` (None on the last page). The catalog comes
+        first, then the stored models by id.
+        """
+        return self._send(calls.robot_page(limit, cursor))
 
     def robot(self, robot_id: str) -> RobotInfo:
         """The `RobotInfo` of one robot: sizes nq and nv, joint layout and limits, frames, gravity,
@@ -173,11 +185,23 @@ class AsyncRobotMethods(AsyncSender):
         """Readiness: True once the server has loaded its catalog and can compute, False before."""
         return await self._send(calls.ready())
 
-    async def robots(self) -> RobotList:
+    async def robots(self, *, page_size: int | None = None) -> RobotList:
         """Every robot the server serves, catalog and uploads: a `RobotList` of `RobotSummary`
-        (with `unavailable`: catalog robots the server could not load, and why).
+        (with `unavailable`: catalog robots the server could not load, and why), gathered by
+        following the list's pages (`page_size` robots each, the server's default if None).
         """
-        return await self._send(calls.robots())
+        pages = [await self._send(calls.robots(page_size=page_size))]
+        while pages[-1].next_cursor is not None:
+            pages.append(await self._send(calls.robot_page(page_size, pages[-1].next_cursor)))
+        return RobotList.joined(pages)
+
+    async def robot_page(self, limit: int | None = None, cursor: str | None = None) -> RobotList:
+        """One page of the robot list: at most `limit` robots (the server's default if None,
+        at most 1000) from `cursor` (None: the first page; else the `next_cursor` of the page
+        before), and the page's `next_cursor` (None on the last page). The catalog comes
+        first, then the stored models by id.
+        """
+        return await self._send(calls.robot_page(limit, cursor))
 
     async def robot(self, robot_id: str) -> RobotInfo:
         """The `RobotInfo` of one robot: sizes nq and nv, joint layout and limits, frames, gravity,

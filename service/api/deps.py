@@ -16,10 +16,11 @@ import hmac
 from typing import Annotated
 
 from fastapi import Depends
+from starlette.concurrency import run_in_threadpool
 from starlette.requests import HTTPConnection
 
 from service.errors import Unauthorized
-from service.registry import Registry
+from service.registry import Registry, Robot
 from service.settings import Settings
 
 # Dependencies are coroutines: FastAPI runs a plain `def` dependency in the thread pool, a hop
@@ -28,6 +29,15 @@ from service.settings import Settings
 
 async def get_registry(request: HTTPConnection) -> Registry:
     return request.app.state.registry  # type: ignore[no-any-return]
+
+
+async def served_robot(registry: Registry, robot_id: str) -> Robot:
+    """`registry.get(robot_id)`, in a worker thread when it would build a stored model from
+    its record (the first request for it since start-up): the event loop never waits for a
+    model to be built."""
+    if registry.built(robot_id):
+        return registry.get(robot_id)
+    return await run_in_threadpool(registry.get, robot_id)
 
 
 def _check_key(connection: HTTPConnection, what: str) -> None:

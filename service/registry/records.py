@@ -173,13 +173,13 @@ def check_record(record: Any, model_id: str) -> dict[str, Any]:
         raise ValueError("the record is not a JSON object")
     if record.get("id") != model_id:
         raise ValueError("the record does not match its file name")
-    record = flat(record)
-    kind = _KINDS.get(str(record.get("format")), DescriptionRecord)
+    checked: dict[str, Any] = flat(record)
+    kind = _KINDS.get(str(checked.get("format")), DescriptionRecord)
     try:
-        kind.model_validate(record)
+        kind.model_validate(checked)
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first["loc"]) or "record"
         more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
         raise ValueError(f"incomplete record: {where}: {first['msg']}{more}") from None
-    return record
+    return checked

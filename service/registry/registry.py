@@ -211,6 +211,17 @@ class Registry:
                 raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
         return robot
 
+    def built(self, robot_id: str) -> bool:
+        """Whether `get(robot_id)` answers without building a model (a catalog robot, a stored
+        model already built, or an id it refuses at once): when False, `get` may build a
+        stored model from its record, which takes milliseconds to seconds."""
+        return (
+            not self.ready
+            or robot_id in self.catalog
+            or robot_id in self.uploads
+            or robot_id in self.catalog_failures
+        )
+
     def robot_page(self, limit: int, cursor: str | None = None) -> Page:
         """A page of the robot list (`robot_pages.page`): catalog first, then stored models by
         id. Blocking (it lists the store's directory and reads the records of the page not

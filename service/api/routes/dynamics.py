@@ -24,7 +24,7 @@ from starlette.routing import Route
 from service import dynamics
 from service.api import inputs
 from service.api.cancellation import cancellable
-from service.api.deps import check_api_key_for_all
+from service.api.deps import check_api_key_for_all, served_robot
 from service.api.encoding import binary
 from service.api.encoding.accept import prefers
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
@@ -339,7 +339,7 @@ class Endpoint:
         `json_only`) as (content, media type), content in pieces for a large JSON answer;
         domain errors and validation errors are raised for the app's exception handlers."""
         check_api_key_for_all(request)
-        robot = request.app.state.registry.get(request.path_params["robot_id"])
+        robot = await served_robot(request.app.state.registry, request.path_params["robot_id"])
         content_type, accept = _media_types(request.scope["headers"])
         if content_type.startswith(binary.BINARY_MEDIA_TYPE):
             arrays, options = self.parse_binary(*binary.decode(body))

@@ -11,7 +11,7 @@ from __future__ import annotations
 from fastapi import APIRouter, Request, Response
 from starlette.concurrency import run_in_threadpool
 
-from service.api.deps import RegistryDep
+from service.api.deps import RegistryDep, served_robot
 from service.api.schemas.common import Problem
 from service.api.schemas.equations import Equations
 from service.dynamics.equations.cache import EquationsCache
@@ -44,7 +44,7 @@ async def equations(robot_id: str, request: Request, registry: RegistryDep) -> R
     dq1 … dqn follow the order of `joints`. The first request for a robot derives them (a UR5
     takes about 0.3 s; at most `ROBODYN_EQUATIONS_TIMEOUT_S`), later ones are answered from
     memory (stored models also from disk). See docs/equations.md."""
-    robot = registry.get(robot_id)
+    robot = await served_robot(registry, robot_id)
     cache: EquationsCache = request.app.state.equations
     body = cache.cached(robot)
     if body is None:

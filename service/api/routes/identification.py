@@ -21,7 +21,7 @@ from pydantic import ValidationError, create_model
 from starlette.concurrency import run_in_threadpool
 from starlette.routing import Route
 
-from service.api.deps import RegistryDep, require_api_key
+from service.api.deps import RegistryDep, require_api_key, served_robot
 from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes
 from service.api.json_bodies import ISOLATED_JSON_BYTES, parse_isolated
@@ -80,7 +80,7 @@ async def inertial_parameters(robot_id: str, registry: RegistryDep) -> Response:
     """π = [m, m cx, m cy, m cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] per body, in its joint's frame
     (inertia about the joint origin), stacked in joint order: τ = Y(q, v, a) π + armature ∘ a
     with Y the `regressor`."""
-    return JSONAnswer(inertial_parameters_answer(registry.get(robot_id)))
+    return JSONAnswer(inertial_parameters_answer(await served_robot(registry, robot_id)))
 
 
 def worker_of(request: Request) -> IdentificationWorker:
@@ -289,7 +289,7 @@ async def identify(request: Request) -> Response | ProgressAnswer:
     (`service.api.progress`)."""
     await require_api_key(request)  # it stores a model (by default), like an upload
     registry: Registry = request.app.state.registry
-    robot = registry.get(request.path_params["robot_id"])
+    robot = await served_robot(registry, request.path_params["robot_id"])
     body = await request.body()
     if wants_progress(request.scope):
 

@@ -7,7 +7,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Query, Request, Response
 from starlette.concurrency import run_in_threadpool
 
-from service.api.deps import RegistryDep, require_api_key
+from service.api.deps import RegistryDep, require_api_key, served_robot
 from service.api.encoding.answers import JSONAnswer
 from service.api.schemas.common import Problem
 from service.api.schemas.inertias import Inertias
@@ -75,7 +75,7 @@ async def list_robots(
     summary="A robot's joint layout, limits, configurations and findings",
 )
 async def robot_info(robot_id: str, registry: RegistryDep) -> Response:
-    return JSONAnswer(registry.get(robot_id).info())
+    return JSONAnswer((await served_robot(registry, robot_id)).info())
 
 
 @router.get(
@@ -87,7 +87,7 @@ async def robot_info(robot_id: str, registry: RegistryDep) -> Response:
 )
 async def robot_inertias(robot_id: str, registry: RegistryDep) -> Response:
     """Inertial parameters of every body, each in the frame of the joint that moves it."""
-    return JSONAnswer(body_inertias(registry.get(robot_id)))
+    return JSONAnswer(body_inertias(await served_robot(registry, robot_id)))
 
 
 _UPLOAD: dict[str, Any] = dict(
@@ -209,7 +209,7 @@ async def create_variant(robot_id: str, body: VariantRequest, registry: Registry
     `locked_joints` locked, under an id derived from the parent's id and the modifications
     (`v-` + 24 hex digits; `r-` for locked joints alone, as `reduce` gives). Its RobotInfo has
     `parent` and `modifications`; it survives a restart and the deletion of its parent."""
-    parent = registry.get(robot_id)
+    parent = await served_robot(registry, robot_id)
     requested = [p.model_dump() for p in body.payloads or ()]
     placed = check_payloads(parent, requested) if requested else ()
     robot, created = await run_in_threadpool(

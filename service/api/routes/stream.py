@@ -23,7 +23,7 @@ from fastapi.exceptions import RequestValidationError
 from starlette.routing import WebSocketRoute
 from starlette.websockets import WebSocket
 
-from service.api.deps import check_api_key_for_all
+from service.api.deps import check_api_key_for_all, served_robot
 from service.api.encoding import binary
 from service.api.encoding.answers import json_bytes
 from service.api.problems.handlers import error_response, problem_body, validation_details
@@ -86,7 +86,7 @@ async def _answer(websocket: WebSocket, robot: Any, message: Mapping[str, Any]) 
 async def stream(websocket: WebSocket) -> None:
     try:
         check_api_key_for_all(websocket)
-        robot = websocket.app.state.registry.get(websocket.path_params["robot_id"])
+        robot = await served_robot(websocket.app.state.registry, websocket.path_params["robot_id"])
     except RobodynError as exc:
         if "websocket.http.response" in websocket.scope.get("extensions", {}):
             # Refuse the handshake with the same 404 problem+json as the HTTP routes.

@@ -24,7 +24,7 @@ from fastapi import APIRouter, Request, Response
 from fastapi.responses import StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
-from service.api.deps import RegistryDep
+from service.api.deps import RegistryDep, served_robot
 from service.api.encoding.answers import JSONAnswer
 from service.api.schemas.common import Problem
 from service.api.schemas.visuals import Visuals
@@ -106,7 +106,7 @@ def _robot_visuals(registry: Registry, robot: Robot) -> Robot:
 
 
 async def _with_visuals(registry: Registry, robot_id: str) -> Robot:
-    robot = registry.get(robot_id)
+    robot = await served_robot(registry, robot_id)
     if robot.visuals is None:  # an upload's first request: parse it off the event loop
         await run_in_threadpool(_robot_visuals, registry, robot)
     return robot

@@ -246,3 +246,29 @@ def test_fitted_steps_keep_their_values_in_a_new_lineage(tmp_path) -> None:
     reg.delete(fitted.id)
     rebuilt = registry(tmp_path, ["planar_arm"]).get(child.id)
     assert rebuilt.info()["friction"] == [dict(zip(FRICTION_KEYS, FRICTION[1], strict=True))]
+
+
+def test_a_first_use_builds_off_the_event_loop(tmp_path, monkeypatch) -> None:
+    """Over HTTP, the first request for a stored model not built yet builds it in a worker
+    thread (`served_robot`); the next requests find it built and answer on the event loop."""
+    from service.api import deps
+    from tests.helpers import registry_client
+
+    reg = registry(nested_store(tmp_path))
+    threaded: list[str] = []
+    real = deps.run_in_threadpool
+
+    async def recording(fn, *args):
+        threaded.append(args[0])
+        return await real(fn, *args)
+
+    monkeypatch.setattr(deps, "run_in_threadpool", recording)
+    robot_id = ARM_CHAIN[1]
+    assert not reg.built(robot_id) and reg.built("ur5")
+    with registry_client(reg) as client:
+        first = client.post(f"/v1/robots/{robot_id}/gravity", json={"q": [0.3, -0.2]})
+        again = client.post(f"/v1/robots/{robot_id}/gravity", json={"q": [0.3, -0.2]})
+        info = client.get(f"/v1/robots/{robot_id}")
+    assert first.status_code == again.status_code == info.status_code == 200, first.text
+    assert first.json() == again.json()
+    assert threaded == [robot_id] and reg.built(robot_id)

@@ -15,7 +15,7 @@ coordinate i with an effort limit Lᵢ > 0 (N·m or N), |τ₀ᵢ + m τ₁ᵢ| 
     mᵢ = 0                         if |τ₀ᵢ| > Lᵢ (over its limit already, with no payload)
     mᵢ = (Lᵢ − τ₀ᵢ) / τ₁ᵢ           if τ₁ᵢ > 0
     mᵢ = (Lᵢ + τ₀ᵢ) / (−τ₁ᵢ)        if τ₁ᵢ < 0
-    mᵢ = none (never limits)        if τ₁ᵢ = 0 (|τ₁ᵢ| ≤ ZERO_REL · max |τ₁|: rounding of a zero)
+    mᵢ = none (never limits)        if τ₁ᵢ = 0 (|τ₁ᵢ| ≤ ε₁: the rounding of a zero, below)
 
 and the capacity is m* = min mᵢ over the limited coordinates, the limiting joint the one that
 owns the minimizing coordinate (where several are over their limit already, the one furthest
@@ -23,6 +23,18 @@ over, |τ₀ᵢ| / Lᵢ largest), and τ(m*) = τ₀ + m* τ₁ the torques at c
 effort limit (0, or none in the model, or Pinocchio's largest double where a description gives
 none) and a floating root's coordinates (a free-flyer's 6, a planar root's 3: the wrench that
 holds the base, no motor's) are not limits. When nothing limits, m* is none and τ is τ₀.
+
+A per-kg torque that is zero in exact arithmetic (a point on a joint's axis, a weight along a
+vertical axis) comes out of RNEA as rounding, and (Lᵢ − τ₀ᵢ) / rounding is a finite capacity
+of 10¹⁷ kg and more. Zero is decided against the size a per-kg torque can have at that state,
+which does not depend on the torques computed:
+
+    ε₁ = ZERO_TORQUE_PER_KG · Λ · (‖g‖ + Λ Σⱼ|aⱼ| + Λ (Σⱼ|vⱼ|)²)      (N·m per kg)
+
+with Λ = max(R, 1 m) and R the reach of the chain that carries the point: the lengths of the
+joint placements from the root to the frame's joint, the frame's offset and ‖c‖ (m). The
+bracket bounds the held point's acceleration (m/s²: gravity, the joints' accelerations and
+the centripetal and Coriolis terms at that lever), Λ its lever about any joint of the chain.
 """
 
 from __future__ import annotations
@@ -38,12 +50,12 @@ from service.dynamics import parallel
 from service.dynamics.frames import frame_id
 from service.dynamics.payloads import PayloadLike, RobotCache, robot_with_payloads
 from service.dynamics.quantity import Quantity, Results, finite
-from service.errors import DimensionMismatch, InvalidInput
+from service.errors import DimensionMismatch, InvalidInput, NonFiniteResult
 from service.registry.payloads import derived
 from service.registry.robot import Robot
 from service.states import States
 
-ZERO_REL = 1e-10  # |τ₁ᵢ| at most this times max |τ₁| of the state counts as zero
+ZERO_TORQUE_PER_KG = 1e-10  # of the state's per-kg torque scale (module docstring): a zero
 PARALLEL_FROM = 64  # states from which the batch RNEA runs on every core
 _unit_robots = RobotCache(16)
 
@@ -155,14 +167,46 @@ def batch_rnea(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.
     return out
 
 
+def chain_reach(robot: Robot, fid: int, center_of_mass: np.ndarray) -> float:
+    """R (m): the lengths of the joint placements from the root to the parent joint of frame
+    `fid`, plus the frame's offset in that joint and ‖center_of_mass‖."""
+    model = robot.model
+    frame = model.frames[fid]
+    reach = float(np.linalg.norm(frame.placement.translation) + np.linalg.norm(center_of_mass))
+    joint = frame.parentJoint
+    while joint > 0:
+        reach += float(np.linalg.norm(model.jointPlacements[joint].translation))
+        joint = model.parents[joint]
+    return reach
+
+
+def zero_torque_per_kg(
+    robot: Robot, fid: int, center_of_mass: np.ndarray, v: np.ndarray, a: np.ndarray
+) -> np.ndarray:
+    """ε₁ (N,), N·m per kg: per state, the size under which a per-kg torque is the rounding of
+    a zero (module docstring), from the model's gravity and reach and the state's v, a
+    (N, nv). NonFiniteResult where that size overflows float64."""
+    lever = max(chain_reach(robot, fid, center_of_mass), 1.0)
+    gravity = float(np.linalg.norm(robot.model.gravity.linear))
+    with np.errstate(over="ignore", invalid="ignore"):
+        acceleration = gravity + lever * (np.abs(a).sum(axis=1) + np.abs(v).sum(axis=1) ** 2)
+        out = ZERO_TORQUE_PER_KG * lever * acceleration
+    if not np.isfinite(out).all():
+        raise NonFiniteResult(
+            "payload-capacity: the size of the torques per kg overflows float64 at these "
+            "states (are v, a or center_of_mass extreme?)"
+        )
+    return np.asarray(out)
+
+
 def capacity_from_torques(
-    tau0: np.ndarray, tau1: np.ndarray, limit: np.ndarray
+    tau0: np.ndarray, tau1: np.ndarray, limit: np.ndarray, zero: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(mass (N,), limiting index (N,), mass per coordinate (N, nv), τ at capacity (N, nv))
-    from τ₀, τ₁ (N, nv) and the limits L (nv; 0 = none), by the rule of the module docstring."""
+    from τ₀, τ₁ (N, nv), the limits L (nv; 0 = none) and the per-kg torque ε₁ (N,) at or
+    under which τ₁ counts as zero, by the rule of the module docstring."""
     limited = limit > 0
-    scale = np.max(np.abs(tau1), axis=1, keepdims=True)
-    moves = np.abs(tau1) > ZERO_REL * scale
+    moves = np.abs(tau1) > zero[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         room = np.where(tau1 > 0, limit - tau0, limit + tau0)
         per = np.where(moves, room / np.abs(np.where(moves, tau1, 1.0)), np.inf)
@@ -207,7 +251,8 @@ def capacity(
     tau0 = batch_rnea(carrier, q, v, a)
     tau1 = batch_rnea(unit_mass_robot(carrier, fid, com), q, v, a)
     finite("payload-capacity", tau=tau0, torque_per_kg=tau1)
-    mass, index, per, tau = capacity_from_torques(tau0, tau1, limit)
+    zero = zero_torque_per_kg(carrier, fid, com, v, a)
+    mass, index, per, tau = capacity_from_torques(tau0, tau1, limit, zero)
     finite("payload-capacity", tau=tau)
     return Capacity(mass, index, per, tau, velocity_owners(robot))
 

@@ -196,7 +196,7 @@ def _consistent(
     for solver in (cp.CLARABEL, cp.SCS):
         try:
             problem.solve(solver=solver)
-        except cp.SolverError:
+        except (cp.SolverError, ValueError, ArithmeticError):  # (SCS: "allocation error")
             continue
         if problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and step.value is not None:
             return np.asarray(theta0 + scale * step.value)

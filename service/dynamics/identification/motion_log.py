@@ -212,7 +212,14 @@ def motion_log(
 
 
 def _lowpass(steps: np.ndarray, filter_hz: float | None) -> LowPass:
-    rate = 1.0 / float(np.median(steps))
+    interval = float(np.median(steps))
+    with np.errstate(divide="ignore", over="ignore"):
+        rate = 1.0 / interval
+    if not math.isfinite(rate):
+        raise InvalidInput(
+            f"t: the log's median sample interval, {interval:.3g} s, is too small to filter "
+            "with (its sample rate overflows float64)"
+        )
     nyquist = 0.5 * rate
     if filter_hz is None:
         cutoff = min(DEFAULT_FILTER_HZ, 0.2 * rate)
@@ -223,6 +230,11 @@ def _lowpass(steps: np.ndarray, filter_hz: float | None) -> LowPass:
         )
     else:
         cutoff = float(filter_hz)
+    if not cutoff / nyquist > 0.0:  # (the filter's normalized frequency underflows)
+        raise InvalidInput(
+            f"filter_hz: a cut-off of {cutoff:.3g} Hz is too small for the log's sample rate "
+            f"({rate:.6g} Hz) to design a filter in float64"
+        )
     sos = scipy.signal.butter(FILTER_ORDER, cutoff, btype="low", fs=rate, output="sos")
     return LowPass(cutoff_hz=cutoff, sample_rate=rate, sos=np.asarray(sos))
 
@@ -260,18 +272,37 @@ def _part(
             out[:, j] = np.interp(grid, t, x[:, j])
         return out
 
-    x = lowpass(resampled(_coordinates(robot, q)))
-    v = lowpass(resampled(given["v"])) if "v" in given else np.gradient(x, step, axis=0)
-    a = lowpass(resampled(given["a"])) if "a" in given else np.gradient(v, step, axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        x = lowpass(resampled(_coordinates(robot, q)))
+        v = lowpass(resampled(given["v"])) if "v" in given else np.gradient(x, step, axis=0)
+        a = lowpass(resampled(given["a"])) if "a" in given else np.gradient(v, step, axis=0)
+        filtered_tau = lowpass(resampled(tau))
+    _require_finite(
+        (x, "positions q (filtered)"),
+        (v, "velocities v (filtered)" if "v" in given else "velocities (differentiated from q)"),
+        (a, "accelerations a (filtered)" if "a" in given else "accelerations (from q)"),
+        (filtered_tau, "torques tau (filtered)"),
+    )
     margin = lowpass.margin
     return Part(
         t=grid,
         q=joint_configurations(robot, x),
         v=v,
         a=a,
-        tau=lowpass(resampled(tau)),
+        tau=filtered_tau,
         keep=slice(margin, grid.size - margin),
     )
+
+
+def _require_finite(*signals: tuple[np.ndarray, str]) -> None:
+    """InvalidInput naming the first signal (array, its words) that is not finite: a log whose
+    numbers are so large that filtering or differentiating them overflows float64."""
+    for values, words in signals:
+        if not np.isfinite(values).all():
+            raise InvalidInput(
+                f"identify: the log's {words} overflow float64: are its numbers extreme "
+                "(SI units: rad or m, rad/s or m/s, rad/s² or m/s², N·m or N, s)?"
+            )
 
 
 def joint_ranges(robot: Robot, log: MotionLog) -> np.ndarray:

@@ -124,7 +124,8 @@ def _rows(
             np.zeros((0, part.tau.shape[1])),
         )
     A, known = columns(part.q, part.v, part.a, base.independent)
-    A, known = _filtered(lowpass, A)[part.keep], _filtered(lowpass, known)[part.keep]
+    with np.errstate(over="ignore", invalid="ignore"):  # (checked: `_require_fittable`)
+        A, known = _filtered(lowpass, A)[part.keep], _filtered(lowpass, known)[part.keep]
     return A, known, part.tau[part.keep]
 
 
@@ -132,11 +133,19 @@ def _rmse(error: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean(error**2, axis=0)) if error.size else np.full(error.shape[1], np.nan)
 
 
-def _required_samples(log: MotionLog, needed_fit: int, fraction: float) -> int:
-    """About how many log samples at this log's rate give `needed_fit` fit samples."""
+def _required_samples(log: MotionLog, needed_fit: int, fraction: float) -> float:
+    """About how many log samples at this log's rate give `needed_fit` fit samples (a whole
+    number, or inf when a tiny validation fraction needs more than float64 counts)."""
     margin = 0 if log.lowpass is None else log.lowpass.margin
     train = needed_fit * log.decimation + 2 * margin
-    return math.ceil(max(train / (1.0 - fraction), (2 * margin + 1) / fraction))
+    with np.errstate(over="ignore"):
+        needed = max(train / (1.0 - fraction), float(np.float64(2 * margin + 1) / fraction))
+    return float(math.ceil(needed)) if math.isfinite(needed) else math.inf
+
+
+def _count(n: float) -> str:
+    """A whole number n in full below a billion, else in 3 significant digits."""
+    return str(int(n)) if n < 1_000_000_000 else f"{n:.3g}"
 
 
 def _stages(progress: Progress | None) -> Callable[[str], None]:
@@ -190,7 +199,7 @@ def identify(
         raise InvalidInput(
             f"the log has {np.size(t)} samples; identifying {base.count} base parameters of "
             f"robot '{robot.id}' (friction '{friction}') needs at least "
-            f"{_required_samples(log, needed, validation_fraction)} at this sample rate: "
+            f"{_count(_required_samples(log, needed, validation_fraction))} at this sample rate: "
             f"{needed} fit samples in the training part"
             + (
                 ""
@@ -212,19 +221,28 @@ def identify(
             [PAYLOAD_SCALE, prior_scale(np.zeros(0), len(columns.names) - PER_BODY)]
         )
     )
+    with np.errstate(over="ignore", invalid="ignore"):
+        b = measured - known
+    _require_fittable(log, A, b, val_A, val_known, val_measured)
     still = barely_moving(robot, log)
     stage("fit")
-    result = fit(
-        A[fit_rows],
-        (measured - known)[fit_rows],
-        base,
-        columns.theta0,
-        scale,
-        columns.bodies,
-        method == "physically-consistent",
-        weighted,
-        still=describe_ranges(robot, still),
-    )
+    try:
+        result = fit(
+            A[fit_rows],
+            b[fit_rows],
+            base,
+            columns.theta0,
+            scale,
+            columns.bodies,
+            method == "physically-consistent",
+            weighted,
+            still=describe_ranges(robot, still),
+        )
+    except np.linalg.LinAlgError:
+        raise InvalidInput(
+            "identify: the fit's linear algebra failed on this log's numbers "
+            f"({_peaks(log)}): are they extreme?"
+        ) from None
     stage("validation")
     answer = _answer(
         robot,
@@ -242,6 +260,33 @@ def identify(
             "identify: the fit is not finite for this log (are its torques or positions extreme?)"
         )
     return answer
+
+
+def _peaks(log: MotionLog) -> str:
+    """ "|q| up to 1e+300, |v| up to …" over the log's parts, in SI units."""
+    parts = [p for p in (log.train, log.validation) if p.t.size]
+
+    def peak(name: str) -> float:
+        return max((float(np.abs(getattr(p, name)).max()) for p in parts), default=0.0)
+
+    return (
+        f"|q| up to {peak('q'):.3g}, |v| up to {peak('v'):.3g}, |a| up to {peak('a'):.3g}, "
+        f"|tau| up to {peak('tau'):.3g}; SI units: rad or m, /s, /s², N·m or N"
+    )
+
+
+def _require_fittable(log: MotionLog, *arrays: np.ndarray) -> None:
+    """InvalidInput naming the log's largest numbers when the sum of the squares of one of
+    `arrays` (the regressor columns, whose entries are products of the velocities and of the
+    accelerations, and the torques) is not finite: the fit sums such squares."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        fittable = all(np.isfinite(np.sum(np.square(x))) for x in arrays)
+    if not fittable:
+        raise InvalidInput(
+            "identify: this log's numbers are too large to fit in float64 (the fit sums the "
+            "squares of its regressor, products of velocities and accelerations, and of its "
+            f"torques): {_peaks(log)}. Are they extreme?"
+        )
 
 
 def _answer(

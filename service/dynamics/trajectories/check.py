@@ -27,7 +27,7 @@ from service.dynamics.stopping import ShouldStop, Stopper
 from service.dynamics.trajectories import rnea
 from service.dynamics.trajectories.inputs import positive, sample_times, samples
 from service.dynamics.trajectories.limits import joint_limits, spans_over
-from service.errors import InvalidInput
+from service.errors import InvalidInput, NonFiniteResult
 from service.registry.robot import Robot
 from service.states import configurations
 
@@ -139,11 +139,11 @@ def check_samples(
                 f"{robot.nq} numbers and its velocity nv = {robot.nv}, so v and a cannot be "
                 "derivatives of a spline through q"
             )
-        spline = CubicSpline(times, qs, bc_type="not-a-knot", axis=0)
+        spline = SampleSpline(times, qs)
         if vs is None:
-            vs = spline(times, 1)
+            vs = spline.values(1, 1)
         if acc is None:
-            acc = spline(times, 2)
+            acc = spline.values(2, 1)
     if given_v is None and given_a is None and k > 1:
         if (n - 1) * k + 1 > MAX_EVALUATED_POINTS:
             raise InvalidInput(
@@ -151,7 +151,7 @@ def check_samples(
                 f"exceed the {MAX_EVALUATED_POINTS} points one check evaluates"
             )
         t_eval = evaluation_times(times, k)
-        q_eval, v_eval, a_eval = spline(t_eval), spline(t_eval, 1), spline(t_eval, 2)
+        q_eval, v_eval, a_eval = (spline.values(order, k) for order in (0, 1, 2))
         q_eval[::k], v_eval[::k], a_eval[::k] = qs, vs, acc  # the samples exactly as given
         at_samples = slice(None, None, k)
     else:
@@ -169,18 +169,26 @@ def check_samples(
         stop.poll(start)
         end = start + RNEA_BATCH
         tau_eval[start:end] = rnea.inverse_dynamics(
-            robot, q_eval[start:end], v_eval[start:end], a_eval[start:end]
+            robot, q_eval[start:end], v_eval[start:end], a_eval[start:end], checked=False
         )
     if friction is not None:
-        tau_eval = tau_eval + friction(v_eval)
+        with np.errstate(over="ignore", invalid="ignore"):
+            tau_eval = tau_eval + friction(v_eval)
+    _require_finite_torques(tau_eval, t_eval, times, given_v is not None or given_a is not None)
     joints, violations = _against_limits(
         robot, t_eval, q_eval, v_eval, tau_eval, effort_scale, velocity_scale
     )
-    power = np.einsum("ij,ij->i", tau_eval, v_eval)
-    work = {
-        "positive": float(np.trapezoid(np.maximum(power, 0.0), t_eval)),
-        "negative": float(np.trapezoid(np.minimum(power, 0.0), t_eval)),
-    }
+    with np.errstate(over="ignore", invalid="ignore"):
+        power = np.einsum("ij,ij->i", tau_eval, v_eval)
+        work = {
+            "positive": float(np.trapezoid(np.maximum(power, 0.0), t_eval)),
+            "negative": float(np.trapezoid(np.minimum(power, 0.0), t_eval)),
+        }
+    if not all(np.isfinite(w) for w in work.values()):
+        raise NonFiniteResult(
+            "trajectory-check: the work ∫ τᵀv dt of this motion overflows float64 (its "
+            "torques, velocities or duration are too large to compute with)"
+        )
     tau = np.ascontiguousarray(tau_eval[at_samples])  # (orjson writes C-contiguous arrays)
     return TrajectoryCheck(
         feasible=not violations,
@@ -197,6 +205,61 @@ def check_samples(
     )
 
 
+class SampleSpline:
+    """The not-a-knot cubic spline through (t, q), kept in the unit time τ = (t − t₀) / T
+    (T the largest sample interval, τ built from the intervals), so that its pieces never
+    raise t to the third power: q(t) = Q(τ), q̇ = Q'(τ) / T, q̈ = Q''(τ) / T². InvalidInput
+    names the samples where q changes faster than float64 holds (Δq / Δt, or a derivative
+    of the spline, overflows)."""
+
+    def __init__(self, times: np.ndarray, qs: np.ndarray) -> None:
+        steps = np.diff(times)
+        with np.errstate(over="ignore", invalid="ignore"):
+            slopes = np.diff(qs, axis=0) / steps[:, None]
+        bad = np.flatnonzero(~np.isfinite(slopes).all(axis=1))
+        self.times = times
+        if bad.size:
+            raise self._too_fast(int(bad[0]), "velocity overflows")
+        self.unit = float(steps.max())  # T, s
+        self.tau = np.concatenate([[0.0], np.cumsum(steps / self.unit)])
+        self.spline = CubicSpline(self.tau, qs, bc_type="not-a-knot", axis=0)
+
+    def values(self, order: int, k: int) -> np.ndarray:
+        """The `order`-th time derivative at the samples and k − 1 evenly spaced times inside
+        every interval (`evaluation_times`; k = 1: the samples)."""
+        with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+            values = np.asarray(self.spline(evaluation_times(self.tau, k), order))
+            for _ in range(order):  # one division at a time: T² alone may under- or overflow
+                values = values / self.unit
+        bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+        if bad.size:
+            what = ("position", "velocity", "acceleration")[order]
+            i = min(int(bad[0]) // k, self.times.size - 2)
+            raise self._too_fast(i, f"spline's {what} overflows")
+        return values
+
+    def _too_fast(self, i: int, what: str) -> InvalidInput:
+        return InvalidInput(
+            f"t and q: between samples {i} and {i + 1} (t = {self.times[i]:.6g} s and "
+            f"{self.times[i + 1]:.6g} s) q changes too fast to compute with for these times: "
+            f"its {what} float64"
+        )
+
+
+def _require_finite_torques(tau: np.ndarray, t: np.ndarray, times: np.ndarray, given: bool) -> None:
+    """NonFiniteResult naming the first time where τ is not finite, and the inputs there."""
+    bad = np.flatnonzero(~np.isfinite(tau).all(axis=1))
+    if not bad.size:
+        return
+    at = float(t[int(bad[0])])
+    i = min(int(np.searchsorted(times, at, side="right")) - 1, times.size - 1)
+    inputs = "v and a" if given else "the spline's velocities and accelerations"
+    raise NonFiniteResult(
+        f"trajectory-check: τ at t = {at:.6g} s (sample {i}) is not a finite number: q, "
+        f"{inputs} there are too large to compute with"
+    )
+
+
 def _samples_per_interval(value: Any) -> int:
     if (
         isinstance(value, bool)
@@ -209,8 +272,18 @@ def _samples_per_interval(value: Any) -> int:
     return int(value)
 
 
-def _ratio(peak: float, limit: float | None) -> float | None:
-    return None if limit is None else peak / limit
+def _ratio(peak: float, limit: float | None, joint: str, scale: str) -> float | None:
+    """peak ÷ limit, or InvalidInput naming the scale that made the limit too small for it."""
+    if limit is None:
+        return None
+    with np.errstate(over="ignore"):
+        ratio = float(np.float64(peak) / limit)
+    if not np.isfinite(ratio):
+        raise InvalidInput(
+            f"{scale} is too small to compute with: joint '{joint}''s limit becomes "
+            f"{limit:.3g}, and its peak over it overflows float64"
+        )
+    return ratio
 
 
 def _against_limits(
@@ -234,10 +307,10 @@ def _against_limits(
                 "name": lim.name,
                 "effort_limit": lim.effort,
                 "peak_effort": peak_effort,
-                "effort_ratio": _ratio(peak_effort, lim.effort),
+                "effort_ratio": _ratio(peak_effort, lim.effort, lim.name, "effort_scale"),
                 "velocity_limit": lim.velocity,
                 "peak_velocity": peak_velocity,
-                "velocity_ratio": _ratio(peak_velocity, lim.velocity),
+                "velocity_ratio": _ratio(peak_velocity, lim.velocity, lim.name, "velocity_scale"),
                 "lower": lim.lower,
                 "upper": lim.upper,
                 "min_position": None if position is None else float(position.min()),

@@ -18,6 +18,7 @@ from service.dynamics.trajectories.envelope import lower_envelope, upper_envelop
 from service.dynamics.trajectories.limits import JointLimit
 from service.dynamics.trajectories.path import WaypointPath
 from service.dynamics.trajectories.profile import Profile
+from service.errors import InvalidInput
 from service.registry.robot import Robot
 
 
@@ -102,7 +103,35 @@ def families(
                 -effort,
             )
         )
+    for family in out:
+        _require_representable(family)
     return out
+
+
+LIMIT_FIELDS = {  # the request's field that sets each family's limits
+    "velocity": "limits.velocity_scale",
+    "acceleration": "limits.acceleration",
+    "effort": "limits.effort_scale",
+}
+
+
+def _require_representable(family: Family) -> None:
+    """InvalidInput naming the limit when a family's limit is not a positive finite float64
+    (a velocity limit whose square underflows or overflows) or the path's quantity over it
+    overflows."""
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        ok = (family.upper > 0.0) & np.isfinite(family.upper)
+        for part in (family.A, family.B, family.C):
+            ok &= np.isfinite(part / family.upper).all(axis=(0, 1))
+    if ok.all():
+        return
+    j = int(np.flatnonzero(~ok)[0])
+    limit = float(np.sqrt(family.upper[j]) if family.kind == "velocity" else family.upper[j])
+    raise InvalidInput(
+        f"{LIMIT_FIELDS[family.kind]} gives joint '{family.joints[j]}' a {family.kind} limit "
+        f"of {limit:.3g}: too small or too large to compute with (the path's {family.kind} "
+        "over it is not a finite float64 number)"
+    )
 
 
 def subsample(family: Family, every: int) -> Family:

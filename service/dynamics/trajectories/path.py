@@ -3,9 +3,14 @@
 q(s), s ∈ [0, L]: the cubic spline through the waypoints w_0 … w_{K−1} (each nq numbers) with
 zero derivative at both ends (`scipy.interpolate.CubicSpline`, bc_type="clamped"), whose knot
 s_k is the cumulative joint-space Euclidean distance s_k = Σ_{i<k} ‖w_{i+1} − w_i‖ (rad or m,
-mixed for mixed joints), so L is the length of the waypoint polygon. A waypoint equal to the
-one before it adds no length and is skipped (the spline needs increasing knots); indices in
-messages are the caller's.
+mixed for mixed joints), so L is the length of the waypoint polygon.
+
+Duplicate and near-duplicate waypoints are merged: a waypoint within SAME_POINT_FRACTION × L
+of the waypoint kept before it (or within SAME_POINT, rad or m) is the same point and is
+skipped — except the last, which then takes the place of the one kept before it, so that the
+path ends where the caller's does. A spline knot that close to its neighbour would bend the
+path within a millionth of its length: a corner the robot can only take at a standstill, and
+which no sampling of the path resolves. Indices in messages are the caller's.
 """
 
 from __future__ import annotations
@@ -18,7 +23,8 @@ from scipy.interpolate import CubicSpline
 from service.dynamics.trajectories.inputs import samples
 from service.errors import InvalidInput
 
-_SAME_POINT = 1e-12  # rad or m: consecutive waypoints closer than this are the same point
+SAME_POINT = 1e-12  # rad or m: consecutive waypoints closer than this are the same point
+SAME_POINT_FRACTION = 1e-6  # of the polygon's length L: closer waypoints are merged
 MAX_WAYPOINTS = 1000  # each spline segment gets at least one TOPP-RA interval
 
 
@@ -34,22 +40,34 @@ class WaypointPath:
         w = samples("waypoints", waypoints, count, nq, "nq", "waypoints")
         if w.shape[0] < 2:
             raise InvalidInput(f"waypoints has {w.shape[0]} row(s); a path needs at least 2")
-        steps = np.linalg.norm(np.diff(w, axis=0), axis=1)
-        keep = np.concatenate([[True], steps > _SAME_POINT])
-        if keep.sum() < 2:
+        keep = _distinct(w)
+        if keep.size < 2:
             raise InvalidInput("waypoints are all the same configuration: there is no path to time")
+        steps = distances(w[keep])
+        knots = np.concatenate([[0.0], np.cumsum(steps)])
+        if not np.isfinite(knots[-1]):
+            raise InvalidInput(
+                "waypoints: the path through them is too long to compute with (its length "
+                "overflows float64)"
+            )
         self.waypoints = w
-        self.indices = np.flatnonzero(keep)  # the caller's index of each knot
-        self.knots = np.concatenate([[0.0], np.cumsum(steps[keep[1:]])])
-        self.length = float(self.knots[-1])
-        self.spline = CubicSpline(self.knots, w[keep], bc_type="clamped", axis=0)
+        self.indices = keep  # the caller's index of each knot
+        self.knots = knots
+        self.length = float(knots[-1])
+        # the spline in σ = s / L ∈ [0, 1]: the same curve, whose polynomial pieces never
+        # raise s to the third power (which overflows for a path 1e103 long, and underflows
+        # for one 1e-103 long)
+        self.spline = CubicSpline(knots / self.length, w[keep], bc_type="clamped", axis=0)
         self._d1 = self.spline.derivative(1)
         self._d2 = self.spline.derivative(2)
 
     def __call__(self, s: np.ndarray, order: int = 0) -> np.ndarray:
-        """q(s) (order 0), q'(s) (1) or q''(s) (2) at path positions s [n]: (n, nq)."""
-        derivative: np.ndarray = (self.spline, self._d1, self._d2)[order](s)
-        return derivative
+        """q(s) (order 0), q'(s) (1) or q''(s) (2) at path positions s [n]: (n, nq); from
+        the spline Q(σ) in σ = s / L, q⁽ᵏ⁾(s) = Q⁽ᵏ⁾(s / L) / Lᵏ."""
+        value = (self.spline, self._d1, self._d2)[order](np.asarray(s, dtype=float) / self.length)
+        for _ in range(order):  # one division at a time: L² alone may overflow
+            value = value / self.length
+        return np.asarray(value)
 
     def where(self, s: float) -> tuple[int, float]:
         """(the caller's index of the waypoint that starts the segment holding s, the path
@@ -57,6 +75,45 @@ class WaypointPath:
         k = int(np.searchsorted(self.knots, s, side="right")) - 1
         k = min(max(k, 0), len(self.knots) - 2)
         return int(self.indices[k]), float(s / self.length)
+
+
+def distances(w: np.ndarray) -> np.ndarray:
+    """‖w_{i+1} − w_i‖ for the K rows of w (K − 1,), rad or m, computed without squaring the
+    differences (so waypoints up to float64's range apart have a finite distance). A
+    difference that itself overflows is an InvalidInput naming the waypoints."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = np.diff(w, axis=0)
+    bad = np.flatnonzero(~np.isfinite(d).all(axis=1))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidInput(
+            f"waypoints {i} and {i + 1} are too far apart to compute with (their difference "
+            "overflows float64)"
+        )
+    big = np.abs(d).max(axis=1)
+    unit = d / np.where(big > 0.0, big, 1.0)[:, None]
+    return np.asarray(big * np.linalg.norm(unit, axis=1))
+
+
+def _distinct(w: np.ndarray) -> np.ndarray:
+    """The indices of the waypoints that remain after merging (module docstring)."""
+    with np.errstate(over="ignore"):
+        polygon = float(distances(w).sum())
+    near = max(SAME_POINT, SAME_POINT_FRACTION * polygon) if np.isfinite(polygon) else SAME_POINT
+    last = w.shape[0] - 1
+
+    def apart(i: int, j: int) -> bool:
+        return float(distances(w[[i, j]])[0]) > near
+
+    kept = [0]
+    for i in range(1, last):
+        if apart(kept[-1], i):
+            kept.append(i)
+    while len(kept) > 1 and not apart(kept[-1], last):
+        kept.pop()  # the path ends at the caller's last waypoint
+    if apart(kept[-1], last):
+        kept.append(last)
+    return np.asarray(kept, dtype=int)
 
 
 def _count(waypoints: Any) -> int:

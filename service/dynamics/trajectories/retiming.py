@@ -2,14 +2,18 @@
 torque limits, that provably stays within them — TOPP-RA (the `toppra` package), then checked
 and corrected.
 
-1. The path: the clamped cubic spline through the waypoints (`path.WaypointPath`).
+1. The path: the clamped cubic spline through the waypoints, near-duplicates merged
+   (`path.WaypointPath`).
 2. The grid: N intervals of the path (`INTERVALS`, the spline's knots among the gridpoints), and
    a verification grid of V + 1 points per interval (`VERIFY_POINTS`).
 3. Before any timing: a path that leaves a joint's position limits, or on which gravity alone
    needs more than a joint's torque limit, is `InfeasiblePath`: no timing can follow it.
 4. TOPP-RA (toppra's `TOPPRA` with its seidel solver) with the limits enforced at m + 1 points
    of every interval (`constraints`, m = `SOLVE_POINTS`), each limit tightened by
-   `INITIAL_MARGIN`: the path speed profile x = ṡ² at the gridpoints (`profile.Profile`).
+   `INITIAL_MARGIN`: the path speed profile x = ṡ² at the gridpoints (`profile.Profile`). The
+   solver works in the path's own units (`toppra_rows`: s / L and x / x̄), so that a path
+   1e-10 rad long, or limits 1e-10 of the model's, are timed like any other; a limit whose
+   path quantities overflow float64 is an InvalidInput naming it (`families`).
 5. The exact timed motion on the verification grid: every limited quantity's estimated maximum
    over each interval (`envelope`: the points' maximum plus a curvature margin) divided by
    its limit. Where one exceeds `RESOLVE_ABOVE`, that joint's limit is tightened by 1.5 × the
@@ -17,7 +21,9 @@ and corrected.
    usual case: about 1e-4) is removed by slowing the whole motion uniformly by the smallest
    factor that does it (`families.slowdown`), which lengthens it by about half the overshoot.
 6. The answer: the motion sampled every `sample_dt` (and at its end), τ by RNEA, and the
-   trajectory check of those samples.
+   trajectory check of those samples. A motion longer than `max_samples` × `sample_dt` is
+   refused (`TooManySamples`) however long it is: the limits decide what is infeasible, never
+   the motion's length.
 """
 
 from __future__ import annotations
@@ -60,7 +66,7 @@ RESOLVE_ABOVE = 1.01  # an overshoot ratio above this re-runs TOPP-RA; below, sl
 MAX_RESOLVES = 3
 ROW_GROUP = 24  # solver rows per toppra constraint object
 MAX_SAMPLES = 20_000  # samples of the answer (200 s every 0.01 s)
-MAX_PATH_SPEED2 = 1e7  # ṡ² this large means no limit bounds the speed (toppra caps at 1e8)
+MAX_PATH_SPEED2 = 1e7  # X = ṡ² / x̄ this large: no limit bounds the speed (toppra caps at 1e8)
 
 
 @dataclass
@@ -228,12 +234,13 @@ def _require_followable(
 def _toppra(
     path: WaypointPath, grid: np.ndarray, fams: list[Family], tightening: list[np.ndarray]
 ) -> tuple[np.ndarray | None, np.ndarray]:
-    """Run TOPP-RA with every family's rows at the solver's points; (x at the gridpoints, or
-    None when it finds no timing; the controllable sets K)."""
+    """Run TOPP-RA with every family's rows at the solver's points, in the path's own units
+    (`toppra_rows`: σ = s / L, X = x / x̄); (x = ṡ² at the gridpoints, or None when it finds
+    no timing; the controllable sets K, in units of x̄)."""
     import toppra  # here, not at import: it imports matplotlib (see toppra_rows)
     import toppra.algorithm
 
-    from service.dynamics.trajectories.toppra_rows import SampledRows
+    from service.dynamics.trajectories.toppra_rows import SampledRows, path_speed_scale
 
     every = VERIFY_POINTS // SOLVE_POINTS
     theta = np.linspace(0.0, 1.0, SOLVE_POINTS + 1)
@@ -242,7 +249,13 @@ def _toppra(
         subsample(f, every).rows(theta, deltas, t) for f, t in zip(fams, tightening, strict=True)
     ]
     a, b, c = (np.concatenate([r[i] for r in rows], axis=1) for i in range(3))
-    toppra_path = toppra.SplineInterpolator(path.knots, path.spline(path.knots), bc_type="clamped")
+    speed2 = path_speed_scale(b, c)  # x̄
+    with np.errstate(over="ignore", invalid="ignore"):
+        a, b = a * (speed2 / path.length), b * speed2
+    sigma = grid / path.length
+    toppra_path = toppra.SplineInterpolator(
+        path.knots / path.length, path(path.knots), bc_type="clamped"
+    )
     # Rows in groups of at most ROW_GROUP: toppra's seidel solver multiplies each constraint's
     # rows by its F (here the identity, R × R); at R ≥ ~50 numpy's BLAS runs that product on
     # every thread, which on a busy machine took 30–90 ms instead of well under 1 ms.
@@ -250,11 +263,18 @@ def _toppra(
         SampledRows(a[:, i : i + ROW_GROUP], b[:, i : i + ROW_GROUP], c[:, i : i + ROW_GROUP])
         for i in range(0, a.shape[1], ROW_GROUP)
     ]
-    instance = toppra.algorithm.TOPPRA(parts, toppra_path, gridpoints=grid, solver_wrapper="seidel")
+    instance = toppra.algorithm.TOPPRA(
+        parts, toppra_path, gridpoints=sigma, solver_wrapper="seidel"
+    )
     _, sd, _, K = instance.compute_parameterization(0.0, 0.0, return_data=True)
     if sd is None or not np.isfinite(sd).all():
         return None, K
-    return np.asarray(sd) ** 2, K
+    if np.max(np.asarray(sd) ** 2) > MAX_PATH_SPEED2:
+        raise InvalidInput(
+            "the limits do not bound the speed along this path (a joint that "
+            "moves has no velocity limit): give limits.acceleration"
+        )
+    return np.asarray(sd) ** 2 * speed2, K
 
 
 def _solve_and_correct(
@@ -270,11 +290,6 @@ def _solve_and_correct(
     x, K = _toppra(path, grid, fams, tightening)
     if x is None:
         raise _no_timing(path, dense, K, limits)
-    if x.max() > MAX_PATH_SPEED2:
-        raise InvalidInput(
-            "the limits do not bound the speed along this path (a joint that "
-            "moves has no velocity limit): give limits.acceleration"
-        )
     profile = Profile(grid, x)
     first = profile.duration
     for attempt in range(MAX_RESOLVES):
@@ -359,16 +374,21 @@ def _samples(
 ) -> tuple[np.ndarray, ...]:
     """The motion every dt from 0, and at its end: t, q, v = q' ṡ, a = q' s̈ + q'' ṡ², τ."""
     duration = profile.duration
-    count = int(np.floor(duration / dt)) + 1
-    if count + 1 > max_samples:
+    if not np.isfinite(duration):
+        raise InvalidInput(
+            "the timing of this path has no finite duration in float64 (are the limits or "
+            "the waypoints extreme?)"
+        )
+    steps = np.floor(duration / dt)  # (inf where dt is tiny: a float, not yet an int)
+    if steps + 2 > max_samples:
         raise TooManySamples(
             f"sample_dt: the motion lasts {duration:.6g} s, so this step "
             f"gives more than {max_samples} samples; give a larger "
             "sample_dt"
         )
-    t = np.arange(count) * dt
-    if duration - t[-1] > 1e-9 * max(duration, 1.0):
-        t = np.append(t, duration)
+    t = np.arange(int(steps) + 1) * dt
+    if t.size == 1 or duration - t[-1] > 1e-9 * dt:
+        t = np.append(t, duration)  # the end, and never only the start
     else:
         t[-1] = duration
     s, sd, sdd = profile.at_times(t)

@@ -17,8 +17,11 @@ from service.states import States
 PARALLEL_FROM = 64  # smallest batch computed by the parallel algorithm
 
 
-def inverse_dynamics(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """τ (N, nv) for states q (N, nq, Pinocchio's order), v and a (N, nv), in SI units."""
+def inverse_dynamics(
+    robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, *, checked: bool = True
+) -> np.ndarray:
+    """τ (N, nv) for states q (N, nq, Pinocchio's order), v and a (N, nv), in SI units;
+    NonFiniteResult where τ is not finite (`checked` False: the caller checks it)."""
     q, v, a = (np.ascontiguousarray(x, dtype=np.float64) for x in (q, v, a))
     n = q.shape[0]
     if n >= PARALLEL_FROM:
@@ -29,7 +32,7 @@ def inverse_dynamics(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray) 
         with robot.data() as data:
             for i in range(n):
                 out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
-    return finite("the motion's torques", tau=out)["tau"]
+    return finite("the motion's torques", tau=out)["tau"] if checked else out
 
 
 def path_coefficients(

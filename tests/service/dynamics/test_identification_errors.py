@@ -171,3 +171,57 @@ def test_a_log_where_some_joints_stay_still_is_fitted(ur5, log):
         "wrist_2_joint",
         "wrist_3_joint",
     ]
+
+
+@pytest.mark.parametrize("method", ["least-squares", "physically-consistent"])
+@pytest.mark.parametrize(
+    ("change", "peak"),
+    [
+        ({"q": 1e300}, "|q| up to 1e+300"),  # differentiated: v, a ~1e300, v² overflows
+        ({"q": 1e150}, "|q| up to 1e+150"),  # the regressor ~1e301: its squares overflow
+        ({"v": 1e150, "a": 1e150}, "|v| up to 1.5e+150"),
+        ({"tau": 1e300}, "|tau| up to 7.69e+301"),
+    ],
+)
+def test_numbers_too_large_to_fit_are_a_422_naming_them(ur5, log, method, change, peak):
+    """The fit sums squares of the regressor (products of velocities and accelerations) and of
+    the torques: a log whose squares overflow float64 is refused before the fit, with its
+    largest numbers (a LinAlgError or the SDP solver's allocation error otherwise)."""
+    arrays = {"t": log.t, "q": log.q, "tau": log.tau}
+    if "v" in change:
+        arrays.update(v=log.v, a=log.a)
+    arrays.update({name: arrays[name] * factor for name, factor in change.items()})
+    with pytest.raises(InvalidInput, match="too large to fit in float64") as raised:
+        identify(ur5, method=method, **arrays)
+    assert peak in raised.value.detail
+
+
+def test_overflowing_filter_and_counts_are_422s(ur5, log):
+    """Samples 1e-322 s apart (a sample rate beyond float64), a cut-off whose normalized
+    frequency underflows, a validation fraction so small that the samples it needs are beyond
+    counting: each a validation error naming its input."""
+    with pytest.raises(InvalidInput, match="t: the log's median sample interval"):
+        identify(ur5, log.t * 1e-320, log.q, log.tau)
+    with pytest.raises(InvalidInput, match=r"filter_hz: a cut-off of 4\.94e-324 Hz"):
+        identify(ur5, log.t, log.q, log.tau, filter_hz=5e-324)
+    with pytest.raises(InvalidInput, match="needs at least inf"):
+        identify(ur5, log.t, log.q, log.tau, validation_fraction=5e-324)
+
+
+def test_a_solver_that_fails_to_start_falls_back_and_then_says_so(monkeypatch):
+    """SCS raises ValueError ("ScsWork allocation error!") on data it cannot factor: that
+    solver failed, the next is tried, and when none solves the fit is a validation error."""
+    import cvxpy as cp
+
+    from service.dynamics.identification import fit as fit_module
+
+    tried = []
+
+    def failing(self, solver=None, **kwargs):
+        tried.append(solver)
+        raise ValueError("ScsWork allocation error!")
+
+    monkeypatch.setattr(cp.Problem, "solve", failing)
+    with pytest.raises(InvalidInput, match="physically consistent fit did not converge"):
+        fit_module._consistent(np.eye(10), np.ones(10), np.ones(10), np.ones(10), 1)
+    assert tried == [cp.CLARABEL, cp.SCS]

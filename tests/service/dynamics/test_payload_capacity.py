@@ -8,8 +8,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from service.dynamics.payload_capacity import (
+    ZERO_TORQUE_PER_KG,
+    chain_reach,
+    unit_mass_robot,
+    zero_torque_per_kg,
+)
 from service.dynamics.payload_capacity import capacity as payload_capacity
-from service.dynamics.payload_capacity import unit_mass_robot
 from service.dynamics.payloads import robot_with_payloads
 from service.errors import DimensionMismatch, InvalidInput, UnknownFrame
 from service.registry.robot import Robot
@@ -227,3 +232,55 @@ def test_joints_without_a_limit_in_the_description_never_limit(catalog_registry)
         pin.computeGeneralizedGravity(robot.model, robot.model.createData(), np.array([0.3, 0.2])),
         atol=1e-12,
     )
+
+
+def test_a_point_on_the_joint_axes_never_limits_in_any_state(catalog_registry):
+    """The origin of the UR5's shoulder-lift joint lies on its axis, and at rest its weight
+    acts along the vertical shoulder-pan axis: neither joint (nor any after them) feels a mass
+    held there, so in every state it is null, never limiting — not 10¹⁹ kg, the rounding of
+    RNEA taken for a torque (its largest entry is itself rounding there). Moving, the pan
+    joint feels it (the point is 0.136 m off its axis) and limits it as a brute-force RNEA
+    with the mass composed by hand says; the lift joint still never does."""
+    robot = catalog_registry.catalog["ur5"]
+    frame, com = "shoulder_lift_joint", [0.0, 0.0, 0.0]
+    rng = np.random.default_rng(37)
+    q, _, _ = states(robot, rng, 200, moving=False)
+    still = payload_capacity(robot, q, frame, center_of_mass=com)
+    assert np.isinf(still.mass).all() and np.isinf(still.mass_per_joint).all()
+    assert still.minimum()["mass"] is None
+    q, v, a = states(robot, rng, 20, moving=True)
+    moving = payload_capacity(robot, q, frame, center_of_mass=com, v=v, a=a)
+    limit = limits_of(robot)
+    assert np.isinf(moving.mass_per_joint[:, 1:]).all()
+    assert np.isfinite(moving.mass_per_joint[:, 0]).all()
+    for i in range(20):
+        m = moving.mass_per_joint[i, 0]
+        if m > 0:
+            assert (
+                abs(torques(robot.model, frame, com, m * (1 - 1e-9), q[i], v[i], a[i])[0])
+                <= limit[0]
+            )
+            assert (
+                abs(torques(robot.model, frame, com, m * (1 + 1e-6), q[i], v[i], a[i])[0])
+                > limit[0]
+            )
+
+
+def test_the_zero_of_a_torque_per_kg_comes_from_the_model_and_the_state():
+    """ε₁ = 1e-10 · Λ · (‖g‖ + Λ Σ|a| + Λ (Σ|v|)²), Λ = max(R, 1 m), R the chain's reach: for
+    the two-link arm holding a point at its tip, R = l1 + l2 (+ the point's offset), by hand."""
+    l1, l2 = 0.7, 0.5
+    robot = Robot(
+        id="arm",
+        name="arm",
+        source="upload",
+        root_joint="fixed",
+        model=pin.buildModelFromXML(planar_arm_urdf(l1, l2, 1.5, 0.8)),
+    )
+    fid = robot.model.getFrameId("link2")
+    tip = np.array([l2, 0.0, 0.0])
+    assert chain_reach(robot, fid, tip) == pytest.approx(l1 + l2, rel=1e-15)
+    lever = max(l1 + 2 * l2, 1.0)  # the point 0.5 m beyond the tip
+    v, a = np.array([[0.0, 0.0], [1.0, -2.0]]), np.array([[0.0, 0.0], [3.0, 0.5]])
+    want = ZERO_TORQUE_PER_KG * lever * (9.81 + lever * np.array([0.0, 3.5 + 3.0**2]))
+    np.testing.assert_allclose(zero_torque_per_kg(robot, fid, 2 * tip, v, a), want, rtol=1e-14)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import orjson
+import pinocchio as pin
 import pytest
 
 from service import dynamics
@@ -202,6 +203,27 @@ def test_payload_capacity_route_equals_the_physics(api, catalog_registry):
     want = capacity(robot, q[:1], "tool0", effort_limits=np.array(list(limits.values())))
     _same(one, want.answer(batched=False))
     assert isinstance(one["mass"], float) and "minimum" not in one
+
+
+def test_a_point_no_joint_feels_never_limits_over_http(api, catalog_registry):
+    """A mass at the UR5's shoulder-lift origin, holding still: on the lift axis, its weight
+    along the pan axis. No joint feels it in any state: every capacity is null (the contract's
+    "never limits"), and τ is the robot's own gravity torque."""
+    robot = catalog_registry.catalog["ur5"]
+    rng = np.random.default_rng(77)
+    q = np.array([random_state(robot.model, rng)[0] for _ in range(200)])
+    answer = api.post(
+        "/v1/robots/ur5/payload-capacity",
+        json={"q": q.tolist(), "frame": "shoulder_lift_joint"},
+    )
+    assert answer.status_code == 200, answer.text
+    got = answer.json()
+    assert got["mass"] == [None] * 200 and got["limiting_joint"] == [None] * 200
+    assert got["mass_per_joint"] == [[None] * 6] * 200
+    assert got["minimum"] == {"mass": None, "state": None, "limiting_joint": None}
+    data = robot.model.createData()
+    gravity = [pin.computeGeneralizedGravity(robot.model, data, row) for row in q]
+    np.testing.assert_allclose(got["tau"], gravity, rtol=1e-12, atol=1e-12)
 
 
 def test_a_standing_robot_carries_its_payload(api, catalog_registry):

@@ -4,6 +4,8 @@ contract's code, never a 5xx."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import orjson
 import pytest
@@ -190,6 +192,25 @@ def test_identify_non_finite_and_malformed(client, log):
     )
     _problem(client.post("/v1/robots/ur5/identify", json={"t": [0, 1]}), 422, "validation_error")
     _problem(client.post("/v1/robots/nope/identify", json=_body(log)), 404, "robot_not_found")
+
+
+@pytest.mark.parametrize(
+    ("scaled", "factor", "words"),
+    [
+        (("q",), 1e300, r"\|q\| up to [0-9.]+e\+(299|300)"),  # v² overflows: the regressor
+        (("v", "a"), 1e150, r"\|v\| up to [0-9.]+e\+150"),  # squares overflow in the fit
+    ],
+)
+def test_identify_numbers_too_large_to_fit_are_a_422(client, log, scaled, factor, words):
+    """Through the worker process: the log's numbers whose squares overflow float64 in the fit
+    are a 422 validation_error naming them, never a 500."""
+    body = _body(log, store=False, v=log.v.tolist(), a=log.a.tolist())
+    for name in scaled:
+        body[name] = (np.asarray(body[name]) * factor).tolist()
+    if "v" not in scaled:
+        del body["v"], body["a"]  # differentiated from q
+    detail = _problem(client.post("/v1/robots/ur5/identify", json=body), 422, "validation_error")
+    assert "too large to fit in float64" in detail and re.search(words, detail), detail
 
 
 def test_identify_a_free_flyer_is_unsupported(client, registry):

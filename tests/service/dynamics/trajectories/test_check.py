@@ -10,7 +10,12 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 from service.dynamics.trajectories import check_trajectory
-from service.errors import DimensionMismatch, InvalidConfiguration, InvalidInput
+from service.errors import (
+    DimensionMismatch,
+    InvalidConfiguration,
+    InvalidInput,
+    NonFiniteResult,
+)
 from service.registry import Registry
 
 
@@ -229,3 +234,50 @@ def test_bad_input_names_the_field(robots: Registry, change: dict, error: type, 
     t, q, v, a = args.pop("t"), args.pop("q"), args.pop("v"), args.pop("a")
     with pytest.raises(error, match=words):
         check_trajectory(robots.get("ur5"), t, q, v, a, **args)
+
+
+HELD = np.array([0.0, -1.57, 1.57, 0.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize(
+    ("t", "step", "between"),
+    [
+        ([0.0, 5e-324], 0.1, "samples 0 and 1"),  # Δq / Δt = 0.1 / 5e-324 overflows
+        ([0.0, 1e-10], 1e300, "samples 0 and 1"),
+        ([0.0, 1e-200, 2e-200], 0.1, "samples 0 and 1"),  # the slope fits, q̈ does not
+    ],
+)
+def test_q_changing_faster_than_float64_holds_is_a_422_naming_t_and_q(
+    robots: Registry, t: list[float], step: float, between: str
+) -> None:
+    q = HELD + step * np.arange(len(t))[:, None] * np.ones(6)
+    with pytest.raises(InvalidInput, match=f"t and q: between {between}"):
+        check_trajectory(robots.get("ur5"), t, q)
+
+
+def test_a_motion_sampled_1e300_s_apart_is_held_by_gravity(robots: Registry) -> None:
+    """Samples 1e300 s apart (and times ±1e308, whose span overflows float64): the spline in
+    the unit of its largest interval gives velocities of 1e-301 rad/s, so τ is the gravity
+    torque at each sample (Pinocchio's computeGeneralizedGravity)."""
+    robot = robots.get("ur5")
+    q = HELD + np.outer([0.0, 0.3, -0.2, 0.1], [0.5, 0.4, -0.3, 0.2, 0.1, 0.6])
+    data = robot.model.createData()
+    gravity = np.array([pin.computeGeneralizedGravity(robot.model, data, row) for row in q])
+    for t in (np.arange(4) * 1e300, np.array([-1e308, -1e307, 1e307, 1e308])):
+        result = check_trajectory(robot, t, q)
+        np.testing.assert_allclose(result.tau, gravity, rtol=1e-12, atol=1e-12)
+        assert np.abs(result.v).max() < 1e-290 and np.isfinite(list(result.work.values())).all()
+
+
+def test_non_finite_torques_work_and_ratios_are_422s_naming_the_input(robots: Registry) -> None:
+    """Given v and a of 1e200 (v² overflows in τ); a motion whose power τᵀv integrates beyond
+    float64; an effort_scale so small that a peak over its limit overflows."""
+    robot = robots.get("ur5")
+    t, q = [0.0, 1.0, 2.0], np.array([HELD] * 3)
+    huge = np.full((3, 6), 1e200)
+    with pytest.raises(NonFiniteResult, match=r"τ at t = 0 s \(sample 0\)"):
+        check_trajectory(robot, t, q, huge, huge)
+    with pytest.raises(NonFiniteResult, match="the work"):
+        check_trajectory(robot, [0.0, 1e300, 2e300], q, np.full((3, 6), 1e10), np.zeros((3, 6)))
+    with pytest.raises(InvalidInput, match="effort_scale is too small"):
+        check_trajectory(robot, t, q, effort_scale=5e-324)

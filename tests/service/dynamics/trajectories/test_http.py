@@ -163,6 +163,75 @@ def test_bad_retime_input_is_a_422_with_its_code(
     ), problem
 
 
+HELD = [0.0, -1.57, 1.57, 0.0, 0.0, 0.0]  # gravity needs 0.36 of the UR5's torque limits
+
+
+def _shifted(step: float) -> list[float]:
+    return [x + step for x in HELD]
+
+
+def test_paths_gravity_holds_are_timed_whatever_their_scale(api) -> None:
+    """A 1000-waypoint ±0.01 rad zig-zag, two waypoints 1e-10 rad apart, A → A + 1e-11 → B
+    (merged: A → B), each answered within its limits, not called infeasible."""
+    zigzag = [[HELD[0] + (0.01 if i % 2 else -0.01), *HELD[1:]] for i in range(1000)]
+    tiny = [HELD, _shifted(1e-10)]
+    for waypoints in (zigzag, tiny):
+        r = api.post("/v1/robots/ur5/retime", json={"waypoints": waypoints})
+        assert r.status_code == 200, r.text
+        assert r.json()["check"]["feasible"] and r.json()["duration"] > 0
+    plain = api.post("/v1/robots/ur5/retime", json={"waypoints": [HELD, _shifted(0.5)]})
+    merged = api.post(
+        "/v1/robots/ur5/retime", json={"waypoints": [HELD, _shifted(1e-11), _shifted(0.5)]}
+    )
+    assert merged.status_code == 200, merged.text
+    assert merged.json()["duration"] == plain.json()["duration"]
+
+
+@pytest.mark.parametrize(
+    ("body", "code", "words"),
+    [
+        ({"limits": {"velocity_scale": 1e-10}}, "validation_error", "sample_dt: the motion lasts"),
+        ({"limits": {"acceleration": [1e-19] * 6}}, "validation_error", "the motion lasts"),
+        ({"limits": {"acceleration": [5e-324] * 6}}, "validation_error", "limits.acceleration"),
+        ({"limits": {"velocity_scale": 1e-300}}, "validation_error", "limits.velocity_scale"),
+        ({"sample_dt": 5e-324}, "validation_error", "sample_dt: the motion lasts"),
+        (
+            {"waypoints": [[-1e154] * 6, [1e154] * 6]},
+            "infeasible_path",
+            "leaves its position limits",
+        ),
+        (
+            {"waypoints": [[-1e308] * 6, [1e308] * 6]},
+            "validation_error",
+            "waypoints 0 and 1 are too far apart",
+        ),
+    ],
+)
+def test_retime_limits_and_paths_beyond_float64_are_422s(api, body, code, words) -> None:
+    """Motions too long to sample, limits whose path quantities overflow, waypoints whose
+    distance overflows: each a 422 naming its input."""
+    r = api.post("/v1/robots/ur5/retime", json={"waypoints": [HELD, _shifted(0.5)], **body})
+    assert r.status_code == 422, r.text
+    assert r.json()["code"] == code and words in r.json()["detail"], r.json()
+
+
+@pytest.mark.parametrize(
+    ("body", "words"),
+    [
+        ({"t": [0.0, 5e-324], "q": [HELD, _shifted(0.1)]}, "t and q: between samples 0 and 1"),
+        ({"t": [0.0, 1e-10], "q": [HELD, _shifted(1e300)]}, "t and q: between samples 0 and 1"),
+        ({"effort_scale": 5e-324}, "effort_scale is too small"),
+    ],
+)
+def test_check_inputs_beyond_float64_are_422s(api, body, words) -> None:
+    r = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        json={"t": [0.0, 1.0, 2.0], "q": [HELD, _shifted(0.1), HELD], **body},
+    )
+    assert r.status_code == 422, r.text
+    assert r.json()["code"] == "validation_error" and words in r.json()["detail"], r.json()
+
+
 def test_infeasible_path_names_joint_waypoint_and_fraction(api) -> None:
     r = api.post(
         "/v1/robots/ur5/retime",

@@ -345,3 +345,120 @@ def test_many_random_paths_never_over_a_limit(robots, robot_id):
             assert _within(a, acceleration) <= 1 + TOLERANCE
         checked += 1
     assert checked >= 5
+
+
+HELD = np.array([0.0, -1.57, 1.57, 0.0, 0.0, 0.0])  # gravity needs 0.36 of the UR5's limits
+
+
+def _zigzag(count: int) -> np.ndarray:
+    """`count` waypoints alternating ±0.01 rad of the base joint about HELD."""
+    sign = np.where(np.arange(count) % 2 == 1, 1.0, -1.0)
+    return HELD + 0.01 * sign[:, None] * np.eye(6)[0]
+
+
+def test_a_long_zigzag_is_timed_like_its_repeated_legs(robots):
+    """1000 waypoints: every leg between two turns is the same, so each adds the same time,
+    d(1000) − d(100) = 9 (d(200) − d(100)); the motion is within the limits (its own check).
+    At the turns q' is a rounded zero (about 1e-160): the solver's rows there are constant."""
+    robot = robots.get("ur5")
+    d100, d200, d1000 = (retime(robot, _zigzag(n)) for n in (100, 200, 1000))
+    assert d1000.check.feasible and d1000.worst_ratio <= 1.0
+    legs = (d1000.duration - d100.duration) / (9 * (d200.duration - d100.duration))
+    assert legs == pytest.approx(1.0, rel=1e-6)
+
+
+def test_a_tiny_path_is_timed_and_scales_as_the_square_root_of_its_length(robots):
+    """Two waypoints 1e-10 rad apart (per joint): a rest-to-rest motion limited by the torques
+    over a displacement d takes a time ∝ √d (M and g constant over so short a path), so
+    1e-10 takes 1/10 of 1e-8's time."""
+    robot = robots.get("ur5")
+    tiny = retime(robot, [HELD, HELD + 1e-10])
+    small = retime(robot, [HELD, HELD + 1e-8])
+    assert tiny.check.feasible and tiny.t[0] == 0.0 and tiny.t[-1] == tiny.duration
+    np.testing.assert_allclose(tiny.q[-1], HELD + 1e-10, rtol=0, atol=1e-15)
+    assert tiny.duration / small.duration == pytest.approx(0.1, rel=1e-6)
+
+
+def test_near_duplicate_waypoints_are_merged(robots):
+    """A waypoint within 1e-6 of the path's length of the one before it is the same point:
+    A → A + 1e-11 → B is A → B; B − 1e-11 before the end B is merged into B (the path ends at
+    B); a waypoint 1e-4 of the length away is kept (another path, another duration)."""
+    robot = robots.get("ur5")
+    a, b = HELD, HELD + 0.5
+    plain = retime(robot, [a, b])
+    assert retime(robot, [a, a + 1e-11, b]).duration == plain.duration
+    end = retime(robot, [a, b - 1e-11, b])
+    assert end.duration == plain.duration
+    np.testing.assert_array_equal(end.q[-1], b)
+    kept = retime(robot, [a, a + 1e-4 * (b - a), b])
+    assert kept.duration != plain.duration and kept.check.feasible
+
+
+def test_very_slow_velocity_limits_give_the_velocity_limited_time(robots):
+    """velocity_scale 1e-10: the motion is so slow that only the velocity limits matter, and
+    the fastest timing takes ∫ max_j |q'_j(s)| / v_j ds (a quadrature of this test's spline):
+    the answer is never faster, and within 2 % (the ends' intervals, from and to rest). At
+    sample_dt 0.01 its samples are too many: a 422 asking for a larger sample_dt."""
+    robot = robots.get("ur5")
+    waypoints = np.array([HELD, HELD + np.array([0.4, 0.2, -0.3, 0.5, 0.1, 0.0]), HELD + 0.5])
+    with pytest.raises(InvalidInput, match=r"sample_dt: the motion lasts [0-9.]+e\+09 s"):
+        retime(robot, waypoints, velocity_scale=1e-10)
+    result = retime(robot, waypoints, velocity_scale=1e-10, sample_dt=1e7)
+    spline = _path(waypoints)
+    s = np.linspace(0.0, spline.x[-1], 200_001)
+    pace = (np.abs(spline(s, 1)) / (1e-10 * robot.model.velocityLimit)).max(axis=1)
+    optimum = float(np.sum((pace[1:] + pace[:-1]) / 2 * np.diff(s)))
+    assert optimum <= result.duration <= 1.02 * optimum
+    assert result.check.feasible
+
+
+def test_tiny_acceleration_limits_scale_the_duration(robots):
+    """With acceleration limits a this small, only they matter, and a rest-to-rest motion
+    along a path takes ∝ 1/√a: 1e-18 takes 10 × 1e-16's time (years: a 422 at the default
+    sample_dt). A limit whose path accelerations overflow float64 is a 422 naming it."""
+    robot = robots.get("ur5")
+    waypoints = [HELD, HELD + 0.5]
+    slow = retime(robot, waypoints, acceleration=np.full(6, 1e-18), sample_dt=1e8)
+    slower = retime(robot, waypoints, acceleration=np.full(6, 1e-16), sample_dt=1e7)
+    assert slow.duration / slower.duration == pytest.approx(10.0, rel=1e-6)
+    with pytest.raises(InvalidInput, match="sample_dt: the motion lasts"):
+        retime(robot, waypoints, acceleration=np.full(6, 1e-19))
+    with pytest.raises(InvalidInput, match=r"limits\.acceleration gives joint"):
+        retime(robot, waypoints, acceleration=np.full(6, 5e-324))
+    with pytest.raises(InvalidInput, match=r"limits\.velocity_scale gives joint"):
+        retime(robot, waypoints, velocity_scale=1e-300)  # (v_max² underflows to 0)
+
+
+def test_a_path_scaled_by_1e154_takes_1e77_times_longer(robots):
+    """A robot limited by joint accelerations alone times a path scaled by k in √k × the
+    time (the same motion, s and t in other units): waypoints 1e154 rad apart, whose squared
+    distance overflows float64. Waypoints whose difference overflows are a 422 naming them;
+    on the UR5 a path that long leaves the position limits (infeasible_path)."""
+    robot = robots.get("double_pendulum")  # no limits in its URDF
+    waypoints = np.array([[0.0, 0.0], [1.0, -0.5], [0.3, 0.8]])
+    limit = np.array([2.0, 3.0])
+    plain = retime(robot, waypoints, acceleration=limit)
+    huge = retime(robot, waypoints * 1e154, acceleration=limit, sample_dt=1e76)
+    assert huge.duration / plain.duration == pytest.approx(1e77, rel=1e-9)
+    with pytest.raises(InvalidInput, match="waypoints 0 and 1 are too far apart"):
+        retime(robot, [[-1e308, 0.0], [1e308, 0.0]], acceleration=limit)
+    with pytest.raises(InfeasiblePath) as caught:
+        retime(robots.get("ur5"), [np.full(6, -1e154), np.full(6, 1e154)])
+    assert caught.value.extra["kind"] == "position"
+
+
+def test_solver_rows_of_rounded_zeros_are_constant_rows():
+    """A row whose (a, b) is a rounded zero (q' ≈ 1e-160 squared: 1e-320) is the constant
+    c ≤ 1, not a row divided by 1e-320; other rows are normalized to ‖(a, b)‖ = 1."""
+    from service.dynamics.trajectories.toppra_rows import SampledRows, path_speed_scale
+
+    rows = SampledRows(
+        np.array([[1e-163, 3.0]]), np.array([[1e-320, 4.0]]), np.array([[0.25, 0.5]])
+    )
+    np.testing.assert_allclose(rows.a, [[0.0, 0.6]], rtol=1e-15, atol=0)
+    np.testing.assert_allclose(rows.b, [[0.0, 0.8]], rtol=1e-15, atol=0)
+    np.testing.assert_allclose(rows.c, [[0.25, 1.0 - 0.5 / 5.0]])
+    # x̄: the median over stages of min over rows with b > 0 of (1 − c) / b
+    b = np.array([[2.0, 0.0], [1.0, 4.0], [0.5, -1.0]])
+    c = np.array([[0.0, 0.3], [0.5, 0.2], [0.5, 0.0]])
+    assert path_speed_scale(b, c) == pytest.approx(0.5)  # stages: 0.5, 0.2, 1.0

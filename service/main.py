@@ -25,7 +25,7 @@ from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
 from service.api.routes import equations, health, identification, pages, robots, stream, visuals
-from service.dynamics.equations.cache import EquationsCache
+from service.api.workers.equations_cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import BuildSlots, build_slot_count

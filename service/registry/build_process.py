@@ -179,7 +179,7 @@ def _mp_context() -> Any:
 
 def forkserver_context() -> Any:
     """The multiprocessing context of the isolated children (builders, and the derivation of
-    the equations in `service.dynamics.equations.isolated`): a forkserver with Pinocchio,
+    the equations in `service.api.workers.equations`): a forkserver with Pinocchio,
     NumPy and MuJoCo imported."""
     return _mp_context()
 

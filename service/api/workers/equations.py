@@ -1,9 +1,10 @@
 """Deriving the equations in a separate process, with a time limit.
 
-The derivation is pure Python and holds the GIL for its whole duration (up to tens of seconds
-for a 6-joint arm with skewed axes): in a thread of the serving process it would stall the event
-loop and `/health/live`. `derive_isolated` runs it in a short-lived child forked from the
-forkserver the upload builders use (`service.registry.build_process`), with Pinocchio already
+The derivation (`service.dynamics.equations`) is pure Python and holds the GIL for its whole
+duration (up to tens of seconds for a 6-joint arm with skewed axes): in a thread of the serving
+process it would stall the event loop and `/health/live`. `derive_isolated` runs it in a
+short-lived child forked from the forkserver the upload builders use
+(`service.registry.build_process`), with Pinocchio already
 imported there. The child receives the model in Pinocchio's binary serialization, limits
 itself (CPU time, address space, nice 10, no core files), derives within its time limit (checked
 between the steps of the derivation), renders the answer and sends it back as JSON bytes

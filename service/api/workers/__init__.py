@@ -1,5 +1,5 @@
 """The work the API schedules off the serving process (the physics it runs is in
-`service.dynamics`).
+`service.dynamics`; the processes it runs in are `service.processes`'s).
 
     equations        the derivation of the equations in explicit form in a child process,
                      with a time limit (`derive_isolated`)

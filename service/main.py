@@ -13,7 +13,7 @@ from typing import Any
 
 from fastapi import Depends, FastAPI
 
-from service import __version__, heap, unpin_this_thread
+from service import __version__, heap, processes, unpin_this_thread
 from service.api.deps import require_api_key_for_all
 from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.middleware.api_keys import KeyBeforeBody
@@ -68,6 +68,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         worker = getattr(app.state, "identification", None)
         if worker is not None:  # the identification worker process, if one was started
             worker.close()
+        # every child process (builders, the JSON helper, ...), the forkserver and
+        # multiprocessing's resource tracker: the server leaves no process behind
+        processes.shutdown()
 
     options: dict[str, Any] = {}
     accepted = inspect.signature(FastAPI.__init__).parameters  # options of newer FastAPI only

@@ -10,7 +10,6 @@ ended without an answer).
 
 from __future__ import annotations
 
-import gc
 import threading
 from multiprocessing.process import BaseProcess
 from typing import Protocol
@@ -73,5 +72,4 @@ def shutdown() -> None:
         end(proc)
     stop_launcher()
     stop_forkserver()
-    gc.collect()  # named semaphores of closed pools unregister from the tracker first
     stop_resource_tracker()

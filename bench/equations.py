@@ -30,8 +30,8 @@ import time
 import orjson
 import pinocchio as pin
 
+from service.api.workers.equations import derive_isolated
 from service.dynamics.equations import derive_equations, equations_answer
-from service.dynamics.equations.isolated import derive_isolated
 from service.errors import Overloaded, UnsupportedModel
 from service.registry.catalog import load_catalog
 from tests.helpers import skewed_arm_urdf

@@ -13,7 +13,7 @@ from typing import Any
 
 from fastapi import Depends, FastAPI
 
-from service import __version__, heap, unpin_this_thread
+from service import __version__, heap, processes, unpin_this_thread
 from service.api.deps import require_api_key_for_all
 from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.middleware.api_keys import KeyBeforeBody
@@ -25,7 +25,7 @@ from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
 from service.api.routes import equations, health, identification, pages, robots, stream, visuals
-from service.dynamics.equations.cache import EquationsCache
+from service.api.workers.equations_cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import BuildSlots, build_slot_count
@@ -68,6 +68,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         worker = getattr(app.state, "identification", None)
         if worker is not None:  # the identification worker process, if one was started
             worker.close()
+        # every child process (builders, the JSON helper, ...), the forkserver and
+        # multiprocessing's resource tracker: the server leaves no process behind
+        processes.shutdown()
 
     options: dict[str, Any] = {}
     accepted = inspect.signature(FastAPI.__init__).parameters  # options of newer FastAPI only

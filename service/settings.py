@@ -187,7 +187,7 @@ class Settings(BaseSettings):
         "theirs on disk in the data directory).",
     )
 
-    # -- identification (service/dynamics/identification/worker.py; docs/identification.md) --
+    # -- identification (service/api/workers/identification.py; docs/identification.md) --
     identify_timeout_s: float = Field(
         120.0,
         gt=0,

@@ -1,16 +1,43 @@
-"""Fixtures: the whole catalog loaded once, and an app over it with a temporary store."""
+"""Fixtures: the whole catalog loaded once, an app over it with a temporary store, and the
+check that the session leaves no process behind."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
 
+from service import processes
 from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
+from tests.descendants import wait_no_descendants
+
+LEFTOVER_WAIT_S = 10.0  # for children killed at the very end to be reaped
+
+
+@pytest.fixture(scope="session", autouse=True)
+def no_process_left_behind() -> Iterator[None]:
+    """Set up first, so torn down last, after every other fixture. Then no child started by
+    `service.processes` may still be tracked (each fixture and app lifespan stops its own);
+    the process-wide ones, started by whichever test needed them first (the forkserver, the
+    JSON helper, multiprocessing's resource tracker), are stopped by `processes.shutdown()`;
+    and pytest must have no child process left at all (servers, browsers, helpers)."""
+    yield
+    tracked = {proc.pid: proc.name for proc in processes.live_children()}
+    processes.shutdown()
+    left = wait_no_descendants(os.getpid(), LEFTOVER_WAIT_S)
+    problems = []
+    if tracked:
+        problems.append(f"children of service.processes still running: {tracked}")
+    if left:
+        listed = "; ".join(f"{pid}: {cmd[:160]}" for pid, cmd in sorted(left.items()))
+        problems.append(f"processes left behind by the test session: {listed}")
+    if problems:
+        pytest.fail("\n".join(problems), pytrace=False)
 
 
 @pytest.fixture(scope="session")

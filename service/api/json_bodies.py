@@ -4,22 +4,19 @@ Parsing and validating JSON (pydantic's `model_validate_json`) is one C call tha
 for its whole duration: about 0.14 s for the 15 MB body of a 100,000-sample trajectory check,
 during which the event loop (and /health/live) waits, whichever thread runs it. A body of more
 than `ISOLATED_JSON_BYTES` is therefore parsed by the very same validation (a dynamics route's
-`Endpoint.parse_json`, identify's model) in a long-lived helper process (a
-`ProcessPoolExecutor` of `JSON_WORKERS` spawned processes, at a lower CPU priority; started by
-the first such body, which waits about two seconds more for its imports); the serving process
-only sends the bytes and gets back the arrays as float64 arrays (a copy of memory, no Python
-floats to build) and the options. Validation and domain errors
-come back as the same errors. A helper that dies (e.g. killed for memory) is replaced; that body
-is parsed in process instead, so the answer never depends on the helper.
+`Endpoint.parse_json`, identify's model) in a long-lived helper process (`HELPERS`, a
+`service.processes.HelperPool` of `JSON_WORKERS` spawned processes at a lower CPU priority,
+started by the first such body, which waits about two seconds more for its imports; spawned,
+not forked from the builders' forkserver: it is not a builder, whose count and CPU are bounded
+on their own); the serving process only sends the bytes and gets back the arrays as float64
+arrays (a copy of memory, no Python floats to build) and the options. Validation and domain
+errors come back as the same errors. A helper that dies (e.g. killed for memory) is replaced;
+that body is parsed in process instead, so the answer never depends on the helper.
 """
 
 from __future__ import annotations
 
-import multiprocessing as mp
-import os
-import threading
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, TypeVar
 
@@ -28,26 +25,24 @@ import orjson
 from fastapi.exceptions import RequestValidationError
 
 from service import errors
+from service.processes import CHILD_NICENESS, HelperPool, ResourceLimits
 
 T = TypeVar("T")
 ISOLATED_JSON_BYTES = 2 * 1024 * 1024
 """JSON bodies larger than this are parsed in the helper process (~20 ms and more inline)."""
 JSON_WORKERS = 1
-HELPER_NICENESS = 10  # like the builders: the serving process keeps its share of the CPU
-
-_lock = threading.Lock()
-_pool: ProcessPoolExecutor | None = None
+HELPERS = HelperPool(JSON_WORKERS, ResourceLimits(niceness=CHILD_NICENESS))
+"""The helper processes (like the builders, at a lower CPU priority: the serving process keeps
+its share of the CPU)."""
 
 
 def parse_isolated(parse: Callable[..., T], *args: Any) -> T:
     """`parse(*args)` — a module-level function parsing a JSON body — in the helper process;
     blocking (call it off the event loop). Raises what `parse` raises (validation errors and
     domain errors); a dead helper is replaced and `parse` runs in this process instead."""
-    pool = _the_pool()
     try:
-        kind, value = pool.submit(_call, parse, *args).result()
-    except BrokenProcessPool:
-        _replace(pool)
+        kind, value = HELPERS.call(_call, parse, *args)
+    except BrokenProcessPool:  # the pool is replaced for the next body
         return parse(*args)
     if kind == "ok":
         result: T = value
@@ -56,29 +51,6 @@ def parse_isolated(parse: Callable[..., T], *args: Any) -> T:
         raise RequestValidationError(value)
     name, detail, extra = value
     raise getattr(errors, name, errors.InvalidInput)(detail, **extra)
-
-
-def _the_pool() -> ProcessPoolExecutor:
-    global _pool
-    with _lock:
-        if _pool is None:
-            # spawned, not forked from the builders' forkserver: not a builder (their count
-            # and their CPU are bounded on their own), and started only when first needed
-            _pool = ProcessPoolExecutor(
-                JSON_WORKERS,
-                mp_context=mp.get_context("spawn"),
-                initializer=os.nice,
-                initargs=(HELPER_NICENESS,),
-            )
-        return _pool
-
-
-def _replace(broken: ProcessPoolExecutor) -> None:
-    global _pool
-    with _lock:
-        if _pool is broken:
-            _pool = None
-    broken.shutdown(wait=False, cancel_futures=True)
 
 
 def _call(parse: Callable[..., Any], *args: Any) -> tuple[str, Any]:

@@ -5,13 +5,13 @@ Decoding a JSON body (`json.loads`) and validating it (pydantic) are C calls tha
 for their whole duration: a 64 MB body with 5 million unknown members takes ~5-9 s, and a worker
 thread would not help, since the event loop needs the GIL too. So a body of more than
 `INLINE_UPLOAD_BYTES` is decoded and validated by `UploadRequest` in a short-lived child forked
-from the builders' forkserver (`service.registry.build_process.forkserver_context`), one at a
-time per build slot (`service.registry.build_slots`), limited like a builder (nice 10, CPU
-time, address space `MEMORY_MB`); the serving process only waits for the answer in a worker
-thread. The child answers with the validated `UploadRequest` (pickled: no validation again) or
-the errors, already bounded by `service.api.problems.validation_errors.pydantic_errors`; the
-serving process turns them into the same problem answers as FastAPI's own body parsing would
-(`read_upload` is that parsing, done the same way inline and in the child).
+from the builders' forkserver (`service.processes.run_child`), one at a time per build slot
+(`service.registry.build_slots`), limited like a builder (nice 10, CPU time, address space
+`MEMORY_MB`); the serving process only waits for the answer in a worker thread. The child
+answers with the validated `UploadRequest` (pickled: no validation again) or the errors, already
+bounded by `service.api.problems.validation_errors.pydantic_errors`; the serving process turns
+them into the same problem answers as FastAPI's own body parsing would (`read_upload` is that
+parsing, done the same way inline and in the child).
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from __future__ import annotations
 import email.message
 import json
 import os
-import resource
 from typing import Any
 
 import orjson
@@ -29,12 +28,8 @@ from pydantic import ValidationError
 from service.api.problems.validation_errors import pydantic_errors
 from service.api.schemas.robots import UploadRequest
 from service.errors import InvalidInput, Overloaded
-from service.registry.build_process import (
-    BUILDER_NICENESS,
-    STARVED_CPU_FRACTION,
-    cpu_seconds,
-    forkserver_context,
-)
+from service.processes import ChildDied, ChildNotStarted, ChildTimedOut, ResourceLimits, run_child
+from service.registry.build_process import FORKSERVER_PRELOAD
 from service.registry.build_slots import BuildSlots
 
 INLINE_UPLOAD_BYTES = 1024 * 1024
@@ -127,14 +122,10 @@ def upload_request(outcome: Outcome) -> UploadRequest:
     raise InvalidInput(f"body: {value}")
 
 
-def _child_read(conn: Any, content_type: str | None, cpu_s: int, memory_mb: int) -> None:
-    """The child: receives the body, answers `read_upload`'s outcome."""
+def _child_read(conn: Any, content_type: str | None, memory_mb: int) -> None:
+    """The child (its limits already set): receives the body, answers `read_upload`'s
+    outcome."""
     try:
-        os.nice(BUILDER_NICENESS)
-        memory = memory_mb * 1024 * 1024
-        resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-        resource.setrlimit(resource.RLIMIT_CPU, (cpu_s, cpu_s + 1))
-        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
         body = conn.recv_bytes()
         kept: list[Any] = []
         try:
@@ -160,38 +151,27 @@ def read_upload_isolated(
     the event loop). `Overloaded` when no slot or process is free, or when the child timed out
     having been starved of CPU; a child past its limits is `InvalidInput` naming them."""
     with slots.slot():
-        ctx = forkserver_context()
-        parent, child = ctx.Pipe()
-        proc = ctx.Process(
-            target=_child_read, daemon=True, args=(child, content_type, cpu_s, memory_mb)
-        )
         try:
-            proc.start()
-        except OSError:
-            parent.close()
+            outcome: Outcome = run_child(
+                _child_read,
+                (content_type, memory_mb),
+                timeout_s=timeout_s,
+                limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_s),
+                preload=FORKSERVER_PRELOAD,
+                send_bytes=body,
+            )
+        except ChildNotStarted:
             raise Overloaded("could not start a process to read the body; retry shortly") from None
-        finally:
-            child.close()
-        try:
-            parent.send_bytes(body)
-            if not parent.poll(timeout_s):
-                cpu = cpu_seconds(proc.pid)
-                if cpu is not None and cpu < STARVED_CPU_FRACTION * timeout_s:
-                    raise Overloaded(
-                        "reading the body got too little CPU time: the server is "
-                        "too busy right now; retry shortly"
-                    )
-                raise InvalidInput(f"body: reading it took longer than {timeout_s:g} s")
-            outcome: Outcome = parent.recv()
-        except (EOFError, OSError):
-            proc.join(5)
+        except ChildTimedOut as exc:
+            if exc.starved(timeout_s):
+                raise Overloaded(
+                    "reading the body got too little CPU time: the server is "
+                    "too busy right now; retry shortly"
+                ) from None
+            raise InvalidInput(f"body: reading it took longer than {timeout_s:g} s") from None
+        except ChildDied:
             raise InvalidInput(
                 f"body: the process reading it ended without an answer (its "
                 f"limits: {cpu_s} s of CPU, {memory_mb} MB)"
             ) from None
-        finally:
-            parent.close()
-            if proc.is_alive():
-                proc.kill()
-            proc.join(5)
     return outcome

@@ -4,14 +4,15 @@
 that would hold the serving process's GIL for seconds on a large file), expands a xacro
 (`service.registry.xacro_expand`) and builds the model (`service.registry.build`: Pinocchio's
 URDF parser, or MuJoCo's compiler for MJCF), all in a separate short-lived process forked from
-a forkserver that has Pinocchio, MuJoCo and the builders imported. It brings back what
-validation found, what the format adds (an MJCF's visuals, a xacro's expansion) and the model
-in Pinocchio's binary serialization (`build_isolated`: the model only). The child limits itself
-before it reads the text: address space (`RLIMIT_AS`, memory_mb), CPU time (`RLIMIT_CPU`,
-cpu_s: SIGXCPU, then SIGKILL one second later), a lower CPU priority (nice 10), no core files,
-few file descriptors, and no file writes from just before the native parser runs (a xacro's
-assets and MuJoCo's empty working directory are written just before); the parent adds a
-wall-clock timeout. A crash, a kill, a memory blow-up or a hang of the native parser becomes
+a forkserver that has Pinocchio, MuJoCo and the builders imported (`service.processes`, with
+`FORKSERVER_PRELOAD`). It brings back what validation found, what the format adds (an MJCF's
+visuals, a xacro's expansion) and the model in Pinocchio's binary serialization
+(`build_isolated`: the model only). The child limits itself before it reads the text
+(`service.processes.ResourceLimits`): address space (`RLIMIT_AS`, memory_mb), CPU time
+(`RLIMIT_CPU`, cpu_s: SIGXCPU, then SIGKILL one second later), a lower CPU priority (nice 10),
+no core files, few file descriptors, and no file writes from just before the native parser runs
+(a xacro's assets and MuJoCo's empty working directory are written just before); the parent
+adds a wall-clock timeout. A crash, a kill, a memory blow-up or a hang of the native parser becomes
 `InvalidModel` with a reason; the serving process never sees it. A wall-clock timeout of a
 child that got less than half of that time on a CPU is the server's contention, not the
 model's: `Overloaded` (503). How many builds run at once is bounded by the caller
@@ -20,9 +21,6 @@ model's: `Overloaded` (503). How many builds run at once is bounded by the calle
 
 from __future__ import annotations
 
-import multiprocessing as mp
-import os
-import resource
 import signal
 import tempfile
 from collections.abc import Mapping
@@ -32,6 +30,15 @@ from typing import Any
 import pinocchio as pin
 
 from service.errors import InvalidModel, Overloaded
+from service.processes import (
+    ChildDied,
+    ChildNotStarted,
+    ChildTimedOut,
+    ResourceLimits,
+    forbid_file_writes,
+    run_child,
+    starved,
+)
 from service.registry.asset_checks import asset_report, check_asset_texts
 from service.registry.build import (
     FORMATS,
@@ -58,24 +65,11 @@ class Built:
     report: dict[str, Any] = field(default_factory=dict)  # what the format adds (see _child_build)
 
 
-def _limit_resources(memory_mb: int, cpu_s: int) -> None:
-    """Resource limits of the builder child (Linux/Unix `setrlimit`; soft = hard); file writes
-    are forbidden separately (`_forbid_file_writes`), once an MJCF file is written."""
-    memory = memory_mb * 1024 * 1024
-    os.nice(BUILDER_NICENESS)
-    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-    resource.setrlimit(resource.RLIMIT_CPU, (cpu_s, cpu_s + 1))
-    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    resource.setrlimit(resource.RLIMIT_NOFILE, (64, 64))
+FORKSERVER_PRELOAD = ("pinocchio", "numpy", "mujoco", __name__)
+"""Modules the forkserver imports once (`service.processes.contexts`): each builder starts
+with them loaded. The other forked children (upload bodies, the equations) name the same."""
 
-
-BUILDER_NICENESS = 10
-"""Builders run at a lower CPU priority than the serving process: a build is background work,
-answers to requests are not (a starved build ends as 503 overloaded, see `_timed_out`)."""
-
-
-def _forbid_file_writes() -> None:
-    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+BUILDER_OPEN_FILES = 64
 
 
 def _child_build(
@@ -85,20 +79,19 @@ def _child_build(
     gravity: list[float] | None,
     description_format: str = "urdf",
     memory_mb: int = 1024,
-    cpu_s: int = 20,
     max_nv: int | None = None,
     limits: Limits | None = None,
     reject_findings: bool = False,
     assets: Mapping[str, bytes] | None = None,
     xacro_args: Mapping[str, str] | None = None,
 ) -> None:
-    """The builder process: validate, then (unless findings are to be rejected) build.
-    Answers ("ok", Checked, model bytes, report), ("checked", Checked) or ("invalid", detail);
-    the report holds what a format adds (MJCF: `MJCFModel.report`; xacro: its expansion)."""
+    """The builder process (its limits already set by `service.processes`): validate, then
+    (unless findings are to be rejected) build. Answers ("ok", Checked, model bytes, report),
+    ("checked", Checked) or ("invalid", detail); the report holds what a format adds (MJCF:
+    `MJCFModel.report`; xacro: its expansion)."""
     try:
         limits = limits or Limits()
         report: dict[str, Any] = {}
-        _limit_resources(memory_mb, cpu_s)
         description, urdf = text, None
         check_asset_texts(assets or {}, limits)
         if description_format == "xacro":
@@ -110,7 +103,7 @@ def _child_build(
         if description_format == "mjcf":
             label = preflight(text, assets or {}, limits)
             with empty_working_directory():  # created before file writes are forbidden
-                _forbid_file_writes()
+                forbid_file_writes()
                 built = build_mjcf_model(text, root_joint, gravity, assets)
             model, report = built.model, {**report, **built.report()}
             checked = Checked(built.findings, built.notes, label, built.root_joint)
@@ -123,7 +116,7 @@ def _child_build(
             if checked.findings and reject_findings:
                 conn.send(("checked", checked))
                 return
-            _forbid_file_writes()
+            forbid_file_writes()
             model = build_urdf_model(text, root_joint, gravity)
         if max_nv is not None and model.nv > max_nv:
             # before createData: its memory grows with nv³
@@ -164,24 +157,6 @@ def _native_failure(description_format: str, memory_mb: int) -> str:
             "ROBODYN_BUILD_MEMORY_MB)"
         )
     return "Pinocchio could not build a model from this description"
-
-
-_context: Any = None
-
-
-def _mp_context() -> Any:
-    global _context
-    if _context is None:
-        _context = mp.get_context("forkserver")
-        _context.set_forkserver_preload(["pinocchio", "numpy", "mujoco", __name__])
-    return _context
-
-
-def forkserver_context() -> Any:
-    """The multiprocessing context of the isolated children (builders, and the derivation of
-    the equations in `service.dynamics.equations.isolated`): a forkserver with Pinocchio,
-    NumPy and MuJoCo imported."""
-    return _mp_context()
 
 
 def _death(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
@@ -228,26 +203,13 @@ def model_from_binary(raw: bytes) -> Any:
     return model
 
 
-STARVED_CPU_FRACTION = 0.5
-"""A child that timed out having run on a CPU for less than this fraction of the wall-clock
-timeout was starved by the machine's load: the answer is 503 overloaded, not invalid_model."""
-
-
-def cpu_seconds(pid: int) -> float | None:
-    """CPU time (user + system, s) a live child has used, from /proc (None where unknown)."""
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as fh:
-            fields = fh.read().rsplit(b")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-    except (OSError, IndexError, ValueError):
-        return None
-
-
-def _timed_out(pid: int, timeout_s: float) -> Exception:
-    cpu = cpu_seconds(pid)
-    if cpu is not None and cpu < STARVED_CPU_FRACTION * timeout_s:
+def _timed_out(cpu_s: float | None, timeout_s: float) -> Exception:
+    """The error of a builder that gave no answer within `timeout_s` after `cpu_s` seconds of
+    CPU: `Overloaded` when it was starved of CPU (`service.processes.starved`), else
+    `InvalidModel`."""
+    if starved(cpu_s, timeout_s):
         return Overloaded(
-            f"building the model got only {cpu:.1f} s of CPU time in its "
+            f"building the model got only {cpu_s:.1f} s of CPU time in its "
             f"{timeout_s:g} s (ROBODYN_BUILD_TIMEOUT_S): the server is too busy "
             "right now; retry shortly"
         )
@@ -315,45 +277,31 @@ def build_upload(
     """
     if description_format not in FORMATS:
         raise ValueError(f"description_format must be one of {FORMATS}")
-    ctx = _mp_context()
-    parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(
-        target=_child_build,
-        daemon=True,
-        args=(
-            child,
-            text,
-            root_joint,
-            gravity,
-            description_format,
-            memory_mb,
-            cpu_s,
-            max_nv,
-            limits,
-            reject_findings,
-            assets,
-            xacro_args,
-        ),
-    )
     try:
-        proc.start()
-    except OSError:  # no processes or descriptors left: the server's condition, not the model's
-        parent.close()
+        answer = run_child(
+            _child_build,
+            (
+                text,
+                root_joint,
+                gravity,
+                description_format,
+                memory_mb,
+                max_nv,
+                limits,
+                reject_findings,
+                assets,
+                xacro_args,
+            ),
+            timeout_s=timeout_s,
+            limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_s, open_files=BUILDER_OPEN_FILES),
+            preload=FORKSERVER_PRELOAD,
+        )
+    except ChildNotStarted:  # no processes or descriptors left: the server's condition
         raise Overloaded("could not start a model builder process; retry shortly") from None
-    finally:
-        child.close()
-    try:
-        if not parent.poll(timeout_s):
-            raise _timed_out(proc.pid, timeout_s)
-        answer = parent.recv()
-    except (EOFError, OSError):
-        proc.join(5)
-        raise InvalidModel(_death(proc.exitcode, memory_mb, cpu_s)) from None
-    finally:
-        parent.close()
-        if proc.is_alive():
-            proc.kill()
-        proc.join(5)
+    except ChildTimedOut as exc:
+        raise _timed_out(exc.cpu_s, timeout_s) from None
+    except ChildDied as exc:
+        raise InvalidModel(_death(exc.exitcode, memory_mb, cpu_s)) from None
     if answer[0] == "invalid":
         raise InvalidModel(answer[1])
     if answer[0] == "checked":

@@ -21,6 +21,7 @@ from fastapi.testclient import TestClient
 from service import CPUS
 from service.errors import InvalidModel, Overloaded
 from service.main import create_app
+from service.processes import cpu_seconds
 from service.registry import Registry
 from service.registry.build_process import _timed_out
 from service.registry.build_slots import BuildSlots, build_slot_count
@@ -192,13 +193,13 @@ def test_a_timed_out_build_is_invalid_only_if_it_had_the_cpu():
     busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
         time.sleep(1.5)
-        assert isinstance(_timed_out(idle.pid, 1.0), Overloaded)
-        cpu_busy = _timed_out(busy.pid, 1.0)
+        assert isinstance(_timed_out(cpu_seconds(idle.pid), 1.0), Overloaded)
+        cpu_busy = _timed_out(cpu_seconds(busy.pid), 1.0)
         # on a loaded machine the busy child may itself have been starved; it then is not
         # the model's fault either
         assert isinstance(cpu_busy, InvalidModel | Overloaded)
-        assert isinstance(_timed_out(busy.pid, 0.2), InvalidModel)
-        assert "ROBODYN_BUILD_TIMEOUT_S" in str(_timed_out(idle.pid, 1.0))
+        assert isinstance(_timed_out(cpu_seconds(busy.pid), 0.2), InvalidModel)
+        assert "ROBODYN_BUILD_TIMEOUT_S" in str(_timed_out(cpu_seconds(idle.pid), 1.0))
     finally:
         for proc in (idle, busy):
             proc.kill()

@@ -14,7 +14,7 @@ from starlette.concurrency import run_in_threadpool
 from service.api.deps import RegistryDep, served_robot
 from service.api.schemas.common import Problem
 from service.api.schemas.equations import Equations
-from service.dynamics.equations.cache import EquationsCache
+from service.api.workers.equations_cache import EquationsCache
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
 

@@ -5,7 +5,7 @@ identify is a lean route (like the dynamics routes): its body, a whole log, JSON
 form (a safetensors file: t, q, tau, v, a as F64 tensors, the options as JSON texts in
 `__metadata__`, see docs/binary-format.md; the answer is JSON either way), is parsed and
 validated in a worker thread, and the fit runs in the identification worker process
-(`service.dynamics.identification.worker`, one fit at a time with a time limit), so the event
+(`service.api.workers.identification`, one fit at a time with a time limit), so the event
 loop and /health/live never wait for it. Its OpenAPI description is a twin route
 (`openapi_routes`) with the same models.
 """
@@ -33,8 +33,8 @@ from service.api.schemas.identification import (
     IdentifyRequest,
     InertialParameters,
 )
+from service.api.workers.identification import IdentificationWorker
 from service.dynamics.identification.regressor import inertial_parameters_answer
-from service.dynamics.identification.worker import IdentificationWorker
 from service.dynamics.payloads import check_payloads
 from service.errors import DimensionMismatch, InvalidInput, UnsupportedMediaType
 from service.registry import Registry

@@ -9,8 +9,9 @@ symbolically from the model's own numbers (see docs/equations.md).
     explicit_form   g, Christoffel symbols, C, T from M and U; the noise cut; `derive_equations`
     printing        each entry as a SymPy expression; its text (sp.sstr) and LaTeX (sp.latex)
     answer          the JSON answer with the structure of M and g
-    isolated        the derivation in a child process with a time limit
-    cache           each robot's answer, in memory and on disk, derived once
+
+The service derives them in a child process with a time limit and keeps each robot's answer
+(`service.api.workers.equations`, `service.api.workers.equations_cache`).
 """
 
 from service.dynamics.equations.answer import equations_answer

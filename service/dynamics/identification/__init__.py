@@ -4,7 +4,8 @@ Topic modules: `parameters` (the 10 numbers per body, pseudo-inertia, to and fro
 `regressor` (Y(q, v, a) and friction columns; the `regressor` quantity), `base_parameters`
 (the identifiable combinations), `motion_log` (checks, split, filter), `columns` (robot or
 payload), `fit` (weighted least squares and the semidefinite program), `pipeline`
-(`identify`: all of it), `worker` (`identify` in a worker process with a time limit).
+(`identify`: all of it). The service runs `identify` in a worker process with a time limit
+(`service.api.workers.identification`).
 
 `identify` and `Identification` are imported on first use (the fit needs scipy's signal
 processing and cvxpy, seconds of imports the serving process does not pay until then).

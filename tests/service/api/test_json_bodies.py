@@ -79,8 +79,8 @@ def test_domain_errors_of_a_large_body_are_the_same(api, monkeypatch) -> None:
 
 def test_a_dead_helper_is_replaced_and_the_body_parsed_in_process(api) -> None:
     body = orjson.dumps(_check_body())
-    pool = json_bodies._the_pool()
-    pool.submit(int).result()  # started
+    json_bodies.HELPERS.call(int)  # started
+    pool = json_bodies.HELPERS.executor()
     for pid in list(pool._processes):  # (the executor's own table of its processes)
         os.kill(pid, signal.SIGKILL)
     for pid in list(pool._processes):
@@ -88,7 +88,7 @@ def test_a_dead_helper_is_replaced_and_the_body_parsed_in_process(api) -> None:
             os.waitpid(pid, 0)
     answer = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
     assert answer.status_code == 200, answer.text[:300]
-    assert json_bodies._the_pool() is not pool
+    assert json_bodies.HELPERS.executor() is not pool
     again = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
     assert again.json() == answer.json()
 

@@ -13,7 +13,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from service.api.schemas.equations import Equations
-from service.dynamics.equations import cache as cache_module
+from service.api.workers import equations_cache as cache_module
 from service.dynamics.equations import derive_equations, equations_answer
 from service.main import create_app
 from service.registry import Registry

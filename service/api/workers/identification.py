@@ -3,8 +3,9 @@
 A fit holds the GIL for seconds (the regressor over every sample, the filter, the semidefinite
 program), so the service never runs it in its own process. `IdentificationWorker.identify`
 sends the robot (Pinocchio's binary model and what rebuilds its `Robot`) and the log to a
-long-lived worker process (spawned once with the identification modules imported; at a lower
-CPU priority, nice 10, and an address-space limit) and waits for the answer:
+long-lived worker process (spawned once by `service.processes.start_child`, with the
+identification modules (`service.dynamics.identification`) imported; at a lower CPU priority,
+nice 10, and an address-space limit) and waits for the answer:
 
 - at most one fit runs per worker and at most `max_waiting` more wait for it; beyond that the
   call raises `Overloaded` (503) at once;
@@ -18,32 +19,21 @@ CPU priority, nice 10, and an address-space limit) and waits for the answer:
 
 from __future__ import annotations
 
-import multiprocessing as mp
-import os
-import resource
 import threading
 import time
 from typing import Any
 
 from service import errors
 from service.dynamics.identification.pipeline import Identification, Progress
-from service.registry.build_process import (
-    STARVED_CPU_FRACTION,
-    cpu_seconds,
-    model_from_binary,
-    model_to_binary,
-)
+from service.processes import ChildNotStarted, ResourceLimits, cpu_seconds, end, start_child
+from service.processes import starved as starved_of_cpu
+from service.registry.build_process import model_from_binary, model_to_binary
 from service.registry.robot import Robot
-
-WORKER_NICENESS = 10
 
 
 def _serve(conn: Any, memory_mb: int) -> None:
-    """The worker process: fit every job it receives until its pipe closes."""
-    os.nice(WORKER_NICENESS)
-    memory = memory_mb * 1024 * 1024
-    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    """The worker process (its limits already set): fit every job it receives until its pipe
+    closes."""
     from service.dynamics.identification.pipeline import identify
 
     conn.send(("ready",))
@@ -90,20 +80,19 @@ class IdentificationWorker:
         self._conn: Any = None
 
     def _start(self) -> None:
-        ctx = mp.get_context("spawn")
-        parent, child = ctx.Pipe()
-        proc = ctx.Process(
-            target=_serve, args=(child, self.memory_mb), daemon=True, name="robodyn-identification"
-        )
         try:
-            proc.start()
-        except OSError:
-            parent.close()
+            proc, parent = start_child(
+                _serve,
+                (self.memory_mb,),
+                limits=ResourceLimits(memory_mb=self.memory_mb),
+                start="spawn",
+                duplex=True,
+                name="robodyn-identification",
+            )
+        except ChildNotStarted:
             raise errors.Overloaded(
                 "could not start an identification worker; retry shortly"
             ) from None
-        finally:
-            child.close()
         self._proc, self._conn = proc, parent
         if not parent.poll(60.0) or parent.recv() != ("ready",):
             self._stop()
@@ -115,9 +104,7 @@ class IdentificationWorker:
         if self._conn is not None:
             self._conn.close()
         if self._proc is not None:
-            if self._proc.is_alive():
-                self._proc.kill()
-            self._proc.join(5)
+            end(self._proc)
         self._proc = self._conn = None
 
     def close(self) -> None:
@@ -189,7 +176,7 @@ class IdentificationWorker:
         if (
             cpu is not None
             and started_cpu is not None
-            and cpu - started_cpu < STARVED_CPU_FRACTION * elapsed
+            and starved_of_cpu(cpu - started_cpu, elapsed)
         ):
             return errors.Overloaded(
                 f"the identification got only {cpu - started_cpu:.1f} s of CPU time in its "

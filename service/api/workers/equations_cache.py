@@ -5,9 +5,9 @@
 - from memory (a dict of JSON bytes, least recently used dropped beyond `max_bytes`);
 - else, for a stored upload or reduced model (content-derived ids: the same id is the same
   model on every replica and after a restart), from `<data_dir>/equations/v1/<id>.json`;
-- else derived in a child process (`isolated.derive_isolated`) within the time limit, then kept
-  in memory and, for a stored model, written there atomically. Catalog robots are kept in
-  memory only (the installed catalog may change between versions).
+- else derived in a child process (`derive_isolated`, `service.api.workers.equations`) within
+  the time limit, then kept in memory and, for a stored model, written there atomically.
+  Catalog robots are kept in memory only (the installed catalog may change between versions).
 
 A model out of scope is refused in this process before any child starts (the check is cheap),
 and that refusal is remembered like an answer. Concurrent requests for the same robot wait for
@@ -25,7 +25,7 @@ from collections import OrderedDict
 from concurrent.futures import Future
 from pathlib import Path
 
-from service.dynamics.equations.isolated import MEMORY_MB, derive_isolated
+from service.api.workers.equations import MEMORY_MB, derive_isolated
 from service.dynamics.equations.model_numbers import moving_joints
 from service.errors import UnsupportedModel
 from service.registry.build_slots import BuildSlots

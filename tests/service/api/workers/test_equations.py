@@ -9,10 +9,10 @@ import orjson
 import pinocchio as pin
 import pytest
 
-from service.dynamics.equations import cache as cache_module
+from service.api.workers import equations_cache as cache_module
+from service.api.workers.equations import derive_isolated
+from service.api.workers.equations_cache import EquationsCache
 from service.dynamics.equations import derive_equations, equations_answer
-from service.dynamics.equations.cache import EquationsCache
-from service.dynamics.equations.isolated import derive_isolated
 from service.errors import UnsupportedModel
 from service.registry.build_slots import BuildSlots
 from service.registry.robot import Robot

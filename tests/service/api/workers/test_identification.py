@@ -8,8 +8,8 @@ import threading
 import numpy as np
 import pytest
 
+from service.api.workers.identification import IdentificationWorker
 from service.dynamics.identification import identify
-from service.dynamics.identification.worker import IdentificationWorker
 from service.errors import DimensionMismatch, InvalidInput, Overloaded
 from service.registry.catalog import load_catalog
 from tests.service.dynamics.identification_logs import synthetic_log

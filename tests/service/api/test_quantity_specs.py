@@ -85,6 +85,18 @@ def test_each_route_is_described_by_its_spec_models(document: dict) -> None:
         assert answer.rsplit("/", 1)[-1] == spec.answer.__name__, name
 
 
+def test_each_quantity_is_answered_from_the_schema_module_of_its_dynamics_topic() -> None:
+    # service.dynamics.<topic> or service.dynamics.<topic>.<module> computes it, and
+    # service.api.schemas.<topic> declares its models (requests may be the common ones)
+    for name, spec in SPECS.items():
+        topic = spec.quantity.compute.__module__.split(".")[2]
+        assert spec.answer.__module__ == f"service.api.schemas.{topic}", name
+        assert spec.request.__module__ in (
+            f"service.api.schemas.{topic}",
+            "service.api.schemas.common",
+        ), name
+
+
 def test_each_schema_class_is_defined_once() -> None:
     defined: dict[str, str] = {}
     for path in sorted((ROOT / "service" / "api").rglob("*.py")):

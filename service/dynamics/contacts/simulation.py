@@ -18,7 +18,7 @@ reported at each sample as the largest distance of a contact frame's origin from
 A PD controller acts on the actuated joints only (its root rows are zeroed: a floating base,
 free-flyer or MJCF free joint, has no motor), and its gravity compensation is
 contact-consistent: the τ that contact-inverse-dynamics answers at (q, v = 0, a = 0) (the same
-solve, `solve.root_balance`), so the PD target, if the contacts can hold it, is an
+solve, `contacts.solve.root_balance`), so the PD target, if the contacts can hold it, is an
 equilibrium.
 
 With damping μ > 0 every evaluation iterates until the constraint violation is at most

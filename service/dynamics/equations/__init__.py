@@ -14,6 +14,6 @@ symbolically from the model's own numbers (see docs/equations.md).
 """
 
 from service.dynamics.equations.answer import equations_answer
-from service.dynamics.equations.explicit_form import Equations, derive_equations
+from service.dynamics.equations.explicit_form import ExplicitEquations, derive_equations
 
-__all__ = ["Equations", "derive_equations", "equations_answer"]
+__all__ = ["ExplicitEquations", "derive_equations", "equations_answer"]

@@ -251,7 +251,7 @@ def payload_capacity(
     return out
 
 
-PAYLOADS = (
+PAYLOAD_CAPACITY = (
     Quantity(
         "payload-capacity",
         ("q",),

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pydantic import BaseModel
 
 from service import dynamics
+from service.api.schemas.centroidal import CentroidalAnswer
 from service.api.schemas.common import (
     JointVector,
     OptionalVRequest,
@@ -34,7 +35,6 @@ from service.api.schemas.contacts import (
     ImpulseDynamicsRequest,
 )
 from service.api.schemas.derivatives import (
-    CentroidalAnswer,
     ForwardDynamicsDerivativesAnswer,
     InverseDynamicsDerivativesAnswer,
 )
@@ -48,17 +48,11 @@ from service.api.schemas.equation_of_motion import (
     MassMatrixAnswer,
     NonlinearEffectsAnswer,
 )
+from service.api.schemas.frames import JacobianAnswer, JacobianRequest
 from service.api.schemas.identification import RegressorAnswer
-from service.api.schemas.operational_space import (
-    CenterOfMassAnswer,
-    EnergyAnswer,
-    JacobianAnswer,
-    JacobianRequest,
-    MassMatrixInverseAnswer,
-    OperationalSpaceAnswer,
-    OperationalSpaceRequest,
-)
-from service.api.schemas.payloads import PayloadCapacityAnswer, PayloadCapacityRequest
+from service.api.schemas.lagrangian import CenterOfMassAnswer, EnergyAnswer, MassMatrixInverseAnswer
+from service.api.schemas.operational_space import OperationalSpaceAnswer, OperationalSpaceRequest
+from service.api.schemas.payload_capacity import PayloadCapacityAnswer, PayloadCapacityRequest
 from service.api.schemas.placements import FramePlacementsAnswer, FramePlacementsRequest
 from service.api.schemas.simulation import SimulateAnswer, SimulateRequest
 from service.api.schemas.trajectories import (

@@ -12,7 +12,7 @@ from service.dynamics.frames import FRAMES
 from service.dynamics.identification.regressor import REGRESSOR
 from service.dynamics.lagrangian import LAGRANGIAN
 from service.dynamics.operational_space import OPERATIONAL_SPACE
-from service.dynamics.payload_capacity import PAYLOADS
+from service.dynamics.payload_capacity import PAYLOAD_CAPACITY
 from service.dynamics.placements import PLACEMENTS
 from service.dynamics.quantity import Quantity, Results, finite, run
 from service.dynamics.simulation import SIMULATION
@@ -30,7 +30,7 @@ QUANTITIES: dict[str, Quantity] = {
         *SIMULATION,
         *CONTACTS,
         *PLACEMENTS,
-        *PAYLOADS,
+        *PAYLOAD_CAPACITY,
         *TRAJECTORIES,
         *REGRESSOR,
     )

@@ -296,7 +296,7 @@ def payload_capacity(
     return out
 
 
-PAYLOADS = (
+PAYLOAD_CAPACITY = (
     Quantity(
         "payload-capacity",
         ("q",),

@@ -74,11 +74,11 @@ class Quantity:
     work: Work | None = None
     smaller_request: SmallerRequest | None = None
     whole_batch: bool = False
+    """True: the batch's answer is more than its states' answers side by side (e.g. a minimum
+    over the states), so it is never computed in chunks (`run`)."""
     tensor_options: tuple[str, ...] = ()
     """Options of one number per sample (e.g. trajectory-check's `t`) that the binary form may
     carry as 1-D tensors rather than in its JSON header."""
-    """True: the batch's answer is more than its states' answers side by side (e.g. a minimum
-    over the states), so it is never computed in chunks (`run`)."""
 
     @functools.cached_property
     def stoppable(self) -> bool:

@@ -25,7 +25,7 @@ A batch of initial states gives one trajectory per state (same torques or contro
 With `contacts` (a fixed contact set) the acceleration is constrained forward dynamics with
 Baumgarte-stabilised contacts, a PD controller acts on the actuated joints only and its gravity
 compensation is contact-consistent; the answer adds `constraint_drift` (m). All of it lives in
-`service.dynamics.contacts_simulation`.
+`service.dynamics.contacts.simulation`.
 
 Cost: states × steps × nv × stages (at most `max_simulation_work`), and with contacts
 states × steps × stages × the work of one constrained evaluation (contacts, their kind,
@@ -42,12 +42,12 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.contacts_simulation import (
+from service.dynamics.contacts.simulation import (
     ContactRollout,
     pd_with_contacts,
     rollout_evaluation_work,
 )
-from service.dynamics.contacts_solve import check_work
+from service.dynamics.contacts.solve import check_work
 from service.dynamics.lagrangian import mechanical_energy
 from service.dynamics.quantity import Quantity, Results, finite
 from service.dynamics.stopping import ShouldStop, Stopper
@@ -145,7 +145,7 @@ def check_limits(
 
 def simulation_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
     """Cost estimate: states × steps × stages of the integrator × the work of one evaluation
-    (nv for ABA; with contacts `contacts_simulation.rollout_evaluation_work`)."""
+    (nv for ABA; with contacts `contacts.simulation.rollout_evaluation_work`)."""
     stages = STAGES.get(options.get("integrator", "semi-implicit-euler"), 4)
     each: float = robot.nv
     if options.get("contacts") is not None:
@@ -176,7 +176,7 @@ def simulate(
 ) -> Results:
     """The trajectory from (q, v) over `steps` steps of `dt` s: t (N, steps+1) in s, q
     (N, steps+1, nq), v (N, steps+1, nv) and mechanical_energy (N, steps+1) in J; with
-    `contacts` (a fixed contact set, `service.dynamics.contacts_simulation`) also
+    `contacts` (a fixed contact set, `service.dynamics.contacts.simulation`) also
     constraint_drift (N, steps+1) in m. `should_stop()` (optional) is asked every few ms;
     true stops the rollout with `ComputationStopped`."""
     # max_simulation_steps and max_simulation_work: the service's settings of those names;

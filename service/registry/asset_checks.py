@@ -30,7 +30,7 @@ from defusedxml.ElementTree import DefusedXMLParser, ParseError
 
 from service.errors import InvalidModel
 from service.registry.assets import MESH_TYPES, extension
-from service.registry.safe_xml import parse_bounded, shown
+from service.registry.safe_xml import XmlOverCaps, parse_bounded, shown
 from service.registry.urdf_check import Limits
 from service.registry.visuals import MAX_DEPTH, MAX_ELEMENTS, asset_key, urdf_visuals
 
@@ -39,10 +39,6 @@ DESCRIPTION_XML_TYPES = ("xml", "urdf", "xacro", "srdf", "mjcf")
 BINARY_TYPES = ("stl", "glb", "ply", "png", "msh", "skn")
 _CHUNK = 1 << 16
 _TOKEN = re.compile(r"[^\s\"'<>=(){}\[\],;]+")
-
-
-class _Capped(Exception):
-    pass
 
 
 class _Counter:
@@ -56,12 +52,12 @@ class _Counter:
         self.count += 1
         self.depth += 1
         if self.max_elements is not None and self.count > self.max_elements:
-            raise _Capped(
+            raise XmlOverCaps(
                 f"it has more than {self.max_elements} XML elements (limit "
                 "ROBODYN_MAX_XML_ELEMENTS)"
             )
         if self.max_depth is not None and self.depth > self.max_depth:
-            raise _Capped(f"it is nested deeper than {self.max_depth} XML levels")
+            raise XmlOverCaps(f"it is nested deeper than {self.max_depth} XML levels")
 
     def end(self, tag: str) -> None:
         self.depth -= 1
@@ -85,7 +81,7 @@ def _xml_problem(text: str, max_elements: int | None, max_depth: int | None) -> 
         for start in range(0, len(text), _CHUNK):
             parser.feed(text[start : start + _CHUNK])
         parser.close()
-    except _Capped as exc:
+    except XmlOverCaps as exc:
         return str(exc)
     except DefusedXmlException:
         return "XML with a DTD, entity or external reference"

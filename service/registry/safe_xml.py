@@ -34,7 +34,10 @@ def shown(name: str | None) -> str:
     return out if len(out) <= _SHOWN else out[:_SHOWN] + "…"
 
 
-class _Capped(Exception):
+class XmlOverCaps(Exception):
+    """An XML document with more elements or deeper nesting than its caps allow; the message
+    says which cap and its value."""
+
     def __init__(self, message: str) -> None:
         super().__init__(message)
         self.message = message
@@ -52,12 +55,12 @@ class _CappedBuilder(TreeBuilder):
         self.count += 1
         self.depth += 1
         if self.count > self.max_elements:
-            raise _Capped(
+            raise XmlOverCaps(
                 f"the description has more than {self.max_elements} XML elements "
                 "(limit ROBODYN_MAX_XML_ELEMENTS)"
             )
         if self.depth > self.max_depth:
-            raise _Capped(
+            raise XmlOverCaps(
                 f"the XML is nested deeper than {self.max_depth} levels "
                 "(limit ROBODYN_MAX_XML_DEPTH)"
             )
@@ -81,7 +84,7 @@ def parse_bounded(text: str, max_elements: int, max_depth: int) -> Element:
         for start in range(0, len(text), _CHUNK):
             parser.feed(text[start : start + _CHUNK])
         root: Element = parser.close()
-    except _Capped as exc:
+    except XmlOverCaps as exc:
         raise InvalidModel(exc.message) from None
     except DefusedXmlException:
         raise InvalidModel(

@@ -1,15 +1,16 @@
-// robodyn explorer: plain JavaScript modules, no build step; the 3-D view (view3d.js) uses the
-// vendored three.js. Every request goes to this service through a relative URL (so the page
-// also works behind a path prefix); the page's Content-Security-Policy forbids any other origin.
+// robodyn explorer: plain JavaScript modules, no build step; the 3-D drawing (robot_drawing.js)
+// uses the vendored three.js. Every request goes to this service through a relative URL (so the
+// page also works behind a path prefix); the page's Content-Security-Policy forbids any other
+// origin.
 import { EquationsView } from "./equations_view.js";
-import { IdentificationView } from "./view_identification.js";
 import { allRobots, api, Problem, robotPath } from "./http.js";
+import { IdentificationView } from "./identification_view.js";
 import { finite, jointCoordinates } from "./joint_coordinates.js";
 import { fmt, renderHeatmap, renderNumbers } from "./mass_matrix_view.js";
-import { PayloadPanel } from "./payload_panel.js";
+import { PayloadView } from "./payload_view.js";
+import { RobotView } from "./robot_view.js";
 import { arrowKeys } from "./tabs.js";
 import { TrajectoryView } from "./trajectory_view.js";
-import { ViewPanel } from "./view_panel.js";
 
 const DEFAULT_VELOCITY = 0.5; // rad/s or m/s in every coordinate when a robot is chosen
 const UNITS = {
@@ -28,11 +29,11 @@ const state = {
   timer: 0,
   last: null, // the last drawn M(q), to redraw it when the colour scale changes
   chooseScale: false,
-  view: null, // the 3-D view panel (view_panel.js)
+  view: null, // the 3-D view (robot_view.js)
   trajectory: null, // the trajectory tab (trajectory_view.js)
-  payload: null, // the payload view (payload_panel.js)
+  payload: null, // the payload view (payload_view.js)
   equations: null, // the equations view (equations_view.js)
-  identification: null, // the identification view (view_identification.js)
+  identification: null, // the identification view (identification_view.js)
 };
 
 // ---- Controls -----------------------------------------------------------------------------
@@ -447,7 +448,7 @@ function selectTab(button) {
     el(tab.getAttribute("aria-controls")).hidden = !mine;
   }
   if (button.id === "tab-trajectory-button") state.trajectory.shown();
-  else if (state.view.view) state.view.view.resize();
+  else if (state.view.drawing) state.view.drawing.resize();
 }
 
 function setUpTabs() {
@@ -479,9 +480,9 @@ function setUpViews() {
 // ---- Start --------------------------------------------------------------------------------
 
 async function start() {
-  state.view = new ViewPanel({ api, robotPath, currentQ, fmt, finite,
+  state.view = new RobotView({ api, robotPath, currentQ, fmt, finite,
                                onError: (err) => setStatus(err.message, true) });
-  state.payload = new PayloadPanel({ api, robotPath, currentQ, fmt, renderBars,
+  state.payload = new PayloadView({ api, robotPath, currentQ, fmt, renderBars,
                                      rows: () => state.rows,
                                      onError: (err) => setStatus(err.message, true) });
   state.equations = new EquationsView({ api, robotPath, fmt });

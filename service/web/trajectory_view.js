@@ -5,7 +5,7 @@
 // (POST .../trajectory-check and .../retime); plots are drawn by the vendored uPlot.
 import { apiWithProgress, progressText } from "./http.js";
 import uPlot from "./vendor/uplot/uPlot.esm.js";
-import { RobotView } from "./view3d.js";
+import { RobotDrawing } from "./robot_drawing.js";
 
 const el = (id) => document.getElementById(id);
 const MAX_FRAMES = 400; // configurations placed for the 3-D playback (evenly picked)
@@ -86,8 +86,8 @@ export class TrajectoryView {
     this.plots = [];
     this.motion = null; // {t, q, frames, positions, rotations} for the playback
     this.playing = false;
-    this.view = null;
-    this.viewRobot = null; // the robot id the 3-D view was built for
+    this.drawing = null;
+    this.drawnRobot = null; // the robot id the 3-D view was built for
     el("trajectory-file").addEventListener("change", async (ev) => {
       const file = ev.target.files[0];
       if (file) el("trajectory-csv").value = await file.text();
@@ -116,7 +116,7 @@ export class TrajectoryView {
 
   /** The tab became visible: the 3-D view can take its size now. */
   shown() {
-    if (this.view) this.view.resize();
+    if (this.drawing) this.drawing.resize();
     for (const p of this.plots) p.setSize(this.plotSize());
   }
 
@@ -298,23 +298,23 @@ export class TrajectoryView {
 
   async preparePlayback(info, t, q) {
     const { api, robotPath } = this.ctx;
-    if (!this.view) {
+    if (!this.drawing) {
       try {
-        this.view = new RobotView(el("trajectory-view3d"));
+        this.drawing = new RobotDrawing(el("trajectory-view3d"));
       } catch (err) { // no WebGL: the plots still work
         el("trajectory-view-note").textContent = `No 3-D view in this browser (${err.message}).`;
         return;
       }
-      el("trajectory-view3d").robotView = this.view;
+      el("trajectory-view3d").robotDrawing = this.drawing;
     }
-    if (this.viewRobot !== info.id) {
+    if (this.drawnRobot !== info.id) {
       const [{ visuals }, { bodies }] = await Promise.all([
         api(robotPath(info.id, "visuals")), api(robotPath(info.id, "inertias"))]);
       const assets = robotPath(info.id, "assets");
-      this.view.setRobot(info, visuals,
+      this.drawing.setRobot(info, visuals,
                          (a) => `${assets}/${a.split("/").map(encodeURIComponent).join("/")}`,
                          bodies);
-      this.viewRobot = info.id;
+      this.drawnRobot = info.id;
     }
     const step = Math.max(1, Math.ceil(t.length / MAX_FRAMES));
     const pick = [...Array(Math.ceil(t.length / step)).keys()].map((i) => i * step);
@@ -329,17 +329,17 @@ export class TrajectoryView {
     slider.step = "any";
     slider.value = slider.min;
     el("trajectory-player").hidden = false;
-    this.view.resize();
+    this.drawing.resize();
     this.show(this.motion.t[0]);
   }
 
   /** Place the robot at time `time` (the nearest placed configuration at or before it). */
   show(time) {
     const m = this.motion;
-    if (!m || !this.view) return;
+    if (!m || !this.drawing) return;
     let i = 0;
     while (i + 1 < m.t.length && m.t[i + 1] <= time) i++;
-    this.view.setPlacements(m.frames, m.positions[i], m.rotations[i], m.q[i]);
+    this.drawing.setPlacements(m.frames, m.positions[i], m.rotations[i], m.q[i]);
     el("trajectory-time").value = String(time);
     el("trajectory-clock").textContent = `${this.ctx.fmt(time, 3)} s`;
   }

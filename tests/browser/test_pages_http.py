@@ -47,8 +47,9 @@ def test_explorer_page_references_only_its_own_files(client) -> None:
 
 
 def test_explorer_modules_are_served_and_the_import_map_is_the_only_inline_script(client) -> None:
-    """view3d.js and the vendored three.js modules (with their licence in the repository) are
-    served as JavaScript; the CSP admits exactly the inline import map, by its hash."""
+    """The explorer's modules and the vendored three.js modules (with their licence in the
+    repository) are served as JavaScript; the CSP admits exactly the inline import map, by its
+    hash."""
     import base64
     import hashlib
 

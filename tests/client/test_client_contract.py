@@ -62,7 +62,8 @@ ANSWERS = {
     "unavailable": {},
     "status": "ok",
     **INFO,
-    # beyond the equation of motion
+    # the Lagrangian quantities, frame Jacobians, operational space, inertias, derivatives,
+    # centroidal momentum
     "mass_matrix_inverse": [[1.0]],
     "kinetic_energy": 0.5,
     "potential_energy": 1.0,

@@ -23,7 +23,7 @@ from service.registry.catalog import load_catalog
 from tests.hardening.health_probe import health_latencies_during
 from tests.servers import running_server
 from tests.service.api.encoding.test_binary import BIN, encode_request
-from tests.service.dynamics.test_contacts import contacts_of
+from tests.service.dynamics.contacts.test_quantities import contacts_of
 
 pytestmark = pytest.mark.slow
 

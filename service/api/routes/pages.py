@@ -47,17 +47,17 @@ THREE_DIR = "vendor/three/"
 MODULE_FILES = {
     name: _JS
     for name in [
-        "view3d.js",
-        "view_panel.js",
+        "robot_drawing.js",
+        "robot_view.js",
         "joint_coordinates.js",
         "mass_matrix_view.js",
         "http.js",
         "tabs.js",
-        "payload_panel.js",
+        "payload_view.js",
         "equations_view.js",
         "trajectory_view.js",
         "vendor/uplot/uPlot.esm.js",
-        "view_identification.js",
+        "identification_view.js",
         THREE_DIR + "build/three.module.min.js",
         THREE_DIR + "examples/jsm/controls/OrbitControls.js",
         THREE_DIR + "examples/jsm/loaders/STLLoader.js",

@@ -9,8 +9,8 @@ from starlette.concurrency import run_in_threadpool
 
 from service.api.deps import RegistryDep, require_api_key, served_robot
 from service.api.encoding.answers import JSONAnswer
+from service.api.schemas.body_inertias import Inertias
 from service.api.schemas.common import Problem
-from service.api.schemas.inertias import Inertias
 from service.api.schemas.payloads import VariantRequest
 from service.api.schemas.robots import ReduceRequest, RobotInfo, RobotList, UploadRequest
 from service.api.upload_body import (

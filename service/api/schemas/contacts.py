@@ -4,8 +4,8 @@ damping field are also simulate's (`service.api.schemas.simulation`). Option def
 keyword defaults of the computing functions.
 
 The values of a contact set (at least one contact, its type, its frame name, `damping`,
-`restitution`) are checked once, by the physics (`service.dynamics.contacts_model`,
-`contacts_solve`); these models declare the JSON shape and show the same bounds in the
+`restitution`) are checked once, by the physics (`service.dynamics.contacts.model`,
+`contacts.solve`); these models declare the JSON shape and show the same bounds in the
 OpenAPI document, read from the same constants. Only the number of contacts is also enforced
 while parsing (`maxItems`), so that an oversized list is refused before its items are built.
 """
@@ -21,8 +21,8 @@ from service.api.schemas.common import (
     QVTauRequest,
     StrictRequest,
 )
-from service.dynamics.contacts_model import KINDS, MAX_CONTACTS, MAX_FRAME_NAME
-from service.dynamics.contacts_solve import MAX_DAMPING
+from service.dynamics.contacts.model import KINDS, MAX_CONTACTS, MAX_FRAME_NAME
+from service.dynamics.contacts.solve import MAX_DAMPING
 
 FORCES_LAYOUT = (
     "expressed at each contact frame's origin with the world's axes (local_world_aligned): 3 "

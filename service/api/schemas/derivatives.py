@@ -1,10 +1,12 @@
-"""Request and answer schemas of the dynamics derivatives and the centroidal quantities."""
+"""Answer schemas of the dynamics derivatives (`service.dynamics.derivatives`), ∂τ/∂(q, v, a) and
+∂a/∂(q, v, τ), with sizes and units; their requests are the common `QVARequest` and
+`QVTauRequest`."""
 
 from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from service.api.schemas.common import Matrix, Vector
+from service.api.schemas.common import Matrix
 
 _TANGENT = (
     "∂/∂q is on the tangent space: nv columns, the derivative along "
@@ -27,15 +29,3 @@ class ForwardDynamicsDerivativesAnswer(BaseModel):
     )
     da_dv: Matrix = Field(description="∂a/∂v, nv×nv, 1/s.")
     da_dtau: Matrix = Field(description="∂a/∂τ = M(q)⁻¹, nv×nv symmetric, 1/(kg·m²) or 1/kg.")
-
-
-class CentroidalAnswer(BaseModel):
-    momentum: Vector = Field(
-        description="Centroidal momentum h_G = A_G(q) v, 6 entries: linear "
-        "momentum m ċ (kg·m/s) then angular momentum about the centre of "
-        "mass (kg·m²/s), world-aligned axes; (N, 6) for a batch."
-    )
-    momentum_matrix: Matrix = Field(
-        description="Centroidal momentum matrix A_G(q), 6×nv (h_G = A_G v); (N, 6, nv) for a batch."
-    )
-    center_of_mass: Vector = Field(description="Centre of mass c(q), 3 entries, m, world frame.")

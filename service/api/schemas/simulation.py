@@ -17,7 +17,7 @@ from service.api.schemas.common import (
     StrictRequest,
 )
 from service.api.schemas.contacts import Contact, damping_field
-from service.dynamics.contacts_model import MAX_CONTACTS
+from service.dynamics.contacts.model import MAX_CONTACTS
 
 Gain = Number | list[Number] | JointsByName
 

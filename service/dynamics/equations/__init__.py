@@ -15,6 +15,6 @@ The service derives them in a child process with a time limit and keeps each rob
 """
 
 from service.dynamics.equations.answer import equations_answer
-from service.dynamics.equations.explicit_form import Equations, derive_equations
+from service.dynamics.equations.explicit_form import ExplicitEquations, derive_equations
 
-__all__ = ["Equations", "derive_equations", "equations_answer"]
+__all__ = ["ExplicitEquations", "derive_equations", "equations_answer"]

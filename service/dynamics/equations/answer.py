@@ -13,7 +13,7 @@ from typing import Any
 
 import sympy as sp
 
-from service.dynamics.equations.explicit_form import Equations
+from service.dynamics.equations.explicit_form import ExplicitEquations
 from service.dynamics.equations.printing import latex, text, to_sympy
 from service.dynamics.equations.series import Series
 
@@ -42,7 +42,7 @@ def entry_structure(series: Series) -> dict[str, Any]:
     return {"depends_on": depends, "constant": not depends, "zero": series.is_zero()}
 
 
-def equations_answer(eq: Equations) -> dict[str, Any]:
+def equations_answer(eq: ExplicitEquations) -> dict[str, Any]:
     """The contract's answer: joints, coordinates, velocities, each quantity as expressions and
     LaTeX, and the structure of M and g."""
     n = len(eq.joints)

@@ -39,8 +39,9 @@ KEPT_DIGITS = 40
 
 
 @dataclass(frozen=True)
-class Equations:
-    """The symbolic equations of one robot; `joints` in the order of q (coordinates q1 … qn)."""
+class ExplicitEquations:
+    """The equations of motion of one robot in explicit form, as exact series; `joints` in the
+    order of q (coordinates q1 … qn)."""
 
     joints: list[str]
     kinds: list[str]  # "revolute" or "prismatic", per coordinate
@@ -58,7 +59,7 @@ def _without_noise(entries: list[Series]) -> list[Series]:
     return [s.without_terms_below(scale * NOISE).rounded(KEPT_DIGITS) for s in entries]
 
 
-def derive_equations(model: Any, time_limit_s: float | None = None) -> Equations:
+def derive_equations(model: Any, time_limit_s: float | None = None) -> ExplicitEquations:
     """The equations of motion of a Pinocchio `model` in explicit form (see the module
     docstring). Raises `UnsupportedModel` for a model out of scope, or when the derivation
     takes longer than `time_limit_s` seconds (checked between steps)."""
@@ -94,7 +95,7 @@ def derive_equations(model: Any, time_limit_s: float | None = None) -> Equations
             for j in range(i, n):
                 weight = HALF if i == j else Decimal(1)
                 T = T + (M[i][j] * dq[i] * dq[j]).scale(weight)
-    return Equations(
+    return ExplicitEquations(
         joints=[j.name for j in joints],
         kinds=[j.kind for j in joints],
         mass_matrix=M,

@@ -19,7 +19,7 @@ from service.api.encoding.in_flight import LARGE_ANSWER_BYTES
 from service.registry.catalog import load_catalog
 from tests.service.api.encoding.test_binary import BIN, encode_request
 from tests.service.api.problems.test_errors import assert_problem
-from tests.service.dynamics.test_contacts import contacts_of
+from tests.service.dynamics.contacts.test_quantities import contacts_of
 
 UR5_Q = [0.1, -1.0, 1.2, 0.3, 0.5, -0.2]
 SOLO_Q = [0, 0, 0.235, 0, 0, 0, 1, 0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]

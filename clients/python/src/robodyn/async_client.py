@@ -13,11 +13,19 @@ import httpx
 
 from robodyn import outputs, transport
 from robodyn import progress as _progress
-from robodyn._methods.beyond import AsyncBeyondMethods
+from robodyn._methods.centroidal import AsyncCentroidalMethods
 from robodyn._methods.contacts import AsyncContactMethods
-from robodyn._methods.dynamics import AsyncDynamicsMethods
+from robodyn._methods.derivatives import AsyncDerivativeMethods
+from robodyn._methods.equation_of_motion import AsyncEquationOfMotionMethods
+from robodyn._methods.equations import AsyncEquationsMethods
+from robodyn._methods.frames import AsyncFrameMethods
+from robodyn._methods.health import AsyncHealthMethods
 from robodyn._methods.identification import AsyncIdentificationMethods
+from robodyn._methods.lagrangian import AsyncLagrangianMethods
+from robodyn._methods.operational_space import AsyncOperationalSpaceMethods
+from robodyn._methods.payload_capacity import AsyncPayloadCapacityMethods
 from robodyn._methods.robots import AsyncRobotMethods
+from robodyn._methods.simulation import AsyncSimulationMethods
 from robodyn._methods.trajectories import AsyncTrajectoryMethods
 from robodyn.request_options import Fill
 from robodyn.stream import AsyncStream, stream_url
@@ -25,9 +33,17 @@ from robodyn.stream import AsyncStream, stream_url
 
 class AsyncClient(
     AsyncRobotMethods,
-    AsyncDynamicsMethods,
-    AsyncBeyondMethods,
+    AsyncHealthMethods,
+    AsyncEquationsMethods,
+    AsyncEquationOfMotionMethods,
+    AsyncLagrangianMethods,
+    AsyncFrameMethods,
+    AsyncOperationalSpaceMethods,
+    AsyncDerivativeMethods,
+    AsyncCentroidalMethods,
+    AsyncSimulationMethods,
     AsyncContactMethods,
+    AsyncPayloadCapacityMethods,
     AsyncTrajectoryMethods,
     AsyncIdentificationMethods,
 ):

@@ -13,11 +13,19 @@ import httpx
 
 from robodyn import outputs, transport
 from robodyn import progress as _progress
-from robodyn._methods.beyond import BeyondMethods
+from robodyn._methods.centroidal import CentroidalMethods
 from robodyn._methods.contacts import ContactMethods
-from robodyn._methods.dynamics import DynamicsMethods
+from robodyn._methods.derivatives import DerivativeMethods
+from robodyn._methods.equation_of_motion import EquationOfMotionMethods
+from robodyn._methods.equations import EquationsMethods
+from robodyn._methods.frames import FrameMethods
+from robodyn._methods.health import HealthMethods
 from robodyn._methods.identification import IdentificationMethods
+from robodyn._methods.lagrangian import LagrangianMethods
+from robodyn._methods.operational_space import OperationalSpaceMethods
+from robodyn._methods.payload_capacity import PayloadCapacityMethods
 from robodyn._methods.robots import RobotMethods
+from robodyn._methods.simulation import SimulationMethods
 from robodyn._methods.trajectories import TrajectoryMethods
 from robodyn.request_options import Fill
 from robodyn.stream import Stream, stream_url
@@ -25,9 +33,17 @@ from robodyn.stream import Stream, stream_url
 
 class Client(
     RobotMethods,
-    DynamicsMethods,
-    BeyondMethods,
+    HealthMethods,
+    EquationsMethods,
+    EquationOfMotionMethods,
+    LagrangianMethods,
+    FrameMethods,
+    OperationalSpaceMethods,
+    DerivativeMethods,
+    CentroidalMethods,
+    SimulationMethods,
     ContactMethods,
+    PayloadCapacityMethods,
     TrajectoryMethods,
     IdentificationMethods,
 ):

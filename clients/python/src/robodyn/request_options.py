@@ -50,6 +50,15 @@ def frame_name(frame: Any) -> str:
     return frame
 
 
+def frame_options(frame: Any, reference_frame: Any) -> dict[str, str]:
+    """The `frame` and `reference_frame` body members of a frame's quantity (jacobian,
+    operational-space), checked."""
+    return {
+        "frame": frame_name(frame),
+        "reference_frame": choice("reference_frame", reference_frame, REFERENCE_FRAMES),
+    }
+
+
 def _json(value: Any) -> Any:
     return value.tolist() if isinstance(value, np.ndarray) else value
 

@@ -14,7 +14,7 @@ from robodyn.binary import decode as client_decode
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.encoding.budget import answer_bytes
 from service.dynamics import QUANTITIES
-from tests.service.dynamics.test_contacts import contacts_of
+from tests.service.dynamics.contacts.test_quantities import contacts_of
 
 UR5_Q = [0.1, -1.0, 1.2, 0.3, 0.5, -0.2]
 N = 2_000

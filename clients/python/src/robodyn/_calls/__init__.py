@@ -12,7 +12,22 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any
 
-from robodyn._calls import beyond, contacts, dynamics, identification, robots, trajectories
+from robodyn._calls import (
+    centroidal,
+    contacts,
+    derivatives,
+    equation_of_motion,
+    equations,
+    frames,
+    health,
+    identification,
+    lagrangian,
+    operational_space,
+    payload_capacity,
+    robots,
+    simulation,
+    trajectories,
+)
 from robodyn.core import Call
 
 
@@ -25,19 +40,55 @@ def _builders(*modules: ModuleType) -> dict[str, Callable[..., Call[Any]]]:
     }
 
 
-BUILDERS = _builders(robots, dynamics, beyond, contacts, trajectories, identification)
+BUILDERS = _builders(
+    robots,
+    health,
+    equations,
+    equation_of_motion,
+    lagrangian,
+    frames,
+    operational_space,
+    derivatives,
+    centroidal,
+    simulation,
+    contacts,
+    payload_capacity,
+    trajectories,
+    identification,
+)
 """Client method name → its request builder."""
-STREAMED = tuple(_builders(dynamics, beyond, contacts, trajectories))
+STREAMED = tuple(
+    _builders(
+        equation_of_motion,
+        lagrangian,
+        frames,
+        operational_space,
+        derivatives,
+        centroidal,
+        simulation,
+        contacts,
+        payload_capacity,
+        trajectories,
+    )
+)
 """The methods a stream offers: the quantities of one robot (`POST /v1/robots/{id}/<quantity>`
 routes the server's WebSocket also answers)."""
 
 __all__ = [
     "BUILDERS",
     "STREAMED",
-    "beyond",
+    "centroidal",
     "contacts",
-    "dynamics",
+    "derivatives",
+    "equation_of_motion",
+    "equations",
+    "frames",
+    "health",
     "identification",
+    "lagrangian",
+    "operational_space",
+    "payload_capacity",
     "robots",
+    "simulation",
     "trajectories",
 ]

@@ -1,6 +1,5 @@
-"""Request builders of the service and robot routes: health, the robot list, one robot,
-uploads, reductions, variants, deletions, body inertias and the equations of motion in explicit
-form. (The clients' docstrings describe them.)"""
+"""Request builders of the robot routes: the robot list, one robot, uploads, deletions,
+reductions, variants and body inertias. (The clients' docstrings describe them.)"""
 
 from __future__ import annotations
 
@@ -14,23 +13,12 @@ import numpy as np
 from robodyn._calls.request import ROBOT, route_call
 from robodyn.arrays import ArrayLike, gravity_vector
 from robodyn.core import Call
-from robodyn.equations import Equations
 from robodyn.errors import InputError
 from robodyn.models import RobotInfo, RobotList
 from robodyn.payloads import PayloadsLike, payloads_body
 from robodyn.request_options import InertiaCheck, RootJoint
 from robodyn.results import Inertias
 from robodyn.uploads import AssetValue, Source, upload_body
-
-
-def health() -> Call[dict[str, Any]]:
-    return route_call("GET", "/health/live", lambda status, body: dict(body))
-
-
-def ready() -> Call[bool]:
-    return route_call(
-        "GET", "/health/ready", lambda status, body: status != 503, accept=frozenset({503})
-    )
 
 
 def robots(*, page_size: int | None = None) -> Call[RobotList]:
@@ -52,18 +40,6 @@ def robot_page(limit: int | None = None, cursor: str | None = None) -> Call[Robo
 
 def robot(robot_id: str) -> Call[RobotInfo]:
     return route_call("GET", ROBOT, lambda status, body: RobotInfo.from_json(body), robot_id)
-
-
-def inertias(robot_id: str) -> Call[Inertias]:
-    return route_call(
-        "GET", f"{ROBOT}/inertias", lambda status, body: Inertias.from_json(body), robot_id
-    )
-
-
-def equations(robot_id: str) -> Call[Equations]:
-    return route_call(
-        "GET", f"{ROBOT}/equations", lambda status, body: Equations.from_json(body), robot_id
-    )
 
 
 def _created(status: int, body: Any) -> RobotInfo:
@@ -156,3 +132,9 @@ def _locked_joints(locked: Mapping[str, ArrayLike]) -> dict[str, Any]:
             raise InputError(f"locked_joints['{name}'] must be finite")
         out[name] = float(arr) if arr.ndim == 0 else arr.tolist()
     return out
+
+
+def inertias(robot_id: str) -> Call[Inertias]:
+    return route_call(
+        "GET", f"{ROBOT}/inertias", lambda status, body: Inertias.from_json(body), robot_id
+    )

@@ -1,16 +1,13 @@
-"""Client methods of the service and its robots: health, the robot list, one robot,
-uploads, reductions, variants, deletions, body inertias and the equations of motion in explicit
-form (`Client` and `AsyncClient` inherit them)."""
+"""Client methods of the robot routes: the robot list, one robot, uploads, deletions,
+reductions, variants and body inertias (`Client` and `AsyncClient` inherit them)."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 from robodyn._calls import robots as calls
 from robodyn._client import AsyncSender, SyncSender
 from robodyn.arrays import ArrayLike
-from robodyn.equations import Equations
 from robodyn.models import RobotInfo, RobotList
 from robodyn.payloads import PayloadsLike
 from robodyn.request_options import InertiaCheck, RootJoint
@@ -19,15 +16,7 @@ from robodyn.uploads import AssetValue, Source
 
 
 class RobotMethods(SyncSender):
-    """The service and robot methods of `Client`."""
-
-    def health(self) -> dict[str, Any]:
-        """Liveness: the server's `/health/live` answer, `{"status": "ok"}`."""
-        return self._send(calls.health())
-
-    def ready(self) -> bool:
-        """Readiness: True once the server has loaded its catalog and can compute, False before."""
-        return self._send(calls.ready())
+    """The robot methods of `Client`."""
 
     def robots(self, *, page_size: int | None = None) -> RobotList:
         """Every robot the server serves, catalog and uploads: a `RobotList` of `RobotSummary`
@@ -127,30 +116,6 @@ class RobotMethods(SyncSender):
         """
         return self._send(calls.reduce(robot_id, locked_joints, name=name))
 
-    def inertias(self, robot_id: str) -> Inertias:
-        """`Inertias` of every body (one per joint): mass (kg), centre of mass (shape (3,), m) and
-        inertia at it and at the joint (shape (3, 3), kg·m²), principal moments and axes, all in
-        the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
-        """
-        return self._send(calls.inertias(robot_id))
-
-    def equations(self, robot_id: str) -> Equations:
-        """The equations of motion in explicit form, M(q) q̈ + C(q, q̇) q̇ + g(q) = τ, derived
-        symbolically by the server from the model's own numbers, for a fixed-base robot with at
-        most 6 moving joints, each revolute or prismatic: `Equations` with M(q), g(q), C(q, q̇),
-        the Christoffel symbols c_ijk and the energies T and U, each as text SymPy parses
-        (`.expressions`), LaTeX (`.latex`) and, with SymPy installed (the `sympy` extra),
-        SymPy objects (`.sympy()`); and the structure of M and g (per entry: the coordinates
-        it depends on, constant, zero). Coordinates q1 … qn follow `joints` (rad or m).
-
-        The server derives a robot's equations on its first request (a UR5: about 0.3 s; at
-        most its ROBODYN_EQUATIONS_TIMEOUT_S, 60 s by default) and keeps them. Raises
-        `RobotNotFoundError` for an unknown id, `UnsupportedModelError` for a model out of scope
-        (a floating base, a continuous or multi-DoF joint, more than 6 moving joints, or a
-        derivation past the server's time limit), the detail saying which.
-        """
-        return self._send(calls.equations(robot_id))
-
     def variant(
         self,
         robot_id: str,
@@ -173,17 +138,16 @@ class RobotMethods(SyncSender):
             calls.variant(robot_id, payloads=payloads, locked_joints=locked_joints, name=name)
         )
 
+    def inertias(self, robot_id: str) -> Inertias:
+        """`Inertias` of every body (one per joint): mass (kg), centre of mass (shape (3,), m) and
+        inertia at it and at the joint (shape (3, 3), kg·m²), principal moments and axes, all in
+        the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
+        """
+        return self._send(calls.inertias(robot_id))
+
 
 class AsyncRobotMethods(AsyncSender):
-    """The service and robot methods of `AsyncClient`."""
-
-    async def health(self) -> dict[str, Any]:
-        """Liveness: the server's `/health/live` answer, `{"status": "ok"}`."""
-        return await self._send(calls.health())
-
-    async def ready(self) -> bool:
-        """Readiness: True once the server has loaded its catalog and can compute, False before."""
-        return await self._send(calls.ready())
+    """The robot methods of `AsyncClient`."""
 
     async def robots(self, *, page_size: int | None = None) -> RobotList:
         """Every robot the server serves, catalog and uploads: a `RobotList` of `RobotSummary`
@@ -283,30 +247,6 @@ class AsyncRobotMethods(AsyncSender):
         """
         return await self._send(calls.reduce(robot_id, locked_joints, name=name))
 
-    async def inertias(self, robot_id: str) -> Inertias:
-        """`Inertias` of every body (one per joint): mass (kg), centre of mass (shape (3,), m) and
-        inertia at it and at the joint (shape (3, 3), kg·m²), principal moments and axes, all in
-        the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
-        """
-        return await self._send(calls.inertias(robot_id))
-
-    async def equations(self, robot_id: str) -> Equations:
-        """The equations of motion in explicit form, M(q) q̈ + C(q, q̇) q̇ + g(q) = τ, derived
-        symbolically by the server from the model's own numbers, for a fixed-base robot with at
-        most 6 moving joints, each revolute or prismatic: `Equations` with M(q), g(q), C(q, q̇),
-        the Christoffel symbols c_ijk and the energies T and U, each as text SymPy parses
-        (`.expressions`), LaTeX (`.latex`) and, with SymPy installed (the `sympy` extra),
-        SymPy objects (`.sympy()`); and the structure of M and g (per entry: the coordinates
-        it depends on, constant, zero). Coordinates q1 … qn follow `joints` (rad or m).
-
-        The server derives a robot's equations on its first request (a UR5: about 0.3 s; at
-        most its ROBODYN_EQUATIONS_TIMEOUT_S, 60 s by default) and keeps them. Raises
-        `RobotNotFoundError` for an unknown id, `UnsupportedModelError` for a model out of scope
-        (a floating base, a continuous or multi-DoF joint, more than 6 moving joints, or a
-        derivation past the server's time limit), the detail saying which.
-        """
-        return await self._send(calls.equations(robot_id))
-
     async def variant(
         self,
         robot_id: str,
@@ -328,3 +268,10 @@ class AsyncRobotMethods(AsyncSender):
         return await self._send(
             calls.variant(robot_id, payloads=payloads, locked_joints=locked_joints, name=name)
         )
+
+    async def inertias(self, robot_id: str) -> Inertias:
+        """`Inertias` of every body (one per joint): mass (kg), centre of mass (shape (3,), m) and
+        inertia at it and at the joint (shape (3, 3), kg·m²), principal moments and axes, all in
+        the joint's frame; and `total_mass`. Raises `RobotNotFoundError` for an unknown id.
+        """
+        return await self._send(calls.inertias(robot_id))

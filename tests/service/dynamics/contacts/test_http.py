@@ -17,7 +17,7 @@ from service.dynamics.contacts import (
 from service.states import States
 from tests.helpers import random_state
 from tests.service.api.problems.test_errors import assert_problem
-from tests.service.dynamics.test_contacts import contacts_of, post
+from tests.service.dynamics.contacts.test_quantities import contacts_of, post
 
 FEET = contacts_of("solo12")
 COMPUTE = {
@@ -390,7 +390,7 @@ def test_missing_contacts_and_dimension_errors(api):
 def test_constraint_models_are_cached_per_robot_and_contact_set(catalog_registry):
     """The same (robot, contact set) gives the same cached models; another order, kind or
     robot gives others; no pin.Data is kept with them."""
-    from service.dynamics.contacts_model import constraint_models
+    from service.dynamics.contacts import constraint_models
 
     solo, anymal = catalog_registry.catalog["solo12"], catalog_registry.catalog["anymal"]
     first = constraint_models(solo, FEET)

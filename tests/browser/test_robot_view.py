@@ -20,7 +20,7 @@ DOCS_SCREENSHOT = Path(__file__).resolve().parents[2] / "docs" / "explorer-talos
 # Pixels that differ between the canvas drawn with and without the robot (grid, axes and the
 # centre-of-mass ball stay): how much of the picture is the robot.
 ROBOT_PIXELS_JS = """() => {
-  const view = document.querySelector('#view3d').robotView;
+  const view = document.querySelector('#view3d').robotDrawing;
   const grab = () => {
     view.renderer.render(view.scene, view.camera);
     const c = view.renderer.domElement;
@@ -44,7 +44,7 @@ ROBOT_PIXELS_JS = """() => {
 }"""
 
 CANVAS_JS = """() => {
-  const view = document.querySelector('#view3d').robotView;
+  const view = document.querySelector('#view3d').robotDrawing;
   view.renderer.render(view.scene, view.camera);
   return view.renderer.domElement.toDataURL('image/png');
 }"""
@@ -65,7 +65,7 @@ def wait_drawn(page, robot: str) -> None:
 
 def frame_matrix(page, frame: str) -> np.ndarray:
     elements = page.evaluate(
-        "(f) => document.querySelector('#view3d').robotView.frames.get(f).matrix.elements", frame
+        "(f) => document.querySelector('#view3d').robotDrawing.frames.get(f).matrix.elements", frame
     )
     return np.array(elements).reshape(4, 4).T  # three.js stores column-major
 
@@ -126,14 +126,14 @@ def test_ur5_is_drawn_from_its_meshes_and_moves_with_a_slider(page, server, api)
     assert_placed_as_the_service_says(page, api, "ur5", q)
     com = api.post("/v1/robots/ur5/center-of-mass", json={"q": q}).json()["position"]
     shown = page.evaluate(
-        "() => document.querySelector('#view3d').robotView.com.position.toArray()"
+        "() => document.querySelector('#view3d').robotDrawing.com.position.toArray()"
     )
     assert np.allclose(shown, com, atol=1e-6)
     before = page.evaluate(CANVAS_JS)
     q2 = move_joint(page, api, "ur5", "shoulder_lift_joint", -1.0)
     assert changed_pixels(page, before) > 2000
     assert_placed_as_the_service_says(page, api, "ur5", q2)
-    page.locator("#view3d").screenshot(path=str(ARTIFACTS / "view3d-ur5.png"))
+    page.locator("#view3d").screenshot(path=str(ARTIFACTS / "robot-view-ur5.png"))
     # Every mesh the visuals name was fetched once, from this service, and nothing else.
     visuals = api.get("/v1/robots/ur5/visuals").json()["visuals"]
     assets = {f"{server}/v1/robots/ur5/assets/{v['geometry']['asset']}" for v in visuals}
@@ -156,7 +156,7 @@ def test_talos_bends_its_knee(page, server, api) -> None:
     # Redrawn on the next animation frame: placing ~100 frames costs well under a frame.
     place_ms = float(page.locator("#view3d").get_attribute("data-place-ms"))
     assert place_ms < 8, place_ms
-    page.locator("#view3d").screenshot(path=str(ARTIFACTS / "view3d-talos-knee.png"))
+    page.locator("#view3d").screenshot(path=str(ARTIFACTS / "robot-view-talos-knee.png"))
     if os.environ.get("ROBODYN_DOCS_SCREENSHOT"):  # refresh the README's picture on request
         page.locator("#view3d").screenshot(path=str(DOCS_SCREENSHOT))
     # Switching to another robot and back fetches no mesh again.
@@ -185,7 +185,7 @@ def test_an_upload_without_visuals_is_a_stick_figure(page, server, api) -> None:
     info = api.get(f"/v1/robots/{robot}").json()
     move_joint(page, api, robot, info["joints"][0]["name"], 1.2)
     assert changed_pixels(page, before) > 200
-    page.locator("#view3d").screenshot(path=str(ARTIFACTS / "view3d-stick.png"))
+    page.locator("#view3d").screenshot(path=str(ARTIFACTS / "robot-view-stick.png"))
     assert page.log.foreign_requests(server) == [] and page.log.page_errors == []
 
 
@@ -213,7 +213,7 @@ def test_links_coloured_by_gravity_over_effort_limit(page, server, api) -> None:
             if f["type"] == "body" and f["parent_joint"] == joint["name"]
         )
         colour = page.evaluate(
-            "(f) => document.querySelector('#view3d').robotView.frames"
+            "(f) => document.querySelector('#view3d').robotDrawing.frames"
             ".get(f).userData.tint.color.toArray()",
             link,
         )

@@ -1,4 +1,4 @@
-// robodyn explorer, 3-D view: the robot drawn with three.js (vendored in vendor/three/, see its
+// robodyn explorer, the robot drawn in 3-D with three.js (vendored in vendor/three/, see its
 // README), z up as in robotics. Each link's visuals hang in a group placed at that link's body
 // frame; the service gives the frames' world placements (POST frame-placements) and the visuals
 // (GET visuals), and the meshes come from GET assets/{path}, each fetched once (cached).
@@ -93,7 +93,7 @@ function material(rgba) {
                                           metalness: 0.1, transparent: a < 1, opacity: a });
 }
 
-export class RobotView {
+export class RobotDrawing {
   constructor(container, { onProgress = () => {} } = {}) {
     this.container = container;
     this.onProgress = onProgress;

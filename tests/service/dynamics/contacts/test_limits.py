@@ -19,7 +19,7 @@ from service.errors import ComputationStopped
 from service.settings import Settings
 from service.states import States
 from tests.service.api.problems.test_errors import assert_problem
-from tests.service.dynamics.test_contacts import contacts_of
+from tests.service.dynamics.contacts.test_quantities import contacts_of
 
 FEET = contacts_of("solo12")
 Q_SOLO = [0, 0, 0.235, 0, 0, 0, 1, 0.1, 0.8, -1.6, -0.1, 0.8, -1.6, 0.1, -0.8, 1.6, -0.1, -0.8, 1.6]

@@ -2,7 +2,7 @@
 rollouts when the request gives `contacts` (`service.dynamics.simulation` integrates).
 
 At every evaluation the acceleration is constrained forward dynamics (Pinocchio's
-`constraintDynamics`, see `service.dynamics.contacts`) with each contact anchored where its
+`constraintDynamics`, see `quantities.py`) with each contact anchored where its
 frame was at the initial state (`joint2_placement`: the frame's world placement at q₀). The
 integrator lets the contacts drift (the constraint holds on accelerations, not positions), so
 the constraint is stabilised after Baumgarte (1972): the contact acceleration is asked to be
@@ -18,11 +18,11 @@ reported at each sample as the largest distance of a contact frame's origin from
 A PD controller acts on the actuated joints only (its root rows are zeroed: a floating base,
 free-flyer or MJCF free joint, has no motor), and its gravity compensation is
 contact-consistent: the τ that contact-inverse-dynamics answers at (q, v = 0, a = 0) (the same
-solve, `contacts_solve.root_balance`), so the PD target, if the contacts can hold it, is an
+solve, `contacts.solve.root_balance`), so the PD target, if the contacts can hold it, is an
 equilibrium.
 
 With damping μ > 0 every evaluation iterates until the constraint violation is at most
-ROLLOUT_ACCURACY = 1e-6 times (1 + ‖r‖∞) (`service.dynamics.contacts_solve`; r the desired
+ROLLOUT_ACCURACY = 1e-6 times (1 + ‖r‖∞) (`service.dynamics.contacts.solve`; r the desired
 contact acceleration with its Baumgarte terms), or is refused. That is looser than the 1e-9 of
 the contact endpoints because a nearly rank-deficient set (four point feet on legs without
 abduction joints) converges slowly along its nearly singular directions, and in a rollout such
@@ -40,8 +40,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.contacts_model import ContactSet, constraint_models, constraint_rows
-from service.dynamics.contacts_solve import (
+from service.dynamics.contacts.model import ContactSet, constraint_models, constraint_rows
+from service.dynamics.contacts.solve import (
     ROLLOUT_ACCURACY,
     check_damping,
     evaluation_work,
@@ -170,7 +170,7 @@ COMPENSATION_OVERHEAD = 150.0  # and of the compensation's least squares (measur
 def rollout_evaluation_work(
     robot: Robot, contacts: Sequence[Mapping[str, Any]], damping: float, controller: bool
 ) -> float:
-    """The work of one evaluation of a rollout with contacts (`contacts_solve`'s units): the
+    """The work of one evaluation of a rollout with contacts (`solve`'s units): the
     constrained dynamics and the integrator's Python around it and, with a controller, the
     contact-consistent gravity compensation (an RNEA, the contacts' Jacobians and the root
     least squares). Measured within 0.26–0.37 µs a unit on Solo-12 and Talos."""

@@ -1,7 +1,7 @@
-// robodyn explorer, the 3-D view's panel: asks the service for what the view draws (visuals,
-// frame placements, centre of mass), reports mesh loading, and colours the links by a joint
-// quantity with a legend. The drawing itself is view3d.js.
-import { RobotView } from "./view3d.js";
+// robodyn explorer, the 3-D view of the robot at the sliders' state: asks the service for what
+// it draws (visuals, frame placements, centre of mass), reports mesh loading, and colours the
+// links by a joint quantity with a legend. The drawing itself is robot_drawing.js.
+import { RobotDrawing } from "./robot_drawing.js";
 
 const el = (id) => document.getElementById(id);
 
@@ -13,25 +13,25 @@ function heat(t) {
   return HEAT[k].map((a, i) => (a + (HEAT[k + 1][i] - a) * f) / 255);
 }
 
-export class ViewPanel {
+export class RobotView {
   /** `ctx`: the page's { api, robotPath, currentQ, fmt, finite, onError }. */
   constructor(ctx) {
     this.ctx = ctx;
     this.info = null;
-    this.view = null; // the RobotView (null where WebGL is unavailable)
+    this.drawing = null; // the RobotDrawing (null where WebGL is unavailable)
     this.placing = false; // a frame-placements request is in flight
     this.placeAgain = false; // ... and the sliders moved since it was sent
     this.dynamics = null; // the last g(q) and C(q, v) v, to colour the links
     try {
-      this.view = new RobotView(el("view3d"),
-                                { onProgress: (d, t, f) => this.progress(d, t, f) });
+      this.drawing = new RobotDrawing(el("view3d"),
+                                      { onProgress: (d, t, f) => this.progress(d, t, f) });
     } catch (err) { // no WebGL: the numbers still work
       el("view-progress").textContent = `No 3-D view in this browser (${err.message}).`;
       return;
     }
-    el("view3d").robotView = this.view; // for the browser tests and the devtools console
-    el("show-com").addEventListener("change", (ev) => this.view.setShowCom(ev.target.checked));
-    el("show-triads").addEventListener("change", (ev) => this.view.setTriads(ev.target.checked));
+    el("view3d").robotDrawing = this.drawing; // for the browser tests and the devtools console
+    el("show-com").addEventListener("change", (ev) => this.drawing.setShowCom(ev.target.checked));
+    el("show-triads").addEventListener("change", (ev) => this.drawing.setTriads(ev.target.checked));
     el("link-colour").addEventListener("change", () => this.colourLinks());
   }
 
@@ -39,7 +39,7 @@ export class ViewPanel {
   async setRobot(info, current) {
     this.info = info;
     this.dynamics = null;
-    if (!this.view) return true;
+    if (!this.drawing) return true;
     const { api, robotPath } = this.ctx;
     const { visuals } = await api(robotPath(info.id, "visuals"));
     // a stick figure (no visuals, or no mesh to be had) also shows each body's centre of
@@ -47,7 +47,7 @@ export class ViewPanel {
     const { bodies } = await api(robotPath(info.id, "inertias"));
     if (!current()) return false;
     const assets = robotPath(info.id, "assets");
-    this.view.setRobot(info, visuals,
+    this.drawing.setRobot(info, visuals,
                        (a) => `${assets}/${a.split("/").map(encodeURIComponent).join("/")}`,
                        bodies);
     this.place();
@@ -58,7 +58,7 @@ export class ViewPanel {
    * out, moves only mark the view stale, and the newest q is sent when it answers (so a drag
    * never queues requests). */
   async place() {
-    if (!this.view || !this.info) return;
+    if (!this.drawing || !this.info) return;
     if (this.placing) { this.placeAgain = true; return; }
     const { api, robotPath, currentQ } = this.ctx;
     this.placing = true;
@@ -69,8 +69,8 @@ export class ViewPanel {
         const [p, com] = await Promise.all([api(robotPath(id, "frame-placements"), { q }),
                                             api(robotPath(id, "center-of-mass"), { q })]);
         if (this.info.id === id) {
-          this.view.setPlacements(p.frames, p.positions, p.rotations, q);
-          this.view.setCenterOfMass(com.position);
+          this.drawing.setPlacements(p.frames, p.positions, p.rotations, q);
+          this.drawing.setCenterOfMass(com.position);
         }
       } while (this.placeAgain);
     } catch (err) {
@@ -93,7 +93,7 @@ export class ViewPanel {
       ? `${files.length} mesh file(s) could not be loaded (${listed}); see the warnings.` : "";
     let text;
     if (total === 0) {
-      text = this.view && this.view.stick
+      text = this.drawing && this.drawing.stick
         ? (failed.length ? `No mesh could be drawn: ${notDrawn} ` : "Nothing to draw from " +
            "this description's visuals: ") + "drawn as a stick figure (joints blue, each " +
           "body's centre of mass orange)." : "";
@@ -135,19 +135,19 @@ export class ViewPanel {
   }
 
   colourLinks() {
-    if (!this.view || !this.info) return;
+    if (!this.drawing || !this.info) return;
     const mode = el("link-colour").value;
     const values = mode === "own" ? null : this.jointValues(mode);
     const legend = el("link-legend");
     if (!values) {
-      this.view.setLinkColours(null);
+      this.drawing.setLinkColours(null);
       legend.replaceChildren();
       return;
     }
     const ratio = mode !== "gravity";
     const top = ratio ? 1 : Math.max(1e-12, ...[...values.values()].filter((x) => x !== null));
     const parentJoint = new Map(this.info.frames.map((f) => [f.name, f.parent_joint]));
-    this.view.setLinkColours((frame) => {
+    this.drawing.setLinkColours((frame) => {
       const x = values.get(parentJoint.get(frame));
       return x === undefined || x === null ? null : heat(x / top);
     });

@@ -1,5 +1,5 @@
 """Dynamics with rigid contacts: constrained forward dynamics, contact-consistent inverse
-dynamics and impacts, for a contact set given per request (`service.dynamics.contacts_model`
+dynamics and impacts, for a contact set given per request (`service.dynamics.contacts.model`
 says how contacts become constraints, their force frames and the singularity test).
 
 With M the mass matrix (nv×nv), h = C(q, v) v + g(q), Jc the contact Jacobian (m×nv,
@@ -10,11 +10,11 @@ LOCAL_WORLD_ALIGNED rows) and λ the contact forces (m, N and N·m, world axes a
   `constraintDynamics` (sparse Cholesky of the KKT matrix): exact, no Baumgarte correction
   here. With `damping` μ > 0: proximal iterations (A + μ I) λₖ₊₁ = μ λₖ − b from λ₀ = 0
   (A = Jc M⁻¹ Jcᵀ) until the constraint holds to a tolerance, converging to the minimum-norm
-  λ of a rank-deficient set; unconverged answers are refused (`contacts_solve`).
+  λ of a rank-deficient set; unconverged answers are refused (`contacts.solve`).
 - contact-inverse-dynamics (no Pinocchio algorithm; least squares in numpy): for a floating
   base (free-flyer, MJCF free joint or planar root, its first k = 6 or 3 rows "root"),
   r = (M a + h)_root and λ = argmin ‖λ‖ among the minimizers of ‖(Jcᵀ)_root λ − r‖ (the
-  pseudo-inverse solution, `contacts_solve.root_balance`), residual = ‖(Jcᵀ)_root λ − r‖ (N
+  pseudo-inverse solution, `contacts.solve.root_balance`), residual = ‖(Jcᵀ)_root λ − r‖ (N
   and N·m mixed: the 2-norm of the root wrench no contact force can produce),
   τ = M a + h − Jcᵀ λ with its root rows set to 0. μ > 0 only admits a rank-deficient set
   (the least squares need no regularization). A fixed-base robot's actuators can produce
@@ -25,7 +25,7 @@ LOCAL_WORLD_ALIGNED rows) and λ the contact forces (m, N and N·m, world axes a
   Λ the impulses (N·s, N·m·s), laid out like λ.
 
 Every quantity here has a work estimate (`contact_work`): states × the work of one
-constrained evaluation (`contacts_solve.evaluation_work`: contacts, their kind, damping
+constrained evaluation (`contacts.solve.evaluation_work`: contacts, their kind, damping
 iterations), refused over `max_work` before computing; a batch asks `should_stop` every few
 milliseconds (`service.dynamics.stopping`).
 """
@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.contacts_model import constraint_models, constraint_rows
-from service.dynamics.contacts_solve import (
+from service.dynamics.contacts.model import constraint_models, constraint_rows
+from service.dynamics.contacts.solve import (
     EXACT_ACCURACY,
     check_damping,
     check_work,
@@ -67,7 +67,7 @@ def root_rows(robot: Robot) -> int:
 
 def contact_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
     """The work of a contact request: states × one constrained evaluation of its contacts
-    (`contacts_solve.evaluation_work`; contact-inverse-dynamics adds an RNEA, nv)."""
+    (`contacts.solve.evaluation_work`; contact-inverse-dynamics adds an RNEA, nv)."""
     return int(
         s.count
         * _state_work(robot, options.get("contacts") or (), float(options.get("damping") or 0.0))
@@ -191,7 +191,7 @@ def impulse_dynamics(
 ) -> Results:
     """Rigid impact at the contacts: v (N, nv) just after, M (v⁺ − v⁻) = Jcᵀ Λ with
     Jc v⁺ = −e Jc v⁻, and contact_impulses Λ (N, m) in N·s and N·m·s, laid out like
-    contact forces. With μ > 0, to the tolerance of `contacts_solve`."""
+    contact forces. With μ > 0, to the tolerance of `contacts.solve`."""
     mu = _admit("impulse-dynamics", robot, s, contacts, damping, max_work)
     e = float(restitution)
     if not 0.0 <= e <= 1.0:

@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.dynamics.contacts_solve import proximal_settings
+from service.dynamics.contacts.solve import proximal_settings
 from service.dynamics.frames import frame_id
 from service.errors import InvalidInput, SingularConfiguration
 from service.registry.robot import Robot
@@ -226,7 +226,7 @@ class ContactWorkspace:
 
     @staticmethod
     def settings(damping: float) -> Any:
-        """Pinocchio's proximal settings (`service.dynamics.contacts_solve`)."""
+        """Pinocchio's proximal settings (`service.dynamics.contacts.solve`)."""
         return proximal_settings(damping)
 
     def jacobian(self) -> np.ndarray:

@@ -21,7 +21,7 @@ from robodyn._calls import BUILDERS
 
 from robots import CATALOG_DIR
 from service.api.quantities import SPECS
-from service.api.schemas.inertias import BodyInertia, Inertias
+from service.api.schemas.body_inertias import BodyInertia, Inertias
 from tests.client.helpers import API_KEY, CATALOG, Reference
 from tests.operational_space_reference import RF, pinocchio_operational_space
 

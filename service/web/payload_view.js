@@ -5,7 +5,7 @@
 
 const el = (id) => document.getElementById(id);
 
-export class PayloadPanel {
+export class PayloadView {
   /** `ctx`: the page's { api, robotPath, currentQ, rows, fmt, renderBars, onError }. */
   constructor(ctx) {
     this.ctx = ctx;

@@ -36,7 +36,7 @@ import pinocchio as pin
 from service.errors import InvalidInput, SingularConfiguration
 
 CONSTRAINT_ACCURACY = 1e-9  # relative to 1 + ‖r‖∞ (see the module)
-ROLLOUT_ACCURACY = 1e-6  # the same within simulate's rollouts (see contacts_simulation)
+ROLLOUT_ACCURACY = 1e-6  # the same within simulate's rollouts (see simulation.py)
 MAX_PROXIMAL_ITERATIONS = 100
 MAX_DAMPING = 1.0  # in the units of A: 1/kg on force rows, 1/(kg·m²) on torque rows
 EXACT_ACCURACY = 1e-12  # Pinocchio's settings of the one undamped solve

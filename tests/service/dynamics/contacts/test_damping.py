@@ -9,10 +9,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from service.dynamics.contacts_solve import CONSTRAINT_ACCURACY, MAX_DAMPING
+from service.dynamics.contacts.solve import CONSTRAINT_ACCURACY, MAX_DAMPING
 from tests.helpers import random_state
 from tests.service.api.problems.test_errors import assert_problem
-from tests.service.dynamics.test_contacts import (
+from tests.service.dynamics.contacts.test_quantities import (
     constraint_acceleration,
     contact_jacobian,
     contacts_of,

@@ -293,8 +293,12 @@ function selectTab(button) {
     tab.tabIndex = mine ? 0 : -1;
     el(tab.getAttribute("aria-controls")).hidden = !mine;
   }
-  if (button.id === "tab-trajectory-button") state.trajectory.shown();
-  else if (state.view.drawing) state.view.drawing.resize();
+  if (button.id === "tab-trajectory-button") {
+    state.trajectory.shown();
+    return;
+  }
+  if (state.view.drawing) state.view.drawing.resize();
+  state.identification.shown();
 }
 
 function setUpTabs() {

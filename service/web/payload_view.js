@@ -2,8 +2,14 @@
 // g(q) with and without it, and the payload capacity at the current pose (the heaviest point
 // mass the frame can hold there within the effort limits) with the limiting joint highlighted.
 // Every number comes from the service: gravity with `payloads`, and payload-capacity.
+import { numberNode } from "./no_value.js";
 
 const el = (id) => document.getElementById(id);
+
+const NO_LIMIT = "No joint limits the mass this frame can hold here: the frame is fixed to " +
+  "the world, or no joint that carries it has an effort limit.";
+const NEVER_LIMITS = "it has no effort limit, is a floating root's coordinate, or the mass " +
+  "does not load it at this state.";
 
 export class PayloadView {
   /** `ctx`: the page's { api, robotPath, currentQ, rows, fmt, renderBars, onError }. */
@@ -81,18 +87,19 @@ export class PayloadView {
     const { fmt, rows, renderBars } = this.ctx;
     const summary = el("payload-summary");
     summary.replaceChildren();
-    const add = (term, text, id, value) => {
+    const add = (term, parts, id, value) => {
       const dt = document.createElement("dt");
       dt.textContent = term;
       const dd = document.createElement("dd");
-      dd.textContent = text;
+      dd.append(...[parts].flat());
       dd.id = id;
       if (value !== undefined && value !== null) dd.dataset.value = String(value);
       summary.append(dt, dd);
     };
     const where = `at ${p.frame}, offset [${p.center_of_mass.join(", ")}] m`;
     if (cap.mass === null) {
-      add("Capacity here", `no joint limits a mass ${where}`, "payload-capacity", null);
+      add("Capacity here", [numberNode(null, fmt, NO_LIMIT), ` ${where}: no joint limits a mass`],
+          "payload-capacity", null);
     } else {
       add("Capacity here", `${fmt(cap.mass, 5)} kg ${where}, holding still`, "payload-capacity",
           cap.mass);
@@ -139,13 +146,14 @@ export class PayloadView {
       const th = document.createElement("th");
       th.scope = "row";
       th.textContent = r.label;
+      const limit = limits[i] > 0 && limits[i] < 1e300 ? limits[i] : null; // 0: none
       const cells = [fmt(bare[i], 5), fmt(carried[i], 5),
-                     limits[i] && limits[i] < 1e300 ? fmt(limits[i], 4) : "none",
-                     cap.mass_per_joint[i] === null ? "never limits"
-                       : fmt(cap.mass_per_joint[i], 5)];
-      tr.append(th, ...cells.map((text) => {
+                     numberNode(limit, (x) => fmt(x, 4), `${r.label} has no effort limit.`),
+                     numberNode(cap.mass_per_joint[i], (x) => fmt(x, 5),
+                                `${r.label} never limits the payload here: ${NEVER_LIMITS}`)];
+      tr.append(th, ...cells.map((cell) => {
         const td = document.createElement("td");
-        td.textContent = text;
+        td.append(cell);
         return td;
       }));
       table.append(tr);

@@ -102,3 +102,41 @@ def test_the_payload_view_has_readable_contrast(page, server) -> None:
     assert any(tag == "DD#payload-limiting" for tag, _, _ in measured)
     poor = [(tag, text, round(ratio, 2)) for tag, text, ratio in measured if ratio < 4.5]
     assert poor == []
+
+
+def test_nulls_of_the_capacity_show_as_not_available(page, server, api) -> None:
+    """payload-capacity answers null where nothing limits: the page shows n/a with a title
+    saying why, in the summary (a frame fixed to the world: no capacity at all) and per joint
+    (mass_per_joint), never a number."""
+    open_explorer(page, server, "ur5")
+    page.click("#payload-view-button")
+    q = wait_payload(page)
+    cap = api.post(
+        "/v1/robots/ur5/payload-capacity",
+        json={"q": q, "frame": "tool0", "center_of_mass": [0] * 3},
+    ).json()
+    assert None in cap["mass_per_joint"]  # the shoulder pan and wrists, holding still
+    cells = page.locator("#payload-table tr[data-joint] td:nth-child(5)")
+    for k, value in enumerate(cap["mass_per_joint"]):
+        cell = cells.nth(k)
+        if value is None:
+            assert cell.inner_text() == "n/a"
+            assert "never limits" in cell.locator(".no-value").get_attribute("title")
+        else:
+            assert float(cell.inner_text()) == float(f"{value:.5g}")
+
+    page.select_option("#payload-frame", "base_link")
+    page.wait_for_function(
+        "() => document.querySelector('#payload-capacity').textContent.includes('base_link')"
+    )
+    q = wait_payload(page)
+    cap = api.post(
+        "/v1/robots/ur5/payload-capacity",
+        json={"q": q, "frame": "base_link", "center_of_mass": [0] * 3},
+    ).json()
+    assert cap["mass"] is None and set(cap["mass_per_joint"]) == {None}
+    summary = page.locator("#payload-capacity")
+    assert summary.inner_text().startswith("n/a at base_link")
+    assert "fixed to the world" in summary.locator(".no-value").get_attribute("title")
+    assert cells.all_inner_texts() == ["n/a"] * 6
+    assert page.log.console_errors == [] and page.log.page_errors == []

@@ -51,6 +51,8 @@ MODULE_FILES = {
         "robot_view.js",
         "robot_list_view.js",
         "dynamics_view.js",
+        "no_value.js",
+        "plot_axes.js",
         "joint_coordinates.js",
         "mass_matrix_view.js",
         "http.js",

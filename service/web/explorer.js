@@ -320,6 +320,7 @@ function showView(button) {
   el("results").classList.toggle("payload-shown", payload);
   el("results").classList.toggle("equations-shown", equations);
   if (payload) state.payload.compute();
+  else state.view.markFrame(null); // the payload frame's axes: only with the Payload view
   if (equations) state.equations.show();
 }
 
@@ -351,6 +352,7 @@ function start() {
     api, robotPath, currentQ, fmt, onError, rows: () => state.rows,
     renderBars: (box, values, unitKey) => renderBars(box, values, unitKey, state.rows,
                                                      state.info),
+    markFrame: (frame, point) => state.view.markFrame(frame, point),
   });
   state.equations = new EquationsView({ api, robotPath, fmt });
   setUpViews();

@@ -1,7 +1,8 @@
 // robodyn explorer, the payload view: a payload held by a frame (mass, centre-of-mass offset),
 // g(q) with and without it, and the payload capacity at the current pose (the heaviest point
 // mass the frame can hold there within the effort limits) with the limiting joint highlighted.
-// Every number comes from the service: gravity with `payloads`, and payload-capacity.
+// Every number comes from the service: gravity with `payloads`, and payload-capacity. The
+// centre of mass is given in the payload frame's axes, which the 3-D view draws at that frame.
 import { numberNode } from "./no_value.js";
 
 const el = (id) => document.getElementById(id);
@@ -12,7 +13,8 @@ const NEVER_LIMITS = "it has no effort limit, is a floating root's coordinate, o
   "does not load it at this state.";
 
 export class PayloadView {
-  /** `ctx`: the page's { api, robotPath, currentQ, rows, fmt, renderBars, onError }. */
+  /** `ctx`: the page's { api, robotPath, currentQ, rows, fmt, renderBars, onError,
+   * markFrame(frame, point) (the 3-D view draws that frame's axes and the point in them) }. */
   constructor(ctx) {
     this.ctx = ctx;
     this.info = null;
@@ -35,6 +37,16 @@ export class PayloadView {
       links[links.length - 1] || names[0] || "";
     el("payload-summary").replaceChildren();
     el("payload-table").replaceChildren();
+    this.describeAxes();
+  }
+
+  /** The sentence saying in which axes the centre of mass is given: the chosen frame's. */
+  describeAxes() {
+    const frame = el("payload-frame").value;
+    el("payload-axes").textContent = frame
+      ? `The centre of mass x, y, z is given in ${frame}'s axes, drawn at ${frame} in the 3-D ` +
+        "view (x red, y green, z blue; the purple ball is the payload's centre of mass)."
+      : "";
   }
 
   /** The payload as the form gives it, or null with a message when a number is invalid. */
@@ -53,9 +65,11 @@ export class PayloadView {
   async compute() {
     if (!this.info || !this.visible()) return;
     const seq = ++this.seq;
-    const { api, robotPath, currentQ, onError } = this.ctx;
+    const { api, robotPath, currentQ, onError, markFrame } = this.ctx;
     const p = this.payload();
     const status = el("payload-status");
+    this.describeAxes();
+    markFrame(el("payload-frame").value, p ? p.center_of_mass : null);
     if (!p) {
       status.textContent = "The mass must be > 0 kg and the offset three numbers (m).";
       status.classList.add("error");

@@ -4,7 +4,7 @@
 // origin.
 import { renderBars, renderEnergy } from "./dynamics_view.js";
 import { EquationsView } from "./equations_view.js";
-import { api, Problem, robotPath } from "./http.js";
+import { api, Problem, robotPath, setApiKey } from "./http.js";
 import { IdentificationView } from "./identification_view.js";
 import { finite, jointCoordinates, UNITS } from "./joint_coordinates.js";
 import { fmt, renderHeatmap, renderNumbers } from "./mass_matrix_view.js";
@@ -259,12 +259,10 @@ async function upload(ev) {
                  inertia_check: el("inertia-warn").checked ? "warn" : "reject" };
   const name = el("upload-name").value.trim();
   if (name) body.name = name;
-  const key = el("api-key").value.trim();
-  const headers = key ? { Authorization: `Bearer ${key}` } : {};
   out.className = "";
   out.textContent = "Uploading…";
   try {
-    const info = await api("v1/robots", body, headers);
+    const info = await api("v1/robots", body);
     out.className = "ok";
     out.textContent = `Stored as ${info.id}` +
       (info.warnings.length ? ` with ${warningsSummary(info.warnings)}.` : ".");
@@ -331,13 +329,19 @@ function setUpViews() {
 // ---- Start --------------------------------------------------------------------------------
 
 // The robot list, then the robot `chosen` (else the one a link names, else ur5); while the
-// service is still loading its catalog (503 not_ready), again every second.
+// service is still loading its catalog (503 not_ready), again every second. A server that
+// needs an API key for reads (401) is said to need the key: entering one loads them again.
 async function loadAndShow(chosen) {
   for (;;) {
     try {
       await selectRobot(await state.robots.load(chosen));
       return;
     } catch (err) {
+      if (err instanceof Problem && err.status === 401) {
+        setStatus(`This server needs an API key for every request: enter it in the field ` +
+                  `"API key" above the robot list. (${err.message})`, true);
+        return;
+      }
       if (!(err instanceof Problem && err.code === "not_ready")) throw err;
       setStatus("The service is still loading its robots…");
       await new Promise((resolve) => setTimeout(resolve, 1000));
@@ -361,6 +365,11 @@ function start() {
   state.identification = new IdentificationView(el("identification"), { api, robotPath });
   state.robots = new RobotList(el("robot"), { choose: selectRobot, onError });
   el("robot").addEventListener("change", (ev) => selectRobot(ev.target.value).catch(onError));
+  el("api-key").addEventListener("change", (ev) => {
+    setApiKey(ev.target.value);
+    if (state.info) schedule(); // the state shown, computed again with this key
+    else loadAndShow(el("robot").value).catch(onError); // nothing loaded yet: now, with it
+  });
   el("posture").addEventListener("change", (ev) => {
     buildControls(postureQ(ev.target.value), currentV());
     schedule();
@@ -380,6 +389,7 @@ function start() {
     });
   }
   state.robots.watch();
+  setApiKey(el("api-key").value); // a key the browser kept in the field across a reload
   loadAndShow().catch(onError);
 }
 

@@ -155,13 +155,10 @@ export class IdentificationView {
     this.say(`Identifying ${info.name} from ${log.t.length} samples…`);
     this.clear();
     try {
-      // identify is a write where the server has API keys: the upload form's key is sent
-      const key = (document.querySelector("#api-key")?.value || "").trim();
-      const headers = key ? { Authorization: `Bearer ${key}` } : {};
       const answer = await apiWithProgress(
         this.robotPath(info.id, "identify"), body, (p) => {
           if (this.info === info) this.say(`Identifying ${info.name}: ${progressText(p)}…`);
-        }, headers);
+        });
       if (this.info !== info) return;
       const digits = (x) => x.toPrecision(3);
       this.say(["Identified: condition number ",

@@ -1,7 +1,8 @@
 // robodyn explorer, the robot drawn in 3-D with three.js (vendored in vendor/three/, see its
 // README), z up as in robotics. Each link's visuals hang in a group placed at that link's body
 // frame; the service gives the frames' world placements (POST frame-placements) and the visuals
-// (GET visuals), and the meshes come from GET assets/{path}, each fetched once (cached).
+// (GET visuals), and the meshes come from GET assets/{path}, each fetched once (cached), through
+// http.js like every request of the page.
 // A robot without visuals is drawn as a stick figure: joint origins joined by segments.
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
@@ -9,6 +10,7 @@ import { STLLoader } from "three/addons/loaders/STLLoader.js";
 import { ColladaLoader } from "three/addons/loaders/ColladaLoader.js";
 import { OBJLoader } from "three/addons/loaders/OBJLoader.js";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
+import { request } from "./http.js";
 
 const BACKGROUND = 0xf7f8fa;
 const DEFAULT_COLOUR = [0.72, 0.74, 0.78, 1];
@@ -47,7 +49,7 @@ function parseMesh(url, buffer) {
 
 function loadMesh(url) {
   if (!meshCache.has(url)) {
-    meshCache.set(url, fetch(url).then((res) => {
+    meshCache.set(url, request(url).then((res) => {
       if (!res.ok) throw new Error(`${res.status} for ${url}`);
       return res.arrayBuffer();
     }).then((buffer) => parseMesh(url, buffer)).then((template) => {

@@ -2,22 +2,19 @@
 // uses the vendored three.js. Every request goes to this service through a relative URL (so the
 // page also works behind a path prefix); the page's Content-Security-Policy forbids any other
 // origin.
+import { renderBars, renderEnergy } from "./dynamics_view.js";
 import { EquationsView } from "./equations_view.js";
-import { allRobots, api, Problem, robotPath } from "./http.js";
+import { api, Problem, robotPath, setApiKey } from "./http.js";
 import { IdentificationView } from "./identification_view.js";
-import { finite, jointCoordinates } from "./joint_coordinates.js";
+import { finite, jointCoordinates, UNITS } from "./joint_coordinates.js";
 import { fmt, renderHeatmap, renderNumbers } from "./mass_matrix_view.js";
 import { PayloadView } from "./payload_view.js";
+import { RobotList } from "./robot_list_view.js";
 import { RobotView } from "./robot_view.js";
 import { arrowKeys } from "./tabs.js";
 import { TrajectoryView } from "./trajectory_view.js";
 
 const DEFAULT_VELOCITY = 0.5; // rad/s or m/s in every coordinate when a robot is chosen
-const UNITS = {
-  angle: { q: "rad", v: "rad/s", f: "N·m" },
-  length: { q: "m", v: "m/s", f: "N" },
-  other: { q: "", v: "", f: "" },
-};
 
 const el = (id) => document.getElementById(id);
 const state = {
@@ -34,6 +31,7 @@ const state = {
   payload: null, // the payload view (payload_view.js)
   equations: null, // the equations view (equations_view.js)
   identification: null, // the identification view (identification_view.js)
+  robots: null, // the robot picker (robot_list_view.js)
 };
 
 // ---- Controls -----------------------------------------------------------------------------
@@ -161,11 +159,11 @@ async function compute() {
     state.last = { M: mm.mass_matrix, labels, stamp: { robot: id, q, v } };
     renderHeatmap(mm.mass_matrix, labels, { robot: id, q, v }, state.info.joints);
     renderNumbers(mm.mass_matrix, labels);
-    renderBars(el("gravity-chart"), g.gravity, "f");
-    renderBars(el("coriolis-chart"), c.coriolis_forces, "f");
+    renderBars(el("gravity-chart"), g.gravity, "f", state.rows, state.info);
+    renderBars(el("coriolis-chart"), c.coriolis_forces, "f", state.rows, state.info);
     state.view.colour(g.gravity, c.coriolis_forces);
     state.equations.update({ M: mm.mass_matrix, g: g.gravity, C: c.coriolis_matrix });
-    renderEnergy(mm.mass_matrix, v);
+    renderEnergy(el("energy"), mm.mass_matrix, v, state.info);
     setStatus("Computed by the service for the state set on the left.");
     state.payload.compute();
   } catch (err) {
@@ -175,158 +173,7 @@ async function compute() {
   }
 }
 
-function baseRows() {
-  // The velocity rows of a multi-dof root joint (a free-flyer or planar base), else 0.
-  const first = state.info.joints[0];
-  return first && first.nv > 1 && ["free_flyer", "planar"].includes(first.type) ? first.nv : 0;
-}
-
-function renderBars(box, values, unitKey) {
-  // Horizontal bars about a centre line, one per velocity coordinate, labelled by joint. A
-  // floating base's rows (a free-flyer carries the whole weight: 885 N on talos) get their own
-  // scale, so that they do not flatten every joint's bar.
-  const nBase = baseRows();
-  if (!nBase || nBase >= values.length) {
-    box.replaceChildren(...barRows(values, 0, unitKey));
-    return;
-  }
-  const heading = (text) => {
-    const p = document.createElement("p");
-    p.className = "bar-group";
-    p.textContent = text;
-    return p;
-  };
-  box.replaceChildren(
-    heading(`Base (${state.info.joints[0].name}, ${state.info.joints[0].type}), own scale`),
-    ...barRows(values.slice(0, nBase), 0, unitKey),
-    heading("Joints"),
-    ...barRows(values.slice(nBase), nBase, unitKey));
-}
-
-function barRows(values, offset, unitKey) {
-  const maxAbs = Math.max(...values.map(Math.abs)) || 1;
-  return values.map((x, k) => {
-    const i = offset + k;
-    const r = state.rows[i];
-    const row = document.createElement("div");
-    row.className = "bar-row";
-    row.dataset.index = String(i);
-    row.dataset.value = String(x);
-    const label = document.createElement("span");
-    label.className = "bar-label";
-    label.textContent = r.label;
-    const track = document.createElement("span");
-    track.className = "bar-track";
-    const bar = document.createElement("span");
-    bar.className = x < 0 ? "bar negative" : "bar positive";
-    const width = (Math.abs(x) / maxAbs) * 50;
-    bar.style.width = `${width}%`;
-    bar.style.left = x < 0 ? `${50 - width}%` : "50%";
-    track.append(bar);
-    const value = document.createElement("span");
-    value.className = "bar-value";
-    value.textContent = `${fmt(x)} ${UNITS[r.kind][unitKey]}`;
-    row.append(label, track, value);
-    return row;
-  });
-}
-
-function renderEnergy(M, v) {
-  // The service's `energy` endpoint is not used here (it may not be deployed yet): the kinetic
-  // energy follows from the mass matrix the page already has, T = ½ vᵀ M(q) v.
-  const Mv = M.map((r) => r.reduce((s, x, k) => s + x * v[k], 0));
-  const T = 0.5 * v.reduce((s, x, k) => s + x * Mv[k], 0);
-  const dl = el("energy");
-  dl.replaceChildren();
-  const add = (term, text, value) => {
-    const dt = document.createElement("dt");
-    dt.textContent = term;
-    const dd = document.createElement("dd");
-    dd.textContent = text;
-    if (value !== undefined) dd.dataset.value = String(value);
-    dl.append(dt, dd);
-    return dd;
-  };
-  add("Total mass", `${fmt(state.info.total_mass, 6)} kg`, state.info.total_mass).id =
-    "total-mass";
-  add("Kinetic energy T = ½ vᵀ M(q) v", `${fmt(T, 6)} J`, T).id = "kinetic-energy";
-}
-
 // ---- Robots -------------------------------------------------------------------------------
-
-// The robot list as the server has it now: models uploaded through the API (or deleted)
-// since the page loaded appear (or go) when the page comes back into view, every
-// ROBOT_LIST_POLL_MS while it is visible, and when a #robot=<id> link names a robot the list
-// does not have yet. The chosen robot stays chosen.
-const ROBOT_LIST_POLL_MS = 30000;
-
-function hashRobot() {
-  return new URLSearchParams(location.hash.slice(1)).get("robot");
-}
-
-async function refreshRobots() {
-  const select = el("robot");
-  const current = select.value;
-  const robots = await allRobots();
-  fillRobotList(robots);
-  if (robots.some((r) => r.id === current)) select.value = current;
-  return robots.map((r) => r.id);
-}
-
-function refreshQuietly() {
-  if (document.visibilityState !== "visible") return;
-  refreshRobots().catch(() => {}); // a failed refresh keeps the list as it was
-}
-
-async function followHash() {
-  const id = hashRobot();
-  if (!id || id === el("robot").value) return;
-  const ids = await refreshRobots();
-  if (!ids.includes(id)) {
-    setStatus(`No robot '${id}' on this server (yet): the list has every robot it serves.`, true);
-    return;
-  }
-  el("robot").value = id;
-  await selectRobot(id);
-}
-
-function watchRobotList() {
-  document.addEventListener("visibilitychange", refreshQuietly);
-  window.addEventListener("focus", refreshQuietly);
-  window.addEventListener("hashchange", () => {
-    followHash().catch((err) => setStatus(err.message, true));
-  });
-  setInterval(refreshQuietly, ROBOT_LIST_POLL_MS);
-}
-
-function fillRobotList(robots) {
-  const select = el("robot");
-  select.replaceChildren();
-  const groups = [["catalog", "Catalog"], ["upload", "Uploaded"]];
-  for (const [source, title] of groups) {
-    const members = robots.filter((r) => r.source === source)
-      .sort((a, b) => a.name.localeCompare(b.name));
-    if (!members.length) continue;
-    const group = document.createElement("optgroup");
-    group.label = title;
-    for (const r of members) {
-      const label = source === "upload" ? `${r.name} (${r.id.slice(0, 10)}…, nv ${r.nv})`
-        : `${r.name} (nv ${r.nv})`;
-      group.append(new Option(label, r.id));
-    }
-    select.append(group);
-  }
-}
-
-async function loadRobots(chosen) {
-  const robots = await allRobots();
-  fillRobotList(robots);
-  const select = el("robot");
-  const ids = robots.map((r) => r.id);
-  const fromHash = hashRobot();
-  select.value = [chosen, fromHash, "ur5", ids[0]].find((x) => x && ids.includes(x)) || "";
-  return select.value;
-}
 
 async function selectRobot(id) {
   if (!id) { setStatus("No robot is loaded yet.", true); return; }
@@ -412,17 +259,14 @@ async function upload(ev) {
                  inertia_check: el("inertia-warn").checked ? "warn" : "reject" };
   const name = el("upload-name").value.trim();
   if (name) body.name = name;
-  const key = el("api-key").value.trim();
-  const headers = key ? { Authorization: `Bearer ${key}` } : {};
   out.className = "";
   out.textContent = "Uploading…";
   try {
-    const info = await api("v1/robots", body, headers);
+    const info = await api("v1/robots", body);
     out.className = "ok";
     out.textContent = `Stored as ${info.id}` +
       (info.warnings.length ? ` with ${warningsSummary(info.warnings)}.` : ".");
-    await loadRobots(info.id);
-    await selectRobot(info.id);
+    await selectRobot(await state.robots.load(info.id));
   } catch (err) {
     out.className = "error";
     const p = document.createElement("p");
@@ -447,8 +291,12 @@ function selectTab(button) {
     tab.tabIndex = mine ? 0 : -1;
     el(tab.getAttribute("aria-controls")).hidden = !mine;
   }
-  if (button.id === "tab-trajectory-button") state.trajectory.shown();
-  else if (state.view.drawing) state.view.drawing.resize();
+  if (button.id === "tab-trajectory-button") {
+    state.trajectory.shown();
+    return;
+  }
+  if (state.view.drawing) state.view.drawing.resize();
+  state.identification.shown();
 }
 
 function setUpTabs() {
@@ -470,6 +318,7 @@ function showView(button) {
   el("results").classList.toggle("payload-shown", payload);
   el("results").classList.toggle("equations-shown", equations);
   if (payload) state.payload.compute();
+  else state.view.markFrame(null); // the payload frame's axes: only with the Payload view
   if (equations) state.equations.show();
 }
 
@@ -479,19 +328,47 @@ function setUpViews() {
 
 // ---- Start --------------------------------------------------------------------------------
 
-async function start() {
-  state.view = new RobotView({ api, robotPath, currentQ, fmt, finite,
-                               onError: (err) => setStatus(err.message, true) });
-  state.payload = new PayloadView({ api, robotPath, currentQ, fmt, renderBars,
-                                     rows: () => state.rows,
-                                     onError: (err) => setStatus(err.message, true) });
+// The robot list, then the robot `chosen` (else the one a link names, else ur5); while the
+// service is still loading its catalog (503 not_ready), again every second. A server that
+// needs an API key for reads (401) is said to need the key: entering one loads them again.
+async function loadAndShow(chosen) {
+  for (;;) {
+    try {
+      await selectRobot(await state.robots.load(chosen));
+      return;
+    } catch (err) {
+      if (err instanceof Problem && err.status === 401) {
+        setStatus(`This server needs an API key for every request: enter it in the field ` +
+                  `"API key" above the robot list. (${err.message})`, true);
+        return;
+      }
+      if (!(err instanceof Problem && err.code === "not_ready")) throw err;
+      setStatus("The service is still loading its robots…");
+      await new Promise((resolve) => setTimeout(resolve, 1000));
+    }
+  }
+}
+
+function start() {
+  const onError = (err) => setStatus(err.message, true);
+  state.view = new RobotView({ api, robotPath, currentQ, fmt, finite, onError });
+  state.payload = new PayloadView({
+    api, robotPath, currentQ, fmt, onError, rows: () => state.rows,
+    renderBars: (box, values, unitKey) => renderBars(box, values, unitKey, state.rows,
+                                                     state.info),
+    markFrame: (frame, point) => state.view.markFrame(frame, point),
+  });
   state.equations = new EquationsView({ api, robotPath, fmt });
   setUpViews();
   state.trajectory = new TrajectoryView({ api, robotPath, fmt });
   setUpTabs();
   state.identification = new IdentificationView(el("identification"), { api, robotPath });
-  el("robot").addEventListener("change", (ev) => {
-    selectRobot(ev.target.value).catch((err) => setStatus(err.message, true));
+  state.robots = new RobotList(el("robot"), { choose: selectRobot, onError });
+  el("robot").addEventListener("change", (ev) => selectRobot(ev.target.value).catch(onError));
+  el("api-key").addEventListener("change", (ev) => {
+    setApiKey(ev.target.value);
+    if (state.info) schedule(); // the state shown, computed again with this key
+    else loadAndShow(el("robot").value).catch(onError); // nothing loaded yet: now, with it
   });
   el("posture").addEventListener("change", (ev) => {
     buildControls(postureQ(ev.target.value), currentV());
@@ -504,31 +381,16 @@ async function start() {
     }
   });
   el("upload").addEventListener("submit", upload);
-  el("normalised").addEventListener("change", () => {
-    if (state.last) {
-      renderHeatmap(state.last.M, state.last.labels, state.last.stamp, state.info.joints);
-    }
-  });
-  el("log-scale").addEventListener("change", () => {
-    if (state.last) {
-      renderHeatmap(state.last.M, state.last.labels, state.last.stamp, state.info.joints);
-    }
-  });
-  watchRobotList();
-  for (;;) {
-    try {
-      await selectRobot(await loadRobots());
-      return;
-    } catch (err) {
-      if (!(err instanceof Problem && err.code === "not_ready")) {
-        setStatus(err.message, true);
-        return;
+  for (const id of ["normalised", "log-scale"]) {
+    el(id).addEventListener("change", () => {
+      if (state.last) {
+        renderHeatmap(state.last.M, state.last.labels, state.last.stamp, state.info.joints);
       }
-      // Just started: the catalog is still loading (503 not_ready). Ask again shortly.
-      setStatus("The service is still loading its robots…");
-      await new Promise((resolve) => setTimeout(resolve, 1000));
-    }
+    });
   }
+  state.robots.watch();
+  setApiKey(el("api-key").value); // a key the browser kept in the field across a reload
+  loadAndShow().catch(onError);
 }
 
 start();

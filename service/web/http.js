@@ -1,5 +1,8 @@
-// The explorer's requests to this service: JSON in, JSON out, relative URLs (the page also
-// works behind a path prefix); an error answer (problem+json) is thrown as a `Problem`.
+// The explorer's requests to this service, every one of them (JSON answers, progress streams,
+// mesh files): relative URLs (the page also works behind a path prefix), and the API key the
+// user entered, when there is one, on each (`Authorization: Bearer <key>`; a server with
+// ROBODYN_API_KEYS_SCOPE=all needs it for reads too). An error answer (problem+json) is thrown
+// as a `Problem`.
 
 export class Problem extends Error {
   constructor(status, body) {
@@ -12,14 +15,28 @@ export class Problem extends Error {
   }
 }
 
-export async function api(path, body, headers = {}) {
-  const init = { headers: { Accept: "application/json", ...headers } };
+let apiKey = ""; // the key the user entered ("" for none)
+
+/** The key every later request carries ("" or blanks: none). */
+export function setApiKey(key) {
+  apiKey = String(key || "").trim();
+}
+
+/** `fetch` of this service with the API key added to the headers, when there is one. */
+export function request(path, init = {}) {
+  const headers = { ...(init.headers || {}) };
+  if (apiKey) headers.Authorization = `Bearer ${apiKey}`;
+  return fetch(path, { ...init, headers });
+}
+
+export async function api(path, body) {
+  const init = { headers: { Accept: "application/json" } };
   if (body !== undefined) {
     init.method = "POST";
     init.headers["Content-Type"] = "application/json";
     init.body = JSON.stringify(body);
   }
-  return jsonOf(await fetch(path, init));
+  return jsonOf(await request(path, init));
 }
 
 // A whole answer's JSON, or its problem thrown as a `Problem`.
@@ -52,11 +69,11 @@ export const robotPath = (id, quantity) =>
 // `onProgress({done, total, unit, stage})` for each progress line, then the answer line's
 // answer is returned; a problem line (a failure once the stream began) is thrown as a Problem.
 // An error before the stream (a refused request) is an ordinary problem+json answer.
-export async function apiWithProgress(path, body, onProgress, headers = {}) {
-  const res = await fetch(path, {
+export async function apiWithProgress(path, body, onProgress) {
+  const res = await request(path, {
     method: "POST", body: JSON.stringify(body),
     headers: { Accept: "application/x-ndjson, application/problem+json",
-               "Content-Type": "application/json", ...headers } });
+               "Content-Type": "application/json" } });
   if (!res.ok || !(res.headers.get("content-type") || "").startsWith("application/x-ndjson")) {
     return jsonOf(res);
   }

@@ -5,22 +5,26 @@
 // shows comes from the service's answer.
 
 import { apiWithProgress, progressText } from "./http.js";
+import { numberNode } from "./no_value.js";
+import { yAxis } from "./plot_axes.js";
+import uPlot from "./vendor/uplot/uPlot.esm.js";
 
-const SVG = "http://www.w3.org/2000/svg";
-const COLOURS = { measured: "#1b1b1b", predicted: "#0b5cad", before: "#a40e26" };
-const PLOT = { width: 520, height: 150, left: 52, right: 8, top: 8, bottom: 22 };
+const SERIES = [ // the answer's curves: key in validation_series, legend label, colour, width
+  ["measured", "measured", "#1b1b1b", 2],
+  ["predicted", "identified model", "#0b5cad", 1.3],
+  ["before", "the robot's own model", "#a40e26", 1.3],
+];
+const PLOT_HEIGHT = 170; // px
 const MAX_POINTS = 600; // points drawn per curve (the series is thinned evenly)
+const CONDITION_WHY = "The log leaves some base parameter undetermined (a joint that never " +
+  "moves, a motion that cannot tell two parameters apart): the condition number is infinite, " +
+  "and the fit keeps the model's own values there.";
+const FILTER_WHY = "The log was used as given: no low-pass filter.";
 
 function node(tag, attrs = {}, text = "") {
   const out = document.createElement(tag);
   for (const [k, v] of Object.entries(attrs)) out.setAttribute(k, v);
   if (text) out.textContent = text;
-  return out;
-}
-
-function svg(tag, attrs) {
-  const out = document.createElementNS(SVG, tag);
-  for (const [k, v] of Object.entries(attrs)) out.setAttribute(k, v);
   return out;
 }
 
@@ -56,43 +60,15 @@ function thin(count) {
   return out;
 }
 
-function plotJoint(series, j, label, unit) {
-  const { t, measured, predicted, before } = series;
-  const picks = thin(t.length);
-  const curves = { measured, predicted, before };
-  let lo = Infinity, hi = -Infinity;
-  for (const values of Object.values(curves)) {
-    for (const i of picks) { lo = Math.min(lo, values[i][j]); hi = Math.max(hi, values[i][j]); }
-  }
-  if (!(hi > lo)) { hi = lo + 1; }
-  const w = PLOT.width - PLOT.left - PLOT.right, h = PLOT.height - PLOT.top - PLOT.bottom;
-  const x = (s) => PLOT.left + (w * (s - t[0])) / Math.max(t[t.length - 1] - t[0], 1e-12);
-  const y = (v) => PLOT.top + h * (1 - (v - lo) / (hi - lo));
-  const box = svg("svg", { viewBox: `0 0 ${PLOT.width} ${PLOT.height}`, role: "img",
-                           "aria-label": `${label}: measured, identified and own-model torques` });
-  box.append(svg("rect", { x: PLOT.left, y: PLOT.top, width: w, height: h, fill: "#ffffff",
-                           stroke: "#c8ced6" }));
-  for (const [name, values] of Object.entries(curves)) {
-    const points = picks.map((i) => `${x(t[i]).toFixed(1)},${y(values[i][j]).toFixed(1)}`);
-    box.append(svg("polyline", { points: points.join(" "), fill: "none",
-                                 stroke: COLOURS[name], "stroke-width": name === "measured" ? 2 : 1.3,
-                                 "data-series": name }));
-  }
-  for (const [v, anchor] of [[hi, PLOT.top + 10], [lo, PLOT.top + h]]) {
-    const tick = svg("text", { x: PLOT.left - 4, y: anchor, "text-anchor": "end",
-                               "font-size": 11, fill: "#4a4a4a" });
-    tick.textContent = `${v.toPrecision(3)} ${unit}`;
-    box.append(tick);
-  }
-  const axis = svg("text", { x: PLOT.left + w / 2, y: PLOT.height - 5, "text-anchor": "middle",
-                             "font-size": 11, fill: "#4a4a4a" });
-  axis.textContent = `t from ${t[0].toFixed(2)} to ${t[t.length - 1].toFixed(2)} s`;
-  box.append(axis);
-  const figure = node("figure", { class: "ident-plot" });
-  figure.append(node("figcaption", {}, label), box);
-  return figure;
-}
+/** The width a plot takes in `figure` (its grid cell), px. */
+const plotWidth = (figure) => Math.max(280, Math.min(760, (figure.clientWidth || 384) - 4));
 
+/** uPlot's data of joint j: [t, measured, identified, own model], at most MAX_POINTS each. */
+function jointData(series, j) {
+  const picks = thin(series.t.length);
+  return [picks.map((i) => series.t[i]),
+          ...SERIES.map(([key]) => picks.map((i) => series[key][i][j]))];
+}
 export class IdentificationView {
   // root: the element to fill; api(path, body) → answer (throws a Problem); robotPath(id, q).
   constructor(root, { api, robotPath }) {
@@ -100,6 +76,7 @@ export class IdentificationView {
     this.api = api;
     this.robotPath = robotPath;
     this.info = null;
+    this.plots = [];
     this.build();
   }
 
@@ -134,13 +111,27 @@ export class IdentificationView {
 
   setRobot(info) {
     this.info = info;
-    this.results.replaceChildren();
+    this.clear();
     this.say("");
   }
 
-  say(text, kind = "") {
+  clear() {
+    for (const p of this.plots) p.destroy();
+    this.plots = [];
+    this.results.replaceChildren();
+  }
+
+  /** The panel is in view again (its tab was chosen): the plots take their cells' width. */
+  shown() {
+    for (const p of this.plots) {
+      p.setSize({ width: plotWidth(p.root.parentElement), height: PLOT_HEIGHT });
+    }
+  }
+
+  /** The status line: `parts` are text or nodes. */
+  say(parts, kind = "") {
     this.status.className = kind;
-    this.status.textContent = text;
+    this.status.replaceChildren(...[parts].flat());
   }
 
   async run() {
@@ -162,19 +153,20 @@ export class IdentificationView {
     const fraction = this.root.querySelector("#ident-fraction").value.trim();
     if (fraction) body.validation_fraction = Number(fraction);
     this.say(`Identifying ${info.name} from ${log.t.length} samples…`);
-    this.results.replaceChildren();
+    this.clear();
     try {
-      // identify is a write where the server has API keys: the upload form's key is sent
-      const key = (document.querySelector("#api-key")?.value || "").trim();
-      const headers = key ? { Authorization: `Bearer ${key}` } : {};
       const answer = await apiWithProgress(
         this.robotPath(info.id, "identify"), body, (p) => {
           if (this.info === info) this.say(`Identifying ${info.name}: ${progressText(p)}…`);
-        }, headers);
+        });
       if (this.info !== info) return;
-      this.say(`Identified: condition number ${answer.condition_number.toPrecision(3)}, ` +
-               (answer.physically_consistent ? "every body physically consistent."
-                 : "some bodies are not physically consistent (least squares)."), "ok");
+      const digits = (x) => x.toPrecision(3);
+      this.say(["Identified: condition number ",
+                numberNode(answer.condition_number, digits, CONDITION_WHY),
+                ", low-pass cut-off ",
+                numberNode(answer.filter_hz, (x) => `${Number(digits(x))} Hz`, FILTER_WHY), ", ",
+                answer.physically_consistent ? "every body physically consistent."
+                  : "some bodies are not physically consistent (least squares)."], "ok");
       this.show(answer);
     } catch (err) {
       this.say(err.message || String(err), "error");
@@ -198,18 +190,28 @@ export class IdentificationView {
       }
       table.append(row);
     });
-    const legend = node("p", { class: "ident-legend" });
-    for (const [name, text] of [["measured", "━ measured"], ["predicted", "━ identified model"],
-                                ["before", "━ the robot's own model"]]) {
-      legend.append(node("span", { class: `ident-${name}` }, text));
-    }
     const plots = node("div", { class: "ident-plots" });
-    const units = this.info.joints.map((jt) => (jt.type === "prismatic" ? "N" : "N·m"));
-    if (answer.validation_series) {
-      names.forEach((name, j) => {
-        plots.append(plotJoint(answer.validation_series, j, name, units[j] || ""));
-      });
-    }
-    this.results.replaceChildren(table, legend, plots);
+    this.results.replaceChildren(table, plots);
+    const series = answer.validation_series;
+    if (!series || !series.t.length) return;
+    const units = names.map((name) => {
+      const joint = this.info.joints.find((jt) => jt.name === name);
+      return joint && joint.type === "prismatic" ? "N" : "N·m";
+    });
+    names.forEach((name, j) => {
+      const figure = node("figure", { class: "ident-plot", "data-joint": name });
+      figure.append(node("figcaption", {}, `${name}: measured, identified and own-model torques`));
+      plots.append(figure);
+      const opts = {
+        width: plotWidth(figure), height: PLOT_HEIGHT,
+        scales: { x: { time: false } },
+        series: [{ label: "t (s)" },
+                 ...SERIES.map(([, label, stroke, width]) => ({ label, stroke, width }))],
+        axes: [{ label: "t (s)" }, yAxis(`τ (${units[j]})`)],
+      };
+      const plot = new uPlot(opts, jointData(series, j), figure);
+      figure.plot = plot; // for the browser tests and the devtools console
+      this.plots.push(plot);
+    });
   }
 }

@@ -1,6 +1,13 @@
 // Joint coordinates of the explorer's sliders: one coordinate per velocity entry of a joint
 // (angles as roll, pitch, yaw for a free flyer or a ball joint) and the map back to its q.
 
+// The units of a coordinate of each kind: its position q, velocity v and force f.
+export const UNITS = {
+  angle: { q: "rad", v: "rad/s", f: "N·m" },
+  length: { q: "m", v: "m/s", f: "N" },
+  other: { q: "", v: "", f: "" },
+};
+
 export const LARGE = 1e3; // a limit beyond this counts as unbounded (Pinocchio's default is ±1.8e308)
 
 export function rpyToQuat(roll, pitch, yaw) {

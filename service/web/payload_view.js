@@ -1,12 +1,20 @@
 // robodyn explorer, the payload view: a payload held by a frame (mass, centre-of-mass offset),
 // g(q) with and without it, and the payload capacity at the current pose (the heaviest point
 // mass the frame can hold there within the effort limits) with the limiting joint highlighted.
-// Every number comes from the service: gravity with `payloads`, and payload-capacity.
+// Every number comes from the service: gravity with `payloads`, and payload-capacity. The
+// centre of mass is given in the payload frame's axes, which the 3-D view draws at that frame.
+import { numberNode } from "./no_value.js";
 
 const el = (id) => document.getElementById(id);
 
+const NO_LIMIT = "No joint limits the mass this frame can hold here: the frame is fixed to " +
+  "the world, or no joint that carries it has an effort limit.";
+const NEVER_LIMITS = "it has no effort limit, is a floating root's coordinate, or the mass " +
+  "does not load it at this state.";
+
 export class PayloadView {
-  /** `ctx`: the page's { api, robotPath, currentQ, rows, fmt, renderBars, onError }. */
+  /** `ctx`: the page's { api, robotPath, currentQ, rows, fmt, renderBars, onError,
+   * markFrame(frame, point) (the 3-D view draws that frame's axes and the point in them) }. */
   constructor(ctx) {
     this.ctx = ctx;
     this.info = null;
@@ -29,6 +37,16 @@ export class PayloadView {
       links[links.length - 1] || names[0] || "";
     el("payload-summary").replaceChildren();
     el("payload-table").replaceChildren();
+    this.describeAxes();
+  }
+
+  /** The sentence saying in which axes the centre of mass is given: the chosen frame's. */
+  describeAxes() {
+    const frame = el("payload-frame").value;
+    el("payload-axes").textContent = frame
+      ? `The centre of mass x, y, z is given in ${frame}'s axes, drawn at ${frame} in the 3-D ` +
+        "view (x red, y green, z blue; the purple ball is the payload's centre of mass)."
+      : "";
   }
 
   /** The payload as the form gives it, or null with a message when a number is invalid. */
@@ -47,9 +65,11 @@ export class PayloadView {
   async compute() {
     if (!this.info || !this.visible()) return;
     const seq = ++this.seq;
-    const { api, robotPath, currentQ, onError } = this.ctx;
+    const { api, robotPath, currentQ, onError, markFrame } = this.ctx;
     const p = this.payload();
     const status = el("payload-status");
+    this.describeAxes();
+    markFrame(el("payload-frame").value, p ? p.center_of_mass : null);
     if (!p) {
       status.textContent = "The mass must be > 0 kg and the offset three numbers (m).";
       status.classList.add("error");
@@ -81,18 +101,19 @@ export class PayloadView {
     const { fmt, rows, renderBars } = this.ctx;
     const summary = el("payload-summary");
     summary.replaceChildren();
-    const add = (term, text, id, value) => {
+    const add = (term, parts, id, value) => {
       const dt = document.createElement("dt");
       dt.textContent = term;
       const dd = document.createElement("dd");
-      dd.textContent = text;
+      dd.append(...[parts].flat());
       dd.id = id;
       if (value !== undefined && value !== null) dd.dataset.value = String(value);
       summary.append(dt, dd);
     };
     const where = `at ${p.frame}, offset [${p.center_of_mass.join(", ")}] m`;
     if (cap.mass === null) {
-      add("Capacity here", `no joint limits a mass ${where}`, "payload-capacity", null);
+      add("Capacity here", [numberNode(null, fmt, NO_LIMIT), ` ${where}: no joint limits a mass`],
+          "payload-capacity", null);
     } else {
       add("Capacity here", `${fmt(cap.mass, 5)} kg ${where}, holding still`, "payload-capacity",
           cap.mass);
@@ -139,13 +160,14 @@ export class PayloadView {
       const th = document.createElement("th");
       th.scope = "row";
       th.textContent = r.label;
+      const limit = limits[i] > 0 && limits[i] < 1e300 ? limits[i] : null; // 0: none
       const cells = [fmt(bare[i], 5), fmt(carried[i], 5),
-                     limits[i] && limits[i] < 1e300 ? fmt(limits[i], 4) : "none",
-                     cap.mass_per_joint[i] === null ? "never limits"
-                       : fmt(cap.mass_per_joint[i], 5)];
-      tr.append(th, ...cells.map((text) => {
+                     numberNode(limit, (x) => fmt(x, 4), `${r.label} has no effort limit.`),
+                     numberNode(cap.mass_per_joint[i], (x) => fmt(x, 5),
+                                `${r.label} never limits the payload here: ${NEVER_LIMITS}`)];
+      tr.append(th, ...cells.map((cell) => {
         const td = document.createElement("td");
-        td.textContent = text;
+        td.append(cell);
         return td;
       }));
       table.append(tr);

@@ -1,7 +1,8 @@
 // robodyn explorer, the robot drawn in 3-D with three.js (vendored in vendor/three/, see its
 // README), z up as in robotics. Each link's visuals hang in a group placed at that link's body
 // frame; the service gives the frames' world placements (POST frame-placements) and the visuals
-// (GET visuals), and the meshes come from GET assets/{path}, each fetched once (cached).
+// (GET visuals), and the meshes come from GET assets/{path}, each fetched once (cached), through
+// http.js like every request of the page.
 // A robot without visuals is drawn as a stick figure: joint origins joined by segments.
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
@@ -9,6 +10,7 @@ import { STLLoader } from "three/addons/loaders/STLLoader.js";
 import { ColladaLoader } from "three/addons/loaders/ColladaLoader.js";
 import { OBJLoader } from "three/addons/loaders/OBJLoader.js";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
+import { request } from "./http.js";
 
 const BACKGROUND = 0xf7f8fa;
 const DEFAULT_COLOUR = [0.72, 0.74, 0.78, 1];
@@ -47,7 +49,7 @@ function parseMesh(url, buffer) {
 
 function loadMesh(url) {
   if (!meshCache.has(url)) {
-    meshCache.set(url, fetch(url).then((res) => {
+    meshCache.set(url, request(url).then((res) => {
       if (!res.ok) throw new Error(`${res.status} for ${url}`);
       return res.arrayBuffer();
     }).then((buffer) => parseMesh(url, buffer)).then((template) => {
@@ -86,6 +88,24 @@ const meshCount = (visuals) => visuals.filter((v) => v.geometry.type === "mesh")
 const placementMatrix = (R, p) => new THREE.Matrix4().set(
   R[0][0], R[0][1], R[0][2], p[0], R[1][0], R[1][1], R[1][2], p[1],
   R[2][0], R[2][1], R[2][2], p[2], 0, 0, 0, 1);
+
+// A letter drawn on a sprite (it always faces the camera), `size` m high, seen through the links.
+function letterSprite(text, colour, size) {
+  const canvas = document.createElement("canvas");
+  canvas.width = canvas.height = 64;
+  const ctx = canvas.getContext("2d");
+  ctx.font = "bold 52px sans-serif";
+  ctx.textAlign = "center";
+  ctx.textBaseline = "middle";
+  ctx.fillStyle = colour;
+  ctx.fillText(text, 32, 34);
+  const map = new THREE.CanvasTexture(canvas);
+  map.colorSpace = THREE.SRGBColorSpace;
+  const sprite = new THREE.Sprite(new THREE.SpriteMaterial({ map, depthTest: false }));
+  sprite.scale.set(size, size, 1);
+  sprite.renderOrder = 12;
+  return sprite;
+}
 
 function material(rgba) {
   const [r, g, b, a] = rgba || DEFAULT_COLOUR;
@@ -359,6 +379,52 @@ export class RobotDrawing {
       if (axes) axes.visible = on;
     }
     this.requestRender();
+  }
+
+  /** One frame's axes at its world placement — `mark` {name, position (m), rotation (3×3, its
+   * axes as columns), point (3 numbers in the frame's coordinates, m, or null)} — drawn
+   * x red, y green, z blue (15 cm, labelled) and seen through the links, with `point` as a
+   * purple ball; null hides them. The payload view marks the payload's frame and its centre
+   * of mass with it. */
+  setFrameMark(mark) {
+    if (!this.frameMark) this.frameMark = this.buildFrameMark();
+    const g = this.frameMark;
+    g.visible = !!mark;
+    if (mark) {
+      g.matrix.copy(placementMatrix(mark.rotation, mark.position));
+      g.matrixWorldNeedsUpdate = true;
+      g.userData.point.visible = !!mark.point;
+      if (mark.point) g.userData.point.position.set(...mark.point);
+      g.userData.frame = mark.name;
+      this.container.dataset.markedFrame = mark.name;
+    } else {
+      delete this.container.dataset.markedFrame;
+    }
+    this.requestRender();
+  }
+
+  buildFrameMark() {
+    const LENGTH = 0.15; // m
+    const g = new THREE.Group();
+    g.matrixAutoUpdate = false;
+    const axes = new THREE.AxesHelper(LENGTH).setColors(0xff0000, 0x00b000, 0x0000ff);
+    axes.material.depthTest = false;
+    axes.renderOrder = 11;
+    g.add(axes);
+    g.userData.axes = axes;
+    ["#d00000", "#008000", "#0000d0"].forEach((colour, k) => { // "x", "y", "z" beyond each end
+      const letter = letterSprite("xyz"[k], colour, 0.045);
+      letter.position.setComponent(k, LENGTH + 0.03);
+      g.add(letter);
+    });
+    const point = new THREE.Mesh(
+      new THREE.SphereGeometry(0.015, 16, 10),
+      new THREE.MeshBasicMaterial({ color: 0x6a1b9a, depthTest: false }));
+    point.renderOrder = 11;
+    g.add(point);
+    g.userData.point = point;
+    this.scene.add(g); // beside the robot's links (not under `root`: kept across robots)
+    return g;
   }
 
   /** Colour each link by a value: `colourOf(frameName)` gives a THREE-free [r, g, b] in 0–1

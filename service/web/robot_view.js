@@ -22,6 +22,8 @@ export class RobotView {
     this.placing = false; // a frame-placements request is in flight
     this.placeAgain = false; // ... and the sliders moved since it was sent
     this.dynamics = null; // the last g(q) and C(q, v) v, to colour the links
+    this.mark = null; // the frame whose axes are drawn: {name, point}, or null
+    this.markPlacement = null; // its last world placement {position, rotation}
     try {
       this.drawing = new RobotDrawing(el("view3d"),
                                       { onProgress: (d, t, f) => this.progress(d, t, f) });
@@ -39,7 +41,9 @@ export class RobotView {
   async setRobot(info, current) {
     this.info = info;
     this.dynamics = null;
+    this.mark = null; // the last robot's frame: a view marks one of this robot's again
     if (!this.drawing) return true;
+    this.drawing.setFrameMark(null);
     const { api, robotPath } = this.ctx;
     const { visuals } = await api(robotPath(info.id, "visuals"));
     // a stick figure (no visuals, or no mesh to be had) also shows each body's centre of
@@ -65,18 +69,44 @@ export class RobotView {
     try {
       do {
         this.placeAgain = false;
-        const id = this.info.id, q = currentQ();
-        const [p, com] = await Promise.all([api(robotPath(id, "frame-placements"), { q }),
-                                            api(robotPath(id, "center-of-mass"), { q })]);
+        const id = this.info.id, q = currentQ(), mark = this.mark;
+        const placements = (body) => api(robotPath(id, "frame-placements"), body);
+        const [p, com, marked] = await Promise.all([
+          placements({ q }), api(robotPath(id, "center-of-mass"), { q }),
+          mark ? placements({ q, frames: [mark.name] }) : null]);
         if (this.info.id === id) {
           this.drawing.setPlacements(p.frames, p.positions, p.rotations, q);
           this.drawing.setCenterOfMass(com.position);
+          if (this.mark !== mark) {
+            this.placeAgain = true; // another frame was marked meanwhile
+          } else if (mark) {
+            this.markPlacement = { position: marked.positions[0], rotation: marked.rotations[0] };
+            this.drawing.setFrameMark({ name: mark.name, point: mark.point,
+                                        ...this.markPlacement });
+          }
         }
       } while (this.placeAgain);
     } catch (err) {
       this.ctx.onError(err);
     } finally {
       this.placing = false;
+    }
+  }
+
+  /** Draw frame `name`'s axes at the sliders' state, following them, with `point` (3 numbers
+   * in the frame's coordinates, m, or null) as a ball; null: no frame. */
+  markFrame(name, point = null) {
+    const previous = this.mark;
+    this.mark = name ? { name, point } : null;
+    if (!this.drawing) return;
+    if (!name) {
+      this.markPlacement = null;
+      this.drawing.setFrameMark(null);
+    } else if (previous && previous.name === name && this.markPlacement) {
+      this.drawing.setFrameMark({ name, point, ...this.markPlacement }); // placed already
+    } else {
+      this.markPlacement = null;
+      this.place();
     }
   }
 

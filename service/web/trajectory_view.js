@@ -4,8 +4,10 @@
 // play the motion in a 3-D view. Every number shown comes from the service
 // (POST .../trajectory-check and .../retime); plots are drawn by the vendored uPlot.
 import { apiWithProgress, progressText } from "./http.js";
-import uPlot from "./vendor/uplot/uPlot.esm.js";
+import { numberNode } from "./no_value.js";
+import { yAxis } from "./plot_axes.js";
 import { RobotDrawing } from "./robot_drawing.js";
+import uPlot from "./vendor/uplot/uPlot.esm.js";
 
 const el = (id) => document.getElementById(id);
 const MAX_FRAMES = 400; // configurations placed for the 3-D playback (evenly picked)
@@ -250,15 +252,15 @@ export class TrajectoryView {
       figure.dataset.joint = joint.name;
       figure.dataset.violations = String(spans.length);
       const caption = document.createElement("figcaption");
-      caption.textContent = `${joint.name}: peak |τ| ${this.ratioText(joint.effort_ratio)}, ` +
-        `peak |v| ${this.ratioText(joint.velocity_ratio)} of the limit`;
+      caption.append(`${joint.name}: peak |τ| `, this.ratioNode(joint, "effort"),
+                     ", peak |v| ", this.ratioNode(joint, "velocity"), " of the limit");
       figure.append(caption);
       box.append(figure);
       const opts = {
         ...this.plotSize(),
         scales: { x: { time: false } },
         series,
-        axes: [{ label: "t (s)" }, { label: "÷ limit" }],
+        axes: [{ label: "t (s)" }, yAxis("÷ limit")],
         hooks: { draw: [(u) => this.decorate(u, spans)] },
       };
       const plot = new uPlot(opts, data, figure);
@@ -267,9 +269,11 @@ export class TrajectoryView {
     }
   }
 
-  ratioText(ratio) {
-    return ratio === null || ratio === undefined ? "(no limit)"
-      : `${this.ctx.fmt(100 * ratio, 3)} %`;
+  /** The joint's peak ÷ limit of `kind` (effort, velocity) in %, or n/a where it has none. */
+  ratioNode(joint, kind) {
+    return numberNode(joint[`${kind}_ratio`], (r) => `${this.ctx.fmt(100 * r, 3)} %`,
+                      `${joint.name} has no ${kind} limit (after the scales): its peak is not ` +
+                      "compared with one.");
   }
 
   /** The limits ±1 as dashed lines, and each violation's time span shaded. */

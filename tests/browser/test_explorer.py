@@ -7,6 +7,7 @@ import json
 import math
 from itertools import pairwise
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import httpx
 import numpy as np
@@ -420,7 +421,8 @@ def test_page_waits_for_a_service_still_loading_its_catalog(page, server) -> Non
         else:
             route.continue_()
 
-    page.route(f"{server}/v1/robots", not_ready_twice)
+    # the robot list's pages (GET v1/robots?limit=...&cursor=...), whatever their query
+    page.route(lambda url: urlsplit(url).path == "/v1/robots", not_ready_twice)
     page.goto(server + "/")
     page.wait_for_function(
         "() => document.querySelector('#status').textContent.includes('still loading')"

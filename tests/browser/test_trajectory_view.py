@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tests.browser.plot_labels import RECORD_CANVAS_TEXT_JS, clipped_y_tick_labels
 from tests.browser.test_explorer import open_explorer
 
 CSV = """t,shoulder_pan_joint,shoulder_lift_joint,elbow_joint
@@ -113,4 +114,30 @@ def test_a_long_check_shows_the_services_progress(page, server) -> None:
     counted = [s for s in statuses if "evaluated points" in s]
     assert counted and counted[0].startswith("Checking: "), statuses[:5]
     assert "of 319,985 evaluated points (inverse dynamics)" in counted[0]
+    assert page.log.console_errors == [] and page.log.page_errors == []
+
+
+def test_the_plots_y_axes_are_as_wide_as_their_tick_labels(page, server) -> None:
+    """A motion of a tenth of a milliradian per second: its ratios to the limits vary little and
+    their ticks need many decimals ("0.000025"); each tick label says its own value, and none is
+    cut at the plot's edge or drawn over the axis title."""
+    page.add_init_script(RECORD_CANVAS_TEXT_JS)
+    _trajectory_tab(page, server)
+    rows = [f"{t},{1e-4 * t},{-1.57 + 2e-4 * t},{1.57 - 1e-4 * t}" for t in (0, 0.5, 1, 1.5, 2)]
+    page.fill("#trajectory-csv", "\n".join([CSV.splitlines()[0], *rows]))
+    page.click("#trajectory-check")
+    page.locator("#trajectory-verdict").wait_for()
+    assert page.locator("#trajectory-plots .uplot").count() == 6
+    labels = page.evaluate(
+        "() => [...document.querySelectorAll('#trajectory-plots canvas')].flatMap("
+        "c => (c.drawnTexts || []).map(t => t.text))"
+    )
+    assert max(len(text) for text in labels) >= 7, labels  # wider than uPlot's default axis
+    for plot in page.locator("#trajectory-plots .uplot").all():
+        ticks = plot.evaluate(
+            "p => p.querySelector('canvas').drawnTexts"
+            ".filter(t => !t.rotated && t.align === 'right').map(t => t.text)"
+        )
+        assert len(set(ticks)) == len(ticks) >= 2, ticks  # each tick says its own value
+    assert clipped_y_tick_labels(page, "#trajectory-plots .uplot") == []
     assert page.log.console_errors == [] and page.log.page_errors == []

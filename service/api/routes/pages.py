@@ -40,15 +40,19 @@ EXPLORER_FILES = {
     "vendor/uplot/uPlot.min.css": "text/css; charset=utf-8",
     "favicon.svg": "image/svg+xml",
 }
-# ES modules the explorer imports (not named by index.html itself): its 3-D view, its
-# trajectory tab, the vendored three.js files it uses (each module's own relative imports
-# included) and the vendored uPlot (service/web/vendor/uplot/README.md).
+# ES modules the explorer imports (not named by index.html itself): its views and what they
+# share, the vendored three.js files it uses (each module's own relative imports included) and
+# the vendored uPlot (service/web/vendor/uplot/README.md).
 THREE_DIR = "vendor/three/"
 MODULE_FILES = {
     name: _JS
     for name in [
         "robot_drawing.js",
         "robot_view.js",
+        "robot_list_view.js",
+        "dynamics_view.js",
+        "no_value.js",
+        "plot_axes.js",
         "joint_coordinates.js",
         "mass_matrix_view.js",
         "http.js",

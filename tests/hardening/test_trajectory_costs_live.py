@@ -1,6 +1,6 @@
 """Slow: the trajectory cost limits against a real server (`python -m service`), on an uploaded
-126-joint tree (nv = 126, the largest upload ROBODYN_MAX_NV admits): a 64 MiB check at 4 points
-per interval (about 34 million units of work: gigabytes and a minute if computed) and a
+126-joint tree (nv = 126; ROBODYN_MAX_NV admits up to 128): a 64 MiB check at 4 points per
+interval (about 34 million units of work, 270 MB for each array of all its points) and a
 1,000-waypoint retime are refused at once with what fits, and the largest requests the default
 limits admit stay within about 1 GB of extra memory and 10 s of CPU, while /health/live answers
 within 0.5 s (p99 under 0.25 s; one probe of a run may take up to 1 s on a saturated machine)."""

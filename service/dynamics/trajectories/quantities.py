@@ -47,7 +47,8 @@ def trajectory_check(
     [N][nv] at the samples, per 1-DoF joint its limits, peaks and ratios (peak ÷ limit over
     every evaluated point, null without a limit), the `violations` with their time spans,
     and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
-    never computed in chunks of states (`should_stop` is asked between its RNEA batches).
+    never split into batches of states; its evaluated points are computed in chunks, and
+    `should_stop` is asked between them.
     With `friction` (a robot made by identification) τ includes the joints' friction torque,
     offset + coulomb ∘ sign(v) + viscous ∘ v. Its work, evaluated points × nv, is at most
     `max_trajectory_work` (the service's setting; over it a 422 before computing)."""

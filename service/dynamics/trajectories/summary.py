@@ -43,7 +43,8 @@ class _Bounds:
 
 class MotionSummary:
     """Peaks, extremes, violations and work of a motion whose evaluated points are given in
-    consecutive chunks, in time order (`add`); `joints`, `violations` and `work` at the end."""
+    consecutive chunks, in time order (`add`); at the end `joints()`,
+    `violations.in_time_order()` and `total_work()`."""
 
     def __init__(self, robot: Robot, effort_scale: float, velocity_scale: float) -> None:
         self.limits = joint_limits(robot, effort_scale, velocity_scale)

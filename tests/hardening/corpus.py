@@ -69,6 +69,14 @@ def chain(n: int, *, flat: bool = False, jtype: str = "revolute") -> str:
     return robot(*links, *joints, name=f"chain{n}")
 
 
+def tree(n: int, branching: int = 3) -> str:
+    """n revolute joints in a tree: joint i's parent link is link (i − 1) // branching (link 0
+    is the root), so every link carries `branching` children until the joints run out."""
+    links = ["<link name='l0'/>"] + [body_link(f"l{i}") for i in range(1, n + 1)]
+    joints = [joint(f"j{i}", f"l{(i - 1) // branching}", f"l{i}") for i in range(1, n + 1)]
+    return robot(*links, *joints, name=f"tree{n}")
+
+
 def nested(depth: int) -> str:
     return arm(link_extra="<x>" * depth + "</x>" * depth)
 

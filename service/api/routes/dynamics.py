@@ -253,7 +253,10 @@ class Endpoint:
         started = time.perf_counter()
         work = self.quantity.work
         sizing = _Sizing(request, settings.max_answer_bytes, as_binary, named)
-        large = work is None and _rows(arrays) * robot.nv > INLINE_WORK
+        # Many states × nv: validated (a copy and checks of every number) off the event loop
+        # too. A quantity's own work estimate is at least states × nv, so it would be computed
+        # there anyway; with fewer, the estimate decides once the states are validated.
+        large = _rows(arrays) * robot.nv > INLINE_WORK
         if large:
             async with cancellable(request, self.quantity.name) as stop:
                 states, result = await off_loop(

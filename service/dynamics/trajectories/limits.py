@@ -88,35 +88,64 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
-def spans_over(
-    joint: str,
-    kind: str,
-    t: np.ndarray,
-    values: np.ndarray,
-    lower: float | None,
-    upper: float | None,
-) -> list[dict[str, Any]]:
-    """The violations of lower ≤ values ≤ upper by a series `values` [n] at times `t` [n] (s):
-    one entry per run of consecutive evaluated points beyond a bound (by more than
-    VIOLATION_TOLERANCE relative), with `t_start`/`t_end` the times of the run's first and last
-    points, `worst` the value farthest beyond the bound and `limit` that (signed) bound."""
-    out: list[dict[str, Any]] = []
-    for bound, sign in ((upper, 1.0), (lower, -1.0)):
-        if bound is None:
-            continue
-        slack = VIOLATION_TOLERANCE * max(abs(bound), 1e-12)
-        over = sign * (values - bound) > slack
-        for first, last in _runs(over):
-            run = values[first : last + 1]
-            worst = run[np.argmax(sign * run)]
-            out.append(
-                {
-                    "joint": joint,
-                    "kind": kind,
-                    "t_start": float(t[first]),
-                    "t_end": float(t[last]),
-                    "worst": float(worst),
-                    "limit": float(bound),
-                }
-            )
-    return out
+class Violations:
+    """The violations of limits by series given in consecutive pieces (a check's chunks of
+    evaluated points): one entry per run of consecutive points beyond a bound (by more than
+    VIOLATION_TOLERANCE relative), with the joint, the kind, `t_start`/`t_end` the times of the
+    run's first and last points, `worst` the value farthest beyond the bound and `limit` that
+    (signed) bound. A run that reaches the end of one piece and goes on at the start of the
+    next is one entry."""
+
+    def __init__(self) -> None:
+        self.found: list[dict[str, Any]] = []
+        self._open: dict[tuple[str, str, float], dict[str, Any]] = {}  # runs at a piece's end
+        self._carried: dict[tuple[str, str, float], dict[str, Any]] = {}
+
+    def next_piece(self) -> None:
+        """Start a piece: the runs open at the end of the last one may go on at its start."""
+        self._carried, self._open = self._open, {}
+
+    def add(
+        self,
+        joint: str,
+        kind: str,
+        t: np.ndarray,
+        values: np.ndarray,
+        lower: float | None,
+        upper: float | None,
+    ) -> None:
+        """The runs of the series `values` [n] at times `t` [n] (s) of this piece beyond
+        lower ≤ values ≤ upper."""
+        for bound, sign in ((upper, 1.0), (lower, -1.0)):
+            if bound is None:
+                continue
+            key = (joint, kind, sign)
+            for first, last in _runs(sign * (values - bound) > slack(bound)):
+                run = values[first : last + 1]
+                worst = float(run[np.argmax(sign * run)])
+                entry = self._carried.get(key) if first == 0 else None
+                if entry is None:
+                    entry = {
+                        "joint": joint,
+                        "kind": kind,
+                        "t_start": float(t[first]),
+                        "t_end": float(t[last]),
+                        "worst": worst,
+                        "limit": float(bound),
+                    }
+                    self.found.append(entry)
+                else:
+                    entry["t_end"] = float(t[last])
+                    if sign * worst > sign * entry["worst"]:
+                        entry["worst"] = worst
+                if last == values.size - 1:
+                    self._open[key] = entry
+
+    def in_time_order(self) -> list[dict[str, Any]]:
+        """Every violation, by start time (then joint and kind)."""
+        return sorted(self.found, key=lambda x: (x["t_start"], x["joint"], x["kind"]))
+
+
+def slack(bound: Any) -> Any:
+    """How far beyond `bound` (a number or an array of them) a value is over it."""
+    return VIOLATION_TOLERANCE * np.maximum(np.abs(bound), 1e-12)

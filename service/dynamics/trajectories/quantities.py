@@ -15,10 +15,8 @@ from service.dynamics.equation_of_motion import joint_friction
 from service.dynamics.quantity import Quantity
 from service.dynamics.stopping import ShouldStop
 from service.dynamics.trajectories import retiming
-from service.dynamics.trajectories.check import (
-    MAX_EVALUATED_POINTS,
-    check_samples,
-)
+from service.dynamics.trajectories.check import check_samples
+from service.dynamics.trajectories.evaluation import evaluated_points
 from service.dynamics.trajectories.inputs import sample_times
 from service.errors import DimensionMismatch, InvalidInput, PayloadTooLarge
 from service.registry.robot import Robot
@@ -36,6 +34,7 @@ def trajectory_check(
     velocity_scale: float = 1.0,
     samples_per_interval: int = 4,
     friction: bool = False,
+    max_trajectory_work: int | None = None,
     should_stop: ShouldStop | None = None,
 ) -> dict[str, Any]:
     """Check the motion sampled at times `t` [N] (s, strictly increasing, N ≥ 2) with
@@ -48,9 +47,11 @@ def trajectory_check(
     [N][nv] at the samples, per 1-DoF joint its limits, peaks and ratios (peak ÷ limit over
     every evaluated point, null without a limit), the `violations` with their time spans,
     and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
-    never computed in chunks of states (`should_stop` is asked between its RNEA batches).
+    never split into batches of states; its evaluated points are computed in chunks, and
+    `should_stop` is asked between them.
     With `friction` (a robot made by identification) τ includes the joints' friction torque,
-    offset + coulomb ∘ sign(v) + viscous ∘ v."""
+    offset + coulomb ∘ sign(v) + viscous ∘ v. Its work, evaluated points × nv, is at most
+    `max_trajectory_work` (the service's setting; over it a 422 before computing)."""
     times = sample_times("t", t)
     q = s["q"]
     if q.shape[0] != times.shape[0]:
@@ -65,6 +66,7 @@ def trajectory_check(
         velocity_scale=velocity_scale,
         samples_per_interval=samples_per_interval,
         friction=joint_friction(robot) if friction else None,
+        max_work=max_trajectory_work,
         should_stop=should_stop,
     )
     return {
@@ -78,11 +80,11 @@ def trajectory_check(
 
 
 def check_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
-    """States × nv × the points evaluated per interval (k where v and a come from the spline)."""
+    """Evaluated points × nv (with k points per interval where v and a come from the spline)."""
     k = options.get("samples_per_interval", 4)
     spline = "v" not in s.arrays and "a" not in s.arrays
     points = k if spline and isinstance(k, int) and k > 0 else 1
-    return s.count * robot.nv * min(points, MAX_EVALUATED_POINTS)
+    return evaluated_points(s.count, points, spline) * robot.nv
 
 
 def check_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
@@ -97,6 +99,7 @@ def retime(
     limits: dict[str, Any] | None = None,
     sample_dt: float = 0.01,
     max_answer_bytes: int | None = None,
+    max_retime_work: int | None = None,
     should_stop: ShouldStop | None = None,
 ) -> dict[str, Any]:
     """The time-optimal motion along the cubic spline through `waypoints` [K][nq] (K ≥ 2;
@@ -109,7 +112,9 @@ def retime(
     every `sample_dt` s and at the end — `t` [M], `q` [M][nq], `v`, `a`, `tau` [M][nv] — and
     `check`, the trajectory check of those samples. Robots whose joints are all revolute or
     prismatic (else 422 unsupported_model); a path no timing can follow is 422
-    infeasible_path, naming the joint and where along the path."""
+    infeasible_path, naming the joint and where along the path. Its work, path intervals × nv ×
+    limited quantities, is at most `max_retime_work` (the service's setting; over it a 422
+    before computing)."""
     options = dict(limits or {})
     numbers = 1 + robot.nq + 5 * robot.nv  # a sample's t, q, v, a, τ and the check's τ, v
     max_samples = retiming.MAX_SAMPLES
@@ -124,6 +129,7 @@ def retime(
             effort_scale=options.get("effort_scale", 1.0),
             acceleration=options.get("acceleration"),
             max_samples=max_samples,
+            max_work=max_retime_work,
             should_stop=should_stop,
         )
     except retiming.TooManySamples as exc:
@@ -164,6 +170,7 @@ TRAJECTORIES = (
         optional=("v", "a"),
         joint_answers=("tau", "v"),
         work=check_work,
+        settings=("max_trajectory_work",),
         tensor_options=("t",),
         answer_size=check_size,
     ),
@@ -174,7 +181,7 @@ TRAJECTORIES = (
         "Time a path through waypoints optimally under velocity, acceleration and torque "
         "limits, every limit kept between samples too",
         joint_answers=("q", "v", "a", "tau"),
-        settings=("max_answer_bytes",),
+        settings=("max_answer_bytes", "max_retime_work"),
         work=retime_work,
         answer_size=retime_size,
     ),

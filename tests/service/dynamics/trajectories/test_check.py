@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 from scipy.interpolate import CubicSpline
 
-from service.dynamics.trajectories import check_trajectory
+from service.dynamics.trajectories import check_trajectory, evaluation
 from service.errors import (
     DimensionMismatch,
     InvalidConfiguration,
@@ -60,7 +60,10 @@ def test_given_v_and_a_are_used_as_they_are(robots: Registry) -> None:
     data = robot.model.createData()
     expected = np.array([pin.rnea(robot.model, data, q[i], v[i], a[i]) for i in range(7)])
     np.testing.assert_allclose(result.tau, expected, rtol=1e-12, atol=1e-10)
-    assert len(result.t_eval) == 7  # known at the samples only: no points in between
+    # known at the samples only: the peaks are those of the samples, no point in between
+    for j, joint in enumerate(result.joints):
+        assert joint["peak_velocity"] == np.abs(v[:, j]).max()
+        assert joint["peak_effort"] == pytest.approx(np.abs(expected[:, j]).max(), rel=1e-12)
 
 
 def test_cubic_motion_peaks_are_the_closed_form(robots: Registry) -> None:
@@ -75,9 +78,14 @@ def test_cubic_motion_peaks_are_the_closed_form(robots: Registry) -> None:
     t_eval = np.concatenate(
         [np.linspace(t[i], t[i + 1], k, endpoint=False) for i in range(4)] + [t[-1:]]
     )
-    np.testing.assert_allclose(result.t_eval, t_eval, rtol=0, atol=1e-15)
+    # the evaluated points, in chunks of 2 intervals (as a long check is evaluated)
+    parts = list(evaluation.chunks(t, q, None, None, evaluation.SampleSpline(t, q), k, 2 * k))
+    assert len(parts) == 2 and parts[0].first == 0 and parts[1].first == 2 * k
+    np.testing.assert_allclose(np.concatenate([p.t for p in parts]), t_eval, rtol=0, atol=1e-15)
     v_closed = np.outer(3 * t_eval**2 - 3 * t_eval, c)
-    np.testing.assert_allclose(result.v_eval, v_closed, rtol=1e-9, atol=1e-12)
+    v_eval = np.concatenate([p.v for p in parts])
+    np.testing.assert_allclose(v_eval, v_closed, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(np.concatenate([p.q[p.sample_rows] for p in parts]), q)
     for j, joint in enumerate(result.joints):
         assert joint["peak_velocity"] == pytest.approx(0.75 * abs(c[j]), rel=1e-9)
         assert joint["velocity_ratio"] == pytest.approx(

@@ -202,8 +202,9 @@ class Settings(BaseSettings):
         120.0,
         gt=0,
         description="Wall-clock limit of one identification in its worker process, "
-        "in seconds; beyond it the fit is stopped (422, or 503 overloaded when the machine "
-        "starved it).",
+        "in seconds from the start of its fit (waiting for the worker is not counted); beyond "
+        "it the worker process is killed and replaced (422, or 503 overloaded when the machine "
+        "starved it). A client that disconnects stops its fit the same way at once.",
     )
     identify_memory_mb: int = Field(
         4096,

@@ -156,6 +156,9 @@ def app_from_environment() -> FastAPI:
     """Factory used by `python -m service` (also in each worker process, which is why the
     logging is configured here too)."""
     settings = Settings()
+    # With --workers N, uvicorn's supervisor spawned this process: it ends with the supervisor
+    # (even a SIGKILL of it), and its own children with it.
+    processes.die_with_supervisor()
     configure_logging(settings.log_level)
     # `python -m service` binds OpenMP teams (OMP_PROC_BIND), and libgomp bound this thread,
     # the event loop's, when pinocchio loaded: give it every CPU back before it starts others.

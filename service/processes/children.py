@@ -4,12 +4,12 @@ killed and reaped.
 `start_child(target, args, ...)` starts `target(conn, *args)` in a child (forked from the
 forkserver, or spawned from the launcher thread) that first calls `watchdog.die_with_parent`
 and applies its `ResourceLimits`, then runs `target` with its end of a pipe. A forkserver that
-does not start the child within `START_TIMEOUT_S` (stopped, hung) is killed, and a new one
-serves the next child. `run_child` is the short-lived case: start, optionally send bytes, wait
-at most `timeout_s` of wall clock for one answer, then kill and reap the child whatever
-happened. Every wait is bounded: the child is killed at its deadline even while the parent is
-blocked sending it bytes or reading an answer it stopped sending halfway (a stopped child).
-Its outcomes:
+does not start the child within `START_TIMEOUT_S` (stopped, hung; `FIRST_START_TIMEOUT_S` for
+the child that starts it) is killed, and a new one serves the next child. `run_child` is the
+short-lived case: start, optionally send bytes, wait at most `timeout_s` of wall clock for one
+answer, then kill and reap the child whatever happened. Every wait is bounded: the child is
+killed at its deadline even while the parent is blocked sending it bytes or reading an answer
+it stopped sending halfway (a stopped child). Its outcomes:
 
 - the object the child sent;
 - `ChildNotStarted`: no process could be started (no processes or descriptors left, or a
@@ -33,15 +33,24 @@ from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from typing import Any, Literal
 
-from service.processes.contexts import forkserver_context, kill_forkserver, launch, spawn_context
+from service.processes.contexts import (
+    forkserver_context,
+    forkserver_running,
+    kill_forkserver,
+    launch,
+    spawn_context,
+)
 from service.processes.cpu import cpu_seconds, starved
 from service.processes.limits import ResourceLimits
 from service.processes.tracking import end, track
 from service.processes.watchdog import die_with_parent
 
-START_TIMEOUT_S = 60.0
-"""At most this long for the forkserver to start a child (its first start imports the
-preloaded modules: seconds); beyond, the forkserver is killed and the child not started."""
+START_TIMEOUT_S = 10.0
+"""At most this long for a running forkserver to start a child (a fork: milliseconds); beyond,
+the forkserver is killed and the child not started."""
+FIRST_START_TIMEOUT_S = 60.0
+"""The same for the child that starts the forkserver (it imports the preloaded modules first:
+seconds, more on a busy machine)."""
 SAMPLE_S = 1.0
 """A parent waiting for its child's answer reads the child's CPU time this often."""
 
@@ -101,9 +110,11 @@ def _child_main(target: Callable[..., Any], limits: ResourceLimits, *args: Any) 
 
 
 def _start_forked(proc: BaseProcess) -> None:
-    """`proc.start()` through the forkserver, within `START_TIMEOUT_S`: a forkserver that does
-    not answer is killed, which ends the wait (an `OSError` or `EOFError` here)."""
-    watch = threading.Timer(START_TIMEOUT_S, kill_forkserver)
+    """`proc.start()` through the forkserver, within `START_TIMEOUT_S` (`FIRST_START_TIMEOUT_S`
+    when no forkserver runs yet): a forkserver that does not answer is killed, which ends the
+    wait (an `OSError` or `EOFError` here)."""
+    running = forkserver_running()
+    watch = threading.Timer(START_TIMEOUT_S if running else FIRST_START_TIMEOUT_S, kill_forkserver)
     watch.daemon = True
     watch.start()
     try:

@@ -107,6 +107,19 @@ def _stop_within(owner: Any, pid_name: str) -> None:
         killer.cancel()
 
 
+def forkserver_running() -> bool:
+    """Whether this process has started a forkserver that has not ended (a zombie counts as
+    ended)."""
+    pid = getattr(forkserver._forkserver, "_forkserver_pid", None)
+    if pid is None:
+        return False
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[0] not in (b"Z", b"X")
+    except (OSError, IndexError):
+        return False
+
+
 def kill_forkserver() -> None:
     """Kill the forkserver (one that does not answer: stopped or hung), if one runs; a child it
     was starting is not started, its children die with it (their PDEATHSIG), and the next

@@ -1,5 +1,7 @@
 """The reproductions of the helper processes' review, against a real `python -m service` on a
-busy machine, each with /health/live under 0.5 s throughout:
+busy machine, each with /health/live answering throughout (99 % of the probes within 0.25 s,
+every one within `HEALTH_MAX_S`: on this 2-core machine, at a load of 10-11 from other work, the
+slowest single probe of these runs took 0.5-1.0 s, while an idle server's took up to 0.3 s):
 
 - two identifications in flight (one fitting, one waiting for the worker) leave a retiming its
   off-loop slot: it is answered while both are still going, and a third identification is
@@ -38,7 +40,8 @@ from tests.service.dynamics.identification_logs import synthetic_log
 
 pytestmark = pytest.mark.slow
 
-HEALTH_S = 0.5  # /health/live, every probe
+HEALTH_P99_S = 0.25  # /health/live: 99 % of the probes (every 5 ms) answered within this
+HEALTH_MAX_S = 1.5  # and every one: single probes of 0.5-1.0 s were seen at a load of 10-11
 RETIME_S = 10.0  # a retiming alone takes about 0.7 s
 SMALL_FIT_S = 30.0  # a small identification, a worker start (about 6 s) included
 END_S = 30.0  # a killed process is gone within this
@@ -72,6 +75,12 @@ def _spawned(pid: int) -> set[int]:
     return {child for child, cmd in descendants(pid).items() if "spawn_main" in cmd}
 
 
+def _assert_live(latencies: list[float]) -> None:
+    assert len(latencies) > 20, latencies
+    assert np.percentile(latencies, 99) < HEALTH_P99_S, sorted(latencies)[-5:]
+    assert max(latencies) < HEALTH_MAX_S, sorted(latencies)[-5:]
+
+
 def _retime(base: str) -> tuple[httpx.Response, float]:
     started = time.monotonic()
     answer = httpx.post(f"{base}/v1/robots/ur5/retime", json={"waypoints": WAYPOINTS}, timeout=300)
@@ -102,7 +111,7 @@ def test_fits_in_flight_leave_a_retiming_its_slot(server_factory, ur5_model):
     assert third.status_code == 503 and third.json()["code"] == "overloaded", third.text
     assert third.headers["retry-after"]
     assert [out[f"fit{i}"].status_code for i in range(2)] == [200, 200], out
-    assert max(latencies) < HEALTH_S, sorted(latencies)[-5:]
+    _assert_live(latencies)
 
 
 def test_abandoned_fits_stop_at_once(server_factory, ur5_model):
@@ -126,7 +135,7 @@ def test_abandoned_fits_stop_at_once(server_factory, ur5_model):
     assert not wait_ended({worker}, END_S), "the abandoned fit went on in its worker"
     assert answer.status_code == 200, answer.text[:300]
     assert seconds < SMALL_FIT_S, seconds
-    assert max(latencies) < HEALTH_S, sorted(latencies)[-5:]
+    _assert_live(latencies)
 
 
 def test_a_costly_derivation_holds_its_own_slot_and_is_remembered(server_factory):
@@ -167,7 +176,7 @@ def test_a_costly_derivation_holds_its_own_slot_and_is_remembered(server_factory
     assert "time limit of 8 s" in refused.json()["detail"]
     assert remembered.status_code == 422 and remembered.json() == refused.json()
     assert seconds < 2.0, seconds  # at once: no derivation
-    assert max(latencies) < HEALTH_S, sorted(latencies)[-5:]
+    _assert_live(latencies)
 
 
 def test_a_stopped_json_helper_holds_no_request(server_factory):
@@ -206,6 +215,6 @@ def test_a_stopped_json_helper_holds_no_request(server_factory):
     assert answer.status_code == 200 and answer.json() == first.json()
     assert seconds < HELPER_TIMEOUT_S + 20.0, seconds
     assert retimed.status_code == 200 and retime_s < RETIME_S, (retimed.text[:300], retime_s)
-    assert max(latencies) < HEALTH_S, sorted(latencies)[-5:]
+    _assert_live(latencies)
     again = httpx.post(check, content=large, headers=json_type, timeout=300)
     assert again.status_code == 200 and len(_spawned(server.proc.pid)) == 1  # a new helper

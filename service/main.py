@@ -28,7 +28,7 @@ from service.api.routes import equations, health, identification, pages, robots,
 from service.api.workers.equations_cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
-from service.registry.build_slots import BuildSlots, build_slot_count
+from service.registry.build_slots import DERIVATIONS, BuildSlots, build_slot_count
 from service.registry.urdf_check import Limits
 from service.settings import Settings
 
@@ -98,12 +98,17 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
     app.state.batches_in_flight = 0
-    # Each robot's equations in explicit form, derived once in a child process (sharing the
-    # builders' slots: both are CPU-bound child processes) and kept in memory and on disk.
+    # Each robot's equations in explicit form, derived once in a child process (in slots of
+    # their own: a costly derivation never holds a builder an upload waits for) and kept in
+    # memory and on disk.
     app.state.equations = EquationsCache(
         settings.data_dir,
         settings.equations_timeout_s,
-        registry.build_slots,
+        BuildSlots(
+            build_slot_count(settings.max_concurrent_derivations),
+            settings.build_queue_timeout_s,
+            names=DERIVATIONS,
+        ),
         max_bytes=settings.equations_cache_mb * 1024 * 1024,
         memory_mb=settings.equations_memory_mb,
     )
@@ -151,6 +156,9 @@ def app_from_environment() -> FastAPI:
     """Factory used by `python -m service` (also in each worker process, which is why the
     logging is configured here too)."""
     settings = Settings()
+    # With --workers N, uvicorn's supervisor spawned this process: it ends with the supervisor
+    # (even a SIGKILL of it), and its own children with it.
+    processes.die_with_supervisor()
     configure_logging(settings.log_level)
     # `python -m service` binds OpenMP teams (OMP_PROC_BIND), and libgomp bound this thread,
     # the event loop's, when pinocchio loaded: give it every CPU back before it starts others.

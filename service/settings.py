@@ -189,8 +189,18 @@ class Settings(BaseSettings):
         gt=0,
         description="Time limit of deriving one robot's equations of motion in "
         "explicit form (GET /v1/robots/{id}/equations), in seconds of wall clock and of CPU "
-        "time, in a child process; past it the answer is 422 unsupported_model. A UR5 takes "
-        "about 0.3 s.",
+        "time, in a child process; past it the answer is 422 unsupported_model, remembered "
+        "for every robot with the same numbers (503 overloaded, not remembered, when the "
+        "machine gave the derivation less than half of it on a CPU). A UR5 takes about 0.3 s.",
+    )
+    max_concurrent_derivations: int = Field(
+        1,
+        ge=1,
+        description="Derivations of equations in explicit form run at once per server "
+        "process (each in its own child process; slots of their own, never the upload "
+        "builders'); more than the CPU count is capped to it. Further derivations wait for a "
+        "free slot like uploads for a builder (build_queue_timeout_s, at most 4 per slot), "
+        "then 503 overloaded with Retry-After.",
     )
     equations_memory_mb: int = Field(
         2048,
@@ -210,8 +220,9 @@ class Settings(BaseSettings):
         120.0,
         gt=0,
         description="Wall-clock limit of one identification in its worker process, "
-        "in seconds; beyond it the fit is stopped (422, or 503 overloaded when the machine "
-        "starved it).",
+        "in seconds from the start of its fit (waiting for the worker is not counted); beyond "
+        "it the worker process is killed and replaced (422, or 503 overloaded when the machine "
+        "starved it). A client that disconnects stops its fit the same way at once.",
     )
     identify_memory_mb: int = Field(
         4096,

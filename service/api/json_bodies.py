@@ -10,12 +10,15 @@ started by the first such body, which waits about two seconds more for its impor
 not forked from the builders' forkserver: it is not a builder, whose count and CPU are bounded
 on their own); the serving process only sends the bytes and gets back the arrays as float64
 arrays (a copy of memory, no Python floats to build) and the options. Validation and domain
-errors come back as the same errors. A helper that dies (e.g. killed for memory) is replaced;
-that body is parsed in process instead, so the answer never depends on the helper.
+errors come back as the same errors. A helper that dies (e.g. killed for memory), or that does
+not answer within `HELPER_TIMEOUT_S` (stopped, hung: it is killed), is replaced; that body is
+parsed in process instead (at most `ROBODYN_MAX_JSON_BODY_BYTES`: about a second of the event
+loop at worst), so the answer never depends on the helper and never waits for it longer.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, TypeVar
@@ -25,13 +28,24 @@ import orjson
 from fastapi.exceptions import RequestValidationError
 
 from service import errors
-from service.processes import CHILD_NICENESS, HelperPool, ResourceLimits
+from service.processes import CHILD_NICENESS, HelperPool, HelperTimedOut, ResourceLimits
+
+log = logging.getLogger("robodyn.api")
 
 T = TypeVar("T")
 ISOLATED_JSON_BYTES = 2 * 1024 * 1024
 """JSON bodies larger than this are parsed in the helper process (~20 ms and more inline)."""
 JSON_WORKERS = 1
-HELPERS = HelperPool(JSON_WORKERS, ResourceLimits(niceness=CHILD_NICENESS))
+HELPER_TIMEOUT_S = 10.0
+"""How long a body waits for the helper's answer (a 16 MiB body takes it about 0.2 s); a first
+body waits `HELPER_START_S` more, while the helper starts and imports its modules."""
+HELPER_START_S = 30.0
+HELPERS = HelperPool(
+    JSON_WORKERS,
+    ResourceLimits(niceness=CHILD_NICENESS),
+    timeout_s=HELPER_TIMEOUT_S,
+    start_timeout_s=HELPER_START_S,
+)
 """The helper processes (like the builders, at a lower CPU priority: the serving process keeps
 its share of the CPU)."""
 
@@ -39,10 +53,13 @@ its share of the CPU)."""
 def parse_isolated(parse: Callable[..., T], *args: Any) -> T:
     """`parse(*args)` — a module-level function parsing a JSON body — in the helper process;
     blocking (call it off the event loop). Raises what `parse` raises (validation errors and
-    domain errors); a dead helper is replaced and `parse` runs in this process instead."""
+    domain errors); a helper that died or did not answer in time is replaced and `parse` runs
+    in this process instead."""
     try:
         kind, value = HELPERS.call(_call, parse, *args)
-    except BrokenProcessPool:  # the pool is replaced for the next body
+    except (BrokenProcessPool, HelperTimedOut) as exc:  # replaced for the next body
+        why = str(exc) or type(exc).__name__
+        log.warning("JSON helper gave no answer (%s): the body is parsed in process", why)
         return parse(*args)
     if kind == "ok":
         result: T = value

@@ -28,7 +28,14 @@ from pydantic import ValidationError
 from service.api.problems.validation_errors import pydantic_errors
 from service.api.schemas.robots import UploadRequest
 from service.errors import InvalidInput, Overloaded
-from service.processes import ChildDied, ChildNotStarted, ChildTimedOut, ResourceLimits, run_child
+from service.processes import (
+    ChildDied,
+    ChildNotStarted,
+    ChildTimedOut,
+    ResourceLimits,
+    killed_detail,
+    run_child,
+)
 from service.registry.build_process import FORKSERVER_PRELOAD
 from service.registry.build_slots import BuildSlots
 
@@ -148,8 +155,9 @@ def read_upload_isolated(
     memory_mb: int = MEMORY_MB,
 ) -> Outcome:
     """`read_upload` in a resource-limited child holding a build slot; blocking (call it off
-    the event loop). `Overloaded` when no slot or process is free, or when the child timed out
-    having been starved of CPU; a child past its limits is `InvalidInput` naming them."""
+    the event loop). `Overloaded` when no slot or process is free, when the child timed out
+    having been starved of CPU, or when it was killed from outside (SIGKILL not of its limits,
+    e.g. the OOM killer); a child past its limits is `InvalidInput` naming them."""
     with slots.slot():
         try:
             outcome: Outcome = run_child(
@@ -169,7 +177,10 @@ def read_upload_isolated(
                     "too busy right now; retry shortly"
                 ) from None
             raise InvalidInput(f"body: reading it took longer than {timeout_s:g} s") from None
-        except ChildDied:
+        except ChildDied as exc:
+            if exc.killed_from_outside(cpu_s):
+                detail = killed_detail("the process reading the body", exc.exitcode)
+                raise Overloaded(detail) from None
             raise InvalidInput(
                 f"body: the process reading it ended without an answer (its "
                 f"limits: {cpu_s} s of CPU, {memory_mb} MB)"

@@ -12,13 +12,18 @@ registry and the API layer both use it.
     cpu         cpu_seconds of a child (/proc), STARVED_CPU_FRACTION and starved: a child that
                 timed out with too little CPU was starved by the machine (503), not slow
     watchdog    die_with_parent: a child is killed when the process that started it ends
-                (Linux PR_SET_PDEATHSIG; the forkserver ends with the serving process)
+                (Linux PR_SET_PDEATHSIG; the forkserver ends with the serving process);
+                die_with_supervisor: a serving process of `--workers N` ends with uvicorn's
+                supervisor
     contexts    the forkserver (with preloaded modules) and spawn contexts; the launcher
                 thread spawned children start from; stopping the forkserver, the launcher
                 and multiprocessing's resource tracker
-    children    start_child and run_child: one child, its answer within a timeout, kill and
-                reap; ChildNotStarted, ChildTimedOut, ChildDied
-    pools       HelperPool: long-lived spawned helpers behind a ProcessPoolExecutor
+    children    start_child and run_child: one child, its answer within a timeout (every
+                wait bounded: a stopped child or forkserver is killed), kill and reap;
+                ChildNotStarted, ChildTimedOut, ChildDied (killed_from_outside: a SIGKILL
+                not of its own limits, e.g. the OOM killer), killed_detail
+    pools       HelperPool: long-lived spawned helpers behind a ProcessPoolExecutor, each
+                call answered in time or the pool killed and replaced (HelperTimedOut)
     tracking    every live child and pool; shutdown(): stop them all (the app's lifespan,
                 the test fixtures)
 """
@@ -27,13 +32,15 @@ from service.processes.children import (
     ChildDied,
     ChildNotStarted,
     ChildTimedOut,
+    killed_detail,
     run_child,
     start_child,
 )
 from service.processes.cpu import STARVED_CPU_FRACTION, cpu_seconds, starved
 from service.processes.limits import CHILD_NICENESS, ResourceLimits, forbid_file_writes
-from service.processes.pools import HelperPool
-from service.processes.tracking import end, live_children, shutdown
+from service.processes.pools import HelperPool, HelperTimedOut
+from service.processes.tracking import disown, end, live_children, own, shutdown
+from service.processes.watchdog import die_with_supervisor
 
 __all__ = [
     "CHILD_NICENESS",
@@ -42,11 +49,16 @@ __all__ = [
     "ChildNotStarted",
     "ChildTimedOut",
     "HelperPool",
+    "HelperTimedOut",
     "ResourceLimits",
     "cpu_seconds",
+    "die_with_supervisor",
+    "disown",
     "end",
     "forbid_file_writes",
+    "killed_detail",
     "live_children",
+    "own",
     "run_child",
     "shutdown",
     "start_child",

@@ -13,12 +13,18 @@
 
 `stop_forkserver`, `stop_launcher` and `stop_resource_tracker` end them (multiprocessing's
 resource tracker is a process of its own, started with the first non-forked child); used by
-`tracking.shutdown` once every child is gone.
+`tracking.shutdown` once every child is gone. Each waits for its process at most `STOP_S`
+seconds, then kills it (a stopped or hung process never holds the server's exit).
+`kill_forkserver` kills a forkserver that does not answer (`children`): the next forked child
+starts a new one.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
+import os
+import signal
 import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
@@ -27,6 +33,8 @@ from multiprocessing.context import ForkServerContext, SpawnContext
 from typing import Any, TypeVar
 
 T = TypeVar("T")
+
+STOP_S = 5.0  # a process asked to stop is killed after this long
 
 _lock = threading.Lock()
 _preload: list[str] = []
@@ -77,17 +85,55 @@ def stop_launcher() -> None:
         launcher.shutdown(wait=True)
 
 
+def _kill(pid: int | None) -> None:
+    if pid:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+
+
+def _stop_within(owner: Any, pid_name: str) -> None:
+    """`owner._stop()` (multiprocessing's own: ask its process to end, then wait for it), with
+    the process killed if it has not ended after `STOP_S` seconds."""
+    stop = getattr(owner, "_stop", None)
+    pid = getattr(owner, pid_name, None)
+    if stop is None or pid is None:
+        return  # none runs, or it is not this process's (a spawned server's inherited one)
+    killer = threading.Timer(STOP_S, _kill, (pid,))
+    killer.daemon = True
+    killer.start()
+    try:
+        stop()
+    finally:
+        killer.cancel()
+
+
+def forkserver_running() -> bool:
+    """Whether this process has started a forkserver that has not ended (a zombie counts as
+    ended)."""
+    pid = getattr(forkserver._forkserver, "_forkserver_pid", None)
+    if pid is None:
+        return False
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[0] not in (b"Z", b"X")
+    except (OSError, IndexError):
+        return False
+
+
+def kill_forkserver() -> None:
+    """Kill the forkserver (one that does not answer: stopped or hung), if one runs; a child it
+    was starting is not started, its children die with it (their PDEATHSIG), and the next
+    forked child starts a new forkserver."""
+    _kill(getattr(forkserver._forkserver, "_forkserver_pid", None))
+
+
 def stop_forkserver() -> None:
     """End the forkserver, if one runs (a later forked child starts a new one). Its children
     are killed by their PDEATHSIG as it ends."""
-    stop = getattr(forkserver._forkserver, "_stop", None)
-    if stop is not None:
-        stop()
+    _stop_within(forkserver._forkserver, "_forkserver_pid")
 
 
 def stop_resource_tracker() -> None:
     """End multiprocessing's resource tracker process, if one runs (it is started again by
     the next child or named semaphore that needs it)."""
-    stop = getattr(resource_tracker._resource_tracker, "_stop", None)
-    if stop is not None:
-        stop()
+    _stop_within(resource_tracker._resource_tracker, "_pid")

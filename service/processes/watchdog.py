@@ -15,6 +15,11 @@ limits and its work:
 The chain: the serving process ends (even by SIGKILL) → the forkserver reads the end of its
 alive pipe and exits → the kernel kills its children; spawned children are killed with the
 launcher thread. Elsewhere than Linux only the last check runs.
+
+`die_with_supervisor` does the same for a serving process itself when a supervisor started it
+(`python -m service --workers N`: uvicorn's supervisor spawns the N serving processes from its
+main thread): a SIGKILL of the supervisor then ends its serving processes, and with them their
+children, instead of leaving them serving on the port.
 """
 
 from __future__ import annotations
@@ -48,3 +53,10 @@ def _leave_forkserver_alive_pipe() -> None:
     if fd is not None:
         os.close(fd)
         server._forkserver_alive_fd = None  # type: ignore[attr-defined]
+
+
+def die_with_supervisor() -> None:
+    """In a serving process: be killed when the supervisor that spawned it ends (nothing when
+    the serving process was not started by multiprocessing, e.g. `--workers 1`)."""
+    if mp.parent_process() is not None:
+        die_with_parent()

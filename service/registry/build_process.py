@@ -12,11 +12,12 @@ visuals, a xacro's expansion) and the model in Pinocchio's binary serialization
 (`RLIMIT_CPU`, cpu_s: SIGXCPU, then SIGKILL one second later), a lower CPU priority (nice 10),
 no core files, few file descriptors, and no file writes from just before the native parser runs
 (a xacro's assets and MuJoCo's empty working directory are written just before); the parent
-adds a wall-clock timeout. A crash, a kill, a memory blow-up or a hang of the native parser becomes
-`InvalidModel` with a reason; the serving process never sees it. A wall-clock timeout of a
-child that got less than half of that time on a CPU is the server's contention, not the
-model's: `Overloaded` (503). How many builds run at once is bounded by the caller
-(`service.registry.build_slots`).
+adds a wall-clock timeout. A crash, a memory blow-up, a CPU limit or a hang of the native
+parser becomes `InvalidModel` with a reason; the serving process never sees it. What the
+server's condition causes, not the model, is `Overloaded` (503): a wall-clock timeout of a
+child that got less than half of that time on a CPU, and a builder killed by SIGKILL from
+outside (the kernel's OOM killer: `ChildDied.killed_from_outside`). How many builds run at
+once is bounded by the caller (`service.registry.build_slots`).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from service.processes import (
     ChildTimedOut,
     ResourceLimits,
     forbid_file_writes,
+    killed_detail,
     run_child,
     starved,
 )
@@ -159,14 +161,22 @@ def _native_failure(description_format: str, memory_mb: int) -> str:
     return "Pinocchio could not build a model from this description"
 
 
-def _death(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
+def _death(died: ChildDied, memory_mb: int, cpu_s: int) -> Exception:
+    """The error of a builder child that ended without an answer: `Overloaded` when it was
+    killed from outside (e.g. the OOM killer), else `InvalidModel` saying why."""
+    if died.killed_from_outside(cpu_s):
+        return Overloaded(killed_detail("the model builder", died.exitcode))
+    return InvalidModel(_death_reason(died.exitcode, memory_mb, cpu_s))
+
+
+def _death_reason(exitcode: int | None, memory_mb: int, cpu_s: int) -> str:
     """Why the builder child ended without an answer, for the user."""
     if exitcode is not None and exitcode < 0:
         sig = -exitcode
-        if sig == signal.SIGXCPU or sig == signal.SIGKILL:
+        if sig == signal.SIGXCPU or sig == signal.SIGKILL:  # SIGKILL: the CPU limit's hard one
             return (
                 f"building the model was stopped: it used more than its CPU limit of "
-                f"{cpu_s} s (ROBODYN_BUILD_CPU_S) or was killed"
+                f"{cpu_s} s (ROBODYN_BUILD_CPU_S)"
             )
         if sig == signal.SIGSEGV:
             return (
@@ -271,9 +281,9 @@ def build_upload(
     None).
 
     Raises `InvalidModel` (with the reason, never a C++ message) on an invalid description, a
-    crash or kill of the child, a memory or CPU limit, or after `timeout_s` seconds of wall
-    clock (the child is then killed) — unless the child was starved of CPU in that time:
-    `Overloaded`.
+    crash of the child, a memory or CPU limit, or after `timeout_s` seconds of wall clock (the
+    child is then killed) — unless the child was starved of CPU in that time, or killed from
+    outside (SIGKILL not of its limits, e.g. the OOM killer): `Overloaded`.
     """
     if description_format not in FORMATS:
         raise ValueError(f"description_format must be one of {FORMATS}")
@@ -301,7 +311,7 @@ def build_upload(
     except ChildTimedOut as exc:
         raise _timed_out(exc.cpu_s, timeout_s) from None
     except ChildDied as exc:
-        raise InvalidModel(_death(exc.exitcode, memory_mb, cpu_s)) from None
+        raise _death(exc, memory_mb, cpu_s) from None
     if answer[0] == "invalid":
         raise InvalidModel(answer[1])
     if answer[0] == "checked":

@@ -1,15 +1,16 @@
 """`GET /v1/robots/{id}/equations`: a robot's equations of motion in explicit form.
 
 The derivation (`service.dynamics.equations`) runs in a child process with a time limit, never
-in the serving process, and each robot's answer is kept (`EquationsCache`, on
-`app.state.equations`): a cached answer is served straight from memory on the event loop; a
-first request waits for the derivation in a worker thread, so the loop keeps answering.
+in the serving process, in slots of its own (`ROBODYN_MAX_CONCURRENT_DERIVATIONS`), and each
+robot's answer is kept (`EquationsCache`, on `app.state.equations`): a cached answer is served
+straight from memory on the event loop; a first request awaits the derivation (run by a thread
+of its own), so the loop keeps answering; a refusal for the model's cost is remembered for
+every robot with the same numbers.
 """
 
 from __future__ import annotations
 
 from fastapi import APIRouter, Request, Response
-from starlette.concurrency import run_in_threadpool
 
 from service.api.deps import RegistryDep, served_robot
 from service.api.schemas.common import Problem
@@ -29,9 +30,14 @@ router = APIRouter(prefix="/v1/robots", tags=["robots"])
             "model": Problem,
             "description": "unsupported_model: a floating "
             "base, a joint other than revolute or prismatic, more than 6 "
-            "moving joints, or a derivation past its time limit",
+            "moving joints, or a derivation past its time limit (remembered: at once "
+            "on every later request for a robot with the same numbers)",
         },
-        503: {"model": Problem, "description": "not_ready, overloaded"},
+        503: {
+            "model": Problem,
+            "description": "not_ready, overloaded (no derivation slot free in time, "
+            "the machine too busy to finish within the time limit)",
+        },
     },
     summary="The equations of motion in explicit form: M(q), C(q, q̇), g(q), the "
     "Christoffel symbols and the energies as SymPy text and LaTeX, with the structure "
@@ -46,7 +52,4 @@ async def equations(robot_id: str, request: Request, registry: RegistryDep) -> R
     memory (stored models also from disk). See docs/equations.md."""
     robot = await served_robot(registry, robot_id)
     cache: EquationsCache = request.app.state.equations
-    body = cache.cached(robot)
-    if body is None:
-        body = await run_in_threadpool(cache.answer, robot)
-    return Response(body, media_type="application/json")
+    return Response(await cache.answer(robot), media_type="application/json")

@@ -5,13 +5,15 @@ identify is a lean route (like the dynamics routes): its body, a whole log, JSON
 form (a safetensors file: t, q, tau, v, a as F64 tensors, the options as JSON texts in
 `__metadata__`, see docs/binary-format.md; the answer is JSON either way), is parsed and
 validated in a worker thread, and the fit runs in the identification worker process
-(`service.api.workers.identification`, one fit at a time with a time limit), so the event
-loop and /health/live never wait for it. Its OpenAPI description is a twin route
-(`openapi_routes`) with the same models.
+(`service.api.workers.identification`, one fit at a time, a bounded queue, a time limit),
+awaited on the event loop: the event loop and /health/live never wait for it, and neither does
+a worker thread (the off-loop slots large batches need stay free). A client that disconnects
+stops its fit at once (`_fitted`). Its OpenAPI description is a twin route (`openapi_routes`)
+with the same models.
 """
 
 # No `from __future__ import annotations`: FastAPI must see the twin's request model.
-import functools
+import asyncio
 from typing import Any
 
 import numpy as np
@@ -21,6 +23,7 @@ from pydantic import ValidationError, create_model
 from starlette.concurrency import run_in_threadpool
 from starlette.routing import Route
 
+from service.api.cancellation import STOPPED
 from service.api.deps import RegistryDep, require_api_key, served_robot
 from service.api.encoding import binary
 from service.api.encoding.answers import JSONAnswer, json_bytes
@@ -34,9 +37,15 @@ from service.api.schemas.identification import (
     InertialParameters,
 )
 from service.api.workers.identification import IdentificationWorker
+from service.dynamics.identification.pipeline import Identification, Progress
 from service.dynamics.identification.regressor import inertial_parameters_answer
 from service.dynamics.payloads import check_payloads
-from service.errors import DimensionMismatch, InvalidInput, UnsupportedMediaType
+from service.errors import (
+    ComputationStopped,
+    DimensionMismatch,
+    InvalidInput,
+    UnsupportedMediaType,
+)
 from service.registry import Registry
 from service.registry.robot import Robot
 from service.registry.variants import Fitted
@@ -65,7 +74,8 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
     503: {
         "model": Problem,
         "description": "not_ready, overloaded (identifications already "
-        "running, or the machine too busy to finish within the time limit)",
+        "running and waiting, the machine too busy to finish within the time limit, or "
+        "the worker killed from outside, e.g. out of memory)",
     },
 }
 
@@ -313,17 +323,38 @@ async def _identification(
         request.headers.get("content-type", ""),
     )
     channel = progress_channel(request.scope)
-    fit = functools.partial(
-        worker_of(request).identify,
-        robot,
-        None if channel is None else channel.report,
-        **_inputs(parsed),
-    )
-    result = await off_loop(request, fit)
+    progress = None if channel is None else channel.report
+    result = await _fitted(request, robot, progress, _inputs(parsed))
     info, not_stored = (
         await run_in_threadpool(_store, registry, robot, result) if parsed.store else (None, None)
     )
     return identification_answer(result, info, parsed.include_series, not_stored)
+
+
+async def _client_gone(request: Request) -> None:
+    """Returns when the client disconnects (its body is read: the next ASGI message of the
+    request is the disconnect)."""
+    while (await request.receive()).get("type") != "http.disconnect":
+        pass
+
+
+async def _fitted(
+    request: Request, robot: Robot, progress: Progress | None, inputs: dict[str, Any]
+) -> Identification:
+    """The worker's fit of `inputs`, awaited on the event loop; when the client disconnects
+    first (or this request is cancelled), the fit leaves the worker's queue or, running, is
+    stopped at once: its worker process is killed and replaced."""
+    fit = asyncio.ensure_future(worker_of(request).identify(robot, progress, **inputs))
+    gone = asyncio.ensure_future(_client_gone(request))
+    try:
+        await asyncio.wait({fit, gone}, return_when=asyncio.FIRST_COMPLETED)
+        if fit.done():
+            return fit.result()
+        STOPPED["disconnect"] += 1
+        raise ComputationStopped("identify: stopped, the client closed the connection")
+    finally:
+        gone.cancel()
+        fit.cancel()  # no effect once done
 
 
 def routes() -> list[Route]:

@@ -5,50 +5,69 @@ duration (up to tens of seconds for a 6-joint arm with skewed axes): in a thread
 process it would stall the event loop and `/health/live`. `derive_isolated` runs it in a
 short-lived child forked from the forkserver the upload builders use (`service.processes`,
 with Pinocchio already imported there). The child receives the model in Pinocchio's binary
-serialization, is limited (CPU time, address space, nice 10, no core files), derives within
-its time limit (checked between the steps of the derivation), renders the answer and sends it
-back as JSON bytes (encoded there, so the serving process only forwards them). The parent waits
-at most the time limit plus `GRACE_S` seconds of wall clock and then kills the child.
+serialization, is limited (CPU time, address space, nice 10, no core files), derives, renders
+the answer and sends it back as JSON bytes (encoded there, so the serving process only forwards
+them). The parent waits at most the time limit plus `GRACE_S` seconds of wall clock and then
+kills the child; the child's CPU limit is the time limit (rounded up). The time is judged by
+the parent alone, so that a child the machine starved is told from one that is too costly.
 
-Outcomes: the JSON bytes; `UnsupportedModel` for a model out of scope, a derivation past its
-time limit (wall clock or CPU), a child that ran out of memory or crashed; `Overloaded` when the
-child timed out having had less than half of its time limit on a CPU (the machine's load, not the
-model), or when no process could be started.
+Outcomes: the JSON bytes; `UnsupportedModel` for a model out of scope or a crash, and its
+subclass `TooCostly` for the model's own cost: a derivation past its time limit having had at
+least half of it on a CPU, past its CPU limit, or out of memory; `Overloaded` (the machine's
+condition, not the model: never to be remembered as the model's) when the child timed out
+having had less than half of its time limit on a CPU, when it was killed by SIGKILL from
+outside (the kernel's OOM killer), or when no process could be started.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import signal
 from typing import Any
 
 import orjson
 
 from service.errors import Overloaded, UnsupportedModel
-from service.processes import ChildDied, ChildNotStarted, ChildTimedOut, ResourceLimits, run_child
+from service.processes import (
+    ChildDied,
+    ChildNotStarted,
+    ChildTimedOut,
+    ResourceLimits,
+    killed_detail,
+    run_child,
+)
 from service.registry.build_process import FORKSERVER_PRELOAD, model_from_binary, model_to_binary
 
 log = logging.getLogger("robodyn.equations")
+
+
+class TooCostly(UnsupportedModel):
+    """The model's derivation is past its limits (time with its share of the CPU, CPU time,
+    memory): a property of the model's numbers, the same on every try (422
+    `unsupported_model`, remembered by `equations_cache`)."""
+
 
 MEMORY_MB = 2048  # address space of the child (a skewed 6-joint arm's derivation: ~300 MB)
 GRACE_S = 2.0  # the parent waits this much longer than the child's own time limit
 
 
-def _child_derive(conn: Any, raw_model: bytes, time_limit_s: float, memory_mb: int) -> None:
-    """The child (its limits already set): answers ("ok", JSON bytes) or ("unsupported",
-    detail)."""
+def _child_derive(conn: Any, raw_model: bytes, memory_mb: int) -> None:
+    """The child (its limits already set): answers ("ok", JSON bytes), ("unsupported",
+    detail) or ("too costly", detail). Its time is the parent's to judge (see the module
+    docstring)."""
     from service.dynamics.equations import derive_equations, equations_answer
 
     try:
         model = model_from_binary(raw_model)
-        answer = equations_answer(derive_equations(model, time_limit_s=time_limit_s))
+        answer = equations_answer(derive_equations(model))
         conn.send(("ok", orjson.dumps(answer)))
     except UnsupportedModel as exc:
         conn.send(("unsupported", exc.detail))
     except MemoryError:
         conn.send(
             (
-                "unsupported",
+                "too costly",
                 f"the derivation of the equations needed more than its "
                 f"memory limit of {memory_mb} MB",
             )
@@ -57,15 +76,20 @@ def _child_derive(conn: Any, raw_model: bytes, time_limit_s: float, memory_mb: i
         conn.close()
 
 
-def _past_limit(time_limit_s: float) -> UnsupportedModel:
-    return UnsupportedModel(
+def _past_limit(time_limit_s: float) -> TooCostly:
+    return TooCostly(
         f"the derivation of the equations did not finish within its time "
         f"limit of {time_limit_s:g} s; the model is too large for the "
         "explicit form"
     )
 
 
-def _death(exitcode: int | None, time_limit_s: float) -> UnsupportedModel:
+def _death(died: ChildDied, time_limit_s: float, cpu_limit_s: int) -> Exception:
+    """The error of a child that ended without an answer: `Overloaded` when killed from
+    outside, `UnsupportedModel` otherwise (its CPU limit: past its time limit)."""
+    exitcode = died.exitcode
+    if died.killed_from_outside(cpu_limit_s):
+        return Overloaded(killed_detail("the process deriving the equations", exitcode))
     if exitcode is not None and -exitcode in (signal.SIGXCPU, signal.SIGKILL):
         return _past_limit(time_limit_s)
     log.error("equations child ended without an answer (exit code %s)", exitcode)
@@ -79,12 +103,13 @@ def derive_isolated(model: Any, time_limit_s: float, memory_mb: int = MEMORY_MB)
     """The JSON answer of `equations_answer` for `model`, derived in a child process within
     `time_limit_s` seconds of wall clock (see the module docstring). Blocking: call it off
     the event loop."""
+    cpu_limit_s = math.ceil(time_limit_s)
     try:
         answer = run_child(
             _child_derive,
-            (model_to_binary(model), time_limit_s, memory_mb),
+            (model_to_binary(model), memory_mb),
             timeout_s=time_limit_s + GRACE_S,
-            limits=ResourceLimits(memory_mb=memory_mb, cpu_s=int(time_limit_s) + 1),
+            limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_limit_s),
             preload=FORKSERVER_PRELOAD,
         )
     except ChildNotStarted:
@@ -98,7 +123,9 @@ def derive_isolated(model: Any, time_limit_s: float, memory_mb: int = MEMORY_MB)
             ) from None
         raise _past_limit(time_limit_s) from None
     except ChildDied as exc:
-        raise _death(exc.exitcode, time_limit_s) from None
+        raise _death(exc, time_limit_s, cpu_limit_s) from None
+    if answer[0] == "too costly":
+        raise TooCostly(answer[1])
     if answer[0] == "unsupported":
         raise UnsupportedModel(answer[1])
     return bytes(answer[1])

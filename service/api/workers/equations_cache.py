@@ -1,32 +1,46 @@
 """The equations of each robot, derived once: in memory, and on disk for stored models.
 
-`EquationsCache.answer(robot)` gives the JSON answer of `GET /v1/robots/{id}/equations`:
+`await EquationsCache.answer(robot)` gives the JSON answer of `GET /v1/robots/{id}/equations`:
 
 - from memory (a dict of JSON bytes, least recently used dropped beyond `max_bytes`);
 - else, for a stored upload or reduced model (content-derived ids: the same id is the same
   model on every replica and after a restart), from `<data_dir>/equations/v1/<id>.json`;
 - else derived in a child process (`derive_isolated`, `service.api.workers.equations`) within
-  the time limit, then kept in memory and, for a stored model, written there atomically.
-  Catalog robots are kept in memory only (the installed catalog may change between versions).
+  the time limit, holding one of the derivation slots (`slots`: their own, never the upload
+  builders'; none free in time, 503 overloaded), then kept in memory and, for a stored model,
+  written there atomically. Catalog robots are kept in memory only (the installed catalog may
+  change between versions).
 
-A model out of scope is refused in this process before any child starts (the check is cheap),
-and that refusal is remembered like an answer. Concurrent requests for the same robot wait for
-one derivation (single flight); at most `slots` derivations of different robots run at once
-(`service.registry.build_slots.BuildSlots`: beyond, 503 overloaded). Blocking: call it off the
-event loop. A deleted upload's file stays behind harmlessly: an upload with the same id is the
-same model.
+Refusals are remembered. A model out of scope is refused in this process before any child
+starts (the check is cheap), remembered per robot id. A refusal for the model's cost (past its
+time limit with its share of the CPU, its CPU or memory limit: `TooCostly`, a 422
+`unsupported_model`) is remembered per content: the numbers the derivation reads
+(`content_key`: joint kinds, axes, placements, inertias, armature, gravity), so every robot
+with the same numbers —
+the same id again, a variant that only adds friction or a name — is refused at once with the
+same 422, without a derivation. A derivation the machine starved of CPU, or whose child was
+killed from outside (`Overloaded`, 503), says nothing of the model and is not remembered.
+
+Concurrent requests for the same robot wait for one derivation (single flight), awaited on the
+event loop: no thread waits for another request's derivation. The disk and the derivation run
+in a thread of their own per derivation (at most the slots plus their waiting room: beyond,
+503 at once). A deleted upload's file stays behind harmlessly: an upload with the same id is
+the same model.
 """
 
 from __future__ import annotations
 
+import asyncio
+import hashlib
 import logging
 import threading
 from collections import OrderedDict
 from concurrent.futures import Future
 from pathlib import Path
+from typing import Any
 
-from service.api.workers.equations import MEMORY_MB, derive_isolated
-from service.dynamics.equations.model_numbers import moving_joints
+from service.api.workers.equations import MEMORY_MB, TooCostly, derive_isolated
+from service.dynamics.equations.model_numbers import Joint, gravity, moving_joints
 from service.errors import UnsupportedModel
 from service.registry.build_slots import BuildSlots
 from service.registry.robot import Robot
@@ -35,10 +49,33 @@ from service.registry.store import write_atomically
 log = logging.getLogger("robodyn.equations")
 
 FORMAT_VERSION = "v1"  # the directory of the files on disk; a new answer format gets a new one
+MAX_REMEMBERED_REFUSALS = 10_000  # refusals for cost kept (least recently used dropped)
+
+
+def content_key(model: Any, joints: list[Joint]) -> str:
+    """A digest of what the derivation of `model` reads (its `moving_joints` without their
+    names, and gravity, as exact decimals): equal for models whose derivations are the same
+    work."""
+    numbers = [
+        (
+            j.kind,
+            j.axis,
+            j.parent,
+            j.rotation,
+            j.translation,
+            j.mass,
+            j.lever,
+            j.inertia,
+            j.armature,
+        )
+        for j in joints
+    ]
+    return hashlib.sha256(repr((numbers, gravity(model))).encode()).hexdigest()
 
 
 class EquationsCache:
-    """See the module docstring. `time_limit_s` bounds one derivation."""
+    """See the module docstring. `time_limit_s` bounds one derivation; `slots` are the
+    derivations' own."""
 
     def __init__(
         self,
@@ -55,7 +92,8 @@ class EquationsCache:
         self.max_bytes = max_bytes
         self._memory: OrderedDict[str, bytes] = OrderedDict()
         self._bytes = 0
-        self._refused: dict[str, UnsupportedModel] = {}
+        self._refused: dict[str, UnsupportedModel] = {}  # out of scope, by robot id
+        self._too_costly: OrderedDict[str, UnsupportedModel] = OrderedDict()  # by content_key
         self._pending: dict[str, Future[bytes]] = {}
         self._lock = threading.Lock()
 
@@ -75,7 +113,7 @@ class EquationsCache:
                 self._bytes -= len(dropped)
 
     def cached(self, robot: Robot) -> bytes | None:
-        """The answer when it is in memory (no disk, no derivation); refusals raise."""
+        """The answer when it is in memory (no disk, no derivation); refusals by id raise."""
         with self._lock:
             refused = self._refused.get(robot.id)
             if refused is not None:
@@ -85,17 +123,57 @@ class EquationsCache:
                 self._memory.move_to_end(robot.id)
             return body
 
-    def answer(self, robot: Robot) -> bytes:
-        """The JSON answer for `robot` (see the module docstring)."""
-        body = self.cached(robot)
-        if body is not None:
-            return body
+    def _content(self, robot: Robot) -> str:
+        """The robot's `content_key`; `UnsupportedModel` (remembered) when out of scope or
+        already refused for its cost."""
         try:
-            moving_joints(robot.model)
+            joints = moving_joints(robot.model)
         except UnsupportedModel as exc:
             with self._lock:
                 self._refused[robot.id] = exc
             raise
+        key = content_key(robot.model, joints)
+        with self._lock:
+            refused = self._too_costly.get(key)
+            if refused is not None:
+                self._too_costly.move_to_end(key)
+                raise UnsupportedModel(refused.detail)
+        return key
+
+    async def answer(self, robot: Robot) -> bytes:
+        """The JSON answer for `robot` (see the module docstring)."""
+        body = self.cached(robot)
+        if body is not None:
+            return body
+        key = self._content(robot)
+        with self._lock:
+            pending = self._pending.get(robot.id)
+            owner = pending is None
+            if pending is None:
+                pending = self._pending[robot.id] = Future()
+        if owner:
+            threading.Thread(
+                target=self._settle,
+                args=(robot, key, pending),
+                name="robodyn-equations",
+                daemon=True,
+            ).start()
+        return await asyncio.wrap_future(pending)
+
+    def _settle(self, robot: Robot, key: str, pending: Future[bytes]) -> None:
+        """In the derivation's thread: the answer (disk or derivation) into `pending`."""
+        try:
+            body = self._load_or_derive(robot, key)
+        except BaseException as exc:
+            with self._lock:
+                del self._pending[robot.id]
+            pending.set_exception(exc)
+        else:
+            with self._lock:
+                del self._pending[robot.id]
+            pending.set_result(body)
+
+    def _load_or_derive(self, robot: Robot, key: str) -> bytes:
         path = self._path(robot)
         if path is not None and path.is_file():
             try:
@@ -105,31 +183,16 @@ class EquationsCache:
             else:
                 self._remember(robot.id, body)
                 return body
-        with self._lock:
-            pending = self._pending.get(robot.id)
-            owner = pending is None
-            if pending is None:
-                pending = self._pending[robot.id] = Future()
-        if not owner:
-            return pending.result()
-        try:
-            with self.slots.slot():
+        with self.slots.slot():
+            try:
                 body = derive_isolated(robot.model, self.time_limit_s, self.memory_mb)
-        except UnsupportedModel as exc:
-            with self._lock:
-                self._refused[robot.id] = exc
-                del self._pending[robot.id]
-            pending.set_exception(exc)
-            raise
-        except BaseException as exc:
-            with self._lock:
-                del self._pending[robot.id]
-            pending.set_exception(exc)
-            raise
+            except TooCostly as exc:  # the model's own cost: remembered by content
+                with self._lock:
+                    self._too_costly[key] = exc
+                    while len(self._too_costly) > MAX_REMEMBERED_REFUSALS:
+                        self._too_costly.popitem(last=False)
+                raise
         self._remember(robot.id, body)
-        with self._lock:
-            del self._pending[robot.id]
-        pending.set_result(body)
         if path is not None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)

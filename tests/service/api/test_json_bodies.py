@@ -1,6 +1,6 @@
 """Large JSON bodies of the dynamics routes are parsed in a helper process: the answers, the
 validation errors and the domain errors are the ones of the same body parsed in process; a
-helper that died is replaced and the body parsed in process."""
+helper that died, or does not answer in time, is replaced and the body parsed in process."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ import pytest
 
 from service.api import json_bodies
 from service.api.routes import dynamics as dynamics_routes
+from tests.descendants import wait_ended
 
 JSON = {"content-type": "application/json"}
 
@@ -91,6 +92,29 @@ def test_a_dead_helper_is_replaced_and_the_body_parsed_in_process(api) -> None:
     assert json_bodies.HELPERS.executor() is not pool
     again = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
     assert again.json() == answer.json()
+
+
+def test_a_stopped_helper_is_killed_and_the_body_parsed_in_process(api, monkeypatch) -> None:
+    """A helper that does not answer (SIGSTOP) holds no request for longer than the helper's
+    time: it is killed, the body parsed in process, and a new helper serves the next body."""
+    body = orjson.dumps(_check_body())
+    json_bodies.HELPERS.call(int)  # started
+    pool = json_bodies.HELPERS.executor()
+    (helper,) = list(pool._processes)
+    monkeypatch.setattr(json_bodies.HELPERS, "timeout_s", 1.0)
+    os.kill(helper, signal.SIGSTOP)
+    try:
+        answer = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
+        assert answer.status_code == 200, answer.text[:300]
+        assert not wait_ended({helper}, 30.0), "the stopped helper is still there"
+        assert json_bodies.HELPERS.executor() is not pool
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(helper, signal.SIGKILL)
+    monkeypatch.undo()
+    again = api.post("/v1/robots/ur5/trajectory-check", content=body, headers=JSON)
+    assert again.json() == answer.json()
+    assert json_bodies.HELPERS.call(os.getpid) != os.getpid()  # served by a helper again
 
 
 @pytest.mark.parametrize("value", [[[0.1] * 6, [0.2] * 5], [], [{"a": 1.0}]])

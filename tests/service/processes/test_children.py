@@ -3,27 +3,50 @@ it was starved of CPU), its death, and that it is reaped whatever happened."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import resource
 import signal
+import threading
+from multiprocessing import forkserver
 
 import pytest
 
 from service.processes import (
     CHILD_NICENESS,
     ChildDied,
+    ChildNotStarted,
     ChildTimedOut,
     ResourceLimits,
+    children,
+    killed_detail,
     live_children,
     run_child,
 )
-from tests.descendants import descendants
+from tests.descendants import descendants, wait_ended
 from tests.service.processes import child_targets
 
 PRELOAD = ("tests.service.processes.child_targets",)
 
 
-def _run(target, *args, timeout_s: float = 60.0, limits: ResourceLimits | None = None, **kw):
+def _run(
+    target,
+    *args,
+    timeout_s: float = 60.0,
+    limits: ResourceLimits | None = None,
+    kill_after_s: float | None = None,
+    **kw,
+):
+    """`run_child`; with `kill_after_s`, the child is killed by SIGKILL from outside then."""
+    if kill_after_s is not None:
+        before = {proc.pid for proc in live_children()}
+
+        def kill_from_outside() -> None:
+            for proc in live_children():
+                if proc.pid not in before:
+                    os.kill(proc.pid, signal.SIGKILL)
+
+        threading.Timer(kill_after_s, kill_from_outside).start()
     return run_child(
         target, args, timeout_s=timeout_s, limits=limits or ResourceLimits(), preload=PRELOAD, **kw
     )
@@ -84,3 +107,43 @@ def test_a_crash_is_a_death_with_its_signal():
         _run(child_targets.crash)
     assert died.value.exitcode == -signal.SIGSEGV
     assert _no_child_left()
+
+
+def test_a_child_that_stops_reading_is_killed_at_its_deadline():
+    """A child that never reads the bytes sent to it (stopped, hung) would block the sending
+    parent forever once the pipe is full: it is killed at its deadline instead."""
+    with pytest.raises(ChildTimedOut) as timed_out:
+        _run(child_targets.sleep, 600.0, timeout_s=1.0, send_bytes=b"x" * (16 * 1024 * 1024))
+    assert timed_out.value.starved(1.0)  # it did nothing
+    assert _no_child_left()
+
+
+def test_a_stopped_forkserver_is_killed_and_the_next_child_gets_a_new_one(monkeypatch):
+    _run(child_targets.report_limits)  # the forkserver runs
+    stopped = forkserver._forkserver._forkserver_pid
+    os.kill(stopped, signal.SIGSTOP)
+    monkeypatch.setattr(children, "START_TIMEOUT_S", 1.0)
+    try:
+        with pytest.raises(ChildNotStarted):
+            _run(child_targets.report_limits)
+        assert not wait_ended({stopped}, 30.0)
+        assert _run(child_targets.reverse_bytes, send_bytes=b"ab") == b"ba"
+        assert forkserver._forkserver._forkserver_pid != stopped
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(stopped, signal.SIGKILL)
+    assert _no_child_left()
+
+
+def test_a_sigkill_is_told_from_the_childs_own_limits():
+    """SIGKILL with CPU time left below the CPU limit comes from outside (the OOM killer);
+    SIGXCPU and the hard SIGKILL at the limit are the child's own."""
+    with pytest.raises(ChildDied) as died:
+        _run(child_targets.sleep, 600.0, kill_after_s=0.5)
+    assert died.value.exitcode == -signal.SIGKILL
+    assert died.value.killed_from_outside(cpu_limit_s=20)
+    assert died.value.killed_from_outside(cpu_limit_s=None)
+    with pytest.raises(ChildDied) as over_its_limit:
+        _run(child_targets.spin, limits=ResourceLimits(cpu_s=1))
+    assert not over_its_limit.value.killed_from_outside(cpu_limit_s=1)
+    assert "killed by signal 9 (SIGKILL)" in killed_detail("the builder", -signal.SIGKILL)

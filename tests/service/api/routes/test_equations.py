@@ -3,6 +3,7 @@ and disk), every refusal a 422 unsupported_model, and the event loop free meanwh
 
 from __future__ import annotations
 
+import re
 import statistics
 import threading
 import time
@@ -163,3 +164,64 @@ def test_a_real_server_answers_health_while_it_derives(tmp_path):
     assert answer.status_code == 200, answer.text
     assert len(latencies) >= 20, latencies
     assert max(latencies) < 0.5 and statistics.median(latencies) < 0.05, latencies
+
+
+def _renamed(urdf: str) -> str:
+    """The same arm under other names (robot, links, joints): the same numbers, another id."""
+    return re.sub(r'\b(name|link)="', r'\1="other_', urdf)
+
+
+def test_a_refusal_for_cost_is_remembered_for_every_robot_with_the_same_numbers(
+    tmp_path, monkeypatch
+):
+    with _client(tmp_path, equations_timeout_s=0.3) as c:
+        first = c.post("/v1/robots", json={"urdf": skewed_arm_urdf(5)}).json()["id"]
+        renamed = c.post("/v1/robots", json={"urdf": _renamed(skewed_arm_urdf(5))}).json()["id"]
+        assert renamed != first
+        for _ in range(5):  # a derivation the busy machine starved is a 503: tried again
+            refused = c.get(f"/v1/robots/{first}/equations")
+            if refused.status_code != 503:
+                break
+        assert refused.status_code == 422, refused.text
+        assert "time limit of 0.3 s" in refused.json()["detail"]
+
+        def no_derivation(*args):
+            raise AssertionError("derived again")
+
+        monkeypatch.setattr(cache_module, "derive_isolated", no_derivation)
+        for robot_id in (first, renamed):
+            again = c.get(f"/v1/robots/{robot_id}/equations")
+            assert again.status_code == 422 and again.json() == refused.json()
+
+
+def test_derivations_have_slots_of_their_own(tmp_path, monkeypatch):
+    """A derivation holding the one derivation slot neither delays an upload (the builders'
+    slots are others) nor lets a second derivation run: that one is a 503 naming the setting."""
+    started, release = threading.Event(), threading.Event()
+    real = cache_module.derive_isolated
+
+    def held(model, time_limit_s, memory_mb):
+        started.set()
+        release.wait(120)
+        return real(model, time_limit_s, memory_mb)
+
+    monkeypatch.setattr(cache_module, "derive_isolated", held)
+    settings = {"max_concurrent_builds": 1, "max_concurrent_derivations": 1}
+    with _client(tmp_path, build_queue_timeout_s=0.5, **settings) as c:
+        out: dict = {}
+        holder = threading.Thread(
+            target=lambda: out.update(held=c.get("/v1/robots/planar_arm/equations"))
+        )
+        holder.start()
+        try:
+            assert started.wait(60)
+            upload = c.post("/v1/robots", json={"urdf": skewed_arm_urdf(3)})
+            assert upload.status_code == 201, upload.text
+            second = c.get("/v1/robots/ur5/equations")
+            assert second.status_code == 503 and second.json()["code"] == "overloaded"
+            assert second.headers["retry-after"]
+            assert "ROBODYN_MAX_CONCURRENT_DERIVATIONS" in second.json()["detail"]
+        finally:
+            release.set()
+            holder.join(120)
+        assert out["held"].status_code == 200

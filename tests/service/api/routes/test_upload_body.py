@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+import os
+import signal
+
 import orjson
 import pytest
 from fastapi.testclient import TestClient
@@ -15,6 +18,7 @@ from service.registry import Registry
 from service.registry.build_slots import BuildSlots
 from service.settings import Settings
 from tests.helpers import planar_arm_urdf
+from tests.service.processes.from_outside import raised_when_its_child
 
 URDF = planar_arm_urdf(0.9, 0.6, 1.2, 0.8)
 JSON = "application/json"
@@ -102,3 +106,18 @@ def test_a_body_waiting_for_a_busy_builder_is_refused_as_overloaded():
     slots = BuildSlots(1, wait_s=0.05)
     with slots.slot(), pytest.raises(Overloaded):
         upload_body.read_upload_isolated(b"{}", JSON, slots, timeout_s=5, cpu_s=5)
+
+
+def test_a_reader_killed_from_outside_is_overloaded():
+    """The process reading a large body killed by SIGKILL from outside (the OOM killer): the
+    machine's condition, a 503, not a 422 about the body."""
+    members = b", ".join(b'"m%d": 1' % i for i in range(2_000_000))  # seconds to read
+    body = b'{"urdf": "<robot/>", ' + members + b"}"
+    raised = raised_when_its_child(
+        lambda: upload_body.read_upload_isolated(
+            body, JSON, BuildSlots(1, wait_s=5), timeout_s=120, cpu_s=60
+        ),
+        lambda pid: os.kill(pid, signal.SIGKILL),
+    )
+    assert isinstance(raised, Overloaded), raised
+    assert "killed by signal 9 (SIGKILL)" in raised.detail

@@ -201,7 +201,8 @@ def check_configuration(robot: Robot, q: np.ndarray) -> None:
     """Quaternions and (cos, sin) pairs in q (the API's order) must have unit norm (within
     UNIT_NORM_TOL)."""
     for joint, start, end in robot.unit_joints:
-        norms = np.linalg.norm(q[:, start:end], axis=1)
+        with np.errstate(over="ignore"):  # a norm past 1e154 overflows to inf: refused below
+            norms = np.linalg.norm(q[:, start:end], axis=1)
         bad = np.flatnonzero(np.abs(norms - 1.0) > UNIT_NORM_TOL)
         if bad.size:
             i = int(bad[0])

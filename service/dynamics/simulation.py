@@ -221,7 +221,9 @@ def simulate(
     energy = np.empty((n, steps + 1))
     drift = np.empty((n, steps + 1)) if contact is not None else None
     rollout = _rk4 if integrator == "rk4" else _semi_implicit_euler
-    with robot.data() as data:
+    # A diverging state overflows on its way to inf or NaN: the rollout finds it at that step
+    # and answers `non_finite_result` (`_diverged`), NumPy's warning would say nothing more.
+    with robot.data() as data, np.errstate(over="ignore", invalid="ignore"):
         for i in range(n):
             where = f"state {i}: " if s.batched else ""
             if contact is not None:

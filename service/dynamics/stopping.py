@@ -3,8 +3,10 @@
 A rollout (`simulate`) or a batch loop over states (the contact quantities) calls
 `Stopper.poll` once per step or state; the stopper asks `should_stop` at most every
 POLL_S seconds of computing (a clock read otherwise, about 50 ns), and a true answer raises
-`ComputationStopped`. The caller decides why: the client went away, or the request's
-deadline passed. Without `should_stop` nothing is asked.
+`ComputationStopped` at once. The POLL_S run from the end of one ask (and its progress
+report) to the next clock read, so two asks are always at least POLL_S apart. The caller
+decides why to stop: the client went away, or the request's deadline passed. Without
+`should_stop` nothing is asked.
 
 Each time `should_stop` is asked, the computing thread also hands the GIL over (`hand_over`):
 a loop whose steps call into NumPy's BLAS or LAPACK (a least-squares solve per state) releases
@@ -82,10 +84,8 @@ class Stopper:
         """Called at step (or state) k."""
         if self.should_stop is None:
             return
-        now = time.monotonic()
-        if now < self.next:
+        if time.monotonic() < self.next:
             return
-        self.next = now + POLL_S
         hand_over()
         if self.should_stop():
             raise ComputationStopped(
@@ -94,3 +94,7 @@ class Stopper:
             )
         if self.report is not None:
             self.report(self.offset + k, self.total, self.unit, self.stage)
+        # The interval counts from the end of this ask (not from the clock read above): the
+        # hand-over and `should_stop` take a variable time, and two asks are then always at
+        # least POLL_S apart.
+        self.next = time.monotonic() + POLL_S

@@ -16,8 +16,14 @@ from tests.browser.test_explorer import open_explorer, set_slider, shown_state, 
 def open_equations(page, server: str, robot: str) -> None:
     open_explorer(page, server, robot)
     page.click("#equations-view-button")
-    page.wait_for_function("""() => document.querySelector('#equations-status')
-        .textContent.match(/coordinates|No explicit form|Error/)""")
+    # The first request derives the equations in the server's child process: seconds, and on
+    # a loaded machine up to the service's time limit (ROBODYN_EQUATIONS_TIMEOUT_S, 60 s)
+    # and its grace, longer than the page's default wait.
+    page.wait_for_function(
+        """() => document.querySelector('#equations-status')
+        .textContent.match(/coordinates|No explicit form|Error/)""",
+        timeout=90_000,
+    )
 
 
 def entries(page, quantity: str) -> list[dict]:

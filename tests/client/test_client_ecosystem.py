@@ -264,7 +264,10 @@ def test_retries_stop_within_the_budget(real_retries: Any) -> None:
         pytest.raises(robodyn.OverloadedError),
     ):
         client.gravity("ur5", np.zeros(6))
-    assert time.monotonic() - started < 1.2 and 3 <= len(log) <= 5
+    # Waits of 0.25 s, none of them ending past the 1 s budget: 4 or 5 tries (3 on a loaded
+    # machine's late wake-ups). Ignoring the budget would make 50 tries, 12 s: the time bound
+    # only has to tell the two apart.
+    assert 3 <= len(log) <= 5 and time.monotonic() - started < 6.0
     log.clear()  # a Retry-After past the budget: no waiting for nothing
     http = httpx.Client(
         transport=httpx.MockTransport(_busy(100, "30", log)), base_url="http://mock"
@@ -275,7 +278,7 @@ def test_retries_stop_within_the_budget(real_retries: Any) -> None:
         pytest.raises(robodyn.OverloadedError) as raised,
     ):
         client.gravity("ur5", np.zeros(6))
-    assert time.monotonic() - started < 0.5 and len(log) == 1
+    assert len(log) == 1 and time.monotonic() - started < 10.0  # not the 30 s asked
     assert raised.value.retry_after == 30.0
     log.clear()  # at most `attempts` tries, with stamina's backoff without Retry-After
     http = httpx.Client(

@@ -171,7 +171,7 @@ def test_too_many_waiting_builds_are_refused_at_once():
     started = time.perf_counter()
     with pytest.raises(Overloaded, match="1 are waiting"), slots.slot():
         pass
-    assert time.perf_counter() - started < 0.5  # refused at once, not after the wait
+    assert time.perf_counter() - started < 2.5  # refused at once, not after the 5 s wait
     release.set()
     holder.join()
     waiter.join()

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from service.server.protocol import LINGER_S
-from tests.hardening.raw_http import connect, good_request, read_answer, request
+from tests.hardening.raw_http import GOOD_BODY, connect, good_request, read_answer, request
 from tests.servers import running_server
 
 TIMEOUT_S = 1.5
@@ -45,7 +45,8 @@ def _partial(kind: int) -> bytes:
 
 
 def _wait_closed(socks: list[socket.socket], seconds: float) -> list[float | None]:
-    """When each socket saw the server close it (seconds from now), polling all at once."""
+    """When (`time.monotonic()`) each socket saw the server close it, polling all at once for
+    at most `seconds`; None for those still open."""
     closed: list[float | None] = [None] * len(socks)
     started = time.monotonic()
     for sock in socks:
@@ -56,11 +57,11 @@ def _wait_closed(socks: list[socket.socket], seconds: float) -> list[float | Non
                 continue
             try:
                 if not sock.recv(65536):
-                    closed[i] = time.monotonic() - started
+                    closed[i] = time.monotonic()
             except BlockingIOError:
                 pass
             except OSError:
-                closed[i] = time.monotonic() - started
+                closed[i] = time.monotonic()
         time.sleep(0.05)
     return closed
 
@@ -71,13 +72,18 @@ def _metric(base: str, reason: str) -> float:
     return float(found.group(1)) if found else 0.0
 
 
-def test_stalled_requests_are_closed_while_others_are_answered(base: str) -> None:
-    before = {r: _metric(base, r) for r in ("header_timeout", "body_timeout")}
-    socks = []
+def _stall_beside_requests(base: str) -> tuple[list[float], list[float | None], list, list]:
+    """STALLED connections each sending part of a request line, of the headers or of a body
+    (in turn), and normal requests on another connection until the stalled ones are closed
+    (at most TIMEOUT_S + 8 s): when each stalled connection was opened and closed
+    (`time.monotonic()`), the normal requests' statuses and latencies (s)."""
+    opened, socks = [], []
     for i in range(STALLED):
+        opened.append(time.monotonic())
         sock = connect(base)
         sock.sendall(_partial(i % 3))
         socks.append(sock)
+    statuses: list[int] = []
     latencies: list[float] = []
     stop = threading.Event()
 
@@ -86,26 +92,44 @@ def test_stalled_requests_are_closed_while_others_are_answered(base: str) -> Non
             while not stop.is_set() and len(latencies) < 10_000:
                 t = time.perf_counter()
                 r = client.post("/v1/robots/ur5/gravity", json={"q": [0.1] * 6})
-                assert r.status_code == 200
                 latencies.append(time.perf_counter() - t)
+                statuses.append(r.status_code)
 
     worker = threading.Thread(target=normal_requests)
     worker.start()
     try:
-        closed = _wait_closed(socks, TIMEOUT_S + 5)
+        closed = _wait_closed(socks, TIMEOUT_S + 8)
     finally:
         stop.set()
         worker.join(10)
         for sock in socks:
             sock.close()
-    waited = [c for c in closed if c is not None]
-    assert len(waited) == STALLED, f"{closed.count(None)} stalled connections left open"
-    assert max(waited) < TIMEOUT_S + 2.0, max(waited)
-    assert min(waited) > TIMEOUT_S * 0.5  # closed by the timeout, not at once
-    assert len(latencies) > 20 and np.percentile(latencies, 99) < 0.25, len(latencies)
+    return opened, closed, statuses, latencies
+
+
+def test_stalled_requests_are_closed_while_others_are_answered(base: str) -> None:
+    """Every stalled connection is closed, by its timeout: not before TIMEOUT_S from its
+    connection (the server starts timing it then: a rule, not a measurement), and within
+    a few seconds after; meanwhile normal requests are answered."""
+    before = {r: _metric(base, r) for r in ("header_timeout", "body_timeout")}
+    opened, closed, statuses, _ = _stall_beside_requests(base)
+    assert closed.count(None) == 0, f"{closed.count(None)} stalled connections left open"
+    lived = [c - o for o, c in zip(opened, closed, strict=True) if c is not None]
+    assert min(lived) >= TIMEOUT_S - 1e-6, min(lived)  # closed by the timeout, not at once
+    assert max(lived) < TIMEOUT_S + 8, max(lived)
+    assert len(statuses) >= 3 and set(statuses) == {200}, statuses[-5:]
     after = {r: _metric(base, r) for r in ("header_timeout", "body_timeout")}
     assert after["header_timeout"] - before["header_timeout"] >= 2 * STALLED // 3 - 1
     assert after["body_timeout"] - before["body_timeout"] >= STALLED // 3 - 1
+
+
+@pytest.mark.slow  # a latency bound: with the other latency probes in the slow suite
+def test_stalled_requests_do_not_slow_the_others(base: str) -> None:
+    """While STALLED connections wait for their timeout, normal requests keep their latency:
+    p99 under 0.25 s."""
+    _, _, statuses, latencies = _stall_beside_requests(base)
+    assert set(statuses) == {200}
+    assert len(latencies) > 20 and np.percentile(latencies, 99) < 0.25, len(latencies)
 
 
 def test_a_slowly_trickled_head_is_closed_at_the_deadline(base: str) -> None:
@@ -133,12 +157,20 @@ def test_a_slowly_trickled_head_is_closed_at_the_deadline(base: str) -> None:
 
 
 def test_slow_but_steady_clients_are_not_cut(base: str) -> None:
-    """A body sent in parts with pauses shorter than the timeout is read and answered."""
+    """A head sent in two parts within its deadline, then a body in five parts with pauses
+    of a third of the timeout (2.5 s in all, longer than the timeout: the pauses count, not
+    the whole), is read and answered."""
     raw = good_request()
+    head_end = raw.index(b"\r\n\r\n") + 4
+    middle = head_end // 2
+    head, body = [raw[:middle], raw[middle:head_end]], raw[head_end:]
+    parts = head + [body[i : i + 5] for i in range(0, len(body), 5)]
+    assert len(parts) == 7
     with connect(base) as sock:
-        for start in range(0, len(raw), 40):
-            sock.sendall(raw[start : start + 40])
-            time.sleep(TIMEOUT_S / 3)
+        for i, part in enumerate(parts):
+            if i:
+                time.sleep(TIMEOUT_S / 3)
+            sock.sendall(part)
         assert read_answer(sock).status == 200
 
 
@@ -183,11 +215,13 @@ def test_past_the_cap_stalled_connections_make_room(capped: str) -> None:
 
 def test_when_every_connection_is_busy_a_new_one_gets_503(capped: str) -> None:
     busy = []
+    full = request("POST", "/v1/robots/ur5/gravity", GOOD_BODY, headers=("expect: 100-continue",))
     for _ in range(20):  # heads complete, bodies pending: requests in progress
         sock = connect(capped)
-        sock.sendall(_partial(2))
+        sock.sendall(full[: full.index(b"\r\n\r\n") + 4 + 5])
         busy.append(sock)
-    time.sleep(0.3)
+    for sock in busy:  # the server began reading the body: the request is in progress
+        assert sock.recv(100).startswith(b"HTTP/1.1 100 Continue")
     try:
         with connect(capped) as sock:
             sock.sendall(good_request())
@@ -201,8 +235,14 @@ def test_when_every_connection_is_busy_a_new_one_gets_503(capped: str) -> None:
     finally:
         for sock in busy:
             sock.close()
-    time.sleep(0.3)
-    assert httpx.post(capped + "/v1/robots/ur5/gravity", json={"q": [0] * 6}).status_code == 200
+    # Once the server has seen them go (a few milliseconds; longer on a loaded machine), a
+    # new connection is answered.
+    deadline = time.monotonic() + 10
+    while (
+        status := httpx.post(capped + "/v1/robots/ur5/gravity", json={"q": [0] * 6}).status_code
+    ) == 503 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert status == 200
 
 
 def test_an_idle_websocket_stream_is_not_a_stalled_request(base: str) -> None:

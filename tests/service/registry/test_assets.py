@@ -176,8 +176,8 @@ def test_the_serving_process_never_parses_a_text_asset() -> None:
 def test_unreferenced_assets_by_file_name_in_linear_time() -> None:
     """An asset is named by a path ending in its file name (not by any text containing it):
     `x.stl` is not named by `box.stl`. The scan cuts the texts into tokens once: 2 MB of text
-    and 2,000 keys of 32 segments take well under a second (the former scan searched each
-    key's every tail in the whole text: minutes)."""
+    and 2,000 keys of 32 segments take well under a second (searching each key's every tail
+    in the whole text takes minutes; the bound is loose for a loaded machine)."""
     text = (
         '<mujoco><compiler meshdir="meshes"/><mesh file="box.stl"/>'
         '<include file="$(find pkg)/parts/arm.xml"/></mujoco>'
@@ -189,7 +189,7 @@ def test_unreferenced_assets_by_file_name_in_linear_time() -> None:
     many = ["/".join(["s"] * (MAX_KEY_SEGMENTS - 1)) + f"/k{i}.stl" for i in range(2000)]
     started = time.perf_counter()
     assert unreferenced([*many, "q/m7.stl"], [big]) == many
-    assert time.perf_counter() - started < 2.0
+    assert time.perf_counter() - started < 10.0
 
 
 MESHES_URDF = (

@@ -17,7 +17,7 @@ from service.errors import InvalidModel
 from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
-from tests.helpers import planar_arm_closed_form, random_state
+from tests.helpers import planar_arm_closed_form, random_state, unless_starved
 from tests.service.registry.mjcf_models import (
     FLOATING_URDF,
     MULTI_JOINT_MJCF,
@@ -57,7 +57,7 @@ def client(registry: Registry) -> TestClient:
 
 
 def _upload(client: TestClient, **body) -> dict:
-    r = client.post("/v1/robots", json=body)
+    r = unless_starved(lambda: client.post("/v1/robots", json=body))
     assert r.status_code in (200, 201), r.text
     return r.json()
 
@@ -475,7 +475,7 @@ HOSTILE = {  # case → (MJCF text, a fragment the detail must contain)
 def test_hostile_mjcf_is_refused_by_name(client: TestClient, registry: Registry, case: str) -> None:
     text, fragment = HOSTILE[case]
     stored = set(registry.store.ids())
-    r = client.post("/v1/robots", json={"mjcf": text})
+    r = unless_starved(lambda: client.post("/v1/robots", json={"mjcf": text}))
     assert r.status_code == 422, (case, r.text)
     body = r.json()
     assert body["code"] == "invalid_model", body

@@ -1,17 +1,19 @@
 """What a contact request may cost, and how a long rollout stops: every contact quantity has
 a work estimate with all its cost factors, refused over ROBODYN_MAX_WORK before computing;
 a diverging contact rollout is a non_finite_result like one without contacts; `should_stop`
-stops a rollout within milliseconds."""
+is asked at least POLL_S apart and its true answer stops a rollout or a batch at once."""
 
 from __future__ import annotations
 
+import re
 import time
+from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from service.dynamics import QUANTITIES
+from service.dynamics import QUANTITIES, stopping
 from service.dynamics.contacts import contact_work
 from service.dynamics.simulation import simulate, simulation_work
 from service.dynamics.stopping import POLL_S
@@ -179,23 +181,60 @@ def _solo_rollout(catalog_registry, steps: int, **kw):
     )
 
 
-def test_should_stop_stops_a_rollout_within_milliseconds(catalog_registry):
-    """A rollout asks `should_stop` at most every POLL_S of computing: answering true
-    stops it with ComputationStopped (a 503 `overloaded` code) at once; answering false
-    changes nothing."""
-    asked: list[float] = []
+def _asked_until(answers_true_at: int) -> tuple[list[float], list[float], Callable[[], bool]]:
+    """A `should_stop` answering true at its `answers_true_at`-th ask, and the monotonic
+    times (s) at which each ask started and returned."""
+    started: list[float] = []
+    returned: list[float] = []
 
     def should_stop() -> bool:
-        asked.append(time.monotonic())
-        return len(asked) == 3
+        started.append(time.monotonic())
+        answer = len(started) == answers_true_at
+        returned.append(time.monotonic())
+        return answer
 
-    started = time.monotonic()
+    return started, returned, should_stop
+
+
+class _AlwaysFalse:
+    """A `should_stop` that always answers false and counts how often it was asked."""
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def __call__(self) -> bool:
+        self.count += 1
+        return False
+
+
+def _assert_asked_poll_s_apart(started: list[float], returned: list[float]) -> None:
+    """Each ask starts at least POLL_S after the previous one returned (the stopper reads
+    the clock after an ask: a rule, not a measurement; 1e-9 s for the float subtraction)."""
+    gaps = np.array(started[1:]) - np.array(returned[:-1])
+    assert gaps.min() >= POLL_S - 1e-9, gaps
+
+
+def test_should_stop_stops_a_rollout_at_once(catalog_registry, monkeypatch):
+    """A rollout asks `should_stop` at most every POLL_S of computing: answering true stops
+    it with ComputationStopped (a 503 `overloaded` code) at that ask, before the next step;
+    answering false changes nothing."""
+    steps = 100_000  # RK4 with four contacts: about a minute of computing
+    started, returned, should_stop = _asked_until(3)
     with pytest.raises(ComputationStopped) as stopped:
-        _solo_rollout(catalog_registry, 100_000, should_stop=should_stop)
-    assert time.monotonic() - started < 1.0  # 100,000 RK4 steps would take about a minute
-    assert stopped.value.code == "overloaded" and "stopped at step" in stopped.value.detail
-    assert len(asked) == 3 and np.diff(asked).min() >= POLL_S * 0.99
-    full = _solo_rollout(catalog_registry, 50, should_stop=lambda: False)
+        _solo_rollout(catalog_registry, steps, should_stop=should_stop)
+    raised = time.monotonic()
+    assert stopped.value.code == "overloaded"
+    at_step = int(re.search(r"stopped at step (\d+)", stopped.value.detail).group(1))
+    assert 0 < at_step < steps
+    assert len(started) == 3  # the true answer was the last ask: nothing computed after it
+    _assert_asked_poll_s_apart(started, returned)
+    # Microseconds from the true answer to the raise; the bound is far from any machine's
+    # scheduling noise, and far below the minute the remaining steps would take.
+    assert raised - returned[-1] < 5.0
+    monkeypatch.setattr(stopping, "POLL_S", 0.0)  # asked at every step
+    asked_false = _AlwaysFalse()
+    full = _solo_rollout(catalog_registry, 50, should_stop=asked_false)
+    assert asked_false.count >= 50
     plain = _solo_rollout(catalog_registry, 50)
     for name, value in plain.items():
         np.testing.assert_array_equal(full[name], value)
@@ -204,27 +243,37 @@ def test_should_stop_stops_a_rollout_within_milliseconds(catalog_registry):
 @pytest.mark.parametrize(
     "quantity", ["contact-dynamics", "contact-inverse-dynamics", "impulse-dynamics"]
 )
-def test_should_stop_stops_a_contact_batch(catalog_registry, quantity):
-    """The contact quantities ask `should_stop` between states of a batch the same way."""
+def test_should_stop_stops_a_contact_batch(catalog_registry, quantity, monkeypatch):
+    """The contact quantities ask `should_stop` between states of a batch the same way:
+    true stops the batch at that ask; false everywhere gives the answer computed without
+    `should_stop`."""
     r = catalog_registry.catalog["talos"]
-    n = 20_000
+    n = 20_000  # seconds of computing
     q = np.repeat(r.default_configuration[None], n, 0)
     zero = np.zeros((n, r.nv))
     arrays = {"q": q, "v": zero, "tau": zero, "a": zero}
     spec = QUANTITIES[quantity]
     s = States({k: arrays[k] for k in spec.inputs}, True)
-    asked: list[float] = []
-
-    def should_stop() -> bool:
-        asked.append(time.monotonic())
-        return len(asked) == 2
-
-    started = time.monotonic()
+    started, returned, should_stop = _asked_until(2)
     with pytest.raises(ComputationStopped) as stopped:
         spec.compute(r, s, contacts=contacts_of("talos"), should_stop=should_stop)
-    assert time.monotonic() - started < 1.0  # 20,000 states take seconds
-    assert "stopped at state" in stopped.value.detail and quantity in stopped.value.detail
-    assert np.diff(asked).min() >= POLL_S * 0.99
+    raised = time.monotonic()
+    assert quantity in stopped.value.detail
+    at_state = int(re.search(r"stopped at state (\d+)", stopped.value.detail).group(1))
+    assert 0 < at_state < n
+    assert len(started) == 2
+    _assert_asked_poll_s_apart(started, returned)
+    assert raised - returned[-1] < 5.0  # microseconds; see the rollout's test
+    monkeypatch.setattr(stopping, "POLL_S", 0.0)  # asked at every state
+    rng = np.random.default_rng(0)
+    moving = {k: 0.1 * rng.normal(size=(50, r.nv)) for k in ("v", "tau", "a")}
+    few = States({k: moving.get(k, q[:50]) for k in spec.inputs}, True)
+    asked_false = _AlwaysFalse()
+    full = spec.compute(r, few, contacts=contacts_of("talos"), should_stop=asked_false)
+    assert asked_false.count >= 50
+    plain = spec.compute(r, few, contacts=contacts_of("talos"))
+    for name, value in plain.items():
+        np.testing.assert_array_equal(full[name], value)
 
 
 @pytest.mark.slow

@@ -28,8 +28,8 @@ BROKEN_URDF = (
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path]]:
     data = tmp_path_factory.mktemp("disconnects")
-    # A stored record whose description makes urdfdom print to stderr when it is rebuilt at
-    # start-up (as a record written by an older version, or edited by hand, might).
+    # A stored record whose description makes urdfdom print to stderr when it is rebuilt on
+    # its first use (as a record edited by hand might).
     ModelStore(data).write(
         {
             "id": "u-000000000000000000000bad",
@@ -100,6 +100,11 @@ def test_a_client_leaving_mid_body_is_a_499_not_a_500(server, path: str, route: 
 def test_native_stderr_becomes_json_lines(server) -> None:
     base, log = server
     assert httpx.get(base + "/health/ready").status_code == 200
+    broken = httpx.get(base + "/v1/robots/u-000000000000000000000bad")  # rebuilt: urdfdom prints
+    assert broken.status_code == 404 and "could not be rebuilt" in broken.json()["detail"]
+    deadline = time.monotonic() + 30
+    while "Failed to build tree" not in log.read_text() and time.monotonic() < deadline:
+        time.sleep(0.05)  # the native stream is read by a thread of the server
     lines = [line for line in log.read_text().splitlines() if line.strip()]
     for line in lines:  # every line of the server's stderr is one JSON object
         record = json.loads(line)

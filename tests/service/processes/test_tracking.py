@@ -20,22 +20,30 @@ from tests.service.dynamics.identification_logs import synthetic_log
 from tests.service.processes import child_targets
 
 PRELOAD = ("tests.service.processes.child_targets",)
-END_S = 10.0
+END_S = 30.0
+SHARED = ("multiprocessing.forkserver", "multiprocessing.resource_tracker")
 
 
-def _multiprocessing_processes() -> dict[int, str]:
+def _multiprocessing_processes(since: set[int] | None = None) -> dict[int, str]:
     """This process's descendants started by multiprocessing: the forkserver and its children
-    (which share its command line), spawned children and helpers, the resource tracker."""
-    return {pid: cmd for pid, cmd in descendants(os.getpid()).items() if "multiprocessing" in cmd}
+    (which share its command line), spawned children and helpers, the resource tracker. With
+    `since` (the pids before the test), the shared forkserver and resource tracker and the
+    processes started since then only: what earlier tests of the session started is theirs
+    (the session's own check finds what any test leaves behind)."""
+    found = {pid: cmd for pid, cmd in descendants(os.getpid()).items() if "multiprocessing" in cmd}
+    if since is None:
+        return found
+    return {p: c for p, c in found.items() if p not in since or any(s in c for s in SHARED)}
 
 
 def test_shutdown_stops_every_process_it_started_and_work_starts_them_again():
+    before = set(_multiprocessing_processes())
     limits = ResourceLimits(niceness=0)
     forked, forked_conn = start_child(child_targets.sleep, (600,), limits=limits, preload=PRELOAD)
     spawned, spawned_conn = start_child(child_targets.sleep, (600,), limits=limits, start="spawn")
     pool = HelperPool(1, limits)
     assert pool.call(abs, -3) == 3
-    started = _multiprocessing_processes()
+    started = _multiprocessing_processes(before)
     kinds = " ".join(started.values())
     assert "forkserver" in kinds and "spawn" in kinds and "resource_tracker" in kinds
     assert {forked.pid, spawned.pid} <= set(started)
@@ -58,12 +66,13 @@ def test_shutdown_stops_every_process_it_started_and_work_starts_them_again():
         == b"ba"
     )
     processes.shutdown()
-    assert not wait_ended(set(_multiprocessing_processes()), END_S)
+    assert not wait_ended(set(_multiprocessing_processes(before)), END_S)
 
 
 def test_the_end_of_an_apps_lifespan_stops_its_processes(tmp_path):
     """An upload read in a child (the forkserver starts), a large JSON body (the JSON helper
     starts), an identification (its worker starts): none is left once the app stops."""
+    before = set(_multiprocessing_processes())
     registry = Registry(tmp_path, ["ur5"])
     registry.load()
     app = create_app(Settings(data_dir=tmp_path, catalog="ur5"), registry=registry)
@@ -91,7 +100,7 @@ def test_the_end_of_an_apps_lifespan_stops_its_processes(tmp_path):
             },
         )
         assert fit.status_code == 200, fit.text[:300]
-        started = _multiprocessing_processes()
+        started = _multiprocessing_processes(before)
         kinds = " ".join(started.values())
         assert "forkserver" in kinds and "resource_tracker" in kinds
         assert sum("multiprocessing.spawn" in cmd for cmd in started.values()) == 2  # helpers

@@ -43,7 +43,7 @@ def test_every_child_ends_when_its_parent_is_killed():
         [sys.executable, "-c", PARENT], cwd=REPO, stdout=subprocess.PIPE, text=True
     )
     children: dict[int, str] = {}
-    try:
+    try:  # the pipe is closed in `finally`
         assert parent.stdout is not None
         assert parent.stdout.readline().strip() == "started"
         children = descendants(parent.pid)
@@ -58,6 +58,8 @@ def test_every_child_ends_when_its_parent_is_killed():
         running = wait_ended(set(children), END_S)
         assert not running, {pid: children[pid] for pid in running}
     finally:
+        if parent.stdout is not None:
+            parent.stdout.close()
         if parent.poll() is None:
             parent.kill()
             parent.wait(30)

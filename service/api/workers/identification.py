@@ -120,6 +120,7 @@ class IdentificationWorker:
         self._conn: Any = None
         self._driver: threading.Thread | None = None
         self._generation = 0  # a driver serves while it is the current one (`close`)
+        self._pipe_lock = threading.Lock()  # closing a pipe (`_close_pipe`)
 
     async def identify(
         self, robot: Robot, progress: Progress | None = None, **inputs: Any
@@ -184,8 +185,16 @@ class IdentificationWorker:
         if proc is not None:
             end(proc)  # killed and reaped: the driver's send or receive ends
         if conn is not None and not busy:  # else the driver closes it
-            conn.close()
+            self._close_pipe(conn)
         disown(self)
+
+    def _close_pipe(self, conn: Any) -> None:
+        """Close a worker's pipe once, whichever thread comes first (`close` and the driver
+        may both try)."""
+        with self._pipe_lock:
+            if not conn.closed:
+                with contextlib.suppress(OSError):
+                    conn.close()
 
     def _kill_worker(self) -> None:
         """Kill the worker process (the lock held): the driver's send or receive then ends."""
@@ -204,7 +213,7 @@ class IdentificationWorker:
                 self._running = fit
             if fit.future.set_running_or_notify_cancel():
                 try:
-                    fit.future.set_result(self._fit(fit))
+                    fit.future.set_result(self._fit(fit, generation))
                 except BaseException as exc:
                     fit.future.set_exception(exc)
             with self._lock:
@@ -213,10 +222,11 @@ class IdentificationWorker:
                 restart = restart and generation == self._generation and self._proc is None
             if restart:  # a killed worker is replaced now, not when the next fit comes
                 with contextlib.suppress(errors.Overloaded):  # else the next fit tries again
-                    self._worker()
+                    self._worker(generation)
 
-    def _worker(self) -> tuple[Any, Any]:
-        """The running worker process and its pipe, started if there is none (or it died)."""
+    def _worker(self, generation: int) -> tuple[Any, Any]:
+        """The running worker process and its pipe, started if there is none (or it died),
+        for the driver of `generation` (a worker started while `close` ran is ended)."""
         with self._lock:
             proc, conn = self._proc, self._conn
         if proc is not None and proc.is_alive():
@@ -236,7 +246,12 @@ class IdentificationWorker:
                 "could not start an identification worker; retry shortly"
             ) from None
         with self._lock:
-            self._proc, self._conn = proc, conn
+            current = generation == self._generation
+            if current:
+                self._proc, self._conn = proc, conn
+        if not current:
+            self._forget(proc, conn)
+            raise errors.Overloaded("the server is stopping; retry shortly")
         try:
             ready = conn.poll(START_TIMEOUT_S) and conn.recv() == ("ready",)
         except (EOFError, OSError):
@@ -254,7 +269,7 @@ class IdentificationWorker:
             if self._proc is proc:
                 self._proc = self._conn = None
         if conn is not None:
-            conn.close()
+            self._close_pipe(conn)
         if proc is not None:
             end(proc)
 
@@ -266,9 +281,9 @@ class IdentificationWorker:
                 fit.cpu_s = cpu_seconds(proc.pid)
                 self._kill_worker()
 
-    def _fit(self, fit: _Fit) -> Identification:
+    def _fit(self, fit: _Fit, generation: int) -> Identification:
         """In the driver thread: the fit's answer from the worker process."""
-        proc, conn = self._worker()
+        proc, conn = self._worker(generation)
         robot, inputs = fit.robot, dict(fit.inputs)
         arrays = {k: inputs.pop(k) for k in ("t", "q", "tau", "v", "a") if k in inputs}
         meta = {

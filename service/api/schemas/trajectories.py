@@ -75,6 +75,26 @@ class JointCheck(BaseModel):
     upper: float | None = Field(description="Upper position limit, rad or m; null: none.")
     min_position: float | None = Field(description="Smallest q over the evaluated points.")
     max_position: float | None = Field(description="Largest q over the evaluated points.")
+    rms_effort: float = Field(
+        description="√(∫ τ² dt ÷ duration) by the trapezoidal rule over the evaluated points, "
+        "N·m or N: the torque that heats the motor as the motion does."
+    )
+    peak_power: float = Field(description="max |τ v| over every evaluated point, W.")
+    peak_force: float = Field(
+        description="max ‖f‖ over every evaluated point, N: f the force of the wrench the "
+        "joint transmits to its child body (RNEA's data.f, in the joint frame)."
+    )
+    peak_moment: float = Field(
+        description="max ‖n‖, N·m: n the moment of that wrench about the joint frame's origin."
+    )
+    peak_axial_force: float = Field(
+        description="max |f · s|, N, s the joint's unit axis: a revolute joint's bearing "
+        "thrust, a prismatic joint's |τ|."
+    )
+    peak_bending_moment: float = Field(
+        description="max ‖n − (n · s) s‖, N·m: the moment the bearings carry across the axis "
+        "(a revolute joint's τ is n · s)."
+    )
 
 
 class Violation(BaseModel):

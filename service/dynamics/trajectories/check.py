@@ -8,10 +8,12 @@ a limit broken between two samples is found. Where v and a are given, the motion
 samples only and is evaluated there.
 
 At every evaluated point: τ = M(q) a + C(q, v) v + g(q) (+ friction(v) where a friction model
-is given), by batch RNEA. Answer: τ at the samples, per 1-DoF joint the peaks of |τ| and |v|,
-the extremes of q and their ratios to the limits, the violations with their time spans, and the
-work: the integrals over time of max(τᵀv, 0) (positive, J) and min(τᵀv, 0) (negative, J) by the
-trapezoidal rule over the evaluated points (`summary.MotionSummary`).
+is given) and the wrench each 1-DoF joint transmits, by RNEA state by state (its `data.f`: the
+same pass). Answer: τ at the samples, per 1-DoF joint the peaks of |τ| and |v|, the extremes of
+q and their ratios to the limits (`summary.MotionSummary`), its RMS effort, peak power and peak
+loads (`loads.JointLoadPeaks`), the violations with their time spans, and the work: the
+integrals over time of max(τᵀv, 0) (positive, J) and min(τᵀv, 0) (negative, J) by the
+trapezoidal rule over the evaluated points.
 
 Cost: the evaluated points × nv (`check_work`), refused over `max_work` before anything is
 computed (`admit_check`: the service's ROBODYN_MAX_TRAJECTORY_WORK). The points are evaluated
@@ -29,9 +31,9 @@ from typing import Any
 import numpy as np
 
 from service.dynamics.stopping import ShouldStop, Stopper
-from service.dynamics.trajectories import rnea
 from service.dynamics.trajectories.evaluation import SampleSpline, chunks, evaluated_points
 from service.dynamics.trajectories.inputs import positive, sample_times, samples
+from service.dynamics.trajectories.loads import JointLoadPeaks, inverse_dynamics_with_loads
 from service.dynamics.trajectories.summary import MotionSummary
 from service.errors import InvalidInput, NonFiniteResult
 from service.registry.robot import Robot
@@ -192,20 +194,24 @@ def check_samples(
         stage="inverse dynamics",
     )
     summary = MotionSummary(robot, effort_scale, velocity_scale)
+    loads = JointLoadPeaks(robot, float(np.diff(times).max()))
     tau = np.empty((n, robot.nv))
     v_samples = np.empty((n, robot.nv)) if vs is None else vs
     for chunk in chunks(times, qs, vs, acc, spline, step, chunk_points(robot.nv)):
         stop.poll(chunk.first)
-        tau_chunk = rnea.inverse_dynamics(robot, chunk.q, chunk.v, chunk.a, checked=False)
-        if friction is not None:
-            with np.errstate(over="ignore", invalid="ignore"):
-                tau_chunk = tau_chunk + friction(chunk.v)
+        tau_chunk, wrenches = inverse_dynamics_with_loads(
+            robot, chunk.q, chunk.v, chunk.a, friction
+        )
         _require_finite_torques(tau_chunk, chunk.t, times, given)
         summary.add(chunk.t, chunk.q, chunk.v, tau_chunk)
+        loads.add(chunk.t, chunk.v, tau_chunk, wrenches)
         tau[chunk.samples] = tau_chunk[chunk.sample_rows]
         if vs is None:
             v_samples[chunk.samples] = chunk.v[chunk.sample_rows]
-    joints = summary.joints()
+    joints = [
+        {**joint, **figures}
+        for joint, figures in zip(summary.joints(), loads.figures(), strict=True)
+    ]
     violations = summary.violations.in_time_order()
     return TrajectoryCheck(
         feasible=not violations,

@@ -57,6 +57,7 @@ ANSWERS = {
     "coriolis_forces": [0.0],
     "nonlinear_effects": [0.0],
     "tau": [0.0],
+    "joint_wrenches": [[0.0] * 6],
     "a": [0.0],
     "robots": [],
     "unavailable": {},
@@ -116,6 +117,7 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "coriolis": ("r", [0.0], [0.0]),
     "nonlinear_effects": ("r", [0.0], [0.0]),
     "inverse_dynamics": ("r", [0.0], [0.0], [0.0]),
+    "joint_wrenches": ("r", [0.0], [0.0], [0.0]),
     "forward_dynamics": ("r", [0.0], [0.0], [0.0]),
     "mass_matrix_inverse": ("r", [0.0]),
     "energy": ("r", [0.0], [0.0]),
@@ -256,6 +258,9 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
         assert tuple(body) == fields
         # strict: no extra or mistyped field
         SPECS[name.replace("_", "-")].request.model_validate(body)
+    wrenches = json.loads(requests["joint_wrenches"].content)
+    assert wrenches.pop("loads") is True and tuple(wrenches) == ("q", "v", "a")
+    SPECS["inverse-dynamics"].request.model_validate({**wrenches, "loads": True})
     for name in ("trajectory_check", "retime"):  # arrays and options alike
         SPECS[name.replace("_", "-")].request.model_validate(json.loads(requests[name].content))
 
@@ -324,7 +329,7 @@ def test_answers_are_numpy_and_match_the_server_answer_fields() -> None:
             "gravity",
             "coriolis",
             "nonlinear_effects",
-            "inverse_dynamics",
+            "joint_wrenches",  # inverse-dynamics with its optional joint_wrenches
             "forward_dynamics",
         )
     }

@@ -37,7 +37,11 @@ def times(value: ArrayLike) -> np.ndarray:
 class JointCheck(NamedTuple):
     """One 1-DoF joint over the checked motion: its limits (after the scales; None where it
     has none), the peaks of |τ| (N·m or N) and |v| (rad/s or m/s) and the extremes of q over
-    every evaluated point, and the ratios peak ÷ limit (> 1: broken)."""
+    every evaluated point, and the ratios peak ÷ limit (> 1: broken). For sizing its motor and
+    bearings: `rms_effort` √(∫ τ² dt ÷ duration) (N·m or N), `peak_power` max |τ v| (W), and
+    the peaks of the wrench (f, n) the joint transmits to its child body, in the joint frame
+    with s its unit axis: `peak_force` ‖f‖ (N), `peak_moment` ‖n‖ (N·m), `peak_axial_force`
+    |f · s| (N) and `peak_bending_moment` ‖n − (n · s) s‖ (N·m)."""
 
     name: str
     effort_limit: float | None
@@ -50,6 +54,12 @@ class JointCheck(NamedTuple):
     upper: float | None
     min_position: float | None
     max_position: float | None
+    rms_effort: float
+    peak_power: float
+    peak_force: float
+    peak_moment: float
+    peak_axial_force: float
+    peak_bending_moment: float
 
 
 class Violation(NamedTuple):
@@ -91,7 +101,7 @@ class TrajectoryCheck(NamedTuple):
             bool(body["feasible"]),
             np.asarray(body["tau"], dtype=np.float64),
             np.asarray(body["v"], dtype=np.float64),
-            [JointCheck(**j) for j in body["joints"]],
+            [JointCheck(**{k: j[k] for k in JointCheck._fields}) for j in body["joints"]],
             [Violation(**x) for x in body["violations"]],
             Work(**body["work"]),
         )

@@ -250,6 +250,7 @@ def identification_answer(
         "parameters": result.parameters,
         "bodies": result.bodies,
         "friction": result.friction,
+        "warnings": result.warnings,
         "base_parameters": result.base_parameters,
         "condition_number": condition if np.isfinite(condition) else None,
         "physically_consistent": result.physically_consistent,
@@ -269,7 +270,9 @@ def _store(
 ) -> tuple[dict[str, Any] | None, str | None]:
     """Store the identified robot as a variant of `robot`: (its RobotInfo, None), or (None,
     why it was not stored) when the fit is not a physically possible robot."""
-    friction = Fitted.from_dict({"friction": result.friction}).friction
+    # (a joint whose motion does not determine its friction has none: no row)
+    known = [row for row in result.friction if row is not None]
+    friction = Fitted.from_dict({"friction": known}).friction
     if result.payload is None:
         if not result.physically_consistent:
             return None, (

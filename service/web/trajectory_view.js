@@ -1,9 +1,11 @@
 // robodyn explorer, the trajectory view: paste or upload a CSV (t, then one column per joint,
 // or waypoints: one column per joint), check the motion against the robot's limits or retime
-// it, see per-joint plots of τ ÷ limit and v ÷ limit over time with the violations shaded, and
-// play the motion in a 3-D view. Every number shown comes from the service
-// (POST .../trajectory-check and .../retime); plots are drawn by the vendored uPlot.
+// it, see per-joint plots of τ ÷ limit and v ÷ limit over time with the violations shaded, the
+// joints' sizing figures (joint_sizing.js), and play the motion in a 3-D view. Every number
+// shown comes from the service (POST .../trajectory-check and .../retime); plots are drawn by
+// the vendored uPlot.
 import { apiWithProgress, progressText } from "./http.js";
+import { renderSizing } from "./joint_sizing.js";
 import { numberNode } from "./no_value.js";
 import { yAxis } from "./plot_axes.js";
 import { RobotDrawing } from "./robot_drawing.js";
@@ -129,6 +131,8 @@ export class TrajectoryView {
     this.motion = null;
     el("trajectory-plots").replaceChildren();
     el("trajectory-summary").replaceChildren();
+    el("trajectory-sizing").replaceChildren();
+    el("trajectory-sizing").hidden = true;
     el("trajectory-player").hidden = true;
   }
 
@@ -179,6 +183,7 @@ export class TrajectoryView {
       el("trajectory-plots").result = { kind, answer }; // for the tests and the console
       this.summarise(kind, answer, check);
       this.plot(t, answer.tau, v, check);
+      renderSizing(el("trajectory-sizing"), check, info, this.ctx.fmt);
       this.status(kind === "check"
         ? `${t.length} samples checked.`
         : `Retimed: ${this.ctx.fmt(answer.duration, 4)} s, sampled every 0.01 s.`);

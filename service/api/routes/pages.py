@@ -60,6 +60,7 @@ MODULE_FILES = {
         "payload_view.js",
         "equations_view.js",
         "trajectory_view.js",
+        "joint_sizing.js",
         "vendor/uplot/uPlot.esm.js",
         "identification_view.js",
         THREE_DIR + "build/three.module.min.js",

@@ -2,8 +2,8 @@
 in-process baseline measured in the same run:
 
 - trajectory-check of 10,000 samples of a 7-DoF arm (xArm7) with their v and a, through the
-  client (the binary form), against a Python loop over `pin.rnea` on the same samples
-  (states/s; target ≥ 0.8); and, for information, the same samples without v and a (the
+  client (the binary form), against a Python loop over `pin.rnea` on the same samples reading
+  each joint's wrench `data.f` as the check does for the joint loads (states/s; target ≥ 0.8); and, for information, the same samples without v and a (the
   spline: 4 evaluated points per interval, so 4 × the states);
 - retime of a 6-waypoint UR5 path, against plain toppra on the same path (its velocity and
   torque constraints on RNEA, its automatic grid, its output sampled every 0.01 s), including
@@ -60,11 +60,13 @@ def check(
     motion = arm_motion(model)
     data = model.createData()
 
-    def loop() -> float:
+    def loop() -> float:  # what the check computes: τ and each joint's wrench (data.f)
         start = time.perf_counter()
         out = np.empty((SAMPLES, model.nv))
+        wrenches = np.empty((SAMPLES, model.njoints - 1, 6))
         for i in range(SAMPLES):
             out[i] = pin.rnea(model, data, motion["q"][i], motion["v"][i], motion["a"][i])
+            wrenches[i] = [data.f[j].vector for j in range(1, model.njoints)]
         return time.perf_counter() - start
 
     variants = {
@@ -87,7 +89,7 @@ def check(
             target = "≥ 0.8" if what == "with v and a" else "info"
             row(
                 f"trajectory-check of {SAMPLES:,} xArm7 samples ({what}) via client vs "
-                "in-process loop over pin.rnea",
+                "in-process loop over pin.rnea and data.f",
                 SAMPLES / median_of(rounds, served(arrays)),
                 base,
                 "states/s",

@@ -79,9 +79,10 @@ class Settings(BaseSettings):
         ge=1,
         description="Largest work of one trajectory-check: evaluated points × nv, where N "
         "samples give (N − 1) × samples_per_interval + 1 points when v and a come from the "
-        "spline, else N. A unit costs about 0.2–0.4 µs on one core and at most about 56 "
-        "bytes of memory (the samples are held whole, the points in chunks); the default "
-        "admits at most about 8 s and 1 GB on a 126-joint tree.",
+        "spline, else N. A unit costs about 0.4–0.8 µs on one core (τ and the joint loads "
+        "of the same RNEA pass) and at most about 56 bytes of memory (the samples are held "
+        "whole, the points in chunks); the default admits at most about 16 s and 1 GB on a "
+        "126-joint tree.",
     )
     max_retime_work: int = Field(
         500_000,

@@ -372,8 +372,11 @@ def openapi_routes() -> APIRouter:
     async def describe_identify(robot_id: str, body: IdentifyRequest) -> None:
         """Fit a fixed-base robot's inertial parameters and friction (or a payload's) to a
         logged motion (t, q, measured τ; v and a optional), check the fit on the held-out
-        end of the log, and store the identified robot as a variant. The fit runs in a worker
-        process with a time limit (ROBODYN_IDENTIFY_TIMEOUT_S). See docs/identification.md.
+        end of the log, and store the identified robot as a variant. `warnings` names every
+        joint whose motion does not determine its friction (it barely moves, or its speed
+        stays near zero): its friction entry is null and the variant adds none on it. The fit
+        runs in a worker process with a time limit (ROBODYN_IDENTIFY_TIMEOUT_S). See
+        docs/identification.md.
 
         The log may also be sent in the binary form ({media_type}: t, q, tau, v, a as F64
         tensors, the other members as JSON texts in `__metadata__`; see

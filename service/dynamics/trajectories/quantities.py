@@ -45,12 +45,15 @@ def trajectory_check(
     interval are evaluated too (k = samples_per_interval, at most 64). τ = M(q) a + C(q, v) v
     + g(q) by RNEA at every evaluated point. Answer: `feasible`, `tau` [N][nv] and `v`
     [N][nv] at the samples, per 1-DoF joint its limits, peaks and ratios (peak ÷ limit over
-    every evaluated point, null without a limit), the `violations` with their time spans,
-    and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
+    every evaluated point, null without a limit) and its sizing figures (rms_effort
+    √(∫ τ² dt ÷ duration), peak_power max |τ v| in W, and the peaks of the wrench (f, n) it
+    transmits, in its frame with s its axis: peak_force ‖f‖, peak_moment ‖n‖,
+    peak_axial_force |f · s|, peak_bending_moment ‖n − (n · s) s‖), the `violations` with
+    their time spans, and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
     never split into batches of states; its evaluated points are computed in chunks, and
     `should_stop` is asked between them.
     With `friction` (a robot made by identification) τ includes the joints' friction torque,
-    offset + coulomb ∘ sign(v) + viscous ∘ v. Its work, evaluated points × nv, is at most
+    offset + coulomb ∘ sign(v) + viscous ∘ v (and the joint loads, along each joint's axis). Its work, evaluated points × nv, is at most
     `max_trajectory_work` (the service's setting; over it a 422 before computing)."""
     times = sample_times("t", t)
     q = s["q"]

@@ -3,8 +3,9 @@ in-process baseline measured in the same run:
 
 - trajectory-check of 10,000 samples of a 7-DoF arm (xArm7) with their v and a, through the
   client (the binary form), against a Python loop over `pin.rnea` on the same samples reading
-  each joint's wrench `data.f` as the check does for the joint loads (states/s; target ≥ 0.8); and, for information, the same samples without v and a (the
-  spline: 4 evaluated points per interval, so 4 × the states);
+  each joint's wrench `data.f` as the check does for the joint loads (states/s; target
+  ≥ 0.8); and, for information, the same samples without v and a (the spline: 4 evaluated
+  points per interval, so 4 × the states);
 - retime of a 6-waypoint UR5 path, against plain toppra on the same path (its velocity and
   torque constraints on RNEA, its automatic grid, its output sampled every 0.01 s), including
   robodyn's correction and dense check (s; target ≤ 2 ×).

@@ -49,12 +49,13 @@ def trajectory_check(
     √(∫ τ² dt ÷ duration), peak_power max |τ v| in W, and the peaks of the wrench (f, n) it
     transmits, in its frame with s its axis: peak_force ‖f‖, peak_moment ‖n‖,
     peak_axial_force |f · s|, peak_bending_moment ‖n − (n · s) s‖), the `violations` with
-    their time spans, and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
-    never split into batches of states; its evaluated points are computed in chunks, and
-    `should_stop` is asked between them.
+    their time spans, and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The
+    samples are one motion: never split into batches of states; its evaluated points are
+    computed in chunks, and `should_stop` is asked between them.
     With `friction` (a robot made by identification) τ includes the joints' friction torque,
-    offset + coulomb ∘ sign(v) + viscous ∘ v (and the joint loads, along each joint's axis). Its work, evaluated points × nv, is at most
-    `max_trajectory_work` (the service's setting; over it a 422 before computing)."""
+    offset + coulomb ∘ sign(v) + viscous ∘ v (and the joint loads, along each joint's axis).
+    Its work, evaluated points × nv, is at most `max_trajectory_work` (the service's setting;
+    over it a 422 before computing)."""
     times = sample_times("t", t)
     q = s["q"]
     if q.shape[0] != times.shape[0]:

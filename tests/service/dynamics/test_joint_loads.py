@@ -185,3 +185,27 @@ def test_loads_must_be_a_boolean(small_app_factory):
     assert answer.status_code == 422
     assert answer.headers["content-type"].startswith("application/problem+json")
     assert "loads" in answer.json()["detail"]
+
+
+def test_the_binary_form_carries_the_wrenches(small_app_factory):
+    from tests.service.api.encoding.test_binary import BIN, decode_answer, encode_request
+
+    client = small_app_factory(catalog="ur5")
+    robot = client.app.state.registry.catalog["ur5"]
+    rng = np.random.default_rng(4)
+    q, v, a = (
+        np.array(x) for x in zip(*(random_state(robot.model, rng) for _ in range(3)), strict=True)
+    )
+    body = encode_request({"q": q, "v": v, "a": a}, {"loads": True})
+    answer = client.post(
+        "/v1/robots/ur5/inverse-dynamics",
+        content=body,
+        headers={"content-type": BIN, "accept": BIN},
+    )
+    assert answer.status_code == 200, answer.text
+    got = decode_answer(answer.content)
+    assert got["joint_wrenches"].shape == (3, 6, 6)
+    for i in range(3):
+        np.testing.assert_allclose(
+            got["joint_wrenches"][i], _data_f(robot.model, q[i], v[i], a[i]), atol=1e-9
+        )

@@ -102,12 +102,16 @@ class EquationOfMotionMethods(SyncSender):
         payloads: PayloadsLike | None = None,
         friction: bool = False,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(τ, wrenches): inverse dynamics as `inverse_dynamics` (same options), and the wrench
-        each moving joint transmits from its parent body to its child body (Pinocchio's RNEA
-        `data.f`): shape (joints, 6), or (N, joints, 6) for a batch, one row per joint of the
-        robot's `joints` in order, force f (N) then moment n (N·m) about the joint frame's
-        origin, in the joint frame's axes. For a revolute joint with unit axis s, τ = s · n and
-        its bearings carry the axial force |s · f| and the bending moment ‖n − (s · n) s‖.
+        """(τ, wrenches): τ = M(q) a + C(q, v) v + g(q) as `inverse_dynamics` gives it, shape
+        (nv,), and the wrench each moving joint transmits from its parent body to its child
+        body (Pinocchio's RNEA `data.f`), shape (joints, 6); (N, nv) and (N, joints, 6) for a
+        batch. One row per joint of the robot's `joints` in order: force f (N) then moment n
+        (N·m) about the joint frame's origin, in the joint frame's axes. For a revolute joint
+        with unit axis s, τ = s · n and its bearings carry the axial force |s · f| and the
+        bending moment ‖n − (s · n) s‖. `external_forces` as for `inverse_dynamics`;
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this
+        call; `friction`: add the joints' friction of a robot stored by `identify` (along
+        each joint's axis in its wrench).
         """
         return self._send(
             calls.joint_wrenches(
@@ -226,12 +230,16 @@ class AsyncEquationOfMotionMethods(AsyncSender):
         payloads: PayloadsLike | None = None,
         friction: bool = False,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(τ, wrenches): inverse dynamics as `inverse_dynamics` (same options), and the wrench
-        each moving joint transmits from its parent body to its child body (Pinocchio's RNEA
-        `data.f`): shape (joints, 6), or (N, joints, 6) for a batch, one row per joint of the
-        robot's `joints` in order, force f (N) then moment n (N·m) about the joint frame's
-        origin, in the joint frame's axes. For a revolute joint with unit axis s, τ = s · n and
-        its bearings carry the axial force |s · f| and the bending moment ‖n − (s · n) s‖.
+        """(τ, wrenches): τ = M(q) a + C(q, v) v + g(q) as `inverse_dynamics` gives it, shape
+        (nv,), and the wrench each moving joint transmits from its parent body to its child
+        body (Pinocchio's RNEA `data.f`), shape (joints, 6); (N, nv) and (N, joints, 6) for a
+        batch. One row per joint of the robot's `joints` in order: force f (N) then moment n
+        (N·m) about the joint frame's origin, in the joint frame's axes. For a revolute joint
+        with unit axis s, τ = s · n and its bearings carry the axial force |s · f| and the
+        bending moment ‖n − (s · n) s‖. `external_forces` as for `inverse_dynamics`;
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this
+        call; `friction`: add the joints' friction of a robot stored by `identify` (along
+        each joint's axis in its wrench).
         """
         return await self._send(
             calls.joint_wrenches(

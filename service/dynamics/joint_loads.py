@@ -109,7 +109,8 @@ def rnea_with_wrenches(
                 tau[i] = pin.rnea(model, data, q[i], v[i], a[i])
             else:
                 tau[i] = pin.rnea(model, data, q[i], v[i], a[i], fext(data, q[i], i))
-            wrenches[i] = [forces[j].vector for j in ids]
+            if ids:  # (a robot whose only joint is a free-flyer has no 1-DoF joint)
+                wrenches[i] = [forces[j].vector for j in ids]
     return tau, wrenches
 
 

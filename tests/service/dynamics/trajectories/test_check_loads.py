@@ -155,3 +155,17 @@ def test_http_answer_carries_the_figures_with_payloads(small_app_factory) -> Non
     for joint, expected in zip(answer.json()["joints"], _reference(carried, t, q, 4), strict=True):
         for name, value in expected.items():
             assert joint[name] == pytest.approx(value, rel=1e-9, abs=1e-9), (joint["name"], name)
+
+
+def test_a_robot_without_1_dof_joints_has_no_figures() -> None:
+    """A free-flying body (a drone's model: its one joint is the free-flyer): checked, no joint
+    entries, τ the wrench that moves the base."""
+    body = """<robot name="drone"><link name="base"><inertial><mass value="1.5"/>
+<inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.04"/></inertial></link></robot>"""
+    model = pin.buildModelFromXML(body, pin.JointModelFreeFlyer())
+    drone = Robot(id="drone", name="drone", source="upload", root_joint="free-flyer", model=model)
+    t = np.array([0.0, 0.5, 1.0])
+    q = np.tile(pin.neutral(model), (3, 1))
+    result = check_trajectory(drone, t, q, np.zeros((3, 6)), np.zeros((3, 6)))
+    assert result.joints == [] and result.feasible
+    np.testing.assert_allclose(result.tau[:, 2], 1.5 * G, rtol=1e-12)  # its weight, held up

@@ -75,14 +75,14 @@ class Settings(BaseSettings):
         "admits about 10 s of computing on one core.",
     )
     max_trajectory_work: int = Field(
-        20_000_000,
+        10_000_000,
         ge=1,
         description="Largest work of one trajectory-check: evaluated points × nv, where N "
         "samples give (N − 1) × samples_per_interval + 1 points when v and a come from the "
-        "spline, else N. A unit costs about 0.4–0.8 µs on one core (τ and the joint loads "
-        "of the same RNEA pass) and at most about 56 bytes of memory (the samples are held "
-        "whole, the points in chunks); the default admits at most about 16 s and 1 GB on a "
-        "126-joint tree.",
+        "spline, else N. A unit costs about 0.9–1.2 µs of CPU (τ and the joint loads of the "
+        "same RNEA pass, point by point) and at most about 56 bytes of memory (the samples "
+        "are held whole, the points in chunks); the default admits about 13 s of CPU and "
+        "at most 0.6 GB on a 126-joint tree, and a UR5's 1,000,000 evaluated points.",
     )
     max_retime_work: int = Field(
         500_000,

@@ -110,7 +110,8 @@ def rnea_with_wrenches(
             else:
                 tau[i] = pin.rnea(model, data, q[i], v[i], a[i], fext(data, q[i], i))
             if ids:  # (a robot whose only joint is a free-flyer has no 1-DoF joint)
-                wrenches[i] = [forces[j].vector for j in ids]
+                listed = forces.tolist()  # one call: faster than indexing joint by joint
+                wrenches[i] = [listed[j].vector for j in ids]
     return tau, wrenches
 
 

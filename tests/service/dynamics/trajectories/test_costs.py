@@ -264,13 +264,13 @@ def test_the_default_limit_admits_the_retimings_the_tests_and_docs_send(
 
 
 def test_the_defaults_bound_a_126_joint_tree() -> None:
-    """What the defaults admit on the largest upload (126 joints): at most 158,730 evaluated
-    points (39,683 samples at the default 4 points per interval), and 595 waypoints (375 with
-    acceleration limits), as docs/security.md states."""
+    """What the defaults admit on the largest upload (126 joints): at most 79,365 evaluated
+    points (19,842 samples at the default 4 points per interval), and 595 waypoints (375 with
+    acceleration limits), as docs/trajectories.md states."""
     defaults = Settings()
     with pytest.raises(InvalidInput) as refused:
         check.admit_check(66_576, 4, True, 126, defaults.max_trajectory_work)
-    assert refused.value.extra["largest_samples"] == 39_683
+    assert refused.value.extra["largest_samples"] == 19_842
     with pytest.raises(InvalidInput) as refused:
         retiming.admit_retime(1000, 126, False, defaults.max_retime_work)
     assert refused.value.extra["largest_waypoints"] == 595

@@ -24,7 +24,16 @@ from service.api.middleware.observability import Metrics, ObservabilityMiddlewar
 from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
-from service.api.routes import equations, health, identification, pages, robots, stream, visuals
+from service.api.routes import (
+    equations,
+    health,
+    identification,
+    model_check,
+    pages,
+    robots,
+    stream,
+    visuals,
+)
 from service.api.workers.equations_cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
@@ -126,6 +135,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     private = [Depends(require_api_key_for_all)]
     app.include_router(robots.router, dependencies=private)
     app.include_router(visuals.router, dependencies=private)
+    app.include_router(model_check.router, dependencies=private)
     app.include_router(equations.router, dependencies=private)
     app.include_router(identification.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.

@@ -22,6 +22,7 @@ from robodyn._methods.frames import AsyncFrameMethods
 from robodyn._methods.health import AsyncHealthMethods
 from robodyn._methods.identification import AsyncIdentificationMethods
 from robodyn._methods.lagrangian import AsyncLagrangianMethods
+from robodyn._methods.model_check import AsyncModelCheckMethods
 from robodyn._methods.operational_space import AsyncOperationalSpaceMethods
 from robodyn._methods.payload_capacity import AsyncPayloadCapacityMethods
 from robodyn._methods.robots import AsyncRobotMethods
@@ -33,6 +34,7 @@ from robodyn.stream import AsyncStream, stream_url
 
 class AsyncClient(
     AsyncRobotMethods,
+    AsyncModelCheckMethods,
     AsyncHealthMethods,
     AsyncEquationsMethods,
     AsyncEquationOfMotionMethods,

@@ -22,6 +22,7 @@ from robodyn._methods.frames import FrameMethods
 from robodyn._methods.health import HealthMethods
 from robodyn._methods.identification import IdentificationMethods
 from robodyn._methods.lagrangian import LagrangianMethods
+from robodyn._methods.model_check import ModelCheckMethods
 from robodyn._methods.operational_space import OperationalSpaceMethods
 from robodyn._methods.payload_capacity import PayloadCapacityMethods
 from robodyn._methods.robots import RobotMethods
@@ -33,6 +34,7 @@ from robodyn.stream import Stream, stream_url
 
 class Client(
     RobotMethods,
+    ModelCheckMethods,
     HealthMethods,
     EquationsMethods,
     EquationOfMotionMethods,

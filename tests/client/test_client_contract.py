@@ -144,8 +144,17 @@ ARGS.update(
 ANSWERS.update({"mass": 1.0, "limiting_joint": "j", "mass_per_joint": [None]})
 ARGS.update({"payload_capacity": ("r", [0.0], "f"), "variant": ("r",)})
 KWARGS.update(
-    {"variant": {"payloads": [{"frame": "f", "mass": 1.0}], "locked_joints": {"elbow": 0.5}}}
+    {
+        "variant": {
+            "payloads": [{"frame": "f", "mass": 1.0}],
+            "locked_joints": {"elbow": 0.5},
+            "inertias": {"links": "errors", "from": "geometry"},
+        }
+    }
 )
+# the model check
+ANSWERS.update({"findings": [], "links": []})
+ARGS.update({"model_check": ("r",)})
 # trajectories
 CHECK = {
     "feasible": True,

@@ -19,7 +19,7 @@ BROKEN = two_link_urdf(name="broken_arm").replace(
 def test_the_model_check_is_the_routes_answer_typed(client):
     check = client.model_check("ur5")
     assert isinstance(check, ModelCheck) and not check.errors
-    raw = client._http.get("/v1/robots/ur5/model-check").json()  # noqa: SLF001
+    raw = client._http.get("/v1/robots/ur5/model-check").json()
     assert [f.code for f in check.findings] == [f["code"] for f in raw["findings"]]
     arm = check.links_by_name["upper_arm_link"]
     assert isinstance(arm, LinkCheck) and arm.geometry is not None

@@ -20,6 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from service.errors import InvalidModel
+from service.registry.inertia_rules import ERROR_CODES
 from service.registry.link_descriptions import LinkDescription
 from service.registry.safe_xml import shown
 
@@ -75,3 +76,33 @@ def repaired_links(
             )
         out.append(link)
     return out
+
+
+def repaired_warnings(
+    warnings: list[dict[str, Any]], repairs: Sequence[Mapping[str, Any]]
+) -> list[dict[str, Any]]:
+    """A robot's warnings after its inertia repairs (an upload's `inertia_check: "repair"`, a
+    variant's `inertias`): the errors of repaired links replaced by one `inertia_repaired`
+    each, saying what was done."""
+    if not repairs:
+        return warnings
+    repaired = {r["link"]: r for r in repairs}
+    kept = [w for w in warnings if not (w.get("code") in ERROR_CODES and w.get("name") in repaired)]
+    return kept + [
+        {
+            "code": "inertia_repaired",
+            "element": "link",
+            "name": link,
+            "message": f"link '{shown(link)}': "
+            + (
+                "centre of mass and inertia replaced by its geometry's with its mass "
+                f"{r['mass']:.6g} kg"
+                if r["from"] == "geometry"
+                else "principal moments replaced by the nearest valid ones (centre of mass "
+                "and principal axes kept)"
+                if r["mass"] > 0
+                else "inertia set to 0 (a massless link has none)"
+            ),
+        }
+        for link, r in repaired.items()
+    ]

@@ -37,7 +37,7 @@ from service.registry.check_inputs import (
     upload_inputs,
 )
 from service.registry.lineage import Lineage, child_lineage
-from service.registry.link_inertias import with_link_inertias
+from service.registry.link_inertias import repaired_warnings, with_link_inertias
 from service.registry.payloads import PlacedPayload
 from service.registry.records import VARIANT_FORMATS
 from service.registry.reduce import LockedValue, as_lists, locked_configuration
@@ -50,7 +50,6 @@ from service.registry.upload_formats import (
     mesh_paths,
     new_record,
     rebuild_inputs,
-    repaired_warnings,
 )
 from service.registry.urdf_check import Limits
 from service.registry.variants import (

@@ -13,7 +13,6 @@ from typing import Any
 from service.errors import InvalidModel
 from service.registry.assets import MAX_KEY_LENGTH, MESH_TYPES, AssetStore, digest, extension
 from service.registry.build import Checked
-from service.registry.inertia_rules import ERROR_CODES
 from service.registry.safe_xml import shown
 from service.registry.urdf_check import Finding, Limits
 
@@ -32,35 +31,6 @@ def check_findings(findings: list[Finding], inertia_check: str) -> None:
             '"inertia_check": "warn" to store the model with these findings as warnings, or '
             '"repair" to store it with these inertias repaired'
         )
-
-
-def repaired_warnings(
-    warnings: list[dict[str, Any]], repairs: list[dict[str, Any]]
-) -> list[dict[str, Any]]:
-    """An upload's warnings after `inertia_check: "repair"`: the errors of repaired links
-    replaced by one `inertia_repaired` each, saying what was done."""
-    if not repairs:
-        return warnings
-    repaired = {r["link"]: r for r in repairs}
-    kept = [w for w in warnings if not (w.get("code") in ERROR_CODES and w.get("name") in repaired)]
-    return kept + [
-        {
-            "code": "inertia_repaired",
-            "element": "link",
-            "name": link,
-            "message": f"link '{shown(link)}': "
-            + (
-                "centre of mass and inertia replaced by its geometry's with its mass "
-                f"{r['mass']:.6g} kg"
-                if r["from"] == "geometry"
-                else "principal moments replaced by the nearest valid ones (centre of mass "
-                "and principal axes kept)"
-                if r["mass"] > 0
-                else "inertia set to 0 (a massless link has none)"
-            ),
-        }
-        for link, r in repaired.items()
-    ]
 
 
 def new_record(

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from service.registry.link_inertias import with_link_inertias
+from service.registry.link_inertias import repaired_warnings, with_link_inertias
 from service.registry.payloads import PlacedPayload, canonical, carrying, derived
 from service.registry.reduce import reduced_robot
 from service.registry.robot import Robot
@@ -219,6 +219,7 @@ def variant_robot(
         )
     if friction is not None:
         robot.friction = friction_arrays(robot.model, friction)
+    robot.warnings = repaired_warnings(robot.warnings, inertia_repairs)
     return robot
 
 

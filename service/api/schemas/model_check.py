@@ -68,6 +68,9 @@ class LinkFacts(BaseModel):
         description="[3] kg·m², about the centre of mass, ascending (eigenvalues of the "
         "declared inertia)."
     )
+    inertia: list[list[float]] = Field(
+        description="3×3 kg·m², the declared inertia about the centre of mass, link axes."
+    )
     geometry: LinkGeometry | None = Field(
         description="The mass properties of the link's shape; null without a shape whose "
         "volume is known."

@@ -6,6 +6,7 @@ and one entry per link with mass or geometry,
 
     {"name", "mass" (kg), "center_of_mass" [3] (m, link frame),
      "principal_moments" [3] (kg·m², about the centre of mass, ascending),
+     "inertia" 3×3 (kg·m², the declared tensor about the centre of mass, link axes),
      "geometry": {"source": "collision" | "visual", "volume" (m³), "density" (kg/m³: mass ÷
                   volume), "center_of_mass" [3] (m, link frame), "inertia" 3×3 (kg·m², about
                   the geometry's centre of mass, link axes, the declared mass spread
@@ -68,6 +69,7 @@ def _link_entry(link: LinkDescription, geometry: LinkGeometry | None) -> dict[st
         "mass": link.mass,
         "center_of_mass": link.center_of_mass.tolist(),
         "principal_moments": principal_moments(link.inertia).tolist(),
+        "inertia": link.inertia.tolist(),
         "geometry": shape,
     }
 

@@ -61,12 +61,14 @@ class LinkGeometry:
 @dataclass(frozen=True, eq=False)
 class LinkCheck:
     """A link as declared: `mass` (kg), `center_of_mass` (3,) m in the link frame,
-    `principal_moments` (3,) kg·m² ascending, and its `geometry` (None without a shape)."""
+    `principal_moments` (3,) kg·m² ascending, `inertia` (3, 3) kg·m² about the centre of mass
+    in the link axes, and its `geometry` (None without a shape)."""
 
     name: str
     mass: float
     center_of_mass: np.ndarray
     principal_moments: np.ndarray
+    inertia: np.ndarray
     geometry: LinkGeometry | None
 
     @classmethod
@@ -77,6 +79,7 @@ class LinkCheck:
             mass=float(data["mass"]),
             center_of_mass=np.asarray(data["center_of_mass"], dtype=np.float64),
             principal_moments=np.asarray(data["principal_moments"], dtype=np.float64),
+            inertia=np.asarray(data["inertia"], dtype=np.float64),
             geometry=None if geometry is None else LinkGeometry.from_json(geometry),
         )
 

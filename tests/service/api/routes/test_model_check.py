@@ -299,6 +299,10 @@ def test_a_repaired_variant_computes_with_the_repaired_inertias(client):
     assert variant["parent"] == parent["id"]
     repairs = variant["modifications"]["inertias"]["repairs"]
     assert {r["link"] for r in repairs} == {"neg", "tri", "nomass"}
+    # its warnings: each repair, no longer the errors it repaired
+    warned = {(w["name"], w["code"]) for w in variant["warnings"]}
+    assert {(name, "inertia_repaired") for name in ("neg", "tri", "nomass")} <= warned
+    assert not {code for _, code in warned} & ERRORS
     assert not [f for f in _check(client, variant["id"])["findings"] if f["code"] in ERRORS]
     # the same description written with the repaired inertias, built by the URDF parser
     written = _upload(client, urdf(_repaired_by_hand()), "warn")

@@ -55,6 +55,13 @@ def _child(conn: Any, job: str, inputs: CheckInputs, selection: Any, how: str) -
         conn.send(("invalid", exc.detail))
     except MemoryError:
         conn.send(("failed", "the model check needed more than its memory limit"))
+    except Exception as exc:  # geometry it cannot use (a degenerate mesh, say): named, no trace
+        conn.send(
+            (
+                "failed",
+                f"the model check could not use this model's geometry ({type(exc).__name__})",
+            )
+        )
     finally:
         conn.close()
 

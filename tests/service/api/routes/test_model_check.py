@@ -394,3 +394,25 @@ def test_the_catalogs_errors_are_found_where_validation_finds_them(client):
 def test_an_unknown_robot_is_a_404(client):
     answer = client.get("/v1/robots/nowhere/model-check")
     assert answer.status_code == 404 and answer.json()["code"] == "robot_not_found"
+
+
+def test_an_upload_repairs_a_link_with_a_shape_from_its_shape(client):
+    # the "tri" slip on a link with a box: repaired to the box's closed form with its mass
+    sides, mass = (0.1, 0.2, 0.4), 1.6
+    size = " ".join(map(str, sides))
+    box = f'<collision><geometry><box size="{size}"/></geometry></collision>'
+    text = urdf().replace(
+        'izz="1.676" ixy="0.0" ixz="0.0" iyz="0.0"/></inertial></link>',
+        f'izz="1.676" ixy="0.0" ixz="0.0" iyz="0.0"/></inertial>{box}</link>',
+    )
+    assert box in text
+    robot = _upload(client, text, "repair")
+    messages = {
+        w["name"]: w["message"] for w in robot["warnings"] if w["code"] == "inertia_repaired"
+    }
+    assert "geometry" in messages["tri"] and "nearest valid" in messages["neg"]
+    tri = next(link for link in _check(client, robot["id"])["links"] if link["name"] == "tri")
+    a, b, c = sides
+    expected = sorted(mass / 12 * x for x in (b * b + c * c, a * a + c * c, a * a + b * b))
+    np.testing.assert_allclose(tri["principal_moments"], expected, rtol=1e-9)
+    np.testing.assert_allclose(tri["center_of_mass"], [0, 0, 0], atol=1e-15)

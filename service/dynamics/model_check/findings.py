@@ -3,7 +3,7 @@
 Errors (no rigid body has them; `service.registry.inertia_rules`, the rules uploads apply):
 `negative_principal_moment`, `triangle_inequality`, `inertia_without_mass`, with the
 power-of-ten `suggestion` where exactly one attribute explains the error. Warnings (possible,
-rarely meant), judged on links without error:
+rarely meant), judged on links without error (`mirror_asymmetry` on every pair):
 
 - `point_mass_with_geometry`: mass > 0, inertia 0, and the link has geometry;
 - `massless_with_geometry`: mass 0, collision geometry, and the link moves;
@@ -15,7 +15,8 @@ rarely meant), judged on links without error:
   with the declared mass (the i-th smallest against the i-th smallest), on links that are not
   point masses;
 - `open_mesh`: a mesh of the geometry is not closed; its convex hull was used;
-- `mirror_asymmetry` (a pair): `twins` below.
+- `mirror_asymmetry` (a pair): `twins` below, with equal masses (1e-9 relative) and a
+  principal moment differing by more than half of the larger one.
 """
 
 from __future__ import annotations

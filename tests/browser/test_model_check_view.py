@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from tests.browser.test_explorer import open_explorer
 
@@ -87,3 +88,29 @@ def test_the_view_shows_the_findings_draws_the_ellipsoids_and_repairs(page, serv
     for axes in repaired:
         assert np.allclose(axes, sorted(math.sqrt(5 / 12) * s for s in SIDES), rtol=1e-9)
     assert not page.log.page_errors and not page.log.console_errors
+
+
+def test_the_pages_eigen_decomposition_and_ellipsoid_match_numpys(page, server):
+    """The view's own linear algebra (Jacobi rotations) on a rotated, full tensor."""
+    rng = np.random.default_rng(3)
+    axes, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    moments = np.array([0.02, 0.05, 0.06])
+    inertia = axes @ np.diag(moments) @ axes.T
+    page.goto(server + "/")
+    got = page.evaluate(
+        """async (inertia) => {
+        const m = await import('./static/model_check_view.js');
+        const { values, vectors } = m.symmetricEigen(inertia);
+        const e = m.inertiaEllipsoid(3.0, inertia, [0, 0, 0], '#000000');
+        return { values, vectors, radii: e.radii, axes: e.axes };
+    }""",
+        inertia.tolist(),
+    )
+    order = np.argsort(got["values"])
+    np.testing.assert_allclose(np.array(got["values"])[order], moments, rtol=1e-12)
+    vectors = np.array(got["vectors"])
+    np.testing.assert_allclose(vectors @ np.diag(got["values"]) @ vectors.T, inertia, atol=1e-15)
+    # the uniform ellipsoid of 3 kg with these moments: aᵢ² = 5/(2m) (λⱼ + λₖ − λᵢ)
+    expected = np.sqrt(5 / 6 * (moments.sum() - 2 * moments))
+    np.testing.assert_allclose(np.array(got["radii"])[order], expected, rtol=1e-12)
+    assert np.linalg.det(np.array(got["axes"])) == pytest.approx(1.0, abs=1e-12)

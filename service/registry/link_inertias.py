@@ -6,7 +6,7 @@ body frame F (its placement in the joint frame): inertias[F.parentJoint] += F.pl
 Inertia(m, c, I). Replacing a link's (m, c, I) by (m, c', I') is linear in the inertial
 parameters π (`toDynamicParameters`: m, m c, the inertia about the joint origin):
 π_body' = π_body − π(F · old) + π(F · new), exact whatever else the body carries. A repair
-is a mapping {"link", "mass", "center_of_mass", "inertia", "was": {"center_of_mass",
+is a mapping {"link", "mass", "center_of_mass", "inertia", "declared": {"center_of_mass",
 "inertia"}} (kg, m, kg·m² about the centre of mass, link axes).
 """
 
@@ -50,9 +50,9 @@ def with_link_inertias(model: Any, repairs: Sequence[Mapping[str, Any]]) -> Any:
         frame = out.frames[out.getFrameId(link, pin.FrameType.BODY)]
         joint = frame.parentJoint
         pi = np.asarray(out.inertias[joint].toDynamicParameters(), dtype=float)
-        was = repair["was"]
+        declared = repair["declared"]
         mass = float(repair["mass"])
-        pi -= _parameters(mass, was["center_of_mass"], was["inertia"], frame.placement)
+        pi -= _parameters(mass, declared["center_of_mass"], declared["inertia"], frame.placement)
         pi += _parameters(mass, repair["center_of_mass"], repair["inertia"], frame.placement)
         out.inertias[joint] = _inertia(pi)
     return out
@@ -83,7 +83,7 @@ def repaired_warnings(
 ) -> list[dict[str, Any]]:
     """A robot's warnings after its inertia repairs (an upload's `inertia_check: "repair"`, a
     variant's `inertias`): the errors of repaired links replaced by one `inertia_repaired`
-    each, saying what was done."""
+    each, saying what it does."""
     if not repairs:
         return warnings
     repaired = {r["link"]: r for r in repairs}

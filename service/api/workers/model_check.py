@@ -8,7 +8,7 @@ changes under its id (ids are content-derived; catalog robots are the installed 
 is computed once per process and kept (`MAX_KEPT` robots, least recently asked dropped first).
 
 Outcomes: the answer; `InvalidInput` (422) for a repair the robot cannot have (an unknown link,
-a link without geometry repaired from it); `Overloaded` (503) when the child was starved of
+a link without geometry repaired from it); `Overloaded` (503) when the child is starved of
 CPU, killed from outside or could not start; `UnsupportedModel` (422) when the check itself
 went past its limits on this model.
 """

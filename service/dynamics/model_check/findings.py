@@ -14,7 +14,7 @@ rarely meant), judged on links without error (`mirror_asymmetry` on every pair):
 - `inertia_geometry_mismatch`: a principal moment over 10 × or under 1/10 of the geometry's
   with the declared mass (the i-th smallest against the i-th smallest), on links that are not
   point masses;
-- `open_mesh`: a mesh of the geometry is not closed; its convex hull was used;
+- `open_mesh`: a mesh of the geometry is not closed; its convex hull stands in for it;
 - `mirror_asymmetry` (a pair): `twins` below, with equal masses (1e-9 relative) and a
   principal moment differing by more than half of the larger one.
 """

@@ -72,14 +72,15 @@ def repair_record(
     link: LinkDescription, how: str, center: np.ndarray, inertia: np.ndarray
 ) -> dict[str, Any]:
     """A repair as stored and applied (`service.registry.link_inertias`): the link, how, its
-    mass, and the centre of mass (m) and inertia (kg·m², about it, link axes) before and after."""
+    mass, the repaired centre of mass (m) and inertia (kg·m², about it, link axes), and the
+    `declared` ones it replaces."""
     return {
         "link": link.name,
         "from": how,
         "mass": float(link.mass),
         "center_of_mass": [float(x) + 0.0 for x in center],
         "inertia": [[float(x) + 0.0 for x in row] for row in inertia],
-        "was": {
+        "declared": {
             "center_of_mass": [float(x) + 0.0 for x in link.center_of_mass],
             "inertia": [[float(x) + 0.0 for x in row] for row in link.inertia],
         },

@@ -2,7 +2,7 @@
 
 `model_check(inputs)` answers {"findings": [...], "links": [...]}: the findings of every link
 (`findings`: its error, else its warnings), then `mirror_asymmetry` for each left/right pair;
-and one entry per link with mass or geometry,
+and one entry per link with mass, inertia or geometry,
 
     {"name", "mass" (kg), "center_of_mass" [3] (m, link frame),
      "principal_moments" [3] (kg·m², about the centre of mass, ascending),

@@ -299,7 +299,7 @@ def test_a_repaired_variant_computes_with_the_repaired_inertias(client):
     assert variant["parent"] == parent["id"]
     repairs = variant["modifications"]["inertias"]["repairs"]
     assert {r["link"] for r in repairs} == {"neg", "tri", "nomass"}
-    # its warnings: each repair, no longer the errors it repaired
+    # its warnings: each repair, in place of the error it repairs
     warned = {(w["name"], w["code"]) for w in variant["warnings"]}
     assert {(name, "inertia_repaired") for name in ("neg", "tri", "nomass")} <= warned
     assert not {code for _, code in warned} & ERRORS

@@ -51,8 +51,9 @@ class BaseClient:
 
     @property
     def base_url(self) -> str:
-        """The server's base URL, e.g. `http://127.0.0.1:8000`."""
-        return self._settings.base_url
+        """The server's base URL, e.g. `http://127.0.0.1:8000` (or `unix:///path` for a
+        Unix socket)."""
+        return self._settings.address
 
     def _report(self, progress: _progress.Progress) -> _progress.Progress:
         """Where to report progress: `progress` of this call, else the client's (None)."""
@@ -118,26 +119,32 @@ class SyncSender(BaseClient):
 
     def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
         url, headers, body = self._settings.prepare(call, listener is not None)
-        content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
-        with (
-            transport.wrapped(call.method, url),
-            self._http.stream(call.method, url, content=content, headers=headers) as response,
-        ):
-            if listener is not None and core.is_progress_stream(response):
-                lines = core.ProgressLines(call, listener)
-                for line in response.iter_lines():
-                    lines.feed(line)
-                return lines.result()
-            length = core.binary_length(response)
-            if length is None:
-                response.read()
-                received = None
-            else:  # a large binary answer: straight into one buffer
-                receiver = core.Receiver(response, length)
-                for chunk in response.iter_raw():
-                    receiver.add(chunk)
-                received = receiver.finish()
-        return core.read_response(call, response, received)
+        segment, body = self._settings.shared_body(call, headers, body)
+        try:
+            content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
+            received: Any
+            with (
+                transport.wrapped(call.method, url),
+                self._http.stream(call.method, url, content=content, headers=headers) as response,
+            ):
+                if listener is not None and core.is_progress_stream(response):
+                    lines = core.ProgressLines(call, listener)
+                    for line in response.iter_lines():
+                        lines.feed(line)
+                    return lines.result()
+                length = core.binary_length(response)
+                if length is None:
+                    response.read()
+                    received = transport.shared_answer(segment, response)
+                else:  # a large binary answer: straight into one buffer
+                    receiver = core.Receiver(response, length)
+                    for chunk in response.iter_raw():
+                        receiver.add(chunk)
+                    received = receiver.finish()
+            return core.read_response(call, response, received)
+        finally:
+            if segment is not None:  # its files removed, whatever happened
+                segment.release()
 
     def close(self) -> None:
         """Close the connection pool (not an injected `http_client`)."""
@@ -191,26 +198,32 @@ class AsyncSender(BaseClient):
 
     async def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
         url, headers, body = self._settings.prepare(call, listener is not None)
-        content: Any = transport.parts_async(body) if isinstance(body, list) else body
-        with transport.wrapped(call.method, url):
-            async with self._http.stream(
-                call.method, url, content=content, headers=headers
-            ) as response:
-                if listener is not None and core.is_progress_stream(response):
-                    lines = core.ProgressLines(call, listener)
-                    async for line in response.aiter_lines():
-                        lines.feed(line)
-                    return lines.result()
-                length = core.binary_length(response)
-                if length is None:
-                    await response.aread()
-                    received = None
-                else:  # a large binary answer: straight into one buffer
-                    receiver = core.Receiver(response, length)
-                    async for chunk in response.aiter_raw():
-                        receiver.add(chunk)
-                    received = receiver.finish()
-        return core.read_response(call, response, received)
+        segment, body = self._settings.shared_body(call, headers, body)
+        try:
+            content: Any = transport.parts_async(body) if isinstance(body, list) else body
+            received: Any
+            with transport.wrapped(call.method, url):
+                async with self._http.stream(
+                    call.method, url, content=content, headers=headers
+                ) as response:
+                    if listener is not None and core.is_progress_stream(response):
+                        lines = core.ProgressLines(call, listener)
+                        async for line in response.aiter_lines():
+                            lines.feed(line)
+                        return lines.result()
+                    length = core.binary_length(response)
+                    if length is None:
+                        await response.aread()
+                        received = transport.shared_answer(segment, response)
+                    else:  # a large binary answer: straight into one buffer
+                        receiver = core.Receiver(response, length)
+                        async for chunk in response.aiter_raw():
+                            receiver.add(chunk)
+                        received = receiver.finish()
+            return core.read_response(call, response, received)
+        finally:
+            if segment is not None:  # its files removed, whatever happened
+                segment.release()
 
     async def aclose(self) -> None:
         """Close the connection pool (not an injected `http_client`)."""

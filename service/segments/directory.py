@@ -137,11 +137,14 @@ class SegmentDirectory:
         except OSError as exc:
             raise SegmentDirectoryError(f"cannot create {self.link}: {exc.strerror}") from None
 
-    def remove(self, name: str) -> None:
-        """Remove the request segment `name` and its answer (each if present)."""
+    def remove(self, name: str) -> int:
+        """Remove the request segment `name` and its answer (each if present); how many."""
+        removed = 0
         for each in (name + ANSWER_SUFFIX, name):
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(self.path / each)
+                removed += 1
+        return removed
 
     def sweep(self, everything: bool = False) -> int:
         """Remove the segments whose client is gone (see the module docstring), or with
@@ -154,8 +157,10 @@ class SegmentDirectory:
         for name in names:
             path = self.path / name
             if NAME.fullmatch(name):
-                gone = everything or not held(path)
-            elif name.endswith(ANSWER_SUFFIX) and NAME.fullmatch(name[: -len(ANSWER_SUFFIX)]):
+                if everything or not held(path):
+                    removed += self.remove(name)  # with its answer
+                continue
+            if name.endswith(ANSWER_SUFFIX) and NAME.fullmatch(name[: -len(ANSWER_SUFFIX)]):
                 gone = everything or not os.path.lexists(self.path / name[: -len(ANSWER_SUFFIX)])
             elif TEMPORARY.fullmatch(name):
                 gone = everything or (not held(path) and _age_s(path) > TEMPORARY_GRACE_S)

@@ -2,17 +2,22 @@
 
 Names (nothing else in the directory is touched):
 
-    r-<32 hex>          a request body, created and locked by its client (flock, shared)
-    r-<32 hex>.answer   the binary answer to it, written by the service
-    .r-<32 hex>.tmp     a request body being written, renamed to r-<32 hex> once locked
+    c-<32 hex>          a client's body file, reused from request to request, locked (flock,
+                        shared) by the client for as long as it keeps it
+    r-<32 hex>          one request's body: a link to a client's body file, named in the request
+    r-<32 hex>.answer   the answer to it: a link to an answer file of the service (or a file of
+                        its own), named in the answer
+    s-<32 hex>          an answer file a server process reuses, locked by that process
+                        (`service.segments.answer_pool`)
+    .<name>.tmp         a c- or s- file being made, renamed once locked
 
-A client holds its lock on `r-<32 hex>` from before the file has that name until it has read
-the answer and removed both files; the lock is released by the kernel when the client's process
-ends, however it ends. So a segment nobody holds is one whose client is gone, and the sweeper
-removes it with its answer; an answer without its request, and a temporary file unlocked for
-longer than `TEMPORARY_GRACE_S`, likewise. Each server process sweeps at start-up and every
-`SWEEP_INTERVAL_S`; `python -m service` removes the directory on shutdown. The directory is
-in memory (tmpfs) wherever the machine allows: see `SegmentDirectory.create`.
+A client holds its lock from before its body file has a name until it has read the answer and
+removed the request's names; the kernel releases the lock when the process ends, however it
+ends. So a request whose body nobody holds is one whose client is gone: the sweeper removes it
+and its answer; so are a body or answer file nobody holds, an answer without its request, and a
+temporary file unlocked for longer than `TEMPORARY_GRACE_S`. Each server process sweeps at
+start-up and every `SWEEP_INTERVAL_S`; `python -m service` removes the directory on shutdown.
+The directory is in memory (tmpfs) wherever the machine allows: see `SegmentDirectory.create`.
 """
 
 from __future__ import annotations
@@ -27,11 +32,14 @@ import tempfile
 import time
 from pathlib import Path
 
+from service.segments.answer_pool import AnswerPool
+
 log = logging.getLogger("robodyn")
 
 NAME = re.compile(r"r-[0-9a-f]{32}")
 ANSWER_SUFFIX = ".answer"
-TEMPORARY = re.compile(r"\.r-[0-9a-f]{32}\.tmp")
+HELD_FILE = re.compile(r"[cs]-[0-9a-f]{32}")  # a client's body file, a server's answer file
+TEMPORARY = re.compile(r"\.[cs]-[0-9a-f]{32}\.tmp")
 TEMPORARY_GRACE_S = 10.0  # an unlocked temporary file younger than this may be being created
 SWEEP_INTERVAL_S = 2.0
 DIRECTORY_SUFFIX = ".segments"
@@ -90,6 +98,7 @@ class SegmentDirectory:
     def __init__(self, link: str | os.PathLike[str]) -> None:
         self.link = Path(link)
         self.path = self.link
+        self.answers = AnswerPool(self.path)
 
     def create(self) -> None:
         """Make the directory (mode 0700), or take over an existing one of this user (left by
@@ -117,6 +126,7 @@ class SegmentDirectory:
         if not stat.S_ISDIR(info.st_mode) or info.st_uid != os.geteuid():
             raise SegmentDirectoryError(f"{self.path} is not a directory of this user")
         os.chmod(self.path, 0o700)  # private, whatever the umask or an earlier run left
+        self.answers = AnswerPool(self.path)
         self.sweep()
 
     def _make(self) -> Path:
@@ -162,6 +172,8 @@ class SegmentDirectory:
                 continue
             if name.endswith(ANSWER_SUFFIX) and NAME.fullmatch(name[: -len(ANSWER_SUFFIX)]):
                 gone = everything or not os.path.lexists(self.path / name[: -len(ANSWER_SUFFIX)])
+            elif HELD_FILE.fullmatch(name):
+                gone = everything or not held(path)
             elif TEMPORARY.fullmatch(name):
                 gone = everything or (not held(path) and _age_s(path) > TEMPORARY_GRACE_S)
             else:
@@ -176,6 +188,7 @@ class SegmentDirectory:
 
     def delete(self) -> None:
         """Remove every segment and the directory itself (the server is shutting down)."""
+        self.answers.close()
         self.sweep(everything=True)
         with contextlib.suppress(OSError):  # (files of other names: not the service's)
             os.rmdir(self.path)

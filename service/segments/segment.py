@@ -1,29 +1,30 @@
 """One request's shared-memory segments on the service's side (see `service.segments`).
 
-    segment = RequestSegment(directory, name, max_bytes)   # the client's body, mapped
-    ... decode and compute from segment.body (a read-only mmap) ...
-    segment.write_answer(parts)                           # r-<hex>.answer, named in the answer
-    segment.end()                                         # always, when the request ends
+    segment = RequestSegment(directory, name, length, max_bytes)  # the client's body, mapped
+    ... decode and compute from segment.body (a read-only mmap of `length` bytes) ...
+    segment.write_answer(parts)   # into an answer file, linked as <name>.answer
+    segment.end()                 # always, when the request ends
 
-Who removes what, when: the client removes both files once it has read the answer (or met an
-error), then releases its lock. `end()` removes them when the client no longer holds its lock
-(killed mid-request, or gone before the answer); if the client dies after `end()`, the sweeper
-of `SegmentDirectory` does. The service checks what it maps: a regular file (not a link) of its
-own user, readable by no one else, at most `max_bytes` long.
+Who removes what, when: the client removes the request's names (`<name>`, `<name>.answer`)
+once it has copied the answer out (or met an error), keeping its body file for its next
+request. `end()` removes them when the client no longer holds its lock (killed mid-request, or
+gone before the answer); if the client dies after `end()`, the sweeper of `SegmentDirectory`
+does. The service checks what it maps: a regular file (not a link) of its own user, readable by
+no one else, holding at least `length` bytes, `length` at most `max_bytes`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import mmap
 import os
 import stat
 from collections.abc import Sequence
 
-from service.segments.directory import ANSWER_SUFFIX, NAME, SegmentDirectory
+from service.segments.directory import ANSWER_SUFFIX, NAME, SegmentDirectory, held
 
 IOV_MAX = 512  # buffers per writev call (Linux allows 1024)
+_POPULATE = getattr(mmap, "MAP_POPULATE", 0)
 
 
 class SegmentError(Exception):
@@ -31,24 +32,26 @@ class SegmentError(Exception):
 
 
 class SegmentTooLarge(SegmentError):
-    """A segment over the body limit: `size` bytes."""
+    """A body over the body limit: `size` bytes."""
 
     def __init__(self, size: int, limit: int) -> None:
-        super().__init__(f"the shared-memory segment has {size} bytes; the limit is {limit}")
+        super().__init__(f"the shared-memory body has {size} bytes; the limit is {limit}")
         self.size, self.limit = size, limit
 
 
 class RequestSegment:
-    """The segment `name` of `directory`, as a client wrote it: `body` is its content (a
-    read-only mmap, or b"" when empty), `size` its length in bytes."""
+    """The first `length` bytes of the segment `name` of `directory`, as a client wrote them:
+    `body` (a read-only mmap, or b"" when empty)."""
 
-    def __init__(self, directory: SegmentDirectory, name: str, max_bytes: int) -> None:
+    def __init__(self, directory: SegmentDirectory, name: str, length: int, max_bytes: int) -> None:
         if not NAME.fullmatch(name):
             raise SegmentError(
                 f"{name[:80]!r} is not a segment name ('r-' and 32 lower-case hex digits)"
             )
-        self.directory, self.name = directory, name
-        self.answer_name: str | None = None
+        if length > max_bytes:
+            raise SegmentTooLarge(length, max_bytes)
+        self.directory, self.name, self.length = directory, name, length
+        self.answer: str | None = None  # the value of Robodyn-Shared-Answer, once written
         self.body: mmap.mmap | bytes = b""
         flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK
         try:
@@ -73,34 +76,51 @@ class RequestSegment:
                     "the shared-memory segment is not a regular file of the service's user "
                     "readable by no one else (mode 0600)"
                 )
-            self.size = info.st_size
-            if self.size > max_bytes:
-                raise SegmentTooLarge(self.size, max_bytes)
-            if self.size:
-                self.body = mmap.mmap(self._fd, self.size, access=mmap.ACCESS_READ)
+            if info.st_size < length:
+                raise SegmentError(
+                    f"the shared-memory segment holds {info.st_size} bytes, fewer than the "
+                    f"{length} the request names"
+                )
+            if length:  # (its pages mapped at once: 2 ms for 9.2 MB, not 6 fault by fault)
+                self.body = mmap.mmap(
+                    self._fd, length, flags=mmap.MAP_SHARED | _POPULATE, prot=mmap.PROT_READ
+                )
         except BaseException:
             os.close(self._fd)
             raise
 
     def write_answer(self, parts: Sequence[bytes | memoryview]) -> str:
-        """Write an answer (its parts one after the other) into `<name>.answer`, readable
-        only by the service's user; its name."""
+        """Write an answer (its parts one after the other) into a free answer file of this
+        process (or a new file of its own) linked as `<name>.answer`; the value of the
+        answer's `Robodyn-Shared-Answer`: that name and the answer's length in bytes."""
+        views = [memoryview(p).cast("B") for p in parts if len(p)]
+        size = sum(len(v) for v in views)
         name = self.name + ANSWER_SUFFIX
-        flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
-        fd = os.open(self.directory.path / name, flags, 0o600)
-        try:
-            write_all(fd, parts)
-        except BaseException:
-            os.unlink(self.directory.path / name)
-            raise
-        finally:
-            os.close(fd)
-        self.answer_name = name
-        return name
+        path = self.directory.path
+        pool = self.directory.answers
+        file = pool.take(size)
+        if file is None:
+            flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+            fd = os.open(path / name, flags, 0o600)
+            try:
+                write_all(fd, views)
+            except BaseException:
+                os.unlink(path / name)
+                raise
+            finally:
+                os.close(fd)
+        else:
+            try:
+                file.write(views)
+                os.link(path / file.name, path / name)
+            finally:
+                pool.give(file)
+        self.answer = f"{name} {size}"
+        return self.answer
 
     def end(self) -> None:
-        """The request is over, however it ended: unmap the body, and remove the segments
-        when their client no longer holds its lock (it is gone)."""
+        """The request is over, however it ended: unmap the body, and remove the request's
+        names when their client no longer holds its lock (it is gone)."""
         body, self.body = self.body, b""
         if isinstance(body, mmap.mmap):
             # (arrays still viewing it: it is unmapped once they are collected)
@@ -108,22 +128,21 @@ class RequestSegment:
                 body.close()
         if self._fd < 0:
             return
-        try:
-            try:
-                fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                return  # the client is there: it removes them once it has read the answer
-            self.directory.remove(self.name)
-        finally:
-            os.close(self._fd)
-            self._fd = -1
+        os.close(self._fd)
+        self._fd = -1
+        # Tested on a description of its own: the mapping's (a duplicate of `_fd`) may outlive
+        # this request, and a lock taken through it would last as long.
+        if not held(self.directory.path / self.name):
+            self.directory.remove(self.name)  # (a client still there removes them itself)
 
 
-def write_all(fd: int, parts: Sequence[bytes | memoryview]) -> None:
-    """Write `parts` to `fd` one after the other (writev, whatever it writes at a time)."""
-    pending = [memoryview(p).cast("B") for p in parts if len(p)]
+def write_all(fd: int, views: Sequence[memoryview], offset: int = 0) -> None:
+    """Write `views` (bytes) one after the other into `fd` from `offset` (pwritev, whatever
+    it writes at a time)."""
+    pending = [v for v in views if len(v)]
     while pending:
-        written = os.writev(fd, pending[:IOV_MAX])
+        written = os.pwritev(fd, pending[:IOV_MAX], offset)
+        offset += written
         while written:
             if written >= len(pending[0]):
                 written -= len(pending.pop(0))

@@ -24,6 +24,7 @@ import pytest
 from robodyn import AsyncClient, Client, PayloadTooLargeError, UnauthorizedError, shared_memory
 from robodyn.errors import DimensionMismatchError, RobotNotFoundError
 
+from service.segments.directory import held
 from tests.client.helpers import RTOL, Reference
 from tests.servers import running_server
 
@@ -55,7 +56,9 @@ def segments_of(sock: Path) -> Path:
 
 
 def leftovers(sock: Path) -> list[str]:
-    return sorted(os.listdir(segments_of(sock)))
+    """The files of the segment directory but the service's own answer files (`s-`, kept
+    mapped by each server process for the next answers, removed at its shutdown)."""
+    return sorted(n for n in os.listdir(segments_of(sock)) if not n.startswith("s-"))
 
 
 def wait_until_empty(sock: Path) -> list[str]:
@@ -187,7 +190,7 @@ def test_segments_are_refused_where_they_do_not_belong(sockets):
     headers = {
         "authorization": f"Bearer {KEY}",
         "content-type": "application/vnd.robodyn.safetensors",
-        "robodyn-shared-body": "r-" + "0" * 32,
+        "robodyn-shared-body": "r-" + "0" * 32 + " 100",
     }
     path = "/v1/robots/ur5/gravity"
     tcp = httpx.post(url + path, headers=headers, timeout=10)
@@ -195,11 +198,20 @@ def test_segments_are_refused_where_they_do_not_belong(sockets):
     with httpx.Client(transport=httpx.HTTPTransport(uds=str(sock)), timeout=10) as local:
         missing = local.post("http://localhost" + path, headers=headers)
         assert missing.status_code == 422 and "does not exist" in missing.json()["detail"]
-        for name in ("../robodyn.sock", "r-" + "0" * 31 + "/", "R-" + "0" * 32):
+        for name in ("../robodyn.sock 100", "r-" + "0" * 31 + "/ 100", "R-" + "0" * 32 + " 1"):
             bad = local.post(
                 "http://localhost" + path, headers={**headers, "robodyn-shared-body": name}
             )
             assert bad.status_code == 422 and "not a segment name" in bad.json()["detail"]
+        unsized = local.post(
+            "http://localhost" + path, headers={**headers, "robodyn-shared-body": "r-" + "0" * 32}
+        )
+        assert unsized.status_code == 422 and "length in bytes" in unsized.json()["detail"]
+        huge = local.post(
+            "http://localhost" + path,
+            headers={**headers, "robodyn-shared-body": "r-" + "0" * 32 + f" {BODY_LIMIT + 1}"},
+        )
+        assert huge.status_code == 413 and huge.json()["code"] == "payload_too_large"
         elsewhere = local.get("http://localhost/v1/robots/ur5", headers=headers)
         assert elsewhere.status_code == 422 and "dynamics routes" in elsewhere.json()["detail"]
         assert local.get("http://localhost/health/ready").status_code == 200
@@ -231,14 +243,15 @@ def test_nothing_is_left_after_a_client_is_killed_mid_request(
         )
         try:
             deadline = time.monotonic() + 60
-            while not any(n.startswith("r-") for n in leftovers(sock)):
+            while not any(n.startswith("r-") for n in leftovers(sock)):  # a request named
                 assert proc.poll() is None and time.monotonic() < deadline
                 time.sleep(0.01)
             time.sleep(delay)
         finally:
             proc.send_signal(signal.SIGKILL)
             proc.wait(10)
-        assert wait_until_empty(sock) == []
+        left = wait_until_empty(sock)
+        assert left == [], (delay, left, [held(segments_of(sock) / n) for n in left])
     with Client(f"unix://{sock}", api_key=KEY) as client:  # still serving
         assert client.ready()
 
@@ -246,7 +259,7 @@ def test_nothing_is_left_after_a_client_is_killed_mid_request(
 LOCKED_SEGMENT = """
 import sys, time
 from robodyn import shared_memory
-segment = shared_memory.Segment.create(sys.argv[1], [b"x" * 100_000])
+segment = shared_memory.SharedMemory(sys.argv[1]).segment([b"x" * 100_000])
 print(segment.name, flush=True)
 time.sleep(600)
 """
@@ -256,7 +269,7 @@ def test_a_segment_whose_client_died_before_sending_is_swept(sockets):
     _, sock = sockets
     env = {**os.environ, "PYTHONPATH": str(ROOT / "clients/python/src")}
     proc = subprocess.Popen(
-        [sys.executable, "-c", LOCKED_SEGMENT, shared_memory.directory_of(str(sock))],
+        [sys.executable, "-c", LOCKED_SEGMENT, str(sock)],
         env=env,
         stdout=subprocess.PIPE,
         text=True,
@@ -265,7 +278,7 @@ def test_a_segment_whose_client_died_before_sending_is_swept(sockets):
         assert proc.stdout is not None
         name = proc.stdout.readline().strip()
         time.sleep(3.0)  # more than a sweep: a live client's segment is kept
-        assert name in leftovers(sock)
+        assert name in leftovers(sock)  # (with its body file, c-...)
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait(10)

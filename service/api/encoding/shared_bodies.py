@@ -1,11 +1,12 @@
 """Binary bodies and answers through shared memory, for clients on the server's Unix socket
 (`service.segments`; docs/binary-format.md, "Through shared memory").
 
-A dynamics request over the Unix socket may say `Robodyn-Shared-Body: r-<32 hex>` and carry no
-body: its body in the binary form (the same safetensors file it would send) is that segment of
-the server's segment directory. Its binary answer is then written to `r-<32 hex>.answer`, and
-the answer names it in `Robodyn-Shared-Answer` with an empty body; errors are problem+json
-through the socket as always. API keys and every limit apply as to any request: the body limit
+A dynamics request over the Unix socket may say `Robodyn-Shared-Body: r-<32 hex> <length>` and
+carry no body: its body in the binary form (the same safetensors file it would send) is the
+first `length` bytes of that segment of the server's segment directory. Its binary answer is
+then written to `r-<32 hex>.answer`, and the answer says `Robodyn-Shared-Answer: r-<32
+hex>.answer <length>` with an empty body; errors are problem+json through the socket as
+always. API keys and every limit apply as to any request: the body limit
 (ROBODYN_MAX_BODY_BYTES) to the segment's size.
 """
 
@@ -31,7 +32,8 @@ ANSWER_HEADER = b"robodyn-shared-answer"
 
 
 def shared_body_name(scope: Scope) -> str | None:
-    """The segment a request names in `Robodyn-Shared-Body`, or None."""
+    """What a request says in `Robodyn-Shared-Body` (its segment's name and the body's
+    length), or None."""
     for name, value in scope["headers"]:
         if name == BODY_HEADER:
             return str(value.decode("latin-1").strip())
@@ -44,9 +46,9 @@ def over_unix_socket(scope: Scope) -> bool:
     return server is not None and len(server) == 2 and server[1] is None
 
 
-def open_shared_body(scope: Scope, name: str) -> RequestSegment:
-    """The segment `name` of a request's `Robodyn-Shared-Body`, mapped; a 4xx domain error
-    when it cannot be used."""
+def open_shared_body(scope: Scope, named: str) -> RequestSegment:
+    """The body a request names in `Robodyn-Shared-Body` (`r-<32 hex> <length>`), mapped; a
+    4xx domain error when it cannot be used."""
     state = scope["app"].state
     directory: SegmentDirectory | None = state.segments
     if directory is None or not over_unix_socket(scope):
@@ -67,9 +69,15 @@ def open_shared_body(scope: Scope, name: str) -> RequestSegment:
         )
     if length.strip() != "0":
         raise InvalidInput("a request with Robodyn-Shared-Body carries no body of its own")
+    name, _, length = named.partition(" ")
+    if not length.strip().isdigit() or len(length) > 20:
+        raise InvalidInput(
+            "Robodyn-Shared-Body is a segment's name and the body's length in bytes, "
+            "separated by a space"
+        )
     limit = state.settings.max_body_bytes
     try:
-        return RequestSegment(directory, name, limit)
+        return RequestSegment(directory, name, int(length), limit)
     except SegmentTooLarge:
         raise PayloadTooLarge(
             f"the request body is larger than the limit of {limit} bytes (ROBODYN_MAX_BODY_BYTES)"

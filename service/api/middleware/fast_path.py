@@ -97,8 +97,8 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
             await _problem(scope, receive, send, exc)
             return
         shared = (
-            [(ANSWER_HEADER, segment.answer_name.encode())]
-            if segment is not None and segment.answer_name is not None
+            [(ANSWER_HEADER, segment.answer.encode())]
+            if segment is not None and segment.answer is not None
             else []
         )
         await _send_content(scope, send, content, media_type, shared)

@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[3]
 HOLDER = """
 import sys, time
 from robodyn import shared_memory
-segment = shared_memory.Segment.create(sys.argv[1], [b"x" * 1000])
+segment = shared_memory.SharedMemory(sys.argv[1]).segment([b"x" * 1000])
 print(segment.name, flush=True)
 time.sleep(600)
 """
@@ -59,42 +59,53 @@ def test_a_path_taken_by_something_else_is_refused(tmp_path: Path):
         SegmentDirectory(tmp_path / "x.segments").create()
 
 
+def _socket_of(directory: SegmentDirectory) -> str:
+    return str(directory.link)[: -len(".segments")]
+
+
 def test_a_body_round_trip_and_who_removes_it(directory: SegmentDirectory):
     q = np.random.default_rng(0).normal(size=(300, 7))
+    client = shared_memory.SharedMemory(_socket_of(directory))
     parts = binary.encode_parts({"q": q})
-    segment = shared_memory.Segment.create(str(directory.link), parts)
-    assert segment is not None
-    served = RequestSegment(directory, segment.name, 1 << 20)
-    fields, arrays = binary.decode(served.body)
-    assert fields == {} and np.array_equal(arrays["q"], q)
-    del arrays
-    answer = {"tau": q * 2}
-    name = served.write_answer(binary.encode_parts(answer))
-    served.end()  # the client holds its lock: the files stay for it
-    assert sorted(os.listdir(directory.path)) == [segment.name, name]
-    mapped = segment.answer(name, 200)
-    assert np.array_equal(np.frombuffer(mapped, offset=len(parts[0])).reshape(300, 7), q * 2)
-    segment.release()
-    assert os.listdir(directory.path) == []
-    mapped[0:1] = b"!"  # the client's copy-on-write mapping: its own, after the files are gone
+    answers = []
+    for round_ in range(3):  # the body file and the answer file are reused
+        segment = client.segment(parts)
+        assert segment is not None and segment.length == sum(len(p) for p in parts)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 20)
+        fields, arrays = binary.decode(served.body)
+        assert fields == {} and np.array_equal(arrays["q"], q)
+        del arrays
+        header = served.write_answer(binary.encode_parts({"tau": q * round_}))
+        served.end()  # the client holds its lock: the names stay for it
+        names = sorted(os.listdir(directory.path))
+        assert [n[:2] for n in names] == ["c-", "r-", "r-", "s-"]
+        answers.append(segment.answer(header, 200))
+        segment.release()
+        assert [n[:2] for n in sorted(os.listdir(directory.path))] == ["c-", "s-"]
+    for round_, content in enumerate(answers):  # each answer the caller's own copy
+        assert np.array_equal(binary.decode(content)[1]["tau"], q * round_)
+    client.close()
+    assert [n[:2] for n in os.listdir(directory.path)] == ["s-"]  # the service's, kept
 
 
-def test_the_service_removes_the_segments_of_a_client_gone(directory: SegmentDirectory):
-    segment = shared_memory.Segment.create(str(directory.link), [b"x" * 100])
+def test_the_service_removes_the_names_of_a_client_gone(directory: SegmentDirectory):
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    segment = client.segment([b"x" * 100])
     assert segment is not None
-    served = RequestSegment(directory, segment.name, 1 << 20)
-    os.close(segment._fd)  # the client's process ends: its lock goes with its descriptor
-    segment._fd = -1
+    served = RequestSegment(directory, segment.name, 100, 1 << 20)
+    client.close()  # (as the client's process ending: its lock goes with its descriptor)
+    os.close(segment._file.fd)
     served.write_answer([b"y" * 64])
-    served.end()
-    assert os.listdir(directory.path) == []
-    os.close(segment._directory)
+    served.end()  # the request's names: removed at once
+    assert sorted(n[:2] for n in os.listdir(directory.path)) == ["c-", "s-"]
+    assert directory.sweep() == 1  # the dead client's body file: by the sweeper
+    assert [n[:2] for n in os.listdir(directory.path)] == ["s-"]
 
 
 def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: SegmentDirectory):
     env = {**os.environ, "PYTHONPATH": str(ROOT / "clients/python/src")}
     holder = subprocess.Popen(
-        [sys.executable, "-c", HOLDER, str(directory.link)],
+        [sys.executable, "-c", HOLDER, _socket_of(directory)],
         env=env,
         stdout=subprocess.PIPE,
         text=True,
@@ -102,22 +113,26 @@ def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: Segment
     try:
         assert holder.stdout is not None
         name = holder.stdout.readline().strip()
+        body_file = next(n for n in os.listdir(directory.path) if n.startswith("c-"))
         orphan = directory.path / ("r-" + "a" * 32 + ".answer")  # its request is gone
         orphan.write_bytes(b"z")
-        stale = directory.path / (".r-" + "b" * 32 + ".tmp")  # a creator died long ago
+        stale = directory.path / (".c-" + "b" * 32 + ".tmp")  # a creator died long ago
         stale.write_bytes(b"z")
         old = time.time() - 2 * TEMPORARY_GRACE_S
         os.utime(stale, (old, old))
-        fresh = directory.path / (".r-" + "c" * 32 + ".tmp")  # maybe being created now
+        fresh = directory.path / (".c-" + "c" * 32 + ".tmp")  # maybe being created now
         fresh.write_bytes(b"z")
+        dead_server = directory.path / ("s-" + "d" * 32)  # no process holds it
+        dead_server.write_bytes(b"z")
         other = directory.path / "not-ours"
         other.write_bytes(b"z")
-        assert directory.sweep() == 2
-        assert sorted(os.listdir(directory.path)) == sorted([name, fresh.name, other.name])
+        assert directory.sweep() == 3
+        kept = [name, body_file, fresh.name, other.name]
+        assert sorted(os.listdir(directory.path)) == sorted(kept)
         holder.send_signal(signal.SIGKILL)
         holder.wait(10)
         (directory.path / (name + ".answer")).write_bytes(b"z")
-        assert directory.sweep() == 2  # the dead client's request and answer
+        assert directory.sweep() == 3  # the dead client's request, answer and body file
         assert sorted(os.listdir(directory.path)) == sorted([fresh.name, other.name])
     finally:
         if holder.poll() is None:
@@ -129,35 +144,35 @@ def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: Segment
 
 
 def test_what_the_service_refuses_to_map(directory: SegmentDirectory, tmp_path: Path):
-    for name in ("../x", "r-" + "0" * 31, "r-" + "G" * 32, ".r-" + "0" * 32 + ".tmp"):
+    for name in ("../x", "r-" + "0" * 31, "r-" + "G" * 32, "c-" + "0" * 32):
         with pytest.raises(SegmentError, match="not a segment name"):
-            RequestSegment(directory, name, 1024)
+            RequestSegment(directory, name, 16, 1024)
     with pytest.raises(SegmentError, match="does not exist"):
-        RequestSegment(directory, "r-" + "0" * 32, 1024)
+        RequestSegment(directory, "r-" + "0" * 32, 16, 1024)
     readable = directory.path / ("r-" + "1" * 32)
     readable.write_bytes(b"x" * 16)
     os.chmod(readable, 0o644)
     with pytest.raises(SegmentError, match="readable by no one else"):
-        RequestSegment(directory, readable.name, 1024)
+        RequestSegment(directory, readable.name, 16, 1024)
+    os.chmod(readable, 0o600)
+    with pytest.raises(SegmentError, match="holds 16 bytes, fewer than the 17"):
+        RequestSegment(directory, readable.name, 17, 1024)
     target = tmp_path / "elsewhere"
     target.write_bytes(b"x" * 16)
     os.chmod(target, 0o600)
     os.symlink(target, directory.path / ("r-" + "2" * 32))
     with pytest.raises(SegmentError, match="cannot be opened"):
-        RequestSegment(directory, "r-" + "2" * 32, 1024)
-    large = directory.path / ("r-" + "3" * 32)
-    large.write_bytes(b"x" * 2048)
-    os.chmod(large, 0o600)
+        RequestSegment(directory, "r-" + "2" * 32, 16, 1024)
     with pytest.raises(SegmentTooLarge):
-        RequestSegment(directory, large.name, 1024)
+        RequestSegment(directory, readable.name, 2048, 1024)
     for each in os.listdir(directory.path):
         os.unlink(directory.path / each)
 
 
 def test_a_client_uses_no_directory_that_is_not_its_own_and_private(tmp_path: Path):
-    public = tmp_path / "public"
+    public = tmp_path / "public.segments"
     public.mkdir(mode=0o755)
     os.chmod(public, 0o755)
-    assert shared_memory.Segment.create(str(public), [b"x"]) is None
-    assert shared_memory.Segment.create(str(tmp_path / "missing"), [b"x"]) is None
+    assert shared_memory.SharedMemory(str(tmp_path / "public")).segment([b"x"]) is None
+    assert shared_memory.SharedMemory(str(tmp_path / "missing")).segment([b"x"]) is None
     assert os.listdir(public) == []

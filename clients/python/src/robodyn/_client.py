@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 
 import httpx
 
-from robodyn import core, outputs, transport
+from robodyn import core, outputs, shared_memory, transport
 from robodyn import progress as _progress
 from robodyn.core import Call
 from robodyn.request_options import Fill
@@ -48,6 +48,8 @@ class BaseClient:
         self._array_type = outputs.check_array_type(array_type)
         self._progress = _progress.check(progress)
         self._owns_http = http_client is None
+        unix_socket = self._settings.unix_socket
+        self._shared = None if unix_socket is None else shared_memory.SharedMemory(unix_socket)
 
     @property
     def base_url(self) -> str:
@@ -119,7 +121,7 @@ class SyncSender(BaseClient):
 
     def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
         url, headers, body = self._settings.prepare(call, listener is not None)
-        segment, body = self._settings.shared_body(call, headers, body)
+        segment, body = transport.shared_body(self._shared, call, headers, body)
         try:
             content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
             received: Any
@@ -147,7 +149,10 @@ class SyncSender(BaseClient):
                 segment.release()
 
     def close(self) -> None:
-        """Close the connection pool (not an injected `http_client`)."""
+        """Close the connection pool (not an injected `http_client`) and remove the
+        client's shared-memory files."""
+        if self._shared is not None:
+            self._shared.close()
         if self._owns_http:
             self._http.close()
 
@@ -198,7 +203,7 @@ class AsyncSender(BaseClient):
 
     async def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
         url, headers, body = self._settings.prepare(call, listener is not None)
-        segment, body = self._settings.shared_body(call, headers, body)
+        segment, body = transport.shared_body(self._shared, call, headers, body)
         try:
             content: Any = transport.parts_async(body) if isinstance(body, list) else body
             received: Any
@@ -226,6 +231,9 @@ class AsyncSender(BaseClient):
                 segment.release()
 
     async def aclose(self) -> None:
-        """Close the connection pool (not an injected `http_client`)."""
+        """Close the connection pool (not an injected `http_client`) and remove the
+        client's shared-memory files."""
+        if self._shared is not None:
+            self._shared.close()
         if self._owns_http:
             await self._http.aclose()

@@ -8,7 +8,6 @@ and hand the response to `read_response`. That is the only difference between th
 from __future__ import annotations
 
 import json
-import mmap
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -152,7 +151,7 @@ WARNING_HEADER = "robodyn-warning"  # what the server computed as given but find
 
 
 def read_response(
-    call: Call[T], response: httpx.Response, received: bytearray | mmap.mmap | None = None
+    call: Call[T], response: httpx.Response, received: bytearray | memoryview | None = None
 ) -> T:
     """The result of `call` from its answer; an `APIError` subclass for an error status.
     `received` is the body already read into a buffer (see `binary_length`), if it was."""

@@ -3,7 +3,6 @@ and retries of requests a busy or restarting server could not answer."""
 
 from __future__ import annotations
 
-import mmap
 import os
 import time
 from collections.abc import AsyncIterator, Iterator, Mapping
@@ -107,27 +106,6 @@ class Settings:
         """The server as the user named it: `unix:///path` for a Unix socket, else the URL."""
         return f"unix://{self.unix_socket}" if self.unix_socket else self.base_url
 
-    def shared_body(
-        self, call: Call[Any], headers: dict[str, str], body: Body | None
-    ) -> tuple[shared_memory.Segment | None, Body | None]:
-        """Over a Unix socket, a binary body of `shared_memory.SHARED_FROM` bytes or more
-        written into a shared-memory segment, and the request's headers naming it: (the
-        segment, an empty body). Otherwise, or when no segment can be made: (None, `body`)."""
-        if (
-            self.unix_socket is None
-            or not call.shared_memory
-            or not isinstance(body, list)
-            or headers.get("Content-Type") != binary.MEDIA_TYPE
-            or sum(len(part) for part in body) < shared_memory.SHARED_FROM
-        ):
-            return None, body
-        segment = shared_memory.Segment.create(shared_memory.directory_of(self.unix_socket), body)
-        if segment is None:
-            return None, body
-        headers["Content-Length"] = "0"
-        headers[shared_memory.BODY_HEADER] = segment.name
-        return segment, b""
-
     def prepare(
         self, call: Call[Any], with_progress: bool = False
     ) -> tuple[str, dict[str, str], Body | None]:
@@ -215,15 +193,41 @@ def async_http_transport(settings: Settings) -> httpx.AsyncHTTPTransport | None:
     return httpx.AsyncHTTPTransport(uds=settings.unix_socket, limits=DEFAULT_LIMITS)
 
 
+def shared_body(
+    shared: shared_memory.SharedMemory | None,
+    call: Call[Any],
+    headers: dict[str, str],
+    body: Body | None,
+) -> tuple[shared_memory.Segment | None, Body | None]:
+    """Over a Unix socket (`shared` is the client's `SharedMemory`), a binary body of
+    `shared_memory.SHARED_FROM` bytes or more written into shared memory, and the request's
+    headers naming it: (the segment, an empty body). Otherwise, or when no segment can be
+    made: (None, `body`)."""
+    if (
+        shared is None
+        or not call.shared_memory
+        or not isinstance(body, list)
+        or headers.get("Content-Type") != binary.MEDIA_TYPE
+        or sum(len(part) for part in body) < shared_memory.SHARED_FROM
+    ):
+        return None, body
+    segment = shared.segment(body)
+    if segment is None:
+        return None, body
+    headers["Content-Length"] = "0"
+    headers[shared_memory.BODY_HEADER] = segment.header
+    return segment, b""
+
+
 def shared_answer(
     segment: shared_memory.Segment | None, response: httpx.Response
-) -> mmap.mmap | None:
-    """The answer the server wrote into shared memory (named in its headers), mapped; None
-    when it sent its answer through the socket."""
+) -> memoryview | None:
+    """The answer the server wrote into shared memory (named in its headers), copied out;
+    None when it sent its answer through the socket."""
     if segment is None or not 200 <= response.status_code <= 299:
         return None
-    name = response.headers.get(shared_memory.ANSWER_HEADER)
-    return None if name is None else segment.answer(name, response.status_code)
+    value = response.headers.get(shared_memory.ANSWER_HEADER)
+    return None if value is None else segment.answer(value, response.status_code)
 
 
 async def parts_async(parts: list[bytes | memoryview]) -> AsyncIterator[bytes | memoryview]:

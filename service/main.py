@@ -79,6 +79,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         yield
         if sweeper is not None:
             sweeper.cancel()
+        if segments is not None:  # this process's answer files (the directory: __main__'s)
+            segments.answers.close()
         worker = getattr(app.state, "identification", None)
         if worker is not None:  # the identification worker process, if one was started
             worker.close()

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 MAX_FILES = 4
-MAX_BYTES = 512 * 1024 * 1024
+MAX_BYTES = 256 * 1024 * 1024
 _POPULATE = getattr(mmap, "MAP_POPULATE", 0)  # pages mapped at once, not one fault each
 
 

@@ -7,7 +7,7 @@ first `length` bytes of that segment of the server's segment directory. Its bina
 then written to `r-<32 hex>.answer`, and the answer says `Robodyn-Shared-Answer: r-<32
 hex>.answer <length>` with an empty body; errors are problem+json through the socket as
 always. API keys and every limit apply as to any request: the body limit
-(ROBODYN_MAX_BODY_BYTES) to the segment's size.
+(ROBODYN_MAX_BODY_BYTES) to the length of the body in shared memory.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ BODY_HEADER = b"robodyn-shared-body"
 ANSWER_HEADER = b"robodyn-shared-answer"
 
 
-def shared_body_name(scope: Scope) -> str | None:
+def shared_body_header(scope: Scope) -> str | None:
     """What a request says in `Robodyn-Shared-Body` (its segment's name and the body's
     length), or None."""
     for name, value in scope["headers"]:

@@ -21,7 +21,7 @@ from service.api.encoding.shared_bodies import (
     ANSWER_HEADER,
     answer_writer,
     open_shared_body,
-    shared_body_name,
+    shared_body_header,
 )
 from service.api.problems.handlers import handler_for
 from service.api.progress import ProgressAnswer, wants_progress
@@ -57,7 +57,7 @@ class DynamicsFastPath:
                     finally:  # sent, failed or abandoned: the answer's bytes are no longer held
                         release_answer_bytes(scope, scope["app"])
                     return
-        if scope["type"] == "http" and shared_body_name(scope) is not None:
+        if scope["type"] == "http" and shared_body_header(scope) is not None:
             await _problem(
                 scope,
                 receive,
@@ -76,7 +76,7 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
     segment: RequestSegment | None = None
     try:
         try:
-            name = shared_body_name(scope)
+            name = shared_body_header(scope)
             if name is None:
                 body: Any = await _body(scope, receive)
             else:

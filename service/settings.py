@@ -22,6 +22,21 @@ class Settings(BaseSettings):
     host: str = Field("127.0.0.1", description="Interface to listen on.")
     port: int = Field(8000, ge=0, le=65535, description="TCP port to listen on.")
     workers: int = Field(1, ge=1, le=64, description="Server processes (uvicorn workers).")
+    unix_socket: Path | None = Field(
+        None,
+        description="Also serve the whole API on this Unix domain socket (a path), for "
+        "clients on the same host (`unix://` URLs of the Python client): their large binary "
+        "batches travel through shared memory, in the private directory `<path>.segments` "
+        "beside it. API keys and every limit apply as over TCP. The socket and the directory "
+        "are removed on shutdown.",
+    )
+    unix_socket_mode: str = Field(
+        "0600",
+        pattern=r"^0?[0-7]{3}$",
+        description="File mode of the Unix socket, in octal (0600: only the service's user "
+        "may connect; 0660 adds its group). Shared-memory segments are 0600 whatever it is: "
+        "a client on another user account is served through the socket itself.",
+    )
     data_dir: Path = Field(
         default_factory=_default_data_dir,
         description="Directory of the durable model store; replicas sharing it share uploads.",
@@ -270,6 +285,10 @@ class Settings(BaseSettings):
         "file-descriptor limit less 64); beyond, a new connection evicts the one idle "
         "longest, or is answered 503 overloaded when all are busy.",
     )
+
+    def unix_socket_mode_bits(self) -> int:
+        """`unix_socket_mode` as permission bits (e.g. 0o600)."""
+        return int(self.unix_socket_mode, 8)
 
     def api_key_list(self) -> list[str]:
         return [k.strip() for k in self.api_keys.split(",") if k.strip()]

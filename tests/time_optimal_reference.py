@@ -1,0 +1,179 @@
+"""The time-optimal timing of a path as a convex program, for the tests of retime and for
+bench/: an independent reference of the optimum retime approaches (its own spline, its own
+torque coefficients by `pin.rnea` point by point, its own discretization and solver).
+
+The formulation of Verscheure, Demeulenaere, Swevers, De Schutter and Diehl, "Time-optimal
+path tracking for robots: a convex optimization approach" (IEEE TAC 2009): along the path q(s)
+(the clamped cubic spline through the waypoints, s the cumulative joint-space distance), with
+b = ṡ² at the gridpoints s_0 … s_N of a uniform grid and a constant path acceleration
+u_i = (b_{i+1} − b_i) / (2 Δ) on each interval, the duration is
+
+    T = Σ_i 2 Δ / (√b_i + √b_{i+1})
+
+— convex in b — and every limit is affine in (u_i, b), here imposed at each interval's
+midpoint (b there the mean of its ends): |q'_j b^½| ≤ v_j, |q'_j u + q''_j b| ≤ a_j,
+|A_j u + B_j b + C_j| ≤ τ_j with A = M q', B = M q'' + C(q, q') q', C = g(q). The program is
+solved by Clarabel through cvxpy. As the grid is refined its optimum converges to the optimum
+of the continuous problem; `extrapolated_optimum` solves it on N, 2N and 4N intervals and
+extrapolates (Richardson, with the order the three solutions show).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+import scipy.sparse as sparse
+from scipy.interpolate import CubicSpline
+
+
+@dataclass(frozen=True)
+class PathLimits:
+    """Per joint (nv): velocity, effort and acceleration limits, NaN where there is none."""
+
+    velocity: np.ndarray
+    effort: np.ndarray
+    acceleration: np.ndarray
+
+
+def model_limits(
+    model: pin.Model,
+    velocity_scale: float = 1.0,
+    effort_scale: float = 1.0,
+    acceleration: np.ndarray | None = None,
+) -> PathLimits:
+    """The model's velocity and effort limits × the scales (none where not > 0 and finite),
+    and the joint acceleration limits given (NaN or None entries: none)."""
+
+    def usable(values: np.ndarray, scale: float) -> np.ndarray:
+        values = np.asarray(values, dtype=float)
+        ok = np.isfinite(values) & (values > 0) & (values < 1e300)
+        return np.where(ok, values * scale, np.nan)
+
+    acc = np.full(model.nv, np.nan) if acceleration is None else acceleration
+    acc = np.array([np.nan if x is None else float(x) for x in acc])
+    return PathLimits(
+        usable(model.velocityLimit, velocity_scale), usable(model.effortLimit, effort_scale), acc
+    )
+
+
+def waypoint_spline(waypoints: np.ndarray) -> CubicSpline:
+    """The path: the clamped cubic spline through the waypoints by cumulative distance."""
+    knots = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))])
+    return CubicSpline(knots, waypoints, bc_type="clamped")
+
+
+def convex_optimum(
+    model: pin.Model, waypoints: np.ndarray, limits: PathLimits, intervals: int
+) -> float:
+    """The optimal duration (s) of the discretized problem on `intervals` uniform intervals."""
+    import cvxpy as cp
+
+    spline = waypoint_spline(np.asarray(waypoints, dtype=float))
+    length = float(spline.x[-1])
+    n = intervals
+    delta = length / n
+    mid = (np.arange(n) + 0.5) * delta
+    q, dq, ddq = spline(mid), spline(mid, 1), spline(mid, 2)
+    data = model.createData()
+    zero = np.zeros(model.nv)
+    g = np.array([pin.rnea(model, data, q[i], zero, zero) for i in range(n)])
+    A = np.array([pin.rnea(model, data, q[i], zero, dq[i]) for i in range(n)]) - g
+    B = np.array([pin.rnea(model, data, q[i], dq[i], ddq[i]) for i in range(n)]) - g
+    # b at the midpoints and u on the intervals, as linear maps of b at the gridpoints
+    rows = np.arange(n)
+    mean = sparse.csr_matrix(
+        (np.full(2 * n, 0.5), (np.repeat(rows, 2), np.stack([rows, rows + 1], 1).ravel())),
+        shape=(n, n + 1),
+    )
+    slope = sparse.csr_matrix(
+        (
+            np.tile([-1.0, 1.0], n) / (2 * delta),
+            (np.repeat(rows, 2), np.stack([rows, rows + 1], 1).ravel()),
+        ),
+        shape=(n, n + 1),
+    )
+    blocks, bounds = [], []
+
+    def limit(u_part: np.ndarray, b_part: np.ndarray, constant: np.ndarray, high: float) -> None:
+        """|u_part u + b_part b + constant| ≤ high, divided by high."""
+        row = (sparse.diags(u_part / high) @ slope + sparse.diags(b_part / high) @ mean).tocsr()
+        blocks.extend([row, -row])
+        bounds.extend([1.0 - constant / high, 1.0 + constant / high])
+
+    for j in range(model.nv):
+        if np.isfinite(limits.velocity[j]):
+            blocks.append(sparse.diags(dq[:, j] ** 2 / limits.velocity[j] ** 2) @ mean)
+            bounds.append(np.ones(n))
+        if np.isfinite(limits.acceleration[j]):
+            limit(dq[:, j], ddq[:, j], np.zeros(n), limits.acceleration[j])
+        if np.isfinite(limits.effort[j]):
+            limit(A[:, j], B[:, j], g[:, j], limits.effort[j])
+    G = sparse.vstack(blocks).tocsc()
+    h = np.concatenate(bounds)
+    b = cp.Variable(n + 1)
+    c = cp.Variable(n + 1)
+    constraints = [G @ b <= h, b >= 0, b[0] == 0, b[n] == 0, c >= 0, c <= cp.sqrt(b)]
+    duration = cp.sum(cp.multiply(2 * delta, cp.inv_pos(c[:-1] + c[1:])))
+    problem = cp.Problem(cp.Minimize(duration), constraints)
+    problem.solve(solver=cp.CLARABEL)
+    if problem.status not in ("optimal", "optimal_inaccurate"):
+        raise RuntimeError(f"the convex program is {problem.status}")
+    # the duration of the solution itself (b at the gridpoints), not the solver's bound
+    root = np.sqrt(np.maximum(np.asarray(b.value), 0.0))
+    return float(np.sum(2 * delta / (root[:-1] + root[1:])))
+
+
+def extrapolated_optimum(
+    model: pin.Model, waypoints: np.ndarray, limits: PathLimits, intervals: int
+) -> tuple[float, list[float]]:
+    """The optimum of the continuous problem, extrapolated from the convex program on
+    `intervals`, 2 × and 4 × as many intervals: T* = T₄ − (T₂ − T₄) / (2ᵖ − 1), the order p
+    from the three (kept within [1, 2]); (T*, [T₁, T₂, T₄])."""
+    durations = [convex_optimum(model, waypoints, limits, intervals * k) for k in (1, 2, 4)]
+    t1, t2, t4 = durations
+    if (t1 - t2) * (t2 - t4) > 0:
+        order = float(np.clip(np.log2((t1 - t2) / (t2 - t4)), 1.0, 2.0))
+    else:
+        order = 2.0  # no monotone trend: the finest solution, barely corrected
+    return t4 - (t2 - t4) / (2.0**order - 1.0), durations
+
+
+def _box(model: pin.Model, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+    """The middle of the position limits and `fraction` of their half range (at most 3)."""
+    low, high = model.lowerPositionLimit, model.upperPositionLimit
+    return (low + high) / 2, fraction * np.minimum((high - low) / 2, 3.0)
+
+
+def random_path(model: pin.Model, rng: np.random.Generator, count: int) -> np.ndarray:
+    """`count` waypoints drawn uniformly within 0.8 of the position limits (of ±3 at most)."""
+    middle, half = _box(model, 0.8)
+    return middle + half * rng.uniform(-1, 1, (count, model.nq))
+
+
+def long_sweep(model: pin.Model, legs: int = 20) -> np.ndarray:
+    """Back and forth `legs` times between two opposite corners of 0.9 of the limits."""
+    middle, half = _box(model, 0.9)
+    return np.array([middle - half if k % 2 == 0 else middle + half for k in range(legs + 1)])
+
+
+def random_walk(model: pin.Model, rng: np.random.Generator, count: int = 300) -> np.ndarray:
+    """`count` waypoints, each a normal step (σ = 0.15 rad or m per joint) from the one
+    before, kept within 0.9 of the limits."""
+    middle, half = _box(model, 0.9)
+    walk = [middle.copy()]
+    for _ in range(count - 1):
+        walk.append(np.clip(walk[-1] + rng.normal(0, 0.15, model.nq), middle - half, middle + half))
+    return np.array(walk)
+
+
+def zigzag(model: pin.Model, count: int = 60, amplitude: float = 0.3) -> np.ndarray:
+    """`count` waypoints alternating ± `amplitude` about the middle of the limits, on every
+    other joint and the last two."""
+    middle, _ = _box(model, 0.9)
+    sign = np.where(np.arange(count) % 2 == 1, 1.0, -1.0)
+    moving = np.zeros(model.nq)
+    moving[::2] = 1.0
+    moving[-2:] = 1.0
+    return middle + amplitude * sign[:, None] * moving[None, :]

@@ -133,9 +133,11 @@ def retime(
     clamped: zero derivative at both ends; parameterised by the cumulative joint-space
     distance between waypoints), from rest to rest, under the joint velocity limits ×
     limits.velocity_scale, the effort limits × limits.effort_scale and the joint accelerations
-    limits.acceleration [nv] where given: TOPP-RA (toppra) with the limits kept at 9 points of
-    each of about 200 path intervals, then verified between them and corrected, so that the
-    motion is within every limit everywhere (1e-6 relative). Answer: `duration` (s), samples
+    limits.acceleration [nv] where given (an entry null: no limit on that joint): TOPP-RA
+    (toppra) with the limits kept at 3 points of each of 800 + 16 per segment path intervals,
+    then verified between them and corrected, so that the motion is within every limit
+    everywhere (1e-6 relative) and at most 1 % slower than the optimum. A waypoint on a
+    position limit is within it. Answer: `duration` (s), samples
     every `sample_dt` s and at the end — `t` [M], `q` [M][nq], `v`, `a`, `tau` [M][nv] — and
     `check`, the trajectory check of those samples. Robots whose joints are all revolute or
     prismatic (else 422 unsupported_model); a path no timing can follow is 422

@@ -4,28 +4,32 @@ and corrected.
 
 1. The path: the clamped cubic spline through the waypoints, near-duplicates merged
    (`path.WaypointPath`).
-2. The grid: N intervals of the path (`INTERVALS`, the spline's knots among the gridpoints), and
-   a verification grid of V + 1 points per interval (`VERIFY_POINTS`).
-3. Before any timing: a path that leaves a joint's position limits, or on which gravity alone
-   needs more than a joint's torque limit, is `InfeasiblePath`: no timing can follow it.
+2. The grid (`gridpoints`): each spline segment gets MIN_SEGMENT_INTERVALS intervals plus its
+   share by length of INTERVALS, denser towards its knots (the spline's knots among the
+   gridpoints), and a verification grid of V + 1 points per interval (`VERIFY_POINTS`).
+3. Before any timing: a path that leaves a joint's position limits (the spline's exact
+   extremes), or on which gravity alone needs more than a joint's torque limit, is
+   `InfeasiblePath`: no timing can follow it.
 4. TOPP-RA (toppra's `TOPPRA` with its seidel solver) with the limits enforced at m + 1 points
-   of every interval (`constraints`, m = `SOLVE_POINTS`), each limit tightened by
-   `INITIAL_MARGIN`: the path speed profile x = ṡ² at the gridpoints (`profile.Profile`). The
-   solver works in the path's own units (`toppra_rows`: s / L and x / x̄), so that a path
-   1e-10 rad long, or limits 1e-10 of the model's, are timed like any other; a limit whose
-   path quantities overflow float64 is an InvalidInput naming it (`families`).
+   of every interval (`constraints`, m = `SOLVE_POINTS`: its ends and middle), each limit
+   tightened by `INITIAL_MARGIN`: the path speed profile x = ṡ² at the gridpoints
+   (`profile.Profile`). The solver works in the path's own units (`toppra_rows`: s / L and
+   x / x̄), so that a path 1e-10 rad long, or limits 1e-10 of the model's, are timed like any
+   other; a limit whose path quantities overflow float64 is an InvalidInput naming it
+   (`families`).
 5. The exact timed motion on the verification grid: every limited quantity's estimated maximum
    over each interval (`envelope`: the points' maximum plus a curvature margin) divided by
-   its limit. Where one exceeds `RESOLVE_ABOVE`, that joint's limit is tightened by 1.5 × the
-   overshoot and TOPP-RA runs again (up to `MAX_RESOLVES` times); a smaller overshoot (the
-   usual case: about 1e-4) is removed by slowing the whole motion uniformly by the smallest
+   its limit. Where one exceeds `TIGHTEN_ABOVE`, the limits of that interval are tightened by
+   the overshoot and TOPP-RA runs again (up to `MAX_TIGHTENINGS` times); what overshoot
+   remains (about 1e-4) is removed by slowing the whole motion uniformly by the smallest
    factor that does it (`families.slowdown`), which lengthens it by about half the overshoot.
 6. The answer: the motion sampled every `sample_dt` (and at its end), τ by RNEA, and the
    trajectory check of those samples. A motion longer than `max_samples` × `sample_dt` is
    refused (`TooManySamples`) however long it is: the limits decide what is infeasible, never
    the motion's length.
 
-Cost: TOPP-RA's rows (the limited quantities of every joint at 9 points of every interval) and
+Cost: TOPP-RA's rows (the limited quantities of every joint at 3 points of every interval), the
+path on the verification grid (9 points of every interval) and
 their solve grow with the path's intervals × nv × the limited quantities (`retime_work`), and
 are held at once (the solver needs the whole path). A request over `max_work` is refused before
 anything is computed (`admit_retime`: the service's ROBODYN_MAX_RETIME_WORK), from its number

@@ -369,9 +369,9 @@ def test_a_rest_to_rest_motion_through_six_waypoints_in_3_s(robots):
 def test_bad_acceleration_limits_and_boundary_are_named(robots):
     robot = robots.get("ur5")
     t, q = _motion(6)
-    with pytest.raises(DimensionMismatch, match="limits.acceleration has 5 entries"):
+    with pytest.raises(DimensionMismatch, match=r"limits\.acceleration has 5 entries"):
         check_trajectory(robot, t, q, acceleration=[1.0] * 5)
-    with pytest.raises(InvalidInput, match="limits.acceleration must be finite numbers .* 3"):
+    with pytest.raises(InvalidInput, match=r"limits\.acceleration must be finite numbers .* 3"):
         check_trajectory(robot, t, q, acceleration=[1.0, None, 2.0, -1.0, None, 1.0])
     with pytest.raises(InvalidInput, match="boundary must be one of not-a-knot, clamped"):
         check_trajectory(robot, t, q, boundary="periodic")

@@ -112,17 +112,42 @@ def convex_optimum(
             limit(A[:, j], B[:, j], g[:, j], limits.effort[j])
     G = sparse.vstack(blocks).tocsc()
     h = np.concatenate(bounds)
-    b = cp.Variable(n + 1)
-    c = cp.Variable(n + 1)
-    constraints = [G @ b <= h, b >= 0, b[0] == 0, b[n] == 0, c >= 0, c <= cp.sqrt(b)]
-    duration = cp.sum(cp.multiply(2 * delta, cp.inv_pos(c[:-1] + c[1:])))
+    # in units of a typical squared speed b̄ the rows allow: the solver's variables of order 1
+    # whatever the path and limits (Clarabel fails on some paths in the units of s)
+    scale = _speed_scale(G, h, n)
+    b = cp.Variable(n + 1)  # b / b̄
+    c = cp.Variable(n + 1)  # √(b / b̄)
+    constraints = [
+        (G * scale) @ b <= h,
+        b >= 0,
+        b[0] == 0,
+        b[n] == 0,
+        c >= 0,
+        c <= cp.sqrt(b),
+    ]
+    duration = cp.sum(cp.inv_pos(c[:-1] + c[1:]))  # × 2Δ / √b̄
     problem = cp.Problem(cp.Minimize(duration), constraints)
-    problem.solve(solver=cp.CLARABEL)
+    try:
+        problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        problem.solve(solver=cp.CLARABEL, max_iter=500, static_regularization_constant=1e-7)
     if problem.status not in ("optimal", "optimal_inaccurate"):
         raise RuntimeError(f"the convex program is {problem.status}")
     # the duration of the solution itself (b at the gridpoints), not the solver's bound
-    root = np.sqrt(np.maximum(np.asarray(b.value), 0.0))
+    root = np.sqrt(np.maximum(np.asarray(b.value) * scale, 0.0))
     return float(np.sum(2 * delta / (root[:-1] + root[1:])))
+
+
+def _speed_scale(G: sparse.csc_matrix, h: np.ndarray, n: int) -> float:
+    """b̄, a typical size of b the rows allow: the median over the gridpoints of the smallest
+    h / coefficient among the positive coefficients of b_i in the rows."""
+    rows = G.tocoo()
+    bound = np.full(n + 1, np.inf)
+    positive = rows.data > 0
+    ratio = h[rows.row[positive]] / rows.data[positive]
+    np.minimum.at(bound, rows.col[positive], np.maximum(ratio, 0.0))
+    usable = bound[np.isfinite(bound) & (bound > 0)]
+    return float(np.median(usable)) if usable.size else 1.0
 
 
 def extrapolated_optimum(

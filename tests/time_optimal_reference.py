@@ -95,26 +95,34 @@ def convex_optimum(
         shape=(n, n + 1),
     )
     blocks, bounds = [], []
+    allowed = np.full(n, np.inf)  # per midpoint, the largest b every limit allows at u = 0
 
     def limit(u_part: np.ndarray, b_part: np.ndarray, constant: np.ndarray, high: float) -> None:
         """|u_part u + b_part b + constant| ≤ high, divided by high."""
         row = (sparse.diags(u_part / high) @ slope + sparse.diags(b_part / high) @ mean).tocsr()
         blocks.extend([row, -row])
         bounds.extend([1.0 - constant / high, 1.0 + constant / high])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(np.abs(b_part) > 0, (high - np.abs(constant)) / np.abs(b_part), np.inf)
+        np.minimum(allowed, room, out=allowed)
 
     for j in range(model.nv):
         if np.isfinite(limits.velocity[j]):
             blocks.append(sparse.diags(dq[:, j] ** 2 / limits.velocity[j] ** 2) @ mean)
             bounds.append(np.ones(n))
+            with np.errstate(divide="ignore"):
+                np.minimum(allowed, limits.velocity[j] ** 2 / dq[:, j] ** 2, out=allowed)
         if np.isfinite(limits.acceleration[j]):
             limit(dq[:, j], ddq[:, j], np.zeros(n), limits.acceleration[j])
         if np.isfinite(limits.effort[j]):
             limit(A[:, j], B[:, j], g[:, j], limits.effort[j])
     G = sparse.vstack(blocks).tocsc()
     h = np.concatenate(bounds)
-    # in units of a typical squared speed b̄ the rows allow: the solver's variables of order 1
-    # whatever the path and limits (Clarabel fails on some paths in the units of s)
-    scale = _speed_scale(G, h, n)
+    # in units of b̄, the median over the midpoints of the largest b the limits allow at u = 0:
+    # the solver's variables of order 1 whatever the path and limits (Clarabel fails on some
+    # paths in the units of s)
+    usable = allowed[np.isfinite(allowed) & (allowed > 0)]
+    scale = float(np.median(usable)) if usable.size else 1.0
     b = cp.Variable(n + 1)  # b / b̄
     c = cp.Variable(n + 1)  # √(b / b̄)
     constraints = [
@@ -125,7 +133,7 @@ def convex_optimum(
         c >= 0,
         c <= cp.sqrt(b),
     ]
-    duration = cp.sum(cp.inv_pos(c[:-1] + c[1:]))  # × 2Δ / √b̄
+    duration = cp.sum(cp.inv_pos(c[:-1] + c[1:])) / n  # × 2 L / √b̄
     problem = cp.Problem(cp.Minimize(duration), constraints)
     try:
         problem.solve(solver=cp.CLARABEL)
@@ -136,18 +144,6 @@ def convex_optimum(
     # the duration of the solution itself (b at the gridpoints), not the solver's bound
     root = np.sqrt(np.maximum(np.asarray(b.value) * scale, 0.0))
     return float(np.sum(2 * delta / (root[:-1] + root[1:])))
-
-
-def _speed_scale(G: sparse.csc_matrix, h: np.ndarray, n: int) -> float:
-    """b̄, a typical size of b the rows allow: the median over the gridpoints of the smallest
-    h / coefficient among the positive coefficients of b_i in the rows."""
-    rows = G.tocoo()
-    bound = np.full(n + 1, np.inf)
-    positive = rows.data > 0
-    ratio = h[rows.row[positive]] / rows.data[positive]
-    np.minimum.at(bound, rows.col[positive], np.maximum(ratio, 0.0))
-    usable = bound[np.isfinite(bound) & (bound > 0)]
-    return float(np.median(usable)) if usable.size else 1.0
 
 
 def extrapolated_optimum(

@@ -75,6 +75,7 @@ VERIFY_POINTS = 8  # V: points per interval (a multiple of m) where the timing i
 INITIAL_MARGIN = 1e-6  # the solver sees every limit × (1 − this)
 TIGHTEN_ABOVE = 1.002  # an interval whose ratio is above this gets its limits tightened
 MAX_TIGHTENINGS = 3
+TIGHTEN_POWER = 2.0
 ROW_GROUP = 8  # solver rows per toppra constraint object
 MAX_SAMPLES = 20_000  # samples of the answer (200 s every 0.01 s)
 MAX_PATH_SPEED2 = 1e7  # X = ṡ² / x̄ this large: no limit bounds the speed (toppra caps at 1e8)
@@ -413,7 +414,7 @@ def _solve_and_tighten(
         if max(float(r.max()) for r in over) <= TIGHTEN_ABOVE:
             break
         for shrink, ratio in zip(tightening, over, strict=True):
-            shrink[:intervals] /= np.maximum(ratio, 1.0)
+            shrink[:intervals] /= np.maximum(ratio, 1.0) ** TIGHTEN_POWER
         x, _ = _toppra(path, grid, fams, tightening)
         if x is None:  # (rounding at a standstill): keep the last timing, slow it down
             break

@@ -1,6 +1,7 @@
 """The trajectory check against in-process Pinocchio and closed forms: τ at the samples by
-RNEA, v and a from the not-a-knot spline (exact for a cubic motion), violations found between
-samples, the work against the change of mechanical energy, and the input errors."""
+RNEA, v and a from the spline (exact for a cubic motion; every boundary against scipy's
+CubicSpline of the same bc_type), acceleration peaks, ratios and violations, violations found
+between samples, the work against the change of mechanical energy, and the input errors."""
 
 from __future__ import annotations
 

@@ -20,17 +20,18 @@ and corrected.
 5. The exact timed motion on the verification grid: every limited quantity's estimated maximum
    over each interval (`envelope`: the points' maximum plus a curvature margin) divided by
    its limit. Where one exceeds `TIGHTEN_ABOVE`, the limits of that interval are tightened by
-   the overshoot and TOPP-RA runs again (up to `MAX_TIGHTENINGS` times); what overshoot
-   remains (about 1e-4) is removed by slowing the whole motion uniformly by the smallest
-   factor that does it (`families.slowdown`), which lengthens it by about half the overshoot.
+   the square of the overshoot and TOPP-RA runs again (up to `MAX_TIGHTENINGS` times; the
+   motion slows there only); what overshoot remains (about 1e-4) is removed by slowing the
+   whole motion uniformly by the smallest factor that does it (`families.slowdown`), which
+   lengthens it by about half the overshoot.
 6. The answer: the motion sampled every `sample_dt` (and at its end), τ by RNEA, and the
    trajectory check of those samples. A motion longer than `max_samples` × `sample_dt` is
    refused (`TooManySamples`) however long it is: the limits decide what is infeasible, never
    the motion's length.
 
 Cost: TOPP-RA's rows (the limited quantities of every joint at 3 points of every interval), the
-path on the verification grid (9 points of every interval) and
-their solve grow with the path's intervals × nv × the limited quantities (`retime_work`), and
+path on the verification grid (9 points of every interval) and their solve grow with the
+path's intervals × nv × the limited quantities (`retime_work`), and
 are held at once (the solver needs the whole path). A request over `max_work` is refused before
 anything is computed (`admit_retime`: the service's ROBODYN_MAX_RETIME_WORK), from its number
 of waypoints: the grid has at most INTERVALS + MIN_SEGMENT_INTERVALS × (K − 1) intervals.
@@ -75,7 +76,7 @@ VERIFY_POINTS = 8  # V: points per interval (a multiple of m) where the timing i
 INITIAL_MARGIN = 1e-6  # the solver sees every limit × (1 − this)
 TIGHTEN_ABOVE = 1.002  # an interval whose ratio is above this gets its limits tightened
 MAX_TIGHTENINGS = 3
-TIGHTEN_POWER = 2.0
+TIGHTEN_POWER = 2.0  # by its ratio to this power (beyond the overshoot: one run, mostly)
 ROW_GROUP = 8  # solver rows per toppra constraint object
 MAX_SAMPLES = 20_000  # samples of the answer (200 s every 0.01 s)
 MAX_PATH_SPEED2 = 1e7  # X = ṡ² / x̄ this large: no limit bounds the speed (toppra caps at 1e8)
@@ -219,8 +220,7 @@ def retime(
     stop.stage = "TOPP-RA and correction"
     stop.poll(1)
     _require_followable(robot, path, dense, limits)
-    solved, toppra_duration, resolves = _solve_and_tighten(robot, path, grid, dense, limits)
-    profile, dense, fams = solved.profile, solved.dense, solved.fams
+    fams, profile, toppra_duration, resolves = _solve_and_tighten(robot, path, grid, dense, limits)
     factor = 1.0
     worst = max(float(ratios(f, profile, dense.theta).max()) for f in fams)
     if worst > 1.0:
@@ -369,34 +369,18 @@ def _toppra(
     return np.asarray(sd) ** 2 * speed2, K
 
 
-@dataclass(frozen=True)
-class _Solved:
-    """A TOPP-RA timing on a grid: the gridpoints, the path on them (`dense`), the limited
-    quantities there (`fams`) and the timing (`profile`)."""
-
-    grid: np.ndarray
-    dense: PathSamples
-    fams: list[Family]
-    profile: Profile
-
-
-def _interval_overshoot(solved: _Solved) -> list[np.ndarray]:
-    """Per family, each interval's largest value over its limit (envelopes), (N, J)."""
-    return [interval_ratios(f, solved.profile, solved.dense.theta) for f in solved.fams]
-
-
 def _solve_and_tighten(
     robot: Robot,
     path: WaypointPath,
     grid: np.ndarray,
     dense: PathSamples,
     limits: list[JointLimit],
-) -> tuple[_Solved, float, int]:
+) -> tuple[list[Family], Profile, float, int]:
     """TOPP-RA with the limits at the solver's points of every interval, then (step 5) the
-    limits of the intervals where the timed motion goes beyond one between those points by
-    more than TIGHTEN_ABOVE tightened there, by that overshoot, and TOPP-RA run again (up
-    to MAX_TIGHTENINGS times). Returns (the last timing, TOPP-RA's first duration, the
-    number of TOPP-RA runs after the first)."""
+    limits of each interval where the timed motion goes beyond one between those points by
+    more than TIGHTEN_ABOVE tightened there, by the overshoot to the power TIGHTEN_POWER, and
+    TOPP-RA run again (up to MAX_TIGHTENINGS times). Returns (the limited quantities, the
+    last timing, TOPP-RA's first duration, the number of TOPP-RA runs after the first)."""
     fams = families(dense, limits)
     if not fams:
         raise InvalidInput(
@@ -405,12 +389,12 @@ def _solve_and_tighten(
     x, K = _toppra(path, grid, fams, None)
     if x is None:
         raise _no_timing(path, dense, K, limits)
-    solved = _Solved(grid, dense, fams, Profile(grid, x))
-    first, runs = solved.profile.duration, 0
+    profile = Profile(grid, x)
+    first, runs = profile.duration, 0
     intervals = len(grid) - 1
     tightening = [np.ones((intervals + 1, len(f.joints))) for f in fams]
     for _ in range(MAX_TIGHTENINGS):
-        over = _interval_overshoot(solved)
+        over = [interval_ratios(f, profile, dense.theta) for f in fams]  # (N, J) each
         if max(float(r.max()) for r in over) <= TIGHTEN_ABOVE:
             break
         for shrink, ratio in zip(tightening, over, strict=True):
@@ -418,8 +402,8 @@ def _solve_and_tighten(
         x, _ = _toppra(path, grid, fams, tightening)
         if x is None:  # (rounding at a standstill): keep the last timing, slow it down
             break
-        solved, runs = _Solved(grid, dense, fams, Profile(grid, x)), runs + 1
-    return solved, first, runs
+        profile, runs = Profile(grid, x), runs + 1
+    return fams, profile, first, runs
 
 
 def _slow_down(

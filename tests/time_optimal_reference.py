@@ -82,57 +82,50 @@ def convex_optimum(
     g = np.array([pin.rnea(model, data, q[i], zero, zero) for i in range(n)])
     A = np.array([pin.rnea(model, data, q[i], zero, dq[i]) for i in range(n)]) - g
     B = np.array([pin.rnea(model, data, q[i], dq[i], ddq[i]) for i in range(n)]) - g
-    # b at the midpoints and u on the intervals, as linear maps of b at the gridpoints
+    # b at the midpoints, a linear map of b at the gridpoints
     rows = np.arange(n)
     mean = sparse.csr_matrix(
         (np.full(2 * n, 0.5), (np.repeat(rows, 2), np.stack([rows, rows + 1], 1).ravel())),
         shape=(n, n + 1),
     )
-    slope = sparse.csr_matrix(
-        (
-            np.tile([-1.0, 1.0], n) / (2 * delta),
-            (np.repeat(rows, 2), np.stack([rows, rows + 1], 1).ravel()),
-        ),
-        shape=(n, n + 1),
-    )
-    blocks, bounds = [], []
-    allowed = np.full(n, np.inf)  # per midpoint, the largest b every limit allows at u = 0
-
-    def limit(u_part: np.ndarray, b_part: np.ndarray, constant: np.ndarray, high: float) -> None:
-        """|u_part u + b_part b + constant| ≤ high, divided by high."""
-        row = (sparse.diags(u_part / high) @ slope + sparse.diags(b_part / high) @ mean).tocsr()
-        blocks.extend([row, -row])
-        bounds.extend([1.0 - constant / high, 1.0 + constant / high])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            room = np.where(np.abs(b_part) > 0, (high - np.abs(constant)) / np.abs(b_part), np.inf)
-        np.minimum(allowed, room, out=allowed)
-
+    # every limit as lower ≤ (coefficient of u) u + (coefficient of b) b_mid ≤ upper, ÷ limit
+    u_rows, b_rows, lowers, uppers = [], [], [], []
     for j in range(model.nv):
-        if np.isfinite(limits.velocity[j]):
-            blocks.append(sparse.diags(dq[:, j] ** 2 / limits.velocity[j] ** 2) @ mean)
-            bounds.append(np.ones(n))
-            with np.errstate(divide="ignore"):
-                np.minimum(allowed, limits.velocity[j] ** 2 / dq[:, j] ** 2, out=allowed)
-        if np.isfinite(limits.acceleration[j]):
-            limit(dq[:, j], ddq[:, j], np.zeros(n), limits.acceleration[j])
-        if np.isfinite(limits.effort[j]):
-            limit(A[:, j], B[:, j], g[:, j], limits.effort[j])
-    G = sparse.vstack(blocks).tocsc()
-    h = np.concatenate(bounds)
-    # in units of b̄, the median over the midpoints of the largest b the limits allow at u = 0:
-    # the solver's variables of order 1 whatever the path and limits (Clarabel fails on some
-    # paths in the units of s)
+        for u_part, b_part, constant, high in (
+            (np.zeros(n), dq[:, j] ** 2, np.zeros(n), limits.velocity[j] ** 2),
+            (dq[:, j], ddq[:, j], np.zeros(n), limits.acceleration[j]),
+            (A[:, j], B[:, j], g[:, j], limits.effort[j]),
+        ):
+            if np.isfinite(high):
+                u_rows.append(u_part / high)
+                b_rows.append(b_part / high)
+                lowers.append(-1.0 - constant / high)
+                uppers.append(1.0 - constant / high)
+    U, Bm = np.array(u_rows), np.array(b_rows)  # (limits, n)
+    low, high = np.array(lowers), np.array(uppers)
+    # units: b̄, the median over the midpoints of the largest b the limits allow at u = 0, and
+    # ū = b̄ / L; the solver's variables are then of order 1 whatever the path and limits
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = np.where(Bm > 0, high / Bm, np.where(Bm < 0, low / Bm, np.inf))
+    allowed = room.min(axis=0)
     usable = allowed[np.isfinite(allowed) & (allowed > 0)]
     scale = float(np.median(usable)) if usable.size else 1.0
-    b = cp.Variable(n + 1)  # b / b̄
-    c = cp.Variable(n + 1)  # √(b / b̄)
+    beta = cp.Variable(n + 1)  # b / b̄ at the gridpoints
+    alpha = cp.Variable(n)  # u / ū on the intervals
+    c = cp.Variable(n + 1)  # √β
+    count = U.shape[0]
+    Gu = sparse.block_diag([sparse.diags(U[k] * scale / length) for k in range(count)])
+    Gb = sparse.vstack([sparse.diags(Bm[k] * scale) @ mean for k in range(count)])
+    expression = Gu @ cp.hstack([alpha] * count) + Gb @ beta
     constraints = [
-        (G * scale) @ b <= h,
-        b >= 0,
-        b[0] == 0,
-        b[n] == 0,
+        beta[1:] - beta[:-1] == (2.0 / n) * alpha,  # b_{i+1} − b_i = 2 Δ u_i
+        expression <= high.ravel(),
+        expression >= low.ravel(),
+        beta >= 0,
+        beta[0] == 0,
+        beta[n] == 0,
         c >= 0,
-        c <= cp.sqrt(b),
+        c <= cp.sqrt(beta),
     ]
     duration = cp.sum(cp.inv_pos(c[:-1] + c[1:])) / n  # × 2 L / √b̄
     problem = cp.Problem(cp.Minimize(duration), constraints)
@@ -140,14 +133,12 @@ def convex_optimum(
         # "optimal_inaccurate": Clarabel's reduced tolerances; on the paths measured such a
         # solution's duration differs from the accurate one's by about 2e-6 relative
         warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
-        try:
-            problem.solve(solver=cp.CLARABEL)
-        except cp.error.SolverError:
-            problem.solve(solver=cp.CLARABEL, max_iter=500, static_regularization_constant=1e-7)
+        problem.solve(solver=cp.CLARABEL)
     if problem.status not in ("optimal", "optimal_inaccurate"):
         raise RuntimeError(f"the convex program is {problem.status}")
+    b = np.asarray(beta.value)
     # the duration of the solution itself (b at the gridpoints), not the solver's bound
-    root = np.sqrt(np.maximum(np.asarray(b.value) * scale, 0.0))
+    root = np.sqrt(np.maximum(b * scale, 0.0))
     return float(np.sum(2 * delta / (root[:-1] + root[1:])))
 
 

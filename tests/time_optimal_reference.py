@@ -14,9 +14,9 @@ u_i = (b_{i+1} − b_i) / (2 Δ) on each interval, the duration is
 midpoint (b there the mean of its ends): |q'_j b^½| ≤ v_j, |q'_j u + q''_j b| ≤ a_j,
 |A_j u + B_j b + C_j| ≤ τ_j with A = M q', B = M q'' + C(q, q') q', C = g(q). The variables
 are b and u (tied by b_{i+1} − b_i = 2 Δ u_i) in units of a typical b̄ and b̄ / L, and
-c_i ≤ √b_i; the program is solved by Clarabel through cvxpy. As the grid is refined its optimum converges to the optimum
-of the continuous problem; `extrapolated_optimum` solves it on N, 2N and 4N intervals and
-extrapolates (Richardson, with the order the three solutions show).
+c_i ≤ √b_i; the program is solved by Clarabel through cvxpy. As the grid is refined its
+optimum converges to the optimum of the continuous problem; `extrapolated_optimum` solves it on
+N, 2N and 4N intervals and extrapolates (Richardson, with the order the three solutions show).
 """
 
 from __future__ import annotations

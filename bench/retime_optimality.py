@@ -111,7 +111,9 @@ def main() -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--quick", action="store_true", help="2 random paths per arm")
-    parser.add_argument("--per-arm", type=int, default=10, help="random paths per arm")
+    parser.add_argument(
+        "--per-arm", type=int, default=10, help="random paths per arm (0: the long ones only)"
+    )
     args = parser.parse_args()
     per_arm = 2 if args.quick else args.per_arm
     registry = Registry(tempfile.mkdtemp(), ARMS)
@@ -137,6 +139,8 @@ def main() -> None:
         )
     for kind in ("random", "long"):
         r, t = ratios[kind], times[kind]
+        if not r:
+            continue
         print(
             f"{kind} paths ({len(r)}): over the optimum median "
             f"{100 * (statistics.median(r) - 1):.2f} %, worst {100 * (max(r) - 1):.2f} %; "

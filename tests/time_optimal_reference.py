@@ -111,35 +111,50 @@ def convex_optimum(
     allowed = room.min(axis=0)
     usable = allowed[np.isfinite(allowed) & (allowed > 0)]
     scale = float(np.median(usable)) if usable.size else 1.0
-    beta = cp.Variable(n + 1)  # b / b̄ at the gridpoints
-    alpha = cp.Variable(n)  # u / ū on the intervals
-    c = cp.Variable(n + 1)  # √β
     count = U.shape[0]
-    Gu = sparse.block_diag([sparse.diags(U[k] * scale / length) for k in range(count)])
-    Gb = sparse.vstack([sparse.diags(Bm[k] * scale) @ mean for k in range(count)])
-    expression = Gu @ cp.hstack([alpha] * count) + Gb @ beta
-    constraints = [
-        beta[1:] - beta[:-1] == (2.0 / n) * alpha,  # b_{i+1} − b_i = 2 Δ u_i
-        expression <= high.ravel(),
-        expression >= low.ravel(),
-        beta >= 0,
-        beta[0] == 0,
-        beta[n] == 0,
-        c >= 0,
-        c <= cp.sqrt(beta),
-    ]
-    duration = cp.sum(cp.inv_pos(c[:-1] + c[1:])) / n  # × 2 L / √b̄
-    problem = cp.Problem(cp.Minimize(duration), constraints)
-    with warnings.catch_warnings():
-        # "optimal_inaccurate": Clarabel's reduced tolerances; on the paths measured such a
-        # solution's duration differs from the accurate one's by about 2e-6 relative
-        warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
-        problem.solve(solver=cp.CLARABEL)
-    if problem.status not in ("optimal", "optimal_inaccurate"):
-        raise RuntimeError(f"the convex program is {problem.status}")
-    b = np.asarray(beta.value)
+
+    def solve(split: bool, unit: float) -> np.ndarray | None:
+        """b at the gridpoints (in units of `unit`), or None where Clarabel fails; `split`:
+        u as variables of their own (Verscheure et al.'s form), else u = Δb / (2Δ)."""
+        beta = cp.Variable(n + 1)  # b / unit at the gridpoints
+        c = cp.Variable(n + 1)  # √β
+        Gb = sparse.vstack([sparse.diags(Bm[k] * unit) @ mean for k in range(count)])
+        constraints = [beta >= 0, beta[0] == 0, beta[n] == 0, c >= 0, c <= cp.sqrt(beta)]
+        if split:
+            alpha = cp.Variable(n)  # u / (unit / L) on the intervals
+            Gu = sparse.block_diag([sparse.diags(U[k] * unit / length) for k in range(count)])
+            expression = Gu @ cp.hstack([alpha] * count) + Gb @ beta
+            constraints.append(beta[1:] - beta[:-1] == (2.0 / n) * alpha)  # Δb = 2 Δ u
+        else:
+            slope = sparse.diags([-np.ones(n), np.ones(n)], [0, 1], shape=(n, n + 1))
+            Gu = sparse.vstack(
+                [sparse.diags(U[k] * unit / (2 * delta)) @ slope for k in range(count)]
+            )
+            expression = (Gu + Gb) @ beta
+        constraints += [expression <= high.ravel(), expression >= low.ravel()]
+        duration = cp.sum(cp.inv_pos(c[:-1] + c[1:])) / n  # × 2 L / √unit
+        problem = cp.Problem(cp.Minimize(duration), constraints)
+        with warnings.catch_warnings():
+            # "optimal_inaccurate": Clarabel's reduced tolerances; on the paths measured such
+            # a solution's duration differs from the accurate one's by about 2e-6 relative
+            warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
+            try:
+                problem.solve(solver=cp.CLARABEL)
+            except cp.error.SolverError:
+                return None
+        if problem.status not in ("optimal", "optimal_inaccurate"):
+            return None
+        return np.asarray(beta.value) * unit
+
+    # Clarabel fails now and then on one form of a path and solves another: the forms in turn
+    for split, unit in ((True, scale), (False, scale), (False, 1.0)):
+        b = solve(split, unit)
+        if b is not None:
+            break
+    else:
+        raise RuntimeError("Clarabel solved none of the forms of the convex program")
     # the duration of the solution itself (b at the gridpoints), not the solver's bound
-    root = np.sqrt(np.maximum(b * scale, 0.0))
+    root = np.sqrt(np.maximum(b, 0.0))
     return float(np.sum(2 * delta / (root[:-1] + root[1:])))
 
 

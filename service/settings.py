@@ -102,10 +102,10 @@ class Settings(BaseSettings):
         500_000,
         ge=1,
         description="Largest work of one retime: path intervals × nv × limited quantities, "
-        "where K waypoints give at most 200 + 3 (K − 1) intervals and the quantities are "
+        "where K waypoints give at most 800 + 16 (K − 1) intervals and the quantities are "
         "velocity and effort, and acceleration where acceleration limits are given. A unit "
-        "costs about 5–20 µs on one core and 1–1.6 kB of memory (TOPP-RA holds the whole "
-        "path's rows); the default admits about 10 s and 0.8 GB on a 126-joint tree.",
+        "costs about 5–25 µs on one core and 0.3–0.9 kB of memory (TOPP-RA holds the whole "
+        "path's rows); the default admits about 12 s and 0.5 GB.",
     )
     request_deadline_s: float = Field(
         60.0,

@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 import math
 import signal
+from dataclasses import dataclass
 from typing import Any
 
 import orjson
@@ -48,11 +49,29 @@ class TooCostly(UnsupportedModel):
     `unsupported_model`, remembered by `equations_cache`)."""
 
 
+# the forkserver imports these when it starts: the builders' modules and the derivation's
+# (its package imports every topic module, scipy with them: seconds a child would pay each time)
+PRELOAD = (*FORKSERVER_PRELOAD, "service.dynamics.equations")
 MEMORY_MB = 2048  # address space of the child (a skewed 6-joint arm's derivation: ~300 MB)
 GRACE_S = 2.0  # the parent waits this much longer than the child's own time limit
 
 
-def _child_derive(conn: Any, raw_model: bytes, memory_mb: int) -> None:
+@dataclass(frozen=True)
+class Printing:
+    """What the answer is asked for: `form` "numeric" or "parametric", coefficients to
+    `digits` significant digits, terms below `tolerance` × their quantity's largest left out
+    (`service.dynamics.equations.answer`)."""
+
+    form: str = "numeric"
+    digits: int = 6
+    tolerance: float = 1e-9
+
+    def name(self) -> str:
+        """A file name part that tells one printing from another: `numeric-6-1e-09`."""
+        return f"{self.form}-{self.digits}-{self.tolerance!r}"
+
+
+def _child_derive(conn: Any, raw_model: bytes, memory_mb: int, printing: Printing) -> None:
     """The child (its limits already set): answers ("ok", JSON bytes), ("unsupported",
     detail) or ("too costly", detail). Its time is the parent's to judge (see the module
     docstring)."""
@@ -60,7 +79,8 @@ def _child_derive(conn: Any, raw_model: bytes, memory_mb: int) -> None:
 
     try:
         model = model_from_binary(raw_model)
-        answer = equations_answer(derive_equations(model))
+        eq = derive_equations(model, form=printing.form)
+        answer = equations_answer(eq, printing.digits, printing.tolerance)
         conn.send(("ok", orjson.dumps(answer)))
     except UnsupportedModel as exc:
         conn.send(("unsupported", exc.detail))
@@ -99,18 +119,24 @@ def _death(died: ChildDied, time_limit_s: float, cpu_limit_s: int) -> Exception:
     )
 
 
-def derive_isolated(model: Any, time_limit_s: float, memory_mb: int = MEMORY_MB) -> bytes:
-    """The JSON answer of `equations_answer` for `model`, derived in a child process within
-    `time_limit_s` seconds of wall clock (see the module docstring). Blocking: call it off
-    the event loop."""
+def derive_isolated(
+    model: Any,
+    time_limit_s: float,
+    memory_mb: int = MEMORY_MB,
+    printing: Printing | None = None,
+) -> bytes:
+    """The JSON answer of `equations_answer` for `model` as `printing` asks, derived in a
+    child process within `time_limit_s` seconds of wall clock (see the module docstring).
+    Blocking: call it off the event loop."""
     cpu_limit_s = math.ceil(time_limit_s)
+    printing = printing or Printing()
     try:
         answer = run_child(
             _child_derive,
-            (model_to_binary(model), memory_mb),
+            (model_to_binary(model), memory_mb, printing),
             timeout_s=time_limit_s + GRACE_S,
             limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_limit_s),
-            preload=FORKSERVER_PRELOAD,
+            preload=PRELOAD,
         )
     except ChildNotStarted:
         raise Overloaded("could not start a process for the derivation; retry shortly") from None

@@ -21,14 +21,18 @@ derived from the kept terms, so the identities above hold exactly between the ex
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from decimal import Decimal, localcontext
 from typing import Any
 
+from service.dynamics.equations import parametric, sampled
 from service.dynamics.equations.derivation import deadline_check, mass_matrix_and_potential
-from service.dynamics.equations.model_numbers import gravity, moving_joints
+from service.dynamics.equations.model_numbers import Joint, gravity, moving_joints
+from service.dynamics.equations.parametric import BaseParameter
 from service.dynamics.equations.series import HALF, PRECISION, Series
+from service.errors import InvalidInput
 
 NOISE = Decimal("1e-14")
 # M and U are kept to this many significant digits (23 beyond double precision). Their
@@ -36,6 +40,7 @@ NOISE = Decimal("1e-14")
 # integer multiples that give g, c_ijk, C and T fit in `PRECISION` = 60 digits: they are exact,
 # and so are the identities Ṁ = C + Cᵀ and g = ∂U/∂q between the expressions.
 KEPT_DIGITS = 40
+FORMS = ("numeric", "parametric")
 
 
 @dataclass(frozen=True)
@@ -52,6 +57,11 @@ class ExplicitEquations:
     kinetic_energy: Series
     potential_energy: Series
     seconds: float  # how long the derivation took
+    # per coordinate, the largest |q| the accuracy bound counts: 1 for a revolute one (its
+    # terms are bounded by 1 whatever q), the larger magnitude of a prismatic one's limits
+    reach: list[float] = field(default_factory=list)
+    # the parametric form's p1 … pr (empty in the numeric form)
+    parameters: list[BaseParameter] = field(default_factory=list)
 
 
 def _without_noise(entries: list[Series]) -> list[Series]:
@@ -59,19 +69,47 @@ def _without_noise(entries: list[Series]) -> list[Series]:
     return [s.without_terms_below(scale * NOISE).rounded(KEPT_DIGITS) for s in entries]
 
 
-def derive_equations(model: Any, time_limit_s: float | None = None) -> ExplicitEquations:
+def reach(model: Any, joints: list[Joint]) -> list[float]:
+    """Per coordinate, the bound of |q| the accuracy counts (see `ExplicitEquations`): 1 for a
+    revolute joint, and for a prismatic one the larger magnitude of its finite position
+    limits (1 m when it has none: the bound is then per unit of max(1 m, |q|)^degree)."""
+    out = []
+    for i, joint in enumerate(joints):
+        lo, hi = float(model.lowerPositionLimit[i]), float(model.upperPositionLimit[i])
+        bounded = joint.kind == "prismatic" and math.isfinite(lo) and math.isfinite(hi)
+        out.append(max(1.0, abs(lo), abs(hi)) if bounded else 1.0)
+    return out
+
+
+def derive_equations(
+    model: Any, time_limit_s: float | None = None, form: str = "numeric"
+) -> ExplicitEquations:
     """The equations of motion of a Pinocchio `model` in explicit form (see the module
-    docstring). Raises `UnsupportedModel` for a model out of scope, or when the derivation
-    takes longer than `time_limit_s` seconds (checked between steps)."""
+    docstring), with the model's numbers (`form` "numeric") or linear in its base inertial
+    parameters ("parametric", `parametric`). Raises `UnsupportedModel` for a model out of
+    scope, or when the derivation takes longer than `time_limit_s` seconds (checked between
+    steps)."""
+    if form not in FORMS:
+        raise InvalidInput(f"form must be one of {', '.join(repr(f) for f in FORMS)}")
     start = time.monotonic()
     check = deadline_check(None if time_limit_s is None else start + time_limit_s, time_limit_s)
     joints = moving_joints(model)
     n = len(joints)
+    parameters: list[BaseParameter] = []
     with localcontext(prec=PRECISION):
-        M, U = mass_matrix_and_potential(joints, gravity(model), check)
+        if form == "parametric":
+            sym = parametric.symbols(model, joints)
+            M, U = sampled.mass_matrix_and_potential(
+                model, joints, sym.base.independent, sym.armature(joints)
+            )
+        else:
+            M, U = mass_matrix_and_potential(joints, gravity(model), check)
         flat = _without_noise([M[i][j] for i in range(n) for j in range(n)])
         M = [flat[i * n : (i + 1) * n] for i in range(n)]
         U = _without_noise([U])[0]
+        if form == "parametric":
+            check()
+            M, U, parameters = parametric.in_base_parameters(sym, M, U)
         g = [U.derivative(i) for i in range(n)]
         check()
         # dM[k][i][j] = ∂M_ij/∂q_k, from the upper triangle
@@ -105,6 +143,8 @@ def derive_equations(model: Any, time_limit_s: float | None = None) -> ExplicitE
         kinetic_energy=T,
         potential_energy=U,
         seconds=time.monotonic() - start,
+        reach=reach(model, joints),
+        parameters=parameters,
     )
 
 

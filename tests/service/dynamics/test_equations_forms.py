@@ -145,7 +145,7 @@ def test_parametric_form_is_linear_in_the_base_parameters_and_gives_back_the_num
     for _ in range(3):
         q, dq = random_configuration(model, rng), rng.normal(size=model.nv)
         a, b = rng.normal(size=r), rng.normal(size=r)
-        for quantity, f in functions.items():
+        for f in functions.values():
             fa, fb = np.asarray(f(*q, *dq, *a)), np.asarray(f(*q, *dq, *b))
             scale = max(1.0, float(np.abs(fa).max()), float(np.abs(fb).max()))
             np.testing.assert_allclose(f(*q, *dq, *(a + b)), fa + fb, atol=1e-9 * scale)

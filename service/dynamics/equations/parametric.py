@@ -135,27 +135,36 @@ def symbols(model: Any, joints: list[Joint]) -> Symbols:
     return Symbols(len(joints), regressor_base(model, joints, names), names, values)
 
 
+def _grouped(s: Series, n: int, r: int, skip_constant: bool) -> tuple[list, np.ndarray]:
+    """A parametric series' terms grouped by (k, e without the symbol, kind): the groups' keys
+    and their coefficients over x1 … xr (groups × r)."""
+    scale = BASE ** (2 * n)
+    index: dict[tuple[int, int, int], int] = {}
+    rows, cols, values = [], [], []
+    for (k, e, kind), c in s.terms.items():
+        j, low = divmod(e, scale)
+        if not j or (skip_constant and not k and not low):
+            continue
+        rows.append(index.setdefault((k, low, kind), len(index)))
+        cols.append(j - 1)
+        values.append(float(c))
+    out = np.zeros((len(index), r))
+    np.add.at(out, (np.array(rows, dtype=int), np.array(cols, dtype=int)), values)
+    return list(index), out
+
+
 def _functionals(entries: list[Series], n: int, r: int) -> list[np.ndarray]:
     """Each term's coefficient over x1 … xr (vectors), in the entries' order, the terms of an
-    entry by the coordinates they depend on; significant ones first."""
-    scale = BASE ** (2 * n)
-    out: list[tuple[int, np.ndarray]] = []
-    largest = 0.0
+    entry by the coordinates they depend on; significant ones first (U, the last entry, is
+    taken without its constant term)."""
+    out: list[np.ndarray] = []
     for s in entries:
-        groups: dict[tuple[int, int, int], np.ndarray] = {}
-        for (k, e, kind), c in s.terms.items():
-            j, low = divmod(e, scale)
-            if not j or (not k and not low and s is entries[-1]):
-                continue
-            vec = groups.setdefault((k, low, kind), np.zeros(r))
-            vec[j - 1] += float(c)
-        ordered = sorted(groups.items(), key=lambda item: _order(item[0], n))
-        for _, vec in ordered:
-            size = float(np.abs(vec).max())
-            largest = max(largest, size)
-            out.append((len(out), vec))
-    significant = [v for _, v in out if np.abs(v).max() >= SIGNIFICANT * largest]
-    rest = [v for _, v in out if np.abs(v).max() < SIGNIFICANT * largest]
+        keys, matrix = _grouped(s, n, r, skip_constant=s is entries[-1])
+        order = sorted(range(len(keys)), key=lambda g: _order(keys[g], n))
+        out.extend(matrix[g] for g in order)
+    largest = max((float(np.abs(v).max()) for v in out), default=0.0)
+    significant = [v for v in out if np.abs(v).max() >= SIGNIFICANT * largest]
+    rest = [v for v in out if np.abs(v).max() < SIGNIFICANT * largest]
     return significant + rest
 
 
@@ -205,18 +214,15 @@ def _expression(row: np.ndarray, names: list[str]) -> str:
 def _rewritten(s: Series, inverse: np.ndarray, n: int) -> Series:
     """A series over x rewritten over p (x = F⁻¹ p)."""
     scale = BASE ** (2 * n)
-    groups: dict[tuple[int, int, int], np.ndarray] = {}
-    for (k, e, kind), c in s.terms.items():
-        j, low = divmod(e, scale)
-        if not j:
-            continue
-        vec = groups.setdefault((k, low, kind), np.zeros(inverse.shape[1]))
-        vec += float(c) * inverse[j - 1]
+    keys, matrix = _grouped(s, n, inverse.shape[0], skip_constant=False)
+    if not keys:
+        return Series(n)
+    over_p = matrix @ inverse
+    cut = NOISE * np.abs(over_p).max(axis=1, keepdims=True)
     terms = {}
-    for (k, low, kind), vec in groups.items():
-        cut = NOISE * float(np.abs(vec).max())
-        for col in np.flatnonzero(np.abs(vec) > cut):
-            terms[(k, low + (int(col) + 1) * scale, kind)] = Decimal(repr(float(vec[col])))
+    for g, col in zip(*np.nonzero(np.abs(over_p) > cut), strict=True):
+        k, low, kind = keys[g]
+        terms[(k, low + (int(col) + 1) * scale, kind)] = Decimal(repr(float(over_p[g, col])))
     return Series(n, terms)
 
 

@@ -34,6 +34,8 @@ from service.dynamics.equations.series import BASE, COS, Series, unpack
 EXACT_DIGITS = 17
 _EXACT_INTEGERS = 2**53
 _ULP = 2.0**-52  # a bound of the relative rounding of one double operation (with margin)
+_DROPPED = 1 + 2 * _ULP  # |c| of a dropped term, with the rounding of c to a double
+_ROUNDED = 1 + _ULP
 
 
 @dataclass(frozen=True)
@@ -89,6 +91,7 @@ class Printer:
         self.digits = digits
         self.reach = [1.0] * n if reach is None else [float(r) for r in reach]
         self.parameter_sizes = [abs(float(s)) for s in parameter_sizes]
+        self._format = f"%.{digits}g"
         self._scale = BASE ** (2 * n)
         self._trig: dict[tuple[int, int], tuple[tuple[int, ...], str, str, int]] = {}
         self._factor: dict[int, tuple[tuple[int, ...], str, str, float, int]] = {}
@@ -161,23 +164,45 @@ class Printer:
         return found
 
     # -- one entry ---------------------------------------------------------------------------
+    def _shown(self, ax: float) -> str:
+        """|coefficient| as printed (see `number`), on the hot path."""
+        if self.digits >= EXACT_DIGITS:
+            text = repr(ax)
+            if text.endswith(".0"):
+                return text[:-2]
+        else:
+            text = self._format % ax
+        if "e" in text:
+            return number(ax, self.digits)
+        return text
+
     def entry(self, series: Series, cut: float) -> Printed:
         """The series printed (terms with |coefficient| < `cut` left out), with its bound."""
-        groups: dict[int, list[tuple[tuple[int, ...], bool, str, str, str]]] = {}
+        groups: dict[int, list[tuple[tuple[int, ...], bool, str, str, str, str, str]]] = {}
         error = 0.0
         mask = 0
-        digits = self.digits
+        factor_of, trig_of = self._factor.get, self._trig.get
         for (k, e, kind), c in series.terms.items():
             x = float(c)
-            factor = self._factor_of(e)
-            if abs(x) < cut:
-                error += (abs(x) * (1 + _ULP) + abs(x) * _ULP) * factor[3]
+            ax = -x if x < 0 else x
+            factor = factor_of(e) or self._factor_of(e)
+            if ax < cut:
+                error += ax * _DROPPED * factor[3]
                 continue
-            shown = number(x, digits)
-            error += (abs(abs(x) - float(shown)) * (1 + _ULP) + abs(x) * _ULP) * factor[3]
-            trig = self._trig_of(k, kind)
+            shown = self._shown(ax)
+            error += (abs(ax - float(shown)) * _ROUNDED + ax * _ULP) * factor[3]
+            trig = trig_of((k, kind)) or self._trig_of(k, kind)
             mask |= trig[3] | factor[4]
-            groups.setdefault(e, []).append((trig[0], x < 0, shown, trig[1], trig[2]))
+            if shown == "1" and trig[1]:
+                text, tex = trig[1], trig[2]
+            else:
+                number_tex = latex_number(shown) if "e" in shown else shown
+                text = f"{shown}*{trig[1]}" if trig[1] else shown
+                tex = f"{number_tex} {trig[2]}" if trig[2] else number_tex
+            group = groups.get(e)
+            if group is None:
+                group = groups[e] = []
+            group.append((trig[0], x < 0, text, tex, shown, trig[1], trig[2]))
         if not groups:
             return Printed("0", "0", error, [])
         texts: list[str] = []
@@ -185,35 +210,32 @@ class Printer:
         for e in sorted(groups, key=lambda e: self._factor_of(e)[0]):
             _, f_text, f_tex, _, _ = self._factor_of(e)
             terms = sorted(groups[e])
-            if len(terms) == 1 or not f_text:
-                for _, negative, shown, t_text, t_tex in terms:
-                    parts_text = [p for p in (shown if shown != "1" else "", f_text, t_text) if p]
-                    parts_tex = [
-                        p for p in (latex_number(shown) if shown != "1" else "", f_tex, t_tex) if p
-                    ]
-                    _append(
-                        texts,
-                        latexes,
-                        negative,
-                        "*".join(parts_text) or "1",
-                        " ".join(parts_tex) or "1",
-                    )
-                continue
-            inner_text: list[str] = []
-            inner_tex: list[str] = []
-            for _, negative, shown, t_text, t_tex in terms:
-                term_text = "*".join(p for p in (shown if shown != "1" else "", t_text) if p)
-                term_tex = " ".join(
-                    p for p in (latex_number(shown) if shown != "1" else "", t_tex) if p
+            if not f_text:
+                for _, negative, text, tex, *_ in terms:
+                    _append(texts, latexes, negative, text, tex)
+            elif len(terms) == 1:  # the number first: 2*p3*cos(q2)
+                _, negative, _, _, shown, t_text, t_tex = terms[0]
+                number_tex = latex_number(shown) if "e" in shown else shown
+                shown, number_tex = ("", "") if shown == "1" else (shown, number_tex)
+                _append(
+                    texts,
+                    latexes,
+                    negative,
+                    "*".join(x for x in (shown, f_text, t_text) if x),
+                    " ".join(x for x in (number_tex, f_tex, t_tex) if x),
                 )
-                _append(inner_text, inner_tex, negative, term_text or "1", term_tex or "1")
-            _append(
-                texts,
-                latexes,
-                False,
-                f"{f_text}*({''.join(inner_text)})",
-                rf"{f_tex} \left({''.join(inner_tex)}\right)",
-            )
+            else:
+                inner_text: list[str] = []
+                inner_tex: list[str] = []
+                for _, negative, text, tex, *_ in terms:
+                    _append(inner_text, inner_tex, negative, text, tex)
+                _append(
+                    texts,
+                    latexes,
+                    False,
+                    f"{f_text}*({''.join(inner_text)})",
+                    rf"{f_tex} \left({''.join(inner_tex)}\right)",
+                )
         depends = [i for i in range(self.n) if mask >> i & 1]
         return Printed("".join(texts), "".join(latexes), error, depends)
 

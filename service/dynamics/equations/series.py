@@ -156,6 +156,12 @@ class Series:
         b = other.constant_value()
         if b is not None:
             return self.scale(b)
+        if len(other.terms) == 1:  # a monomial (or parameter) of coefficient 1: shift e
+            (k, e, kind), c = next(iter(other.terms.items()))
+            if not k and c == ONE:
+                return Series(
+                    self.n, {(ka, ea + e, ta): ca for (ka, ea, ta), ca in self.terms.items()}
+                )
         out: dict[Key, Decimal] = {}
         half = HALF
 

@@ -135,7 +135,9 @@ def symbols(model: Any, joints: list[Joint]) -> Symbols:
     return Symbols(len(joints), regressor_base(model, joints, names), names, values)
 
 
-def _grouped(s: Series, n: int, r: int, skip_constant: bool) -> tuple[list, np.ndarray]:
+def _grouped(
+    s: Series, n: int, r: int, skip_constant: bool
+) -> tuple[list[tuple[int, int, int]], np.ndarray]:
     """A parametric series' terms grouped by (k, e without the symbol, kind): the groups' keys
     and their coefficients over x1 … xr (groups × r)."""
     scale = BASE ** (2 * n)

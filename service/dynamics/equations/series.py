@@ -157,7 +157,7 @@ class Series:
         if b is not None:
             return self.scale(b)
         if len(other.terms) == 1:  # a monomial (or parameter) of coefficient 1: shift e
-            (k, e, kind), c = next(iter(other.terms.items()))
+            (k, e, _), c = next(iter(other.terms.items()))
             if not k and c == ONE:
                 return Series(
                     self.n, {(ka, ea + e, ta): ca for (ka, ea, ta), ca in self.terms.items()}

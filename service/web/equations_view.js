@@ -2,7 +2,7 @@
 // form (GET /v1/robots/{id}/equations), typeset by the vendored KaTeX (loaded on first use).
 // A switch chooses the form: readable (the default: 6 significant digits, residues left out),
 // exact (every term) or parametric (linear in the base inertial parameters p1 … pr, listed in
-// a table with their expressions, values and, for an identified robot, standard deviations).
+// a table with their expressions and values).
 // Each entry is tinted by the set of coordinates it depends on (a legend lists the sets);
 // hovering an entry shows its value at the sliders' state, from the numbers the page computed.
 
@@ -151,8 +151,7 @@ export class EquationsView {
     if (answer.parameters) legend.after(this.parameterTable(katex, answer.parameters));
   }
 
-  /** The base parameters p1 … pr: symbol, expression in the standard ones, value, and the
-   * standard deviation where identification gave one. */
+  /** The base parameters p1 … pr: symbol, expression in the standard ones, value. */
   parameterTable(katex, parameters) {
     const fig = document.createElement("figure");
     fig.className = "eq-block";
@@ -160,11 +159,10 @@ export class EquationsView {
     const cap = document.createElement("figcaption");
     cap.textContent = `Base inertial parameters (${parameters.length}: the regressor's rank), ` +
       "in the standard ones (joint frame, inertia about the joint origin)";
-    const withStd = parameters.some((p) => p.standard_deviation != null);
     const table = document.createElement("table");
     table.className = "eq-parameters";
     const head = document.createElement("tr");
-    for (const h of ["", "expression", "value", ...(withStd ? ["std. dev."] : [])]) {
+    for (const h of ["", "expression", "value"]) {
       const th = document.createElement("th");
       th.textContent = h;
       head.append(th);
@@ -183,12 +181,6 @@ export class EquationsView {
       value.className = "number";
       value.textContent = this.ctx.fmt(p.value, 6);
       tr.append(sym, expr, value);
-      if (withStd) {
-        const std = document.createElement("td");
-        std.className = "number";
-        std.textContent = p.standard_deviation == null ? "" : this.ctx.fmt(p.standard_deviation, 3);
-        tr.append(std);
-      }
       table.append(tr);
     }
     const scroll = document.createElement("div");

@@ -64,7 +64,6 @@ def test_parametric_form_substitutes_back_to_the_numbers(client: Client, registr
     eq = client.equations("planar_arm", form="parametric")
     assert [p.symbol for p in eq.parameters] == [f"p{i}" for i in range(1, 7)]
     assert all(isinstance(p, robodyn.equations.Parameter) for p in eq.parameters)
-    assert eq.parameters[0].standard_deviation is None  # a catalog robot: not identified
     M = eq.mass_matrix.sympy()
     values = {sp.Symbol(p.symbol, real=True): p.value for p in eq.parameters}
     (q1, q2), _ = eq.symbols()

@@ -83,11 +83,6 @@ class Parameter(BaseModel):
         "`<joint>.armature`; coefficients to 6 significant digits."
     )
     value: float = Field(description="Its value for this robot (kg, kg·m or kg·m²).")
-    standard_deviation: float | None = Field(
-        default=None,
-        description="For a robot made by identification: the standard deviation of the "
-        "identified value.",
-    )
 
 
 class Equations(BaseModel):

@@ -6,10 +6,11 @@ significant digits, and terms whose coefficient is below `tolerance` × the larg
 of the same quantity left out. `accuracy.max_abs_error` bounds, per quantity and over every q,
 |printed − exact| of any entry (C per unit of ‖q̇‖∞, T per unit of ‖q̇‖∞²): the sum of what the
 left-out terms and the rounding can change (`printing.Printed.error`; in the parametric form
-with the parameters' values). `structure` gives, per entry of M and g, the coordinates its
+with the parameters' values), and of the derivation's own noise cut (`ExplicitEquations.noise`).
+`structure` gives, per entry of M and g, the coordinates its
 printed terms depend on, whether it is constant (depends on none) and whether it prints as 0.
 The parametric form adds `parameters`: each symbol, its expression in the standard inertial
-parameters and its value (and, for a robot made by identification, its standard deviation).
+parameters and its value.
 """
 
 from __future__ import annotations
@@ -78,6 +79,7 @@ def equations_answer(
             "latex": _shaped(value, printed, "latex"),
         }
         errors[name] = max((printed[id(s)].error for s in entries), default=0.0)
+        errors[name] += eq.noise.get(name, 0.0)
     answer["accuracy"] = {
         "digits": digits,
         "tolerance": tolerance,

@@ -62,11 +62,20 @@ class ExplicitEquations:
     reach: list[float] = field(default_factory=list)
     # the parametric form's p1 … pr (empty in the numeric form)
     parameters: list[BaseParameter] = field(default_factory=list)
+    # per quantity, a bound over every q (and ‖q̇‖∞ ≤ 1) of what the noise cut changed
+    noise: dict[str, float] = field(default_factory=dict)
 
 
-def _without_noise(entries: list[Series]) -> list[Series]:
+def _without_noise(entries: list[Series]) -> tuple[list[Series], float]:
+    """The entries less their noise (see the module docstring), and the largest sum of the
+    |coefficients| one entry lost."""
     scale = max((s.largest_coefficient() for s in entries), default=Decimal(0))
-    return [s.without_terms_below(scale * NOISE).rounded(KEPT_DIGITS) for s in entries]
+    bound = scale * NOISE
+    lost = max(
+        (float(sum(abs(c) for c in s.terms.values() if abs(c) <= bound)) for s in entries),
+        default=0.0,
+    )
+    return [s.without_terms_below(bound).rounded(KEPT_DIGITS) for s in entries], lost
 
 
 def reach(model: Any, joints: list[Joint]) -> list[float]:
@@ -99,17 +108,17 @@ def derive_equations(
     with localcontext(prec=PRECISION):
         if form == "parametric":
             sym = parametric.symbols(model, joints)
-            M, U = sampled.mass_matrix_and_potential(
+            M, U, heads = sampled.mass_matrix_and_potential(
                 model, joints, sym.base.independent, sym.armature(joints)
             )
         else:
             M, U = mass_matrix_and_potential(joints, gravity(model), check)
-        flat = _without_noise([M[i][j] for i in range(n) for j in range(n)])
+        flat, lost_m = _without_noise([M[i][j] for i in range(n) for j in range(n)])
         M = [flat[i * n : (i + 1) * n] for i in range(n)]
-        U = _without_noise([U])[0]
+        (U,), lost_u = _without_noise([U])
         if form == "parametric":
             check()
-            M, U, parameters = parametric.in_base_parameters(sym, M, U)
+            M, U, parameters = parametric.in_base_parameters(sym, M, U, heads)
         g = [U.derivative(i) for i in range(n)]
         check()
         # dM[k][i][j] = ∂M_ij/∂q_k, from the upper triangle
@@ -133,6 +142,17 @@ def derive_equations(
             for j in range(i, n):
                 weight = HALF if i == j else Decimal(1)
                 T = T + (M[i][j] * dq[i] * dq[j]).scale(weight)
+    far = max(reach(model, joints), default=1.0)
+    # a dropped term of M (frequency ≤ 2, degree ≤ 2) changes c_ijk by at most 3×, C_ij by
+    # 3 n× (Σ_k over ‖q̇‖∞ ≤ 1) and T by ½ n²×; one of U (frequency, degree ≤ 1) g by 1×
+    noise_m, noise_u = lost_m * far**2, lost_u * far
+    noise = {
+        "mass_matrix": noise_m,
+        "coriolis_matrix": 3 * n * noise_m,
+        "kinetic_energy": 0.5 * n * n * noise_m,
+        "potential_energy": noise_u,
+        "gravity": noise_u,
+    }
     return ExplicitEquations(
         joints=[j.name for j in joints],
         kinds=[j.kind for j in joints],
@@ -145,6 +165,7 @@ def derive_equations(
         seconds=time.monotonic() - start,
         reach=reach(model, joints),
         parameters=parameters,
+        noise=noise,
     )
 
 

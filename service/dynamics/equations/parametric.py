@@ -19,7 +19,9 @@ stacked over random states, Gram-Schmidt in the parameters' order, β = P π wit
    textbook form M11 = p1 + 2 l1 (p2 cos q2 + p4 sin q2).
 3. x = F⁻¹ p (F the chosen functionals, r×r), and every coefficient is rewritten over p.
 
-Each p has its expression in the standard parameters (F P) and its value (F P π). U's constant
+Each p has its expression in the standard parameters (F P) and its value F x, x the heads'
+values fitted to Pinocchio's own M and U on the sampling grid (`sampled.head_values`: exact to
+double precision, where P π carries the rounding of the combination K). U's constant
 term (which no torque sees, so no base parameter holds it) is left out: U is defined up to a
 constant.
 """
@@ -47,28 +49,21 @@ SIGNIFICANT = 1e-6  # a functional this small relative to its quantity's largest
 INDEPENDENT = 1e-6  # the remainder of a unit functional that still counts as independent
 HEAD = 1e-9  # a standard parameter's coefficient this small relative to the largest is 0
 NOISE = 1e-11  # coefficients over p this small relative to their term's largest are 0
+ZERO_VALUE = 1e-12  # a value this small relative to the sum it comes from is rounding: 0
 PRISMATIC_REACH = 1.0  # m: a prismatic joint's sampled range without finite limits
 
 
 @dataclass(frozen=True)
 class BaseParameter:
-    """One symbol of the parametric form: its expression in the standard parameters, its value
-    (in the expression's units), and its standard deviation when identification gave one."""
+    """One symbol of the parametric form: its expression in the standard parameters and its
+    value (in the expression's units: kg, kg·m or kg·m²)."""
 
     symbol: str
     expression: str
     value: float
-    standard_deviation: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            "symbol": self.symbol,
-            "expression": self.expression,
-            "value": self.value,
-        }
-        if self.standard_deviation is not None:
-            out["standard_deviation"] = self.standard_deviation
-        return out
+        return {"symbol": self.symbol, "expression": self.expression, "value": self.value}
 
 
 def standard_parameters(model: Any, joints: list[Joint]) -> tuple[list[str], np.ndarray]:
@@ -229,9 +224,10 @@ def _rewritten(s: Series, inverse: np.ndarray, n: int) -> Series:
 
 
 def in_base_parameters(
-    sym: Symbols, mass_matrix: list[list[Series]], potential: Series
+    sym: Symbols, mass_matrix: list[list[Series]], potential: Series, heads: np.ndarray
 ) -> tuple[list[list[Series]], Series, list[BaseParameter]]:
-    """(M, U without its constant term, the parameters) over p1 … pr (module docstring)."""
+    """(M, U without its constant term, the parameters) over p1 … pr (module docstring);
+    `heads` are the values of x1 … xr, each p's value is F x."""
     n, r = sym.n, sym.base.count
     upper = [mass_matrix[i][j] for i in range(n) for j in range(i, n)]
     chosen = _chosen(_functionals([*upper, potential], n, r), r)
@@ -249,10 +245,11 @@ def in_base_parameters(
             M[i][j] = M[j][i] = _rewritten(mass_matrix[i][j], inverse, n)
     U = _rewritten(potential, inverse, n)
     U = Series(n, {key: c for key, c in U.terms.items() if key[0] or key[1] % BASE ** (2 * n)})
+    values = chosen @ heads
+    # a value within the rounding of its own sum is 0 (a centre of mass on a link's line)
+    values[np.abs(values) <= ZERO_VALUE * (np.abs(chosen) @ np.abs(heads))] = 0.0
     parameters = [
-        BaseParameter(
-            f"p{k + 1}", _expression(standard[k], sym.names), float(standard[k] @ sym.values)
-        )
+        BaseParameter(f"p{k + 1}", _expression(standard[k], sym.names), float(values[k]))
         for k in range(r)
     ]
     return M, U, parameters

@@ -156,13 +156,46 @@ def series_of(
     return [Series(n, t) for t in terms]
 
 
+def head_values(
+    model: Any,
+    q_mass: np.ndarray,
+    mass: np.ndarray,
+    q_potential: np.ndarray,
+    potential: np.ndarray,
+) -> np.ndarray:
+    """The values x (columns,) of the symbols whose Φ (states, n, n, columns) and Ψ (states,
+    columns) are given: the least-squares fit of Pinocchio's own M (crba) and U (up to a
+    constant) at the same states — exact to double precision, whatever rounding the base
+    parameters' combination carries."""
+    data = model.createData()
+    rows = [mass.reshape(-1, mass.shape[-1])]
+    target = []
+    for q in q_mass:
+        M = pin.crba(model, data, q)
+        target.append((np.triu(M) + np.triu(M, 1).T).reshape(-1))
+    target_m = np.concatenate(target)
+    target_u = np.array([pin.computePotentialEnergy(model, data, q) for q in q_potential])
+    scale_m = max(float(np.abs(target_m).max(initial=0.0)), 1e-300)
+    scale_u = max(float(np.abs(target_u).max(initial=0.0)), 1e-300)
+    a = np.vstack(
+        [
+            np.hstack([rows[0] / scale_m, np.zeros((rows[0].shape[0], 1))]),
+            np.hstack([potential / scale_u, np.ones((potential.shape[0], 1)) / scale_u]),
+        ]
+    )
+    b = np.concatenate([target_m / scale_m, target_u / scale_u])
+    solution: np.ndarray = np.linalg.lstsq(a, b, rcond=None)[0][:-1]
+    return solution
+
+
 def mass_matrix_and_potential(
     model: Any, joints: list[Joint], heads: np.ndarray, armature: dict[int, int]
-) -> tuple[list[list[Series]], Series]:
-    """(M, U) over the symbols x1 … xr of the head parameters: `heads` are their columns in
-    π (inertial ones below 10 · bodies), symbol h + 1 for heads[h]; `armature` maps a joint
-    index to the symbol of its armature parameter. M does not depend on q1 (turning or moving
-    the whole arm about the first joint changes no kinetic energy): its grid has one q1."""
+) -> tuple[list[list[Series]], Series, np.ndarray]:
+    """(M, U, x) over the symbols x1 … xr of the head parameters, x their values
+    (`head_values`): `heads` are their columns in π (inertial ones below 10 · bodies), symbol
+    h + 1 for heads[h]; `armature` maps a joint index to the symbol of its armature parameter.
+    M does not depend on q1 (turning or moving the whole arm about the first joint changes no
+    kinetic energy): its grid has one q1."""
     n = len(joints)
     inertial = np.array([h for h in heads if h < PER_BODY * n], dtype=int)
     symbols = [int(np.flatnonzero(heads == h)[0]) + 1 for h in inertial]
@@ -177,7 +210,18 @@ def mass_matrix_and_potential(
         if i == j and i in armature:
             s = s + Series.parameter(n, armature[i])
         M[i][j] = M[j][i] = s
+    q_mass = q
     angles = [3] * n  # frequencies −1 … 1
     q = _grid(joints, angles)
-    U = series_of(_potential_values(model, q, inertial), joints, angles, symbols)[0]
-    return M, U
+    potential = _potential_values(model, q, inertial)
+    U = series_of(potential, joints, angles, symbols)[0]
+    # every symbol's Φ and Ψ on the grids (armature: e_j e_jᵀ and 0), for their values
+    r = len(heads)
+    phi = np.zeros((*mass.shape[:3], r))
+    psi = np.zeros((q.shape[0], r))
+    for col, symbol in enumerate(symbols):
+        phi[..., symbol - 1] = mass[..., col]
+        psi[:, symbol - 1] = potential[:, col]
+    for joint, symbol in armature.items():
+        phi[:, joint, joint, symbol - 1] = 1.0
+    return M, U, head_values(model, q_mass, phi, q, psi)

@@ -126,23 +126,15 @@ class Accuracy:
 class Parameter:
     """A base inertial parameter of the parametric form: its `symbol` (p1 …), its
     `expression` in the standard parameters (`<joint>.m`, `<joint>.m_cx`, …, `<joint>.Izz`,
-    identification's layout, and `<joint>.armature`), its `value`, and for a robot made by
-    identification its `standard_deviation` (None otherwise)."""
+    identification's layout, and `<joint>.armature`) and its `value`."""
 
     symbol: str
     expression: str
     value: float
-    standard_deviation: float | None = None
 
     @classmethod
     def from_json(cls, body: Mapping[str, Any]) -> Parameter:
-        std = body.get("standard_deviation")
-        return cls(
-            str(body["symbol"]),
-            str(body["expression"]),
-            float(body["value"]),
-            None if std is None else float(std),
-        )
+        return cls(str(body["symbol"]), str(body["expression"]), float(body["value"]))
 
 
 @dataclass(frozen=True)

@@ -27,8 +27,7 @@ class EquationsMethods(SyncSender):
         `tolerance` × the largest coefficient of their quantity left out; `digits=17,
         tolerance=0` is the exact form. `form="parametric"` writes every expression linear in
         the base inertial parameters p1 … pr (`.parameters`: each one's expression in the
-        standard parameters, its value, and on a robot made by identification its standard
-        deviation).
+        standard parameters and its value).
 
         The server derives each robot's equations on the first request for a form and
         printing (an arm with six joints: seconds; at most its ROBODYN_EQUATIONS_TIMEOUT_S)
@@ -59,8 +58,7 @@ class AsyncEquationsMethods(AsyncSender):
         `tolerance` × the largest coefficient of their quantity left out; `digits=17,
         tolerance=0` is the exact form. `form="parametric"` writes every expression linear in
         the base inertial parameters p1 … pr (`.parameters`: each one's expression in the
-        standard parameters, its value, and on a robot made by identification its standard
-        deviation).
+        standard parameters and its value).
 
         The server derives each robot's equations on the first request for a form and
         printing (an arm with six joints: seconds; at most its ROBODYN_EQUATIONS_TIMEOUT_S)

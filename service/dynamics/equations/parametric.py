@@ -49,7 +49,7 @@ SIGNIFICANT = 1e-6  # a functional this small relative to its quantity's largest
 INDEPENDENT = 1e-6  # the remainder of a unit functional that still counts as independent
 HEAD = 1e-9  # a standard parameter's coefficient this small relative to the largest is 0
 NOISE = 1e-11  # coefficients over p this small relative to their term's largest are 0
-ZERO_VALUE = 1e-12  # a value this small relative to the sum it comes from is rounding: 0
+ZERO_VALUE = 1e-12  # a value this small relative to the largest is the fit's rounding: 0
 PRISMATIC_REACH = 1.0  # m: a prismatic joint's sampled range without finite limits
 
 
@@ -246,8 +246,8 @@ def in_base_parameters(
     U = _rewritten(potential, inverse, n)
     U = Series(n, {key: c for key, c in U.terms.items() if key[0] or key[1] % BASE ** (2 * n)})
     values = chosen @ heads
-    # a value within the rounding of its own sum is 0 (a centre of mass on a link's line)
-    values[np.abs(values) <= ZERO_VALUE * (np.abs(chosen) @ np.abs(heads))] = 0.0
+    # a value at the fit's rounding is 0 (a centre of mass on a link's line)
+    values[np.abs(values) <= ZERO_VALUE * float(np.abs(values).max(initial=0.0))] = 0.0
     parameters = [
         BaseParameter(f"p{k + 1}", _expression(standard[k], sym.names), float(values[k]))
         for k in range(r)

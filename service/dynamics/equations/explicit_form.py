@@ -113,9 +113,11 @@ def derive_equations(
             )
         else:
             M, U = mass_matrix_and_potential(joints, gravity(model), check)
-        flat, lost_m = _without_noise([M[i][j] for i in range(n) for j in range(n)])
-        M = [flat[i * n : (i + 1) * n] for i in range(n)]
-        (U,), lost_u = _without_noise([U])
+        lost_m = lost_u = 0.0
+        if form == "numeric":  # (the parametric form's are cut where they are sampled)
+            flat, lost_m = _without_noise([M[i][j] for i in range(n) for j in range(n)])
+            M = [flat[i * n : (i + 1) * n] for i in range(n)]
+            (U,), lost_u = _without_noise([U])
         if form == "parametric":
             check()
             M, U, parameters = parametric.in_base_parameters(sym, M, U, heads)

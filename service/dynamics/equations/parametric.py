@@ -130,9 +130,7 @@ def symbols(model: Any, joints: list[Joint]) -> Symbols:
     return Symbols(len(joints), regressor_base(model, joints, names), names, values)
 
 
-def _grouped(
-    s: Series, n: int, r: int, skip_constant: bool
-) -> tuple[list[tuple[int, int, int]], np.ndarray]:
+def _grouped(s: Series, n: int, r: int) -> tuple[list[tuple[int, int, int]], np.ndarray]:
     """A parametric series' terms grouped by (k, e without the symbol, kind): the groups' keys
     and their coefficients over x1 … xr (groups × r)."""
     scale = BASE ** (2 * n)
@@ -140,7 +138,7 @@ def _grouped(
     rows, cols, values = [], [], []
     for (k, e, kind), c in s.terms.items():
         j, low = divmod(e, scale)
-        if not j or (skip_constant and not k and not low):
+        if not j:
             continue
         rows.append(index.setdefault((k, low, kind), len(index)))
         cols.append(j - 1)
@@ -150,15 +148,17 @@ def _grouped(
     return list(index), out
 
 
-def _functionals(entries: list[Series], n: int, r: int) -> list[np.ndarray]:
-    """Each term's coefficient over x1 … xr (vectors), in the entries' order, the terms of an
-    entry by the coordinates they depend on; significant ones first (U, the last entry, is
-    taken without its constant term)."""
+def _functionals(
+    groups: list[tuple[list[tuple[int, int, int]], np.ndarray]], n: int
+) -> list[np.ndarray]:
+    """Each term's coefficient over x1 … xr (vectors), in the entries' order (`groups`: each
+    entry's `_grouped`), the terms of an entry by the coordinates they depend on; significant
+    ones first. U, the last entry, is taken without its constant term."""
     out: list[np.ndarray] = []
-    for s in entries:
-        keys, matrix = _grouped(s, n, r, skip_constant=s is entries[-1])
+    for index, (keys, matrix) in enumerate(groups):
+        last = index == len(groups) - 1
         order = sorted(range(len(keys)), key=lambda g: _order(keys[g], n))
-        out.extend(matrix[g] for g in order)
+        out.extend(matrix[g] for g in order if not (last and not keys[g][0] and not keys[g][1]))
     largest = max((float(np.abs(v).max()) for v in out), default=0.0)
     significant = [v for v in out if np.abs(v).max() >= SIGNIFICANT * largest]
     rest = [v for v in out if np.abs(v).max() < SIGNIFICANT * largest]
@@ -208,10 +208,12 @@ def _expression(row: np.ndarray, names: list[str]) -> str:
     return text
 
 
-def _rewritten(s: Series, inverse: np.ndarray, n: int) -> Series:
-    """A series over x rewritten over p (x = F⁻¹ p)."""
+def _rewritten(
+    grouped: tuple[list[tuple[int, int, int]], np.ndarray], inverse: np.ndarray, n: int
+) -> Series:
+    """A series over x (its `_grouped` terms) rewritten over p (x = F⁻¹ p)."""
     scale = BASE ** (2 * n)
-    keys, matrix = _grouped(s, n, inverse.shape[0], skip_constant=False)
+    keys, matrix = grouped
     if not keys:
         return Series(n)
     over_p = matrix @ inverse
@@ -229,8 +231,9 @@ def in_base_parameters(
     """(M, U without its constant term, the parameters) over p1 … pr (module docstring);
     `heads` are the values of x1 … xr, each p's value is F x."""
     n, r = sym.n, sym.base.count
-    upper = [mass_matrix[i][j] for i in range(n) for j in range(i, n)]
-    chosen = _chosen(_functionals([*upper, potential], n, r), r)
+    pairs = [(i, j) for i in range(n) for j in range(i, n)]
+    groups = [_grouped(mass_matrix[i][j], n, r) for i, j in pairs] + [_grouped(potential, n, r)]
+    chosen = _chosen(_functionals(groups, n), r)
     standard = chosen @ sym.base.projection()
     for k in range(r):
         row = standard[k]
@@ -240,10 +243,9 @@ def in_base_parameters(
         chosen[k] /= head
     inverse = np.linalg.inv(chosen)
     M = [[Series(n)] * n for _ in range(n)]
-    for i in range(n):
-        for j in range(i, n):
-            M[i][j] = M[j][i] = _rewritten(mass_matrix[i][j], inverse, n)
-    U = _rewritten(potential, inverse, n)
+    for (i, j), grouped in zip(pairs, groups, strict=False):
+        M[i][j] = M[j][i] = _rewritten(grouped, inverse, n)
+    U = _rewritten(groups[-1], inverse, n)
     U = Series(n, {key: c for key, c in U.terms.items() if key[0] or key[1] % BASE ** (2 * n)})
     values = chosen @ heads
     # a value at the fit's rounding is 0 (a centre of mass on a link's line)

@@ -164,87 +164,95 @@ class Printer:
         return found
 
     # -- one entry ---------------------------------------------------------------------------
-    def _shown(self, ax: float) -> str:
-        """|coefficient| as printed (see `number`), on the hot path."""
-        if self.digits >= EXACT_DIGITS:
-            text = repr(ax)
-            if text.endswith(".0"):
-                return text[:-2]
-        else:
-            text = self._format % ax
-        if "e" in text:
-            return number(ax, self.digits)
-        return text
-
     def entry(self, series: Series, cut: float) -> Printed:
         """The series printed (terms with |coefficient| < `cut` left out), with its bound."""
-        groups: dict[int, list[tuple[tuple[int, ...], bool, str, str, str, str, str]]] = {}
+        groups: dict[int, list[tuple[tuple[int, ...], bool, str, str, str]]] = {}
         error = 0.0
         mask = 0
         factor_of, trig_of = self._factor.get, self._trig.get
+        exact, fmt, digits = self.digits >= EXACT_DIGITS, self._format, self.digits
         for (k, e, kind), c in series.terms.items():
             x = float(c)
-            ax = -x if x < 0 else x
-            factor = factor_of(e) or self._factor_of(e)
+            ax = x if x >= 0 else -x
+            factor = factor_of(e)
+            if factor is None:
+                factor = self._factor_of(e)
             if ax < cut:
                 error += ax * _DROPPED * factor[3]
                 continue
-            shown = self._shown(ax)
-            error += (abs(ax - float(shown)) * _ROUNDED + ax * _ULP) * factor[3]
-            trig = trig_of((k, kind)) or self._trig_of(k, kind)
-            mask |= trig[3] | factor[4]
-            if shown == "1" and trig[1]:
-                text, tex = trig[1], trig[2]
+            if exact:
+                shown = repr(ax)
+                if shown[-2:] == ".0":
+                    shown = shown[:-2]
             else:
-                number_tex = latex_number(shown) if "e" in shown else shown
-                text = f"{shown}*{trig[1]}" if trig[1] else shown
-                tex = f"{number_tex} {trig[2]}" if trig[2] else number_tex
+                shown = fmt % ax
+            if "e" in shown:
+                shown = number(ax, digits)
+            change = ax - float(shown)
+            error += ((change if change >= 0 else -change) * _ROUNDED + ax * _ULP) * factor[3]
+            trig = trig_of((k, kind))
+            if trig is None:
+                trig = self._trig_of(k, kind)
+            mask |= trig[3] | factor[4]
             group = groups.get(e)
             if group is None:
                 group = groups[e] = []
-            group.append((trig[0], x < 0, text, tex, shown, trig[1], trig[2]))
+            group.append((trig[0], x < 0, shown, trig[1], trig[2]))
         if not groups:
             return Printed("0", "0", error, [])
-        texts: list[str] = []
-        latexes: list[str] = []
+        pieces: list[tuple[bool, str, str]] = []
         for e in sorted(groups, key=lambda e: self._factor_of(e)[0]):
             _, f_text, f_tex, _, _ = self._factor_of(e)
-            terms = sorted(groups[e])
+            terms = groups[e]
+            terms.sort()
             if not f_text:
-                for _, negative, text, tex, *_ in terms:
-                    _append(texts, latexes, negative, text, tex)
+                pieces.extend(_terms(terms))
             elif len(terms) == 1:  # the number first: 2*p3*cos(q2)
-                _, negative, _, _, shown, t_text, t_tex = terms[0]
+                _, negative, shown, t_text, t_tex = terms[0]
                 number_tex = latex_number(shown) if "e" in shown else shown
                 shown, number_tex = ("", "") if shown == "1" else (shown, number_tex)
-                _append(
-                    texts,
-                    latexes,
-                    negative,
-                    "*".join(x for x in (shown, f_text, t_text) if x),
-                    " ".join(x for x in (number_tex, f_tex, t_tex) if x),
+                pieces.append(
+                    (
+                        negative,
+                        "*".join(x for x in (shown, f_text, t_text) if x),
+                        " ".join(x for x in (number_tex, f_tex, t_tex) if x),
+                    )
                 )
             else:
-                inner_text: list[str] = []
-                inner_tex: list[str] = []
-                for _, negative, text, tex, *_ in terms:
-                    _append(inner_text, inner_tex, negative, text, tex)
-                _append(
-                    texts,
-                    latexes,
-                    False,
-                    f"{f_text}*({''.join(inner_text)})",
-                    rf"{f_tex} \left({''.join(inner_tex)}\right)",
+                inner_text, inner_tex = _joined(_terms(terms))
+                pieces.append(
+                    (False, f"{f_text}*({inner_text})", rf"{f_tex} \left({inner_tex}\right)")
                 )
+        text, tex = _joined(pieces)
         depends = [i for i in range(self.n) if mask >> i & 1]
-        return Printed("".join(texts), "".join(latexes), error, depends)
+        return Printed(text, tex, error, depends)
 
 
-def _append(texts: list[str], latexes: list[str], negative: bool, text: str, tex: str) -> None:
-    """Adds one signed term to a sum being written."""
-    if not texts:
-        texts.append(f"-{text}" if negative else text)
-        latexes.append(f"- {tex}" if negative else tex)
-    else:
-        texts.append(f" - {text}" if negative else f" + {text}")
-        latexes.append(f" - {tex}" if negative else f" + {tex}")
+def _terms(
+    terms: list[tuple[tuple[int, ...], bool, str, str, str]],
+) -> list[tuple[bool, str, str]]:
+    """(negative, text, LaTeX) of each term: its number (unless 1) and its trigonometric
+    factor."""
+    out = []
+    for _, negative, shown, t_text, t_tex in terms:
+        if shown == "1" and t_text:
+            out.append((negative, t_text, t_tex))
+            continue
+        number_tex = latex_number(shown) if "e" in shown else shown
+        out.append(
+            (
+                negative,
+                f"{shown}*{t_text}" if t_text else shown,
+                f"{number_tex} {t_tex}" if t_tex else number_tex,
+            )
+        )
+    return out
+
+
+def _joined(pieces: list[tuple[bool, str, str]]) -> tuple[str, str]:
+    """A signed sum's text and LaTeX: "a - b + c"."""
+    text = "".join(f" - {t}" if neg else f" + {t}" for neg, t, _ in pieces)
+    tex = "".join(f" - {t}" if neg else f" + {t}" for neg, _, t in pieces)
+    if pieces[0][0]:
+        return f"-{text[3:]}", f"- {tex[3:]}"
+    return text[3:], tex[3:]

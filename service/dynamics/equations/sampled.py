@@ -37,6 +37,7 @@ from service.dynamics.identification.parameters import PER_BODY
 from service.dynamics.identification.regressor import joint_torque_regressor
 
 NOISE = 1e-13
+FIT_STRIDE = 7  # every 7th state of M's grid in the fit of the values (7 is prime to 5 and 3)
 POSITIONS = (-1.0, 0.0, 1.0)  # m: samples per prismatic coordinate, degrees 0 … 2
 # parabola a + b x + c x² through the values at −1, 0, 1: (a, b, c) = PARABOLA @ values
 PARABOLA = np.array([[0.0, 1.0, 0.0], [-0.5, 0.0, 0.5], [0.5, -1.0, 0.5]])
@@ -164,22 +165,22 @@ def head_values(
     potential: np.ndarray,
 ) -> np.ndarray:
     """The values x (columns,) of the symbols whose Φ (states, n, n, columns) and Ψ (states,
-    columns) are given: the least-squares fit of Pinocchio's own M (crba) and U (up to a
-    constant) at the same states — exact to double precision, whatever rounding the base
-    parameters' combination carries."""
+    columns) are given: the least-squares fit of Pinocchio's own M (crba; upper triangle, every
+    `FIT_STRIDE`-th state: far more equations than unknowns) and U (up to a constant) at the
+    same states — exact to double precision, whatever rounding the base parameters'
+    combination carries."""
     data = model.createData()
-    rows = [mass.reshape(-1, mass.shape[-1])]
-    target = []
-    for q in q_mass:
-        M = pin.crba(model, data, q)
-        target.append((np.triu(M) + np.triu(M, 1).T).reshape(-1))
-    target_m = np.concatenate(target)
+    n = mass.shape[1]
+    upper = np.triu_indices(n)
+    picked = np.arange(0, q_mass.shape[0], FIT_STRIDE)
+    rows_m = mass[picked][:, upper[0], upper[1], :].reshape(-1, mass.shape[-1])
+    target_m = np.concatenate([pin.crba(model, data, q_mass[s])[upper] for s in picked])
     target_u = np.array([pin.computePotentialEnergy(model, data, q) for q in q_potential])
     scale_m = max(float(np.abs(target_m).max(initial=0.0)), 1e-300)
     scale_u = max(float(np.abs(target_u).max(initial=0.0)), 1e-300)
     a = np.vstack(
         [
-            np.hstack([rows[0] / scale_m, np.zeros((rows[0].shape[0], 1))]),
+            np.hstack([rows_m / scale_m, np.zeros((rows_m.shape[0], 1))]),
             np.hstack([potential / scale_u, np.ones((potential.shape[0], 1)) / scale_u]),
         ]
     )

@@ -42,9 +42,16 @@ from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
 
-from service.api.workers.equations import MEMORY_MB, Printing, TooCostly, derive_isolated
+from service.api.workers.equations import (
+    MEMORY_MB,
+    PRELOAD,
+    Printing,
+    TooCostly,
+    derive_isolated,
+)
 from service.dynamics.equations.model_numbers import Joint, gravity, moving_joints
 from service.errors import UnsupportedModel
+from service.processes.contexts import forkserver_context
 from service.registry.build_slots import BuildSlots
 from service.registry.robot import Robot
 from service.registry.store import write_atomically
@@ -101,6 +108,9 @@ class EquationsCache:
         self._too_costly: OrderedDict[tuple[str, str], UnsupportedModel] = OrderedDict()
         self._pending: dict[Key, Future[bytes]] = {}
         self._lock = threading.Lock()
+        # whoever starts the forkserver first (an upload's build, or a derivation), it imports
+        # the derivation's modules: a derivation's child starts with them loaded
+        forkserver_context(PRELOAD)
 
     def _path(self, robot: Robot, printing: Printing) -> Path | None:
         if self.dir is None or robot.source == "catalog":

@@ -1,7 +1,9 @@
 """The equations of motion in explicit form, M(q) q̈ + C(q, q̇) q̇ + g(q) = τ, derived
-symbolically from a fixed-base model with at most six revolute or prismatic joints.
+symbolically from a fixed-base model with at most six revolute or prismatic joints, with the
+model's numbers (form "numeric") or linear in its base inertial parameters ("parametric").
 
-From M(q) and U(q) (`derivation`), exactly:
+From M(q) and U(q) (`derivation`, exact decimals; `sampled` and `parametric` for the
+parametric form, exact to double precision), exactly:
 
 - g(q) = ∂U/∂q, (nv,), in N·m (revolute) or N (prismatic);
 - the Christoffel symbols of the first kind c_ijk = ½ (∂M_ij/∂q_k + ∂M_ik/∂q_j − ∂M_jk/∂q_i),
@@ -15,7 +17,8 @@ revolute angles times monomials, exact sums of angles, equal expressions written
 and one documented cut: terms of M and U whose coefficient is at most `NOISE` = 1e-14 times the
 largest coefficient of the same quantity are dropped as float noise (a model number such as an
 inertia rotated by Pinocchio in double precision carries off-diagonal residues of ~1e-19; no such
-term can change a double-precision value of the quantity). Everything else — g, c_ijk, C, T — is
+term can change a double-precision value of the quantity; what they sum to is kept in
+`ExplicitEquations.noise`, for the accuracy bound). Everything else — g, c_ijk, C, T — is
 derived from the kept terms, so the identities above hold exactly between the expressions.
 """
 

@@ -1,15 +1,16 @@
 """Deriving the equations in a separate process, with a time limit.
 
 The derivation (`service.dynamics.equations`) is pure Python and holds the GIL for its whole
-duration (up to tens of seconds for a 6-joint arm with skewed axes): in a thread of the serving
-process it would stall the event loop and `/health/live`. `derive_isolated` runs it in a
-short-lived child forked from the forkserver the upload builders use (`service.processes`,
-with Pinocchio already imported there). The child receives the model in Pinocchio's binary
-serialization, is limited (CPU time, address space, nice 10, no core files), derives, renders
-the answer and sends it back as JSON bytes (encoded there, so the serving process only forwards
-them). The parent waits at most the time limit plus `GRACE_S` seconds of wall clock and then
-kills the child; the child's CPU limit is the time limit (rounded up). The time is judged by
-the parent alone, so that a child the machine starved is told from one that is too costly.
+duration (seconds for a 6-joint arm with skewed axes): in a thread of the serving process it
+would stall the event loop and `/health/live`. `derive_isolated` runs it in a short-lived child
+forked from the forkserver the upload builders use (`service.processes`, with Pinocchio and the
+derivation's modules already imported there). The child receives the model in Pinocchio's
+binary serialization, is limited (CPU time, address space, no core files; its priority is the
+server's, `NICENESS`), derives, renders the answer and sends it back as JSON bytes (encoded
+there, so the serving process only forwards them). The parent waits at most the time limit
+plus `GRACE_S` seconds of wall clock and then kills the child; the child's CPU limit is the
+time limit (rounded up). The time is judged by the parent alone, so that a child the machine
+starved is told from one that is too costly.
 
 Outcomes: the JSON bytes; `UnsupportedModel` for a model out of scope or a crash, and its
 subclass `TooCostly` for the model's own cost: a derivation past its time limit having had at
@@ -54,6 +55,10 @@ class TooCostly(UnsupportedModel):
 PRELOAD = (*FORKSERVER_PRELOAD, "service.dynamics.equations")
 MEMORY_MB = 2048  # address space of the child (a skewed 6-joint arm's derivation: ~300 MB)
 GRACE_S = 2.0  # the parent waits this much longer than the child's own time limit
+# The derivation runs at the serving process's priority, not lowered like the other children:
+# a request waits for it (seconds of CPU for a six-joint arm), and at nice 10 on a machine busy
+# with other work it would get a few percent of a core. Its slots bound how many run at once.
+NICENESS = 0
 
 
 @dataclass(frozen=True)
@@ -135,7 +140,7 @@ def derive_isolated(
             _child_derive,
             (model_to_binary(model), memory_mb, printing),
             timeout_s=time_limit_s + GRACE_S,
-            limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_limit_s),
+            limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_limit_s, niceness=NICENESS),
             preload=PRELOAD,
         )
     except ChildNotStarted:

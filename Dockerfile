@@ -1,6 +1,13 @@
 # robodyn: rigid-body dynamics over HTTP. Build and run:
 #   docker build -t robodyn .
 #   docker run -p 8000:8000 -v robodyn-data:/data robodyn
+# With a co-located client (a sidecar container of the same user, 10001), the API also on a
+# Unix socket in a shared in-memory volume; large batches then go through shared memory there:
+#   docker volume create --driver local --opt type=tmpfs --opt device=tmpfs robodyn-run
+#   docker run -d -v robodyn-data:/data -v robodyn-run:/run/robodyn \
+#     -e ROBODYN_UNIX_SOCKET=/run/robodyn/robodyn.sock robodyn
+#   docker run --user 10001 -v robodyn-run:/run/robodyn \
+#     -e ROBODYN_URL=unix:///run/robodyn/robodyn.sock your-client-image
 # (On machines without a Docker engine: deploy/scripts/container-check.sh builds it with buildah.)
 FROM python:3.11-slim
 
@@ -32,12 +39,14 @@ RUN python -m venv /opt/venv \
       "$prefix/share/cmake" "$prefix/share/doc" "$prefix/share/man" \
  && find "$prefix" -name '*.a' -delete
 
-# A non-root user (numeric, so Kubernetes' runAsNonRoot can check it) owning the data volume.
+# A non-root user (numeric, so Kubernetes' runAsNonRoot can check it) owning the data volume,
+# and /run/robodyn, where a volume shared with a co-located client holds the Unix socket.
 RUN groupadd --system --gid 10001 robodyn \
  && useradd --system --uid 10001 --gid robodyn --no-create-home --home-dir /nonexistent \
       --shell /usr/sbin/nologin robodyn \
- && mkdir -p /data \
- && chown 10001:10001 /data
+ && mkdir -p /data /run/robodyn \
+ && chown 10001:10001 /data /run/robodyn \
+ && chmod 0700 /run/robodyn
 
 # The code (the service and the catalog description), importable from /app.
 WORKDIR /app

@@ -3,9 +3,10 @@
     .venv/bin/python bench/run.py            # about 4 minutes; needs `wrk` (apt-get install wrk)
     .venv/bin/python bench/run.py --quick    # shorter runs, noisier figures
 
-Starts the service (and the naive baseline of bench/naive_app.py) on loopback ports, runs each
-comparison (single states, batches, latency under load, streams, workers,
-contacts) several times, alternating the two sides, and prints one table of medians.
+Starts the service (and the naive baseline of bench/naive_app.py) on loopback ports, and the
+service also on a Unix socket, runs each comparison (single states, batches, latency under
+load, streams, workers, contacts, co-located clients) several times, alternating the sides,
+and prints one table of medians.
 """
 
 from __future__ import annotations
@@ -42,6 +43,9 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+SOCKET = os.path.join(tempfile.mkdtemp(prefix="robodyn-bench-"), "robodyn.sock")
 
 
 @contextmanager
@@ -451,7 +455,7 @@ def main() -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--quick", action="store_true", help="shorter runs")
-    parser.add_argument("--only", default="12345678", help="which comparisons, e.g. 13")
+    parser.add_argument("--only", default="123456789", help="which comparisons, e.g. 13")
     opts = parser.parse_args()
     if shutil.which("wrk") is None and set(opts.only) & set("15"):
         sys.exit("wrk is needed: apt-get install wrk")
@@ -463,6 +467,7 @@ def main() -> None:
         "ROBODYN_DATA_DIR": tempfile.mkdtemp(),
         "ROBODYN_LOG_LEVEL": "warning",
         "ROBODYN_MAX_JSON_BODY_BYTES": str(64 << 20),
+        "ROBODYN_UNIX_SOCKET": SOCKET,  # co-located clients (comparison 9)
     }
     sys.path.insert(0, str(ROOT))
     print(
@@ -493,6 +498,10 @@ def main() -> None:
 
             trajectories.check(url, rounds, median_of, row)
             trajectories.retime(url, rounds, median_of, row)
+        if "9" in opts.only:
+            from bench.colocated import colocated
+
+            colocated(url, SOCKET, max(rounds, 7), talos_states, row)
     if "5" in opts.only:
         workers(seconds, rounds, env)
     print("\n| comparison | figures (medians) | ratio | target |\n|---|---|---|---|")

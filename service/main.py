@@ -16,6 +16,7 @@ from fastapi import Depends, FastAPI
 from service import __version__, heap, processes, unpin_this_thread
 from service.api.deps import require_api_key_for_all
 from service.api.encoding.in_flight import AnswerBytesInFlight
+from service.api.encoding.shared_bodies import sweep_periodically
 from service.api.middleware.api_keys import KeyBeforeBody
 from service.api.middleware.body_limit import BodyLimitMiddleware
 from service.api.middleware.fast_path import DynamicsFastPath
@@ -24,12 +25,22 @@ from service.api.middleware.observability import Metrics, ObservabilityMiddlewar
 from service.api.problems.handlers import install_problem_handlers
 from service.api.problems.openapi import operation_id, problem_openapi
 from service.api.routes import dynamics as dynamics_routes
-from service.api.routes import equations, health, identification, pages, robots, stream, visuals
+from service.api.routes import (
+    equations,
+    health,
+    identification,
+    model_check,
+    pages,
+    robots,
+    stream,
+    visuals,
+)
 from service.api.workers.equations_cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
 from service.registry.build_slots import DERIVATIONS, BuildSlots, build_slot_count
 from service.registry.urdf_check import Limits
+from service.segments import SegmentDirectory, segment_directory_of
 from service.settings import Settings
 
 log = logging.getLogger("robodyn")
@@ -57,6 +68,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         ),
     )
 
+    segments = (
+        SegmentDirectory(segment_directory_of(settings.unix_socket))
+        if settings.unix_socket is not None
+        else None
+    )
+
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if not injected and not registry.ready:
@@ -64,7 +81,15 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         # The OpenAPI document (~0.5 s to build) is read by the first validation error, for
         # close-match suggestions: built now, not on the event loop under that request.
         app.openapi()
+        sweeper = None
+        if segments is not None:  # the shared-memory segments of clients on the Unix socket
+            segments.create()
+            sweeper = asyncio.create_task(sweep_periodically(segments))
         yield
+        if sweeper is not None:
+            sweeper.cancel()
+        if segments is not None:  # this process's answer files (the directory: __main__'s)
+            segments.answers.close()
         worker = getattr(app.state, "identification", None)
         if worker is not None:  # the identification worker process, if one was started
             worker.close()
@@ -97,6 +122,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
+    app.state.segments = segments
     app.state.batches_in_flight = 0
     # Each robot's equations in explicit form, derived once in a child process (in slots of
     # their own: a costly derivation never holds a builder an upload waits for) and kept in
@@ -126,6 +152,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     private = [Depends(require_api_key_for_all)]
     app.include_router(robots.router, dependencies=private)
     app.include_router(visuals.router, dependencies=private)
+    app.include_router(model_check.router, dependencies=private)
     app.include_router(equations.router, dependencies=private)
     app.include_router(identification.router, dependencies=private)
     # The dynamics routes are the hot path: they are matched first.

@@ -22,6 +22,21 @@ class Settings(BaseSettings):
     host: str = Field("127.0.0.1", description="Interface to listen on.")
     port: int = Field(8000, ge=0, le=65535, description="TCP port to listen on.")
     workers: int = Field(1, ge=1, le=64, description="Server processes (uvicorn workers).")
+    unix_socket: Path | None = Field(
+        None,
+        description="Also serve the whole API on this Unix domain socket (a path), for "
+        "clients on the same host (`unix://` URLs of the Python client): their large binary "
+        "batches travel through shared memory, in the private directory `<path>.segments` "
+        "beside it. API keys and every limit apply as over TCP. The socket and the directory "
+        "are removed on shutdown.",
+    )
+    unix_socket_mode: str = Field(
+        "0600",
+        pattern=r"^0?[0-7]{3}$",
+        description="File mode of the Unix socket, in octal (0600: only the service's user "
+        "may connect; 0660 adds its group). Shared-memory segments are 0600 whatever it is: "
+        "a client on another user account is served through the socket itself.",
+    )
     data_dir: Path = Field(
         default_factory=_default_data_dir,
         description="Directory of the durable model store; replicas sharing it share uploads.",
@@ -88,10 +103,10 @@ class Settings(BaseSettings):
         500_000,
         ge=1,
         description="Largest work of one retime: path intervals × nv × limited quantities, "
-        "where K waypoints give at most 200 + 3 (K − 1) intervals and the quantities are "
+        "where K waypoints give at most 800 + 16 (K − 1) intervals and the quantities are "
         "velocity and effort, and acceleration where acceleration limits are given. A unit "
-        "costs about 5–20 µs on one core and 1–1.6 kB of memory (TOPP-RA holds the whole "
-        "path's rows); the default admits about 10 s and 0.8 GB on a 126-joint tree.",
+        "costs about 5–25 µs on one core and 0.3–0.9 kB of memory (TOPP-RA holds the whole "
+        "path's rows); the default admits about 12 s and 0.5 GB.",
     )
     request_deadline_s: float = Field(
         60.0,
@@ -271,6 +286,10 @@ class Settings(BaseSettings):
         "file-descriptor limit less 64); beyond, a new connection evicts the one idle "
         "longest, or is answered 503 overloaded when all are busy.",
     )
+
+    def unix_socket_mode_bits(self) -> int:
+        """`unix_socket_mode` as permission bits (e.g. 0o600)."""
+        return int(self.unix_socket_mode, 8)
 
     def api_key_list(self) -> list[str]:
         return [k.strip() for k in self.api_keys.split(",") if k.strip()]

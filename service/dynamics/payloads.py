@@ -32,9 +32,9 @@ import numpy as np
 
 from service.dynamics.frames import frame_id
 from service.errors import InvalidInput
+from service.registry.inertia_rules import ABS_TOL, NEGATIVE_REL_TOL, TRIANGLE_REL_TOL
 from service.registry.payloads import PlacedPayload, canonical, carrying
 from service.registry.robot import Robot
-from service.registry.urdf_check import ABS_TOL, NEGATIVE_REL_TOL, TRIANGLE_REL_TOL
 
 MAX_PAYLOADS = 16
 SYMMETRY_TOL = 1e-9  # |I − Iᵀ| allowed, relative to the largest |entry| of I

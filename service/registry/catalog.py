@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import sys
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,7 @@ import pinocchio as pin
 
 from robots import CATALOG_DIR, CATALOG_FILE
 from service.registry.build import build_urdf_model
+from service.registry.check_inputs import CheckInputs, catalog_inputs
 from service.registry.robot import Robot
 from service.registry.urdf_check import check_urdf
 from service.registry.visuals import on_model, resolve_assets, urdf_visuals
@@ -165,6 +167,19 @@ def _visuals(
     except Exception as exc:
         log.warning("catalog robot %r: visuals not read (%s)", entry.name, exc)
         return [], {}
+
+
+def catalog_check_inputs(name: str, model: Any, repairs: Sequence[dict[str, Any]]) -> CheckInputs:
+    """What the model check of catalog robot `name` (served as `model`, with the inertia
+    `repairs` of the variants between) reads: its description file and mesh directories."""
+    entry = next(e for e in catalog_entries() if e.name == name)
+    return catalog_inputs(
+        entry.path("urdf").read_text(encoding="utf-8"),
+        entry.spec.get("root_joint", "fixed"),
+        model,
+        [erd_robots_dir().parent.parent, entry.path("urdf").parent],
+        repairs,
+    )
 
 
 def load_catalog(names: list[str] | None = None) -> tuple[dict[str, Robot], dict[str, str]]:

@@ -9,16 +9,17 @@ Two kinds of record:
 - a description (`format` "urdf", "mjcf" or "xacro"): `description` text, `root_joint`,
   `gravity` (3 numbers, m/s², or null for an MJCF's own), `name`, `warnings`, `summary`, and
   where the upload has them `assets` (key → SHA-256), `xacro_args`, `expanded_urdf` (what
-  rebuilds a xacro: the server never expands one outside a builder process), `visuals`;
+  rebuilds a xacro: the server never expands one outside a builder process), `visuals`,
+  `inertia_repairs` (`inertia_check: "repair"`: `service.registry.link_inertias`);
 - a variant (`format` "reduced" for locked joints alone, else "variant"): its own
   modifications, `payloads` (at least one for "variant": `frame`, `mass`, `center_of_mass`,
-  `inertia`, checked when stored), `locked_joints` (joint name → positions; required for
-  "reduced"), identified `inertial_parameters` and `friction`, then `name`, `warnings`,
-  `summary`, and its lineage, flat: `base`, the root it derives from (a catalog robot by name,
-  or an upload by id with the members of its description record that rebuild it), and
-  `steps`, the variants between that root and the variant's parent, root first, each with its
-  `id` and its own modifications (`Step`). The parent is the last step (the root without
-  steps). A variant also keeps `locked_request` and `modifications` (as requested).
+  `inertia`, checked when stored), `locked_joints` (joint name → positions; required for "reduced"),
+  identified `inertial_parameters` and `friction`, `inertia_repairs`, then `name`, `warnings`,
+  `summary`, and its lineage, flat: `base`, the root it derives from (a catalog robot by name, or an
+  upload by id with the members of its description record that rebuild it), and `steps`, the
+  variants between that root and the variant's parent, root first, each with its `id` and its own
+  modifications (`Step`). The parent is the last step (the root without steps). A variant also keeps
+  `locked_request` and `modifications` (as requested).
 
 Records written in the nested form (a variant's `base.record` holding its parent's whole
 record, itself nesting its parent's, down to the root) are flattened on read (`flat`) before
@@ -40,6 +41,7 @@ STEP_KEYS = (
     "payloads",
     "inertial_parameters",
     "friction",
+    "inertia_repairs",
     "modifications",
 )
 """The members of a variant's record that its `Step` in a descendant's lineage keeps."""
@@ -74,6 +76,8 @@ class EmbeddedDescription(_Member):
     xacro_args: dict[str, str] | None = None
     expanded_urdf: str | None = None  # a xacro's expansion: what rebuilds it
     visuals: list[dict[str, Any]] | None = None  # an MJCF's visuals (from MuJoCo)
+    # `inertia_check: "repair"`: the links' inertials replaced (service.registry.link_inertias)
+    inertia_repairs: list[dict[str, Any]] | None = None
 
 
 class StoredPayload(_Member):
@@ -104,6 +108,8 @@ class _Modifications(_Member):
     # identified values (service.registry.variants.Fitted)
     inertial_parameters: list[float] | None = None
     friction: list[StoredFriction] | None = None
+    # repaired link inertials (service.registry.link_inertias)
+    inertia_repairs: list[dict[str, Any]] | None = None
 
 
 class Step(_Modifications):

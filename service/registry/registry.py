@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,8 +27,17 @@ from service.registry.assets import AssetStore, decode_assets
 from service.registry.build import build_model, check_moves, reference_configurations
 from service.registry.build_process import build_upload
 from service.registry.build_slots import BuildSlots, build_slot_count
-from service.registry.catalog import load_catalog
+from service.registry.catalog import catalog_check_inputs, load_catalog
+from service.registry.check_inputs import (
+    CheckInputs,
+    body_names,
+    fitted_lineage,
+    lineage_repairs,
+    model_links,
+    upload_inputs,
+)
 from service.registry.lineage import Lineage, child_lineage
+from service.registry.link_inertias import repaired_warnings, with_link_inertias
 from service.registry.payloads import PlacedPayload
 from service.registry.records import VARIANT_FORMATS
 from service.registry.reduce import LockedValue, as_lists, locked_configuration
@@ -128,6 +137,8 @@ class Registry:
             return _variant_of(parent, model_id, record)
         fmt, text, assets = rebuild_inputs(record, self.assets)
         model = build_model(fmt, text, record["root_joint"], record["gravity"], assets)
+        if record.get("inertia_repairs"):
+            model = with_link_inertias(model, record["inertia_repairs"])
         check_moves(model)  # a record stored before nv = 0 was refused is not served
         return Robot(
             id=model_id,
@@ -222,6 +233,27 @@ class Registry:
             or robot_id in self.catalog_failures
         )
 
+    def check_inputs(self, robot_id: str) -> CheckInputs:
+        """What the model check of robot `robot_id` reads (`service.registry.check_inputs`):
+        its root description, meshes and the inertia repairs along its lineage. Blocking
+        (reads the store): call it off the event loop."""
+        robot = self.get(robot_id)
+        if robot.source == "catalog":
+            return catalog_check_inputs(robot.id, robot.model, ())
+        record = self.store.read(robot.id)
+        if record is None:
+            raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
+        if fitted_lineage(record):
+            return CheckInputs(
+                None, robot.root_joint, body_names(robot.model), (), model_links(robot.model)
+            )
+        repairs = lineage_repairs(record)
+        base = record.get("base") if record.get("format") in VARIANT_FORMATS else None
+        if base is not None and base["source"] == "catalog":
+            return catalog_check_inputs(base["id"], robot.model, repairs)
+        description = record if base is None else base["record"]
+        return upload_inputs(description, robot.model, repairs, assets=self.assets)
+
     def robot_page(self, limit: int, cursor: str | None = None) -> Page:
         """A page of the robot list (`robot_pages.page`): catalog first, then stored models by
         id. Blocking (it lists the store's directory and reads the records of the page not
@@ -272,11 +304,14 @@ class Registry:
         xacro: str | None = None,
         xacro_args: Mapping[str, str] | None = None,
         assets: Mapping[str, str] | None = None,
+        repair: Callable[[CheckInputs], list[dict[str, Any]]] | None = None,
     ) -> tuple[Robot, bool]:
         """Validate, build (out of process) and store an uploaded URDF, MJCF or xacro (with
         `locked_joints`: its reduced model, stored alone): (robot, created). `assets`: path →
         base64 of the files it references; `gravity` None: the description's own
-        (`upload_formats`)."""
+        (`upload_formats`). With `inertia_check` "repair", `repair(inputs)` gives the repairs
+        of the links whose inertials have an error (the model check's), stored with the
+        record and applied to the model."""
         if not self.ready:
             raise NotReady("the robot catalog is still loading; retry in a moment")
         given = [
@@ -305,14 +340,25 @@ class Registry:
             )
         checked = built.checked
         check_findings(checked.findings, inertia_check)
+        model = built.model
+        repairs: list[dict[str, Any]] = []
+        if inertia_check == "repair" and model is not None:
+            if repair is None:
+                raise ValueError('inertia_check "repair" needs the model check\'s repair')
+            described = {**record, "expanded_urdf": built.report.get("expanded_urdf")}
+            repairs = repair(upload_inputs(described, model, (), mesh_data=files))
+            if repairs:
+                record["inertia_repairs"] = repairs
+                model = with_link_inertias(model, repairs)
         model_id = content_id(record)
         request = None if locked_joints is None else as_lists(locked_joints)
         target = model_id if request is None else variant_id(model_id, (), request)
         if self.store.exists(target):
             return self.get(target), False
-        model = built.model
         assert model is not None  # built unless findings were rejected (above)
-        warnings = after_build(record, built.report, model, checked, self.limits)
+        warnings = repaired_warnings(
+            after_build(record, built.report, model, checked, self.limits), repairs
+        )
         robot = Robot(
             id=model_id,
             name=name or checked.label,
@@ -364,19 +410,21 @@ class Registry:
         locked_joints: Mapping[str, LockedValue] | None = None,
         name: str | None = None,
         fitted: Fitted | None = None,
+        inertias: Mapping[str, Any] | None = None,
     ) -> tuple[Robot, bool]:
         """Store the variant of any robot carrying `payloads` (checked against that robot by
-        `service.dynamics.payloads.check_payloads`) with `locked_joints` locked, and the
-        identified values `fitted` (checked by identification): (robot, created). At least one
-        modification; `InvalidInput` otherwise."""
-        if not payloads and not locked_joints and not fitted:  # (None or an empty Fitted)
+        `service.dynamics.payloads.check_payloads`) with `locked_joints` locked, the
+        identified values `fitted` (checked by identification), and the repaired link
+        inertials `inertias` ({"links", "from", "repairs"}: computed against that robot by the
+        model check): (robot, created). At least one modification; `InvalidInput` otherwise."""
+        if not payloads and not locked_joints and not fitted and not inertias:
             raise InvalidInput(
-                "a variant needs at least one modification: payloads or locked_joints"
+                "a variant needs at least one modification: payloads, locked_joints or inertias"
             )
         base = self.get(robot_id)
         request = as_lists(locked_joints or {})
         fitted = fitted or NOTHING_FITTED
-        target = variant_id(base.id, payloads, request, fitted)
+        target = variant_id(base.id, payloads, request, fitted, inertias)
         if self.store.exists(target):
             return self.get(target), False
         # the base's assets stay named from reading its record until the variant's is written
@@ -387,7 +435,9 @@ class Registry:
                 if record is None:
                     raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
             lineage = child_lineage(base.id, record, base.name, base.warnings)
-            return self._store_variant(base, lineage, payloads, request, name, fitted), True
+            return self._store_variant(
+                base, lineage, payloads, request, name, fitted, inertias
+            ), True
 
     def _store_variant(
         self,
@@ -397,12 +447,14 @@ class Registry:
         request: dict[str, list[float]],
         name: str | None,
         fitted: Fitted | None = None,
+        inertias: Mapping[str, Any] | None = None,
     ) -> Robot:
         fitted = fitted or NOTHING_FITTED
         locked = locked_configuration(base, request) if request else {}
-        model_id = variant_id(base.id, payloads, request, fitted)
-        changes = modifications(payloads, request, fitted)
-        kind = "variant" if payloads or fitted else "reduced"
+        model_id = variant_id(base.id, payloads, request, fitted, inertias)
+        changes = modifications(payloads, request, fitted, inertias)
+        kind = "variant" if payloads or fitted or inertias else "reduced"
+        repairs = list((inertias or {}).get("repairs", []))
         robot = variant_robot(
             base,
             payloads,
@@ -411,6 +463,7 @@ class Registry:
             name=name or f"{base.name} ({kind})",
             changes=changes,
             fitted=fitted,
+            inertia_repairs=repairs,
         )
         record: dict[str, Any] = {
             "format": kind,
@@ -427,6 +480,8 @@ class Registry:
         }
         if payloads:
             record["payloads"] = changes["payloads"]
+        if repairs:
+            record["inertia_repairs"] = repairs
         record.update(fitted.as_dict())
         self.store.write(record)
         with self._lock:
@@ -489,6 +544,7 @@ def _variant_of(parent: Robot, model_id: str, record: Mapping[str, Any]) -> Robo
         name=record.get("name") or model_id,
         changes=changes,
         fitted=fitted,
+        inertia_repairs=record.get("inertia_repairs") or (),
     )
 
 

@@ -34,7 +34,8 @@ def content_id(record: dict[str, Any]) -> str:
     """The id of an upload: a hash of its description and the options that change the model.
 
     The same upload gives the same id on any machine, so uploads are idempotent and replicas
-    agree on ids. It covers the assets (by content) and a xacro's arguments. The label (`name`)
+    agree on ids. It covers the assets (by content), a xacro's arguments and the inertia repairs
+    of `inertia_check: "repair"` (a repaired model is another model). The label (`name`)
     and `inertia_check` do not change the dynamics and are not part of it.
     """
     gravity = record["gravity"]  # None: the description's own (MJCF)
@@ -46,6 +47,8 @@ def content_id(record: dict[str, Any]) -> str:
     }
     if record.get("assets"):  # key → sha256 of the bytes; absent for uploads without assets
         identity["assets"] = dict(sorted(record["assets"].items()))
+    if record.get("inertia_repairs"):  # `inertia_check: "repair"` changed the inertials
+        identity["inertia_repairs"] = record["inertia_repairs"]
     if record["format"] == "xacro":
         identity["xacro_args"] = dict(sorted(record.get("xacro_args", {}).items()))
     canonical = json.dumps(identity, sort_keys=True, separators=(",", ":"), ensure_ascii=False)

@@ -20,13 +20,16 @@ URDF_GRAVITY = [0.0, 0.0, -9.81]  # m/s², a URDF or xacro upload's default
 
 
 def check_findings(findings: list[Finding], inertia_check: str) -> None:
-    """Refuse physical findings unless `inertia_check` is "warn"."""
+    """Refuse physical findings when `inertia_check` is "reject" (the default): each names
+    its link, the numbers and, where one attribute off by a power of ten explains it, the
+    corrected value."""
     if findings and inertia_check == "reject":
         listed = "; ".join(f.message for f in findings[:10])
         more = len(findings) - 10
         raise InvalidModel(
             f"{listed}{f'; and {more} more' if more > 0 else ''}. Send "
-            '"inertia_check": "warn" to store the model with these findings as warnings'
+            '"inertia_check": "warn" to store the model with these findings as warnings, or '
+            '"repair" to store it with these inertias repaired'
         )
 
 
@@ -170,4 +173,5 @@ REBUILD_KEYS = (
     "xacro_args",
     "expanded_urdf",
     "visuals",
+    "inertia_repairs",
 )

@@ -6,16 +6,11 @@ the text with a safe, bounded XML parser (`safe_xml`: no DTD, no entities, no ex
 element count and nesting capped) and checks structure and physics itself, so that errors name the
 element at fault.
 
-Physical findings (reported, and rejected by default for uploads; see API.md `inertia_check`), on
-the principal moments λ₁ ≤ λ₂ ≤ λ₃ (kg·m², eigenvalues of the inertia tensor about the centre of
-mass), one finding per link at most:
-
-- `negative_principal_moment`: λ₁ < −(1e-4 · max|λ| + 1e-12 kg·m²). Eigenvalue rounding of a
-  tensor written with a few significant digits gives negatives of about 1e-16 · max|λ| (e.g.
-  −2.5e-22 against 3e-6 on several quadruped bases): those pass.
-- `triangle_inequality`: λ₁ + λ₂ < λ₃ − (1e-4 · (λ₁ + λ₂ + λ₃) + 1e-12 kg·m²), checked on
-  tensors without a negative moment. No rigid body has it (λ₁ + λ₂ ≥ λ₃ follows from the
-  definition); descriptions that get it wrong are usually hand-written sensor or cover links.
+Physical findings (reported, and rejected by default for uploads; see API.md `inertia_check`), one
+per link at most: the errors of `service.registry.inertia_rules` (`negative_principal_moment`,
+`triangle_inequality`, `inertia_without_mass`), the rules every inertia check applies; the
+message names the link, the numbers and, where one attribute off by a power of ten explains the
+error, the corrected value.
 
 Zero inertia (a point mass) is not a finding. Always rejected: malformed XML, a root element other
 than <robot>, missing or duplicate names, unknown joint types, dangling parent/child links, several
@@ -36,6 +31,11 @@ from xml.etree.ElementTree import Element
 import numpy as np
 
 from service.errors import InvalidModel
+from service.registry.inertia_rules import (
+    inertia_error,
+    power_of_ten_fix,
+    tensor,
+)
 from service.registry.mimic import mimic_problems
 from service.registry.safe_xml import check_name_lengths, parse_bounded, read_numbers, shown
 from service.settings import Settings
@@ -43,9 +43,6 @@ from service.settings import Settings
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 AXIS_TYPES = ("revolute", "continuous", "prismatic", "planar")
 JOINT_NV = {"revolute": 1, "continuous": 1, "prismatic": 1, "fixed": 0, "floating": 6, "planar": 3}
-NEGATIVE_REL_TOL = 1e-4  # of the largest principal moment
-TRIANGLE_REL_TOL = 1e-4  # of the trace
-ABS_TOL = 1e-12  # kg·m²
 RESERVED_NAME = "universe"  # Pinocchio's joint 0 and its frame: refused as a joint or link name
 
 
@@ -139,36 +136,23 @@ def _check_shapes(link: Element, name: str) -> None:
                 _numbers(color.get("rgba"), 4, f"{what} material color rgba")
 
 
-def _inertia_findings(link: str, tensor: np.ndarray) -> list[Finding]:
-    """At most one finding for an inertia tensor (kg·m², about the centre of mass)."""
-    moments = np.linalg.eigvalsh(tensor)
-    shown_moments = ", ".join(f"{m:.6g}" for m in moments)
-    name = shown(link)
-    largest = float(np.max(np.abs(moments)))
-    if moments[0] < -(NEGATIVE_REL_TOL * largest + ABS_TOL):
-        return [
-            Finding(
-                "negative_principal_moment",
-                "link",
-                link,
-                f"link '{name}': inertia has a negative principal moment {moments[0]:.6g} kg·m² "
-                f"(principal moments {shown_moments}; largest {largest:.6g})",
-            )
-        ]
-    a, b, c = moments
-    trace = float(a + b + c)
-    if a + b < c - (TRIANGLE_REL_TOL * abs(trace) + ABS_TOL):
-        excess = (c - a - b) / c * 100
-        return [
-            Finding(
-                "triangle_inequality",
-                "link",
-                link,
-                f"link '{name}': principal moments {shown_moments} kg·m² violate the triangle "
-                f"inequality ({a:.6g} + {b:.6g} < {c:.6g}, short by {excess:.3g} % of the largest)",
-            )
-        ]
-    return []
+def _inertia_findings(
+    link: str,
+    inertia: np.ndarray,
+    mass: float | None = None,
+    attributes: dict[str, float] | None = None,
+) -> list[Finding]:
+    """At most one finding for a body's inertia (kg·m², about the centre of mass), by the rules
+    of `inertia_rules` (`inertia_without_mass` where `mass` is given); with the `<inertia>`
+    `attributes` as written, the message gives the power-of-ten slip that explains it."""
+    error = inertia_error(1.0 if mass is None else mass, inertia)
+    if error is None:
+        return []
+    message = f"link '{shown(link)}': {error.what}"
+    fix = None if attributes is None or mass is None else power_of_ten_fix(mass, attributes)
+    if fix is not None:
+        message += f"; {fix[0]} = {fix[1]:.12g} (the written value times a power of ten) fixes it"
+    return [Finding(error.code, "link", link, message)]
 
 
 def _link_mass(link: Element, name: str, findings: list[Finding]) -> float:
@@ -191,14 +175,7 @@ def _link_mass(link: Element, name: str, findings: list[Finding]) -> float:
         k: _number(inertia_el, k, f"link '{label}' inertia {k}")
         for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
     }
-    tensor = np.array(
-        [
-            [comps["ixx"], comps["ixy"], comps["ixz"]],
-            [comps["ixy"], comps["iyy"], comps["iyz"]],
-            [comps["ixz"], comps["iyz"], comps["izz"]],
-        ]
-    )
-    findings.extend(_inertia_findings(name, tensor))
+    findings.extend(_inertia_findings(name, tensor(comps), mass, comps))
     return mass
 
 

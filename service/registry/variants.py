@@ -1,12 +1,14 @@
 """Variants: stored models derived from a robot (its parent) by modifications.
 
 A variant is its parent with, in this order,
-0. identified values (`Fitted`, from identification): every body's inertial parameters
+0. repaired link inertials (`inertias`: {"links", "from", "repairs"}, the repairs computed by
+   the model check, `service.registry.link_inertias`), then
+1. identified values (`Fitted`, from identification): every body's inertial parameters
    replaced, and each joint's friction (RobotInfo's `friction`; inverse dynamics adds it on
    request), then
-1. `payloads` (rigid bodies held by frames, `service.registry.payloads`) added to the bodies
+2. `payloads` (rigid bodies held by frames, `service.registry.payloads`) added to the bodies
    that carry their frames, then
-2. `locked_joints` (joint name → position, `service.registry.reduce`) locked: their entries
+3. `locked_joints` (joint name → position, `service.registry.reduce`) locked: their entries
    leave q, v, a and τ, and the bodies they moved (with any payload they hold) are welded.
 
 Its id is derived from the parent's id and the canonical modifications (payloads in canonical
@@ -28,6 +30,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from service.registry.link_inertias import repaired_warnings, with_link_inertias
 from service.registry.payloads import PlacedPayload, canonical, carrying, derived
 from service.registry.reduce import reduced_robot
 from service.registry.robot import Robot
@@ -130,11 +133,12 @@ def variant_id(
     payloads: Sequence[PlacedPayload],
     locked_joints: Mapping[str, list[float]],
     fitted: Fitted | None = None,
+    inertias: Mapping[str, Any] | None = None,
 ) -> str:
     """The id of a variant of `parent_id`: `reduced_id` for locked joints alone (as reduce
     always gave), else "v-" and a hash of the parent's id and the canonical modifications."""
     fitted = fitted or NOTHING_FITTED
-    if not payloads and not fitted:
+    if not payloads and not fitted and not inertias:
         return reduced_id(parent_id, dict(locked_joints))
     canonical_form = json.dumps(
         {
@@ -143,6 +147,7 @@ def variant_id(
             "payloads": canonical_payloads(payloads),
             "locked_joints": {k: [_number(x) for x in v] for k, v in sorted(locked_joints.items())},
             **fitted.as_dict(),
+            **({"inertias": dict(inertias)} if inertias else {}),
         },
         sort_keys=True,
         separators=(",", ":"),
@@ -155,10 +160,14 @@ def modifications(
     payloads: Sequence[PlacedPayload],
     locked_request: Mapping[str, list[float]],
     fitted: Fitted | None = None,
+    inertias: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """RobotInfo's `modifications`: the locked joints as requested and the payloads (checked:
-    defaults filled in, canonical order), and identified values; only the kinds given."""
+    defaults filled in, canonical order), identified values, and the repaired inertias (the
+    request's `links` and `from`, and each link's `repairs`); only the kinds given."""
     out: dict[str, Any] = (fitted or NOTHING_FITTED).as_dict()
+    if inertias:
+        out["inertias"] = dict(inertias)
     if payloads:
         out["payloads"] = canonical_payloads(payloads)
     if locked_request:
@@ -175,13 +184,16 @@ def variant_robot(
     name: str,
     changes: dict[str, Any],
     fitted: Fitted | None = None,
+    inertia_repairs: Sequence[Mapping[str, Any]] = (),
 ) -> Robot:
-    """The `Robot` of a variant of `parent`: identified values set, payloads added, then
-    `locked_q` (checked joint positions, `locked_configuration` of the parent) locked.
-    `changes` is its `modifications`. Friction (the parent's, or identified) follows the
-    joints by name."""
+    """The `Robot` of a variant of `parent`: link inertials repaired, identified values set,
+    payloads added, then `locked_q` (checked joint positions, `locked_configuration` of the
+    parent) locked. `changes` is its `modifications`. Friction (the parent's, or identified)
+    follows the joints by name."""
     fitted = fitted or NOTHING_FITTED
     friction = fitted.friction if fitted.friction is not None else _rows(parent)
+    if inertia_repairs:
+        parent = derived(parent, with_link_inertias(parent.model, inertia_repairs))
     if fitted.inertial_parameters is not None:
         parent = derived(parent, with_parameters(parent.model, fitted.inertial_parameters))
     if not locked_q:
@@ -207,6 +219,7 @@ def variant_robot(
         )
     if friction is not None:
         robot.friction = friction_arrays(robot.model, friction)
+    robot.warnings = repaired_warnings(robot.warnings, inertia_repairs)
     return robot
 
 

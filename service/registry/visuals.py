@@ -74,7 +74,9 @@ def _color(material: Element | None, named: Mapping[str, list[float]]) -> list[f
     return named.get(material.get("name", ""))
 
 
-def _geometry(geometry: Element) -> dict[str, Any] | None:
+def shape_geometry(geometry: Element) -> dict[str, Any] | None:
+    """The first usable shape of a `<geometry>` element (entries as in the module docstring),
+    None if it has none."""
     for shape in geometry:
         tag = shape.tag
         if tag == "mesh":
@@ -105,7 +107,7 @@ def _visual(
     geometry_element = visual.find("geometry")
     if geometry_element is None:
         return None
-    geometry = _geometry(geometry_element)
+    geometry = shape_geometry(geometry_element)
     if geometry is None:
         return None
     origin = visual.find("origin")

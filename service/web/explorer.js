@@ -8,6 +8,7 @@ import { api, Problem, robotPath, setApiKey } from "./http.js";
 import { IdentificationView } from "./identification_view.js";
 import { finite, jointCoordinates, UNITS } from "./joint_coordinates.js";
 import { fmt, renderHeatmap, renderNumbers } from "./mass_matrix_view.js";
+import { ModelCheckView } from "./model_check_view.js";
 import { PayloadView } from "./payload_view.js";
 import { RobotList } from "./robot_list_view.js";
 import { RobotView } from "./robot_view.js";
@@ -30,6 +31,7 @@ const state = {
   trajectory: null, // the trajectory tab (trajectory_view.js)
   payload: null, // the payload view (payload_view.js)
   equations: null, // the equations view (equations_view.js)
+  modelCheck: null, // the model check view (model_check_view.js)
   identification: null, // the identification view (identification_view.js)
   robots: null, // the robot picker (robot_list_view.js)
 };
@@ -194,6 +196,7 @@ async function selectRobot(id) {
   state.trajectory.setRobot(info);
   state.payload.setRobot(info);
   state.equations.setRobot(info);
+  state.modelCheck.setRobot(info);
   buildControls(info.default_configuration, null);
   state.chooseScale = true;
   if (!(await state.view.setRobot(info, () => mine === state.robotSeq))) return;
@@ -303,7 +306,7 @@ function setUpTabs() {
   arrowKeys([...document.querySelectorAll('#tabs [role="tab"]')], selectTab);
 }
 
-// ---- Views of the results (dynamics, payload, equations) -----------------------------------------------
+// ---- Views of the results (dynamics, payload, equations, model check) -----------------------------------------------
 
 function showView(button) {
   const tabs = [...document.querySelectorAll('#result-views [role="tab"]')];
@@ -313,12 +316,16 @@ function showView(button) {
   }
   const payload = button.id === "payload-view-button";
   const equations = button.id === "equations-view-button";
+  const modelCheck = button.id === "model-check-view-button";
   el("payload-view").hidden = !payload;
   el("equations-view").hidden = !equations;
+  el("model-check-view").hidden = !modelCheck;
   el("results").classList.toggle("payload-shown", payload);
   el("results").classList.toggle("equations-shown", equations);
+  el("results").classList.toggle("model-check-shown", modelCheck);
   if (payload) state.payload.compute();
-  else state.view.markFrame(null); // the payload frame's axes: only with the Payload view
+  else if (modelCheck) state.modelCheck.show(); // marks the chosen link
+  else state.view.markFrame(null); // a frame's axes: only with the Payload or Model check view
   if (equations) state.equations.show();
 }
 
@@ -359,6 +366,11 @@ function start() {
     markFrame: (frame, point) => state.view.markFrame(frame, point),
   });
   state.equations = new EquationsView({ api, robotPath, fmt });
+  state.modelCheck = new ModelCheckView({
+    api, robotPath, fmt,
+    markFrame: (frame, point, ellipsoids) => state.view.markFrame(frame, point, ellipsoids),
+    openRobot: async (id) => selectRobot(await state.robots.load(id)),
+  });
   setUpViews();
   state.trajectory = new TrajectoryView({ api, robotPath, fmt });
   setUpTabs();

@@ -400,7 +400,36 @@ export class RobotDrawing {
     } else {
       delete this.container.dataset.markedFrame;
     }
+    this.setEllipsoids(mark ? mark.ellipsoids || [] : []);
     this.requestRender();
+  }
+
+  /** Ellipsoids in the marked frame's coordinates, each {center [3] m, axes 3×3 (columns:
+   * the semi-axes' directions), radii [3] m, colour "#rrggbb"}: wireframes drawn over the
+   * robot, replaced on every call. */
+  setEllipsoids(ellipsoids) {
+    const g = this.frameMark;
+    if (!g) return;
+    if (g.userData.ellipsoids) {
+      g.remove(g.userData.ellipsoids);
+      g.userData.ellipsoids.traverse((o) => { if (o.geometry) o.geometry.dispose(); });
+    }
+    const group = new THREE.Group();
+    for (const e of ellipsoids) {
+      const mesh = new THREE.Mesh(
+        new THREE.SphereGeometry(1, 24, 16),
+        new THREE.MeshBasicMaterial({ color: e.colour, wireframe: true, transparent: true,
+                                      opacity: 0.7, depthTest: false }));
+      mesh.renderOrder = 12;
+      mesh.matrixAutoUpdate = false;
+      const radii = e.radii.map((r) => Math.max(r, 1e-4)); // a flat axis: drawn thin
+      mesh.matrix.copy(placementMatrix(e.axes, e.center))
+        .multiply(new THREE.Matrix4().makeScale(...radii));
+      group.add(mesh);
+    }
+    g.add(group);
+    g.userData.ellipsoids = group;
+    this.container.dataset.ellipsoids = String(ellipsoids.length);
   }
 
   buildFrameMark() {

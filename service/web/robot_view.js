@@ -82,7 +82,7 @@ export class RobotView {
           } else if (mark) {
             this.markPlacement = { position: marked.positions[0], rotation: marked.rotations[0] };
             this.drawing.setFrameMark({ name: mark.name, point: mark.point,
-                                        ...this.markPlacement });
+                                        ellipsoids: mark.ellipsoids, ...this.markPlacement });
           }
         }
       } while (this.placeAgain);
@@ -94,16 +94,17 @@ export class RobotView {
   }
 
   /** Draw frame `name`'s axes at the sliders' state, following them, with `point` (3 numbers
-   * in the frame's coordinates, m, or null) as a ball; null: no frame. */
-  markFrame(name, point = null) {
+   * in the frame's coordinates, m, or null) as a ball and `ellipsoids` (robot_drawing.js's
+   * setEllipsoids, or null) in the frame; null: no frame. */
+  markFrame(name, point = null, ellipsoids = null) {
     const previous = this.mark;
-    this.mark = name ? { name, point } : null;
+    this.mark = name ? { name, point, ellipsoids } : null;
     if (!this.drawing) return;
     if (!name) {
       this.markPlacement = null;
       this.drawing.setFrameMark(null);
     } else if (previous && previous.name === name && this.markPlacement) {
-      this.drawing.setFrameMark({ name, point, ...this.markPlacement }); // placed already
+      this.drawing.setFrameMark({ name, point, ellipsoids, ...this.markPlacement }); // placed
     } else {
       this.markPlacement = null;
       this.place();

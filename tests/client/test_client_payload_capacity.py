@@ -137,7 +137,7 @@ def test_a_variant_answers_as_its_parent_carrying_the_payloads(client: Client) -
     q = np.array([0.1, -1.0, 1.2, 0.3, -0.4, 0.0])
     carried = client.gravity("ur5", q, payloads=[TOOL, {"frame": "wrist_1_link", "mass": 0.4}])
     np.testing.assert_allclose(client.gravity(info.id, q[:5]), carried[:5], rtol=1e-12, atol=1e-12)
-    with pytest.raises(InputError, match="payloads, locked_joints or both"):
+    with pytest.raises(InputError, match="payloads, locked_joints, inertias or several"):
         client.variant("ur5")
     with pytest.raises(InputError, match="center_of_mass"):
         client.payload_capacity("ur5", q, "tool0", center_of_mass=[0, 0])

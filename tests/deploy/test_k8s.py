@@ -172,3 +172,55 @@ def test_autoscaler_and_disruption_budget_keep_replicas_serving():
     assert metric["type"] == "Resource" and metric["resource"]["name"] == "cpu"
     pdb = _kind("PodDisruptionBudget")
     assert 1 <= pdb["spec"]["minAvailable"] < hpa["spec"]["minReplicas"]
+
+
+def _merged_by_name(base: list[dict[str, Any]], patch: list[dict[str, Any]]) -> list[dict]:
+    """Lists of named objects merged as kustomize's strategic merge does (by `name`)."""
+    merged = {item["name"]: copy.deepcopy(item) for item in base}
+    for item in patch:
+        if item["name"] not in merged:
+            merged[item["name"]] = copy.deepcopy(item)
+            continue
+        target = merged[item["name"]]
+        for key, value in item.items():
+            if isinstance(value, list) and value and isinstance(value[0], dict):
+                key_name = "name"
+                target[key] = (
+                    _merged_by_name(target.get(key, []), value)
+                    if all(key_name in v for v in value)
+                    else value
+                )
+            elif key != "name":
+                target[key] = value
+    return list(merged.values())
+
+
+def test_the_colocated_overlay_shares_the_socket_with_a_sidecar():
+    """deploy/k8s/colocated: the base Deployment with a client container that reaches the
+    server through a Unix socket in an in-memory emptyDir both mount, as the same user."""
+    overlay = K8S / "colocated"
+    kustomization = yaml.safe_load((overlay / "kustomization.yaml").read_text())
+    assert kustomization["resources"] == ["../"]
+    (patch_file,) = [p["path"] for p in kustomization["patches"]]
+    patch = yaml.safe_load((overlay / patch_file).read_text())
+    deployment = copy.deepcopy(_kind("Deployment"))
+    assert patch["kind"] == "Deployment" and patch["metadata"]["name"] == "robodyn"
+    pod, patched = deployment["spec"]["template"]["spec"], patch["spec"]["template"]["spec"]
+    pod["containers"] = _merged_by_name(pod["containers"], patched["containers"])
+    pod["volumes"] = _merged_by_name(pod["volumes"], patched["volumes"])
+    for version in VERSIONS:
+        kubernetes_validate.validate(deployment, version, strict=True)
+    server, client = pod["containers"]
+    volume = next(v for v in pod["volumes"] if v["name"] == patched["volumes"][0]["name"])
+    assert volume["emptyDir"]["medium"] == "Memory"  # tmpfs: the segments are memory
+    mounts = [
+        {m["name"]: m["mountPath"] for m in c["volumeMounts"]}[volume["name"]]
+        for c in (server, client)
+    ]
+    assert mounts[0] == mounts[1]
+    socket_path = _env(server)["ROBODYN_UNIX_SOCKET"]
+    assert socket_path.startswith(mounts[0] + "/")
+    assert _env(client)["ROBODYN_URL"] == "unix://" + socket_path
+    assert pod["securityContext"]["runAsUser"] == 10001  # one user: the socket is 0600
+    assert Settings(unix_socket=socket_path).unix_socket_mode_bits() == 0o600
+    assert _env(server)["ROBODYN_DATA_DIR"] == "/data"  # the base's settings are kept

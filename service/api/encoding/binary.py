@@ -190,8 +190,9 @@ def header_bytes(fields: Mapping[str, Any], shapes: Mapping[str, tuple[int, ...]
     return _LENGTH.pack(len(text)) + text
 
 
-def encode(values: Mapping[str, Any]) -> bytes:
-    """Encode an answer: numpy arrays (and numpy scalars) become F64 tensors, everything else
+def encode_parts(values: Mapping[str, Any]) -> list[bytes | memoryview]:
+    """Encode an answer as parts to send or write one after the other: the header, then each
+    array's own memory. Numpy arrays (and numpy scalars) become F64 tensors, everything else
     goes to `__metadata__`."""
     fields: dict[str, Any] = {}
     arrays: dict[str, np.ndarray] = {}
@@ -204,4 +205,9 @@ def encode(values: Mapping[str, Any]) -> bytes:
         else:
             fields[name] = value
     head = header_bytes(fields, {name: a.shape for name, a in arrays.items()})
-    return b"".join([head, *(a.data.cast("B") for a in arrays.values())])
+    return [head, *(a.data.cast("B") for a in arrays.values())]
+
+
+def encode(values: Mapping[str, Any]) -> bytes:
+    """Encode an answer in one piece (`encode_parts` joined)."""
+    return b"".join(encode_parts(values))

@@ -17,10 +17,17 @@ from starlette.types import Message, Receive, Scope, Send
 
 from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.encoding.in_flight import release_answer_bytes
+from service.api.encoding.shared_bodies import (
+    ANSWER_HEADER,
+    answer_writer,
+    open_shared_body,
+    shared_body_header,
+)
 from service.api.problems.handlers import handler_for
 from service.api.progress import ProgressAnswer, wants_progress
 from service.api.routes.dynamics import ENDPOINTS, PREFIX, warning_headers
 from service.errors import InvalidInput
+from service.segments import RequestSegment
 
 _START = PREFIX + "/"
 BINARY_PIECE_BYTES = 1 << 20  # a large binary answer is sent in pieces of this size
@@ -50,27 +57,74 @@ class DynamicsFastPath:
                     finally:  # sent, failed or abandoned: the answer's bytes are no longer held
                         release_answer_bytes(scope, scope["app"])
                     return
+        if scope["type"] == "http" and shared_body_header(scope) is not None:
+            await _problem(
+                scope,
+                receive,
+                send,
+                InvalidInput("Robodyn-Shared-Body is accepted by the dynamics routes only"),
+            )
+            return
         await self.app(scope, receive, send)
 
 
 async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> None:
     """Answer one dynamics request: the endpoint's content (as a progress stream when asked
-    for, `service.api.progress`), or the app's problem answer."""
+    for, `service.api.progress`), or the app's problem answer. A body in shared memory
+    (`service.api.encoding.shared_bodies`) is mapped for the request and let go when it ends,
+    however it ends; its binary answer is written there too."""
+    segment: RequestSegment | None = None
     try:
-        body = await _body(scope, receive)
-        if wants_progress(scope):
-            await ProgressAnswer(endpoint.json_content(Request(scope, receive), body))(
-                scope, receive, send
-            )
+        try:
+            name = shared_body_header(scope)
+            if name is None:
+                body: Any = await _body(scope, receive)
+            else:
+                segment = open_shared_body(scope, name)
+                body = segment.body
+            if wants_progress(scope):
+                await ProgressAnswer(endpoint.json_content(Request(scope, receive), body))(
+                    scope, receive, send
+                )
+                return
+            if segment is None:
+                content, media_type = await endpoint.handle(Request(scope, receive), body)
+            else:
+                content, media_type = await endpoint.handle(
+                    Request(scope, receive), body, encode_binary=answer_writer(segment)
+                )
+        except Exception as exc:
+            await _problem(scope, receive, send, exc)
             return
-        content, media_type = await endpoint.handle(Request(scope, receive), body)
-    except Exception as exc:
-        handler = handler_for(scope["app"], exc)
-        if handler is None:
-            raise  # the server-error middleware answers 500, as for any route
-        response = await handler(Request(scope, receive), exc)
-        await response(scope, receive, send)
-        return
+        shared = (
+            [(ANSWER_HEADER, segment.answer.encode())]
+            if segment is not None and segment.answer is not None
+            else []
+        )
+        await _send_content(scope, send, content, media_type, shared)
+    finally:
+        if segment is not None:
+            segment.end()
+
+
+async def _problem(scope: Scope, receive: Receive, send: Send, exc: Exception) -> None:
+    """The app's problem answer to `exc` (re-raised for the server-error middleware when the
+    app has no handler for it: a 500, as for any route)."""
+    handler = handler_for(scope["app"], exc)
+    if handler is None:
+        raise exc
+    response = await handler(Request(scope, receive), exc)
+    await response(scope, receive, send)
+
+
+async def _send_content(
+    scope: Scope,
+    send: Send,
+    content: Any,
+    media_type: str,
+    extra_headers: list[tuple[bytes, bytes]],
+) -> None:
+    """Send a 200 answer: `content` whole, or in pieces."""
     length = sum(len(p) for p in content) if isinstance(content, list) else len(content)
     await send(
         {
@@ -79,6 +133,7 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
             "headers": [
                 (b"content-length", str(length).encode()),
                 (b"content-type", _MEDIA_TYPES.get(media_type) or media_type.encode()),
+                *extra_headers,
                 *((k.encode(), v.encode()) for k, v in warning_headers(scope)),
             ],
         }

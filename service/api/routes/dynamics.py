@@ -336,11 +336,17 @@ class Endpoint:
                 scope[ANSWER_BYTES] = in_flight.reserve(size)
 
     async def handle(
-        self, request: HTTPConnection, body: bytes | bytearray, json_only: bool = False
+        self,
+        request: HTTPConnection,
+        body: bytes | bytearray,
+        json_only: bool = False,
+        encode_binary: Callable[[dict[str, Any]], bytes] = binary.encode,
     ) -> tuple[bytes | list[bytes], str]:
         """The answer to `body` (JSON or binary, as `Accept` asks; JSON whatever it asks with
         `json_only`) as (content, media type), content in pieces for a large JSON answer;
-        domain errors and validation errors are raised for the app's exception handlers."""
+        domain errors and validation errors are raised for the app's exception handlers.
+        `encode_binary` encodes a binary answer (into shared memory for a body that came
+        there: `service.api.encoding.shared_bodies`)."""
         check_api_key_for_all(request)
         robot = await served_robot(request.app.state.registry, request.path_params["robot_id"])
         content_type, accept = _media_types(request.scope["headers"])
@@ -366,10 +372,10 @@ class Endpoint:
             # In a worker thread (~0.1 s for 10k mass matrices); JSON in pieces, each encoded
             # in one short call, so the event loop gets the GIL in between and the pieces are
             # written as the client reads them.
-            encode_large = binary.encode if as_binary else json_pieces
+            encode_large = encode_binary if as_binary else json_pieces
             content: bytes | list[bytes] = await off_loop(request, encode_large, result)
         else:
-            content = binary.encode(result) if as_binary else json_bytes(result)
+            content = encode_binary(result) if as_binary else json_bytes(result)
         if request.scope.get(ANSWER_BYTES):  # from the estimate to what is really held
             sent = sum(len(p) for p in content) if isinstance(content, list) else len(content)
             request.app.state.answers_in_flight.resize(request.scope, ANSWER_BYTES, sent)

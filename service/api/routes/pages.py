@@ -58,6 +58,7 @@ MODULE_FILES = {
         "http.js",
         "tabs.js",
         "payload_view.js",
+        "model_check_view.js",
         "equations_view.js",
         "trajectory_view.js",
         "joint_sizing.js",

@@ -19,6 +19,7 @@ from service.api.upload_body import (
     read_upload_isolated,
     upload_request,
 )
+from service.api.workers.model_check import upload_repairs, variant_repairs
 from service.dynamics.body_inertias import body_inertias
 from service.dynamics.payloads import check_payloads
 from service.registry.robot_pages import DEFAULT_PAGE, MAX_PAGE
@@ -135,6 +136,7 @@ async def upload_robot(request: Request, registry: RegistryDep) -> Response:
         assets=upload.assets,
         xacro=upload.xacro,
         xacro_args=upload.xacro_args,
+        repair=upload_repairs(registry),
     )
     return JSONAnswer(
         robot.info(),
@@ -202,19 +204,30 @@ async def reduce_robot(robot_id: str, body: ReduceRequest, registry: RegistryDep
         },
     },
     dependencies=[Depends(require_api_key)],
-    summary="Store a variant of any robot (payloads and/or locked joints): 201 new, 200 stored",
+    summary="Store a variant of any robot (payloads, locked joints, repaired inertias): 201 new, "
+    "200 stored",
 )
 async def create_variant(robot_id: str, body: VariantRequest, registry: RegistryDep) -> Response:
-    """Store robot `robot_id` (catalog, upload or variant) carrying `payloads`, then with
-    `locked_joints` locked, under an id derived from the parent's id and the modifications
-    (`v-` + 24 hex digits; `r-` for locked joints alone, as `reduce` gives). Its RobotInfo has
-    `parent` and `modifications`; it survives a restart and the deletion of its parent."""
+    """Store robot `robot_id` (catalog, upload or variant) with the link inertials of `inertias`
+    repaired, carrying `payloads`, then with `locked_joints` locked, under an id derived from the
+    parent's id and the modifications (`v-` + 24 hex digits; `r-` for locked joints alone, as
+    `reduce` gives). Its RobotInfo has `parent` and `modifications`; it survives a restart and the
+    deletion of its parent."""
     parent = await served_robot(registry, robot_id)
     requested = [p.model_dump() for p in body.payloads or ()]
     placed = check_payloads(parent, requested) if requested else ()
+    inertias = None
+    if body.inertias is not None:
+        selection, how = body.inertias.links, body.inertias.from_
+        repairs = await run_in_threadpool(variant_repairs, registry, parent.id, selection, how)
+        inertias = {"links": selection, "from": how, "repairs": repairs}
     robot, created = await run_in_threadpool(
         lambda: registry.variant(
-            robot_id, payloads=placed, locked_joints=body.locked_joints, name=body.name
+            robot_id,
+            payloads=placed,
+            locked_joints=body.locked_joints,
+            name=body.name,
+            inertias=inertias,
         )
     )
     return JSONAnswer(

@@ -19,6 +19,7 @@ from service.api.schemas.common import (
     RoutedRequest,
     StrictRequest,
 )
+from service.api.schemas.model_check import InertiaRepair
 from service.api.schemas.robots import LOCKED_DESC, LockedJointValue
 from service.dynamics.payloads import MAX_PAYLOADS
 
@@ -76,6 +77,12 @@ class VariantRequest(RoutedRequest):
     )
     locked_joints: dict[str, LockedJointValue] | None = Field(
         None, max_length=1000, description=LOCKED_DESC
+    )
+    inertias: InertiaRepair | None = Field(
+        None,
+        description="Link inertials repaired first (GET .../model-check says which are "
+        "wrong): every route of the variant computes with them; `modifications.inertias` "
+        "lists each repair.",
     )
     name: str | None = Field(
         None,

@@ -59,11 +59,14 @@ class UploadRequest(RoutedRequest):
         "[0, 0, -9.81] for URDF.",
         examples=[[0.0, 0.0, -9.81]],
     )
-    inertia_check: Literal["reject", "warn"] = Field(
+    inertia_check: Literal["reject", "warn", "repair"] = Field(
         "reject",
-        description="What to do with physically implausible inertias (negative "
-        "principal moment, triangle inequality violated): reject the upload (422) or store it "
-        "and list the findings in `warnings`.",
+        description="What to do with inertias no rigid body has (negative principal moment, "
+        "triangle inequality violated, inertia without mass): reject the upload (422 naming "
+        "the link, the numbers and a power-of-ten correction where one explains it), store "
+        "it and list the findings in `warnings`, or repair each such link in the stored "
+        "model (from its geometry where it has some, else the nearest valid tensor; each "
+        "repair listed in `warnings` as `inertia_repaired`).",
     )
     locked_joints: dict[str, LockedJointValue] | None = Field(
         None,

@@ -68,6 +68,7 @@ from robodyn.identification import (
     InertialParameters,
     JointFriction,
 )
+from robodyn.model_check import LinkCheck, LinkGeometry, ModelCheck, ModelCheckFinding
 from robodyn.models import Finding, FrameInfo, JointInfo, RobotInfo, RobotList, RobotSummary
 from robodyn.outputs import ArrayType
 from robodyn.payloads import CapacityMinimum, Payload, PayloadCapacity
@@ -145,7 +146,11 @@ __all__ = [
     "JointCheck",
     "JointFriction",
     "JointInfo",
+    "LinkCheck",
+    "LinkGeometry",
     "MethodNotAllowedError",
+    "ModelCheck",
+    "ModelCheckFinding",
     "NonFiniteResultError",
     "NotFoundError",
     "NotReadyError",

@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 
 import httpx
 
-from robodyn import core, outputs, transport
+from robodyn import core, outputs, shared_memory, transport
 from robodyn import progress as _progress
 from robodyn.core import Call
 from robodyn.request_options import Fill
@@ -48,11 +48,14 @@ class BaseClient:
         self._array_type = outputs.check_array_type(array_type)
         self._progress = _progress.check(progress)
         self._owns_http = http_client is None
+        unix_socket = self._settings.unix_socket
+        self._shared = None if unix_socket is None else shared_memory.SharedMemory(unix_socket)
 
     @property
     def base_url(self) -> str:
-        """The server's base URL, e.g. `http://127.0.0.1:8000`."""
-        return self._settings.base_url
+        """The server's base URL, e.g. `http://127.0.0.1:8000` (or `unix:///path` for a
+        Unix socket)."""
+        return self._settings.address
 
     def _report(self, progress: _progress.Progress) -> _progress.Progress:
         """Where to report progress: `progress` of this call, else the client's (None)."""
@@ -118,29 +121,38 @@ class SyncSender(BaseClient):
 
     def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
         url, headers, body = self._settings.prepare(call, listener is not None)
-        content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
-        with (
-            transport.wrapped(call.method, url),
-            self._http.stream(call.method, url, content=content, headers=headers) as response,
-        ):
-            if listener is not None and core.is_progress_stream(response):
-                lines = core.ProgressLines(call, listener)
-                for line in response.iter_lines():
-                    lines.feed(line)
-                return lines.result()
-            length = core.binary_length(response)
-            if length is None:
-                response.read()
-                received = None
-            else:  # a large binary answer: straight into one buffer
-                receiver = core.Receiver(response, length)
-                for chunk in response.iter_raw():
-                    receiver.add(chunk)
-                received = receiver.finish()
-        return core.read_response(call, response, received)
+        segment, body = transport.shared_body(self._shared, call, headers, body)
+        try:
+            content: Any = body  # bytes, or parts (bytes and memoryviews) httpx sends in turn
+            received: Any
+            with (
+                transport.wrapped(call.method, url),
+                self._http.stream(call.method, url, content=content, headers=headers) as response,
+            ):
+                if listener is not None and core.is_progress_stream(response):
+                    lines = core.ProgressLines(call, listener)
+                    for line in response.iter_lines():
+                        lines.feed(line)
+                    return lines.result()
+                length = core.binary_length(response)
+                if length is None:
+                    response.read()
+                    received = transport.shared_answer(segment, response)
+                else:  # a large binary answer: straight into one buffer
+                    receiver = core.Receiver(response, length)
+                    for chunk in response.iter_raw():
+                        receiver.add(chunk)
+                    received = receiver.finish()
+            return core.read_response(call, response, received)
+        finally:
+            if segment is not None:  # its files removed, whatever happened
+                segment.release()
 
     def close(self) -> None:
-        """Close the connection pool (not an injected `http_client`)."""
+        """Close the connection pool (not an injected `http_client`) and remove the
+        client's shared-memory files."""
+        if self._shared is not None:
+            self._shared.close()
         if self._owns_http:
             self._http.close()
 
@@ -191,28 +203,37 @@ class AsyncSender(BaseClient):
 
     async def _fetch_once(self, call: Call[T], listener: Listener = None) -> T:
         url, headers, body = self._settings.prepare(call, listener is not None)
-        content: Any = transport.parts_async(body) if isinstance(body, list) else body
-        with transport.wrapped(call.method, url):
-            async with self._http.stream(
-                call.method, url, content=content, headers=headers
-            ) as response:
-                if listener is not None and core.is_progress_stream(response):
-                    lines = core.ProgressLines(call, listener)
-                    async for line in response.aiter_lines():
-                        lines.feed(line)
-                    return lines.result()
-                length = core.binary_length(response)
-                if length is None:
-                    await response.aread()
-                    received = None
-                else:  # a large binary answer: straight into one buffer
-                    receiver = core.Receiver(response, length)
-                    async for chunk in response.aiter_raw():
-                        receiver.add(chunk)
-                    received = receiver.finish()
-        return core.read_response(call, response, received)
+        segment, body = transport.shared_body(self._shared, call, headers, body)
+        try:
+            content: Any = transport.parts_async(body) if isinstance(body, list) else body
+            received: Any
+            with transport.wrapped(call.method, url):
+                async with self._http.stream(
+                    call.method, url, content=content, headers=headers
+                ) as response:
+                    if listener is not None and core.is_progress_stream(response):
+                        lines = core.ProgressLines(call, listener)
+                        async for line in response.aiter_lines():
+                            lines.feed(line)
+                        return lines.result()
+                    length = core.binary_length(response)
+                    if length is None:
+                        await response.aread()
+                        received = transport.shared_answer(segment, response)
+                    else:  # a large binary answer: straight into one buffer
+                        receiver = core.Receiver(response, length)
+                        async for chunk in response.aiter_raw():
+                            receiver.add(chunk)
+                        received = receiver.finish()
+            return core.read_response(call, response, received)
+        finally:
+            if segment is not None:  # its files removed, whatever happened
+                segment.release()
 
     async def aclose(self) -> None:
-        """Close the connection pool (not an injected `http_client`)."""
+        """Close the connection pool (not an injected `http_client`) and remove the
+        client's shared-memory files."""
+        if self._shared is not None:
+            self._shared.close()
         if self._owns_http:
             await self._http.aclose()

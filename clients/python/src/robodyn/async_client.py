@@ -22,6 +22,7 @@ from robodyn._methods.frames import AsyncFrameMethods
 from robodyn._methods.health import AsyncHealthMethods
 from robodyn._methods.identification import AsyncIdentificationMethods
 from robodyn._methods.lagrangian import AsyncLagrangianMethods
+from robodyn._methods.model_check import AsyncModelCheckMethods
 from robodyn._methods.operational_space import AsyncOperationalSpaceMethods
 from robodyn._methods.payload_capacity import AsyncPayloadCapacityMethods
 from robodyn._methods.robots import AsyncRobotMethods
@@ -33,6 +34,7 @@ from robodyn.stream import AsyncStream, stream_url
 
 class AsyncClient(
     AsyncRobotMethods,
+    AsyncModelCheckMethods,
     AsyncHealthMethods,
     AsyncEquationsMethods,
     AsyncEquationOfMotionMethods,
@@ -50,8 +52,10 @@ class AsyncClient(
     """An async client of a robodyn server; use it with `async with`, or await `aclose()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else
-    http://127.0.0.1:8000). `api_key`: sent as `Authorization: Bearer <key>` (needed for uploads
-    and deletions where the server has keys). `timeout`: seconds or an `httpx.Timeout`
+    http://127.0.0.1:8000), or `unix:///path/robodyn.sock` for its Unix socket on this host
+    (then large binary batches go through shared memory: `robodyn.shared_memory`).
+    `api_key`: sent as `Authorization: Bearer <key>` (needed for uploads and deletions
+    where the server has keys). `timeout`: seconds or an `httpx.Timeout`
     (default: 5 s to connect, 60 s for the rest). `http_client`: an `httpx.AsyncClient` to use
     instead of creating one (e.g. with a custom transport); its own timeouts apply, and
     `aclose()` leaves it open.
@@ -89,7 +93,9 @@ class AsyncClient(
             fill=fill,
         )
         self._http = http_client or httpx.AsyncClient(
-            timeout=transport.timeout_of(timeout), limits=transport.DEFAULT_LIMITS
+            timeout=transport.timeout_of(timeout),
+            limits=transport.DEFAULT_LIMITS,
+            transport=transport.async_http_transport(self._settings),
         )
 
     async def __aenter__(self) -> AsyncClient:
@@ -109,9 +115,10 @@ class AsyncClient(
         `pip install 'robodyn[stream]'`). Use it as an async context manager:
         `async with client.stream("ur5") as s: tau = await s.inverse_dynamics(q, v, a)`."""
         return AsyncStream(
-            stream_url(self.base_url, robot_id),
+            stream_url(self._settings.base_url, robot_id),
             robot_id,
             dict(self._settings.headers),
             self._settings.use_binary,
             open_timeout,
+            self._settings.unix_socket,
         )

@@ -66,10 +66,11 @@ def encode(arrays: Mapping[str, np.ndarray], fields: Mapping[str, Any] | None = 
     return b"".join(encode_parts(arrays, fields))
 
 
-def decode(content: bytes | bytearray) -> dict[str, Any]:
+def decode(content: bytes | bytearray | memoryview) -> dict[str, Any]:
     """An answer as one mapping: its fields (from the metadata), and its tensors as writable
-    float64 arrays (views of `content` when it is a bytearray, else of one copy). Raises
-    ValueError when the content is not a safetensors file of F64 tensors."""
+    float64 arrays (views of `content` when it is a bytearray or a writable memoryview, else
+    of one copy). Raises ValueError when the content is not a safetensors file of F64
+    tensors."""
     if len(content) < _LENGTH.size:
         raise ValueError("binary answer shorter than its 8-byte header length")
     (size,) = _LENGTH.unpack_from(content)
@@ -80,7 +81,10 @@ def decode(content: bytes | bytearray) -> dict[str, Any]:
         raise ValueError("not a safetensors answer: the header is not an object")
     start = _LENGTH.size + size
     data: Any = memoryview(content)[start:]
-    if not isinstance(content, bytearray) or start % 8:
+    owned = isinstance(content, bytearray) or (
+        isinstance(content, memoryview) and not content.readonly
+    )
+    if not owned or start % 8:
         data = bytearray(data)  # one copy: the answer's arrays are writable (and aligned)
     out: dict[str, Any] = {
         name: json.loads(text) for name, text in dict(header.pop(METADATA, None) or {}).items()

@@ -22,6 +22,7 @@ from robodyn._methods.frames import FrameMethods
 from robodyn._methods.health import HealthMethods
 from robodyn._methods.identification import IdentificationMethods
 from robodyn._methods.lagrangian import LagrangianMethods
+from robodyn._methods.model_check import ModelCheckMethods
 from robodyn._methods.operational_space import OperationalSpaceMethods
 from robodyn._methods.payload_capacity import PayloadCapacityMethods
 from robodyn._methods.robots import RobotMethods
@@ -33,6 +34,7 @@ from robodyn.stream import Stream, stream_url
 
 class Client(
     RobotMethods,
+    ModelCheckMethods,
     HealthMethods,
     EquationsMethods,
     EquationOfMotionMethods,
@@ -50,8 +52,10 @@ class Client(
     """A blocking client of a robodyn server; use it as a context manager, or call `close()`.
 
     `base_url`: the server (default: the injected client's base URL, else $ROBODYN_URL, else
-    http://127.0.0.1:8000). `api_key`: sent as `Authorization: Bearer <key>` (needed for uploads
-    and deletions where the server has keys). `timeout`: seconds or an `httpx.Timeout`
+    http://127.0.0.1:8000), or `unix:///path/robodyn.sock` for its Unix socket on this host
+    (then large binary batches go through shared memory: `robodyn.shared_memory`).
+    `api_key`: sent as `Authorization: Bearer <key>` (needed for uploads and deletions
+    where the server has keys). `timeout`: seconds or an `httpx.Timeout`
     (default: 5 s to connect, 60 s for the rest). `http_client`: an `httpx.Client` to use
     instead of creating one (e.g. with a custom transport); its own timeouts apply, and
     `close()` leaves it open.
@@ -99,7 +103,9 @@ class Client(
             fill=fill,
         )
         self._http = http_client or httpx.Client(
-            timeout=transport.timeout_of(timeout), limits=transport.DEFAULT_LIMITS
+            timeout=transport.timeout_of(timeout),
+            limits=transport.DEFAULT_LIMITS,
+            transport=transport.http_transport(self._settings),
         )
 
     def __enter__(self) -> Client:
@@ -119,9 +125,10 @@ class Client(
         `pip install 'robodyn[stream]'`). Use it as a context manager:
         `with client.stream("ur5") as s: tau = s.inverse_dynamics(q, v, a)`."""
         return Stream(
-            stream_url(self.base_url, robot_id),
+            stream_url(self._settings.base_url, robot_id),
             robot_id,
             dict(self._settings.headers),
             self._settings.use_binary,
             open_timeout,
+            self._settings.unix_socket,
         )

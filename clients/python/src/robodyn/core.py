@@ -52,6 +52,7 @@ class Call(Generic[T]):
     binary_form: bool = True  # False: always JSON (e.g. simulate: its torque schedule is a field)
     chunks: Chunks[T] | None = None  # the same work as consecutive calls (with progress)
     progress_stream: bool = False  # one computation: its progress comes from the server
+    shared_memory: bool = True  # a large binary body may go through shared memory (Unix socket)
 
     @property
     def quantity(self) -> str:
@@ -149,7 +150,9 @@ class Receiver:
 WARNING_HEADER = "robodyn-warning"  # what the server computed as given but finds doubtful
 
 
-def read_response(call: Call[T], response: httpx.Response, received: bytearray | None = None) -> T:
+def read_response(
+    call: Call[T], response: httpx.Response, received: bytearray | memoryview | None = None
+) -> T:
     """The result of `call` from its answer; an `APIError` subclass for an error status.
     `received` is the body already read into a buffer (see `binary_length`), if it was."""
     status = response.status_code

@@ -20,7 +20,7 @@ Integrator = Literal["semi-implicit-euler", "rk4"]
 """Integrator of `simulate`."""
 RootJoint = Literal["fixed", "free-flyer", "planar"]
 """How an uploaded model's root link is attached to the world."""
-InertiaCheck = Literal["reject", "warn"]
+InertiaCheck = Literal["reject", "warn", "repair"]
 """What an upload does with implausible inertias."""
 Fill = Literal["neutral"] | str
 """How name-keyed inputs fill the joints they leave out: "neutral" or the name of one of the

@@ -110,21 +110,21 @@ class Stream:
         headers: dict[str, str],
         use_binary: bool | None,
         open_timeout: float | None,
+        unix_socket: str | None = None,
     ) -> None:
         _require_websockets()
-        from websockets.sync.client import connect
+        from websockets.sync.client import connect, unix_connect
 
         self.robot_id, self._use_binary = robot_id, use_binary
         self._exit = ExitStack()
+        options: dict[str, Any] = dict(
+            additional_headers=headers, open_timeout=open_timeout, max_size=None, compression=None
+        )
         with _wrapped(robot_id):
             self._ws = self._exit.enter_context(
-                connect(
-                    url,
-                    additional_headers=headers,
-                    open_timeout=open_timeout,
-                    max_size=None,
-                    compression=None,
-                )
+                connect(url, **options)
+                if unix_socket is None
+                else unix_connect(unix_socket, url, **options)
             )
 
     def _send(self, call: core.Call[Any]) -> Any:
@@ -158,10 +158,12 @@ class AsyncStream:
         headers: dict[str, str],
         use_binary: bool | None,
         open_timeout: float | None,
+        unix_socket: str | None = None,
     ) -> None:
         _require_websockets()
         self.robot_id, self._use_binary = robot_id, use_binary
         self._url, self._headers, self._open_timeout = url, headers, open_timeout
+        self._unix_socket = unix_socket
         self._ws: Any = None
 
     async def _send(self, call: core.Call[Any]) -> Any:
@@ -177,15 +179,19 @@ class AsyncStream:
             await self._ws.close()
 
     async def __aenter__(self) -> AsyncStream:
-        from websockets.asyncio.client import connect
+        from websockets.asyncio.client import connect, unix_connect
 
+        options: dict[str, Any] = dict(
+            additional_headers=self._headers,
+            open_timeout=self._open_timeout,
+            max_size=None,
+            compression=None,
+        )
         with _wrapped(self.robot_id):
-            self._ws = await connect(
-                self._url,
-                additional_headers=self._headers,
-                open_timeout=self._open_timeout,
-                max_size=None,
-                compression=None,
+            self._ws = await (
+                connect(self._url, **options)
+                if self._unix_socket is None
+                else unix_connect(self._unix_socket, self._url, **options)
             )
         return self
 

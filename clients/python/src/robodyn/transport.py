@@ -13,11 +13,13 @@ from typing import Any
 import httpx
 import stamina
 
-from robodyn import __version__, binary
+from robodyn import __version__, binary, shared_memory
 from robodyn.core import PROGRESS_MEDIA_TYPE, Body, Call
 from robodyn.errors import ServiceUnavailableError, TimeoutError, TransportError
 
 DEFAULT_URL = "http://127.0.0.1:8000"
+UNIX_SCHEME = "unix://"
+UNIX_BASE_URL = "http://localhost"  # the URL of requests sent through a Unix socket
 URL_ENV = "ROBODYN_URL"
 
 DEFAULT_TIMEOUT: httpx.Timeout = httpx.Timeout(60.0, connect=5.0)
@@ -97,6 +99,12 @@ class Settings:
     headers: Mapping[str, str]
     use_binary: bool | None = None  # None: the binary form for large batches only
     fill: str | None = None  # sent with inputs keyed by joint name
+    unix_socket: str | None = None  # the server's Unix socket (a unix:// URL), else None
+
+    @property
+    def address(self) -> str:
+        """The server as the user named it: `unix:///path` for a Unix socket, else the URL."""
+        return f"unix://{self.unix_socket}" if self.unix_socket else self.base_url
 
     def prepare(
         self, call: Call[Any], with_progress: bool = False
@@ -126,15 +134,20 @@ def settings(
     fill: str | None = None,
 ) -> Settings:
     """Resolve the base URL (argument, else the injected client's, else $ROBODYN_URL, else
-    http://127.0.0.1:8000) and the headers sent with each request."""
+    http://127.0.0.1:8000) and the headers sent with each request. A `unix:///path` URL names
+    the server's Unix socket: requests then go to http://localhost through it."""
     if base_url is None and http_client is not None and str(http_client.base_url):
         base_url = str(http_client.base_url)
     if base_url is None:
         base_url = os.environ.get(URL_ENV) or DEFAULT_URL
+    unix_socket = unix_socket_of(base_url)
+    if unix_socket is not None:
+        base_url = UNIX_BASE_URL
     url = httpx.URL(base_url)
     if url.scheme not in ("http", "https") or not url.host:
         raise ValueError(
-            f"base_url must be an http:// or https:// URL with a host, not {base_url!r}"
+            "base_url must be an http:// or https:// URL with a host, or unix:// and a "
+            f"socket's path, not {base_url!r}"
         )
     sent = {"Accept": "application/json", "User-Agent": f"robodyn-python/{__version__}"}
     sent.update(headers or {})
@@ -144,7 +157,77 @@ def settings(
         sent["Authorization"] = f"Bearer {api_key}"
     if fill is not None and (not isinstance(fill, str) or not fill):
         raise ValueError('fill must be "neutral" or the name of a reference configuration')
-    return Settings(base_url=str(url).rstrip("/"), headers=sent, use_binary=use_binary, fill=fill)
+    return Settings(
+        base_url=str(url).rstrip("/"),
+        headers=sent,
+        use_binary=use_binary,
+        fill=fill,
+        unix_socket=unix_socket,
+    )
+
+
+def unix_socket_of(base_url: str) -> str | None:
+    """The socket path of a `unix:///path` URL (None for any other URL)."""
+    if not base_url.startswith(UNIX_SCHEME):
+        return None
+    path = base_url[len(UNIX_SCHEME) :]
+    if not path.startswith("/") or path.endswith("/"):
+        raise ValueError(
+            f"a Unix socket URL is unix:// and the socket's absolute path, not {base_url!r}"
+        )
+    return path
+
+
+def http_transport(settings: Settings) -> httpx.HTTPTransport | None:
+    """The transport of a client's own `httpx.Client`: through the Unix socket, or None
+    (httpx's default, TCP)."""
+    if settings.unix_socket is None:
+        return None
+    return httpx.HTTPTransport(uds=settings.unix_socket, limits=DEFAULT_LIMITS)
+
+
+def async_http_transport(settings: Settings) -> httpx.AsyncHTTPTransport | None:
+    """`http_transport` for an `httpx.AsyncClient`."""
+    if settings.unix_socket is None:
+        return None
+    return httpx.AsyncHTTPTransport(uds=settings.unix_socket, limits=DEFAULT_LIMITS)
+
+
+def shared_body(
+    shared: shared_memory.SharedMemory | None,
+    call: Call[Any],
+    headers: dict[str, str],
+    body: Body | None,
+) -> tuple[shared_memory.Segment | None, Body | None]:
+    """Over a Unix socket (`shared` is the client's `SharedMemory`), a binary body of
+    `shared_memory.SHARED_FROM` bytes or more written into shared memory, and the request's
+    headers naming it: (the segment, an empty body). Otherwise, or when no segment can be
+    made: (None, `body`)."""
+    if (
+        shared is None
+        or not call.shared_memory
+        or not isinstance(body, list)
+        or headers.get("Content-Type") != binary.MEDIA_TYPE
+        or sum(len(part) for part in body) < shared_memory.SHARED_FROM
+    ):
+        return None, body
+    segment = shared.segment(body)
+    if segment is None:
+        return None, body
+    headers["Content-Length"] = "0"
+    headers[shared_memory.BODY_HEADER] = segment.header
+    return segment, b""
+
+
+def shared_answer(
+    segment: shared_memory.Segment | None, response: httpx.Response
+) -> memoryview | None:
+    """The answer the server wrote into shared memory (named in its headers), copied out;
+    None when it sent its answer through the socket."""
+    if segment is None or not 200 <= response.status_code <= 299:
+        return None
+    value = response.headers.get(shared_memory.ANSWER_HEADER)
+    return None if value is None else segment.answer(value, response.status_code)
 
 
 async def parts_async(parts: list[bytes | memoryview]) -> AsyncIterator[bytes | memoryview]:

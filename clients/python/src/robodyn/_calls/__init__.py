@@ -22,6 +22,7 @@ from robodyn._calls import (
     health,
     identification,
     lagrangian,
+    model_check,
     operational_space,
     payload_capacity,
     robots,
@@ -42,6 +43,7 @@ def _builders(*modules: ModuleType) -> dict[str, Callable[..., Call[Any]]]:
 
 BUILDERS = _builders(
     robots,
+    model_check,
     health,
     equations,
     equation_of_motion,

@@ -109,4 +109,5 @@ def identify(
     )
     # t is one of the log's arrays, not a state's: added after the joint-space inputs are
     # checked together (a list in JSON, a tensor in the binary form)
-    return replace(call, arrays={"t": times, **(call.arrays or {})})
+    # (the identify route reads its body itself: never through shared memory)
+    return replace(call, arrays={"t": times, **(call.arrays or {})}, shared_memory=False)

@@ -97,15 +97,32 @@ def variant(
     payloads: PayloadsLike | None = None,
     locked_joints: Mapping[str, ArrayLike] | None = None,
     name: str | None = None,
+    inertias: Mapping[str, Any] | None = None,
 ) -> Call[RobotInfo]:
     body: dict[str, Any] = payloads_body(payloads)
     if locked_joints is not None:
         body["locked_joints"] = _locked_joints(locked_joints)
+    if inertias is not None:
+        body["inertias"] = _inertias(inertias)
     if not body:
-        raise InputError("a variant needs payloads, locked_joints or both")
+        raise InputError("a variant needs payloads, locked_joints, inertias or several")
     if name is not None:
         body["name"] = name
     return route_call("POST", f"{ROBOT}/variants", _created, robot_id, body)
+
+
+def _inertias(inertias: Mapping[str, Any]) -> dict[str, Any]:
+    """The `inertias` repair of a variant: {"links": names | "errors" | "all", "from":
+    "geometry" | "nearest_valid"}."""
+    if not isinstance(inertias, Mapping) or set(inertias) != {"links", "from"}:
+        raise InputError(
+            'inertias must be {"links": [names] | "errors" | "all", '
+            '"from": "geometry" | "nearest_valid"}'
+        )
+    links = inertias["links"]
+    if not isinstance(links, str):
+        links = [str(name) for name in links]
+    return {"links": links, "from": str(inertias["from"])}
 
 
 def _locked_joints(locked: Mapping[str, ArrayLike]) -> dict[str, Any]:

@@ -4,6 +4,7 @@ reductions, variants and body inertias (`Client` and `AsyncClient` inherit them)
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 from robodyn._calls import robots as calls
 from robodyn._client import AsyncSender, SyncSender
@@ -73,8 +74,9 @@ class RobotMethods(SyncSender):
 
         `root_joint` is "fixed", "free-flyer" or "planar" (an MJCF whose top body has a free joint
         is free-flying by itself); `gravity` is 3 numbers in m/s² (default: an MJCF's own `<option
-        gravity>`, else [0, 0, -9.81]); `inertia_check` "reject" (default) or "warn" for
-        implausible inertias. `locked_joints` (joint name → position, see `reduce`) stores only the
+        gravity>`, else [0, 0, -9.81]); `inertia_check` "reject" (default), "warn" or "repair"
+        (each link with an error repaired, listed in `warnings`) for implausible inertias.
+        `locked_joints` (joint name → position, see `reduce`) stores only the
         reduced model. Raises `InvalidModelError` for a description that is not a usable model.
         """
         return self._send(
@@ -123,19 +125,26 @@ class RobotMethods(SyncSender):
         payloads: PayloadsLike | None = None,
         locked_joints: Mapping[str, ArrayLike] | None = None,
         name: str | None = None,
+        inertias: Mapping[str, Any] | None = None,
     ) -> RobotInfo:
-        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
-        the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
-        that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
-        one of the two. Its id derives from the parent's id and the modifications (the same on
-        every server, whatever the payloads' order; `created` tells whether it is new), its
-        `parent` and `modifications` say what it derives from, and it works on after the parent
-        is deleted. Locked joints alone give `reduce`'s model and id. Raises `ValidationError`
-        for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
-        frame the robot lacks.
-        """
+        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`: the
+        robot with the link inertials of `inertias` repaired ({"links": [names] | "errors" | "all",
+        "from": "geometry" | "nearest_valid"}: see `model_check`), carrying `payloads` (`Payload`s
+        or mappings: rigid bodies added to the bodies that carry their frames), then with
+        `locked_joints` locked (as in `reduce`); at least one of the three. Its id derives from the
+        parent's id and the modifications (the same on every server, whatever the payloads' order;
+        `created` tells whether it is new), its `parent` and `modifications` say what it derives
+        from, and it works on after the parent is deleted. Locked joints alone give `reduce`'s model
+        and id. Raises `ValidationError` for a bad payload (named by its index) or joint,
+        `UnknownFrameError` for a payload's frame the robot lacks."""
         return self._send(
-            calls.variant(robot_id, payloads=payloads, locked_joints=locked_joints, name=name)
+            calls.variant(
+                robot_id,
+                payloads=payloads,
+                locked_joints=locked_joints,
+                name=name,
+                inertias=inertias,
+            )
         )
 
     def inertias(self, robot_id: str) -> Inertias:
@@ -204,8 +213,9 @@ class AsyncRobotMethods(AsyncSender):
 
         `root_joint` is "fixed", "free-flyer" or "planar" (an MJCF whose top body has a free joint
         is free-flying by itself); `gravity` is 3 numbers in m/s² (default: an MJCF's own `<option
-        gravity>`, else [0, 0, -9.81]); `inertia_check` "reject" (default) or "warn" for
-        implausible inertias. `locked_joints` (joint name → position, see `reduce`) stores only the
+        gravity>`, else [0, 0, -9.81]); `inertia_check` "reject" (default), "warn" or "repair"
+        (each link with an error repaired, listed in `warnings`) for implausible inertias.
+        `locked_joints` (joint name → position, see `reduce`) stores only the
         reduced model. Raises `InvalidModelError` for a description that is not a usable model.
         """
         return await self._send(
@@ -254,19 +264,26 @@ class AsyncRobotMethods(AsyncSender):
         payloads: PayloadsLike | None = None,
         locked_joints: Mapping[str, ArrayLike] | None = None,
         name: str | None = None,
+        inertias: Mapping[str, Any] | None = None,
     ) -> RobotInfo:
-        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`:
-        the robot carrying `payloads` (`Payload`s or mappings: rigid bodies added to the bodies
-        that carry their frames), then with `locked_joints` locked (as in `reduce`); at least
-        one of the two. Its id derives from the parent's id and the modifications (the same on
-        every server, whatever the payloads' order; `created` tells whether it is new), its
-        `parent` and `modifications` say what it derives from, and it works on after the parent
-        is deleted. Locked joints alone give `reduce`'s model and id. Raises `ValidationError`
-        for a bad payload (named by its index) or joint, `UnknownFrameError` for a payload's
-        frame the robot lacks.
-        """
+        """Store a variant of any robot (catalog, upload or variant) and return its `RobotInfo`: the
+        robot with the link inertials of `inertias` repaired ({"links": [names] | "errors" | "all",
+        "from": "geometry" | "nearest_valid"}: see `model_check`), carrying `payloads` (`Payload`s
+        or mappings: rigid bodies added to the bodies that carry their frames), then with
+        `locked_joints` locked (as in `reduce`); at least one of the three. Its id derives from the
+        parent's id and the modifications (the same on every server, whatever the payloads' order;
+        `created` tells whether it is new), its `parent` and `modifications` say what it derives
+        from, and it works on after the parent is deleted. Locked joints alone give `reduce`'s model
+        and id. Raises `ValidationError` for a bad payload (named by its index) or joint,
+        `UnknownFrameError` for a payload's frame the robot lacks."""
         return await self._send(
-            calls.variant(robot_id, payloads=payloads, locked_joints=locked_joints, name=name)
+            calls.variant(
+                robot_id,
+                payloads=payloads,
+                locked_joints=locked_joints,
+                name=name,
+                inertias=inertias,
+            )
         )
 
     async def inertias(self, robot_id: str) -> Inertias:

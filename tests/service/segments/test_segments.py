@@ -1,0 +1,178 @@
+"""The segment directory and one request's segments (service/segments), against the client's
+side of the protocol (robodyn/shared_memory.py), without a server: who removes what, when."""
+
+from __future__ import annotations
+
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from robodyn import shared_memory
+
+from service.api.encoding import binary
+from service.segments import RequestSegment, SegmentDirectory, SegmentError
+from service.segments.directory import TEMPORARY_GRACE_S, SegmentDirectoryError
+from service.segments.segment import SegmentTooLarge
+
+ROOT = Path(__file__).resolve().parents[3]
+HOLDER = """
+import sys, time
+from robodyn import shared_memory
+segment = shared_memory.SharedMemory(sys.argv[1]).segment([b"x" * 1000])
+print(segment.name, flush=True)
+time.sleep(600)
+"""
+
+
+@pytest.fixture
+def directory(tmp_path: Path) -> SegmentDirectory:
+    segments = SegmentDirectory(tmp_path / "robodyn.sock.segments")
+    segments.create()
+    yield segments
+    segments.delete()
+
+
+def test_the_directory_is_private_in_memory_and_removed(tmp_path: Path):
+    segments = SegmentDirectory(tmp_path / "s.sock.segments")
+    segments.create()
+    info = os.lstat(segments.path)
+    assert stat.S_ISDIR(info.st_mode) and stat.S_IMODE(info.st_mode) == 0o700
+    if segments.path != segments.link:  # tmp_path on disk: in /dev/shm, the link beside
+        assert os.readlink(segments.link) == str(segments.path)
+        assert str(segments.path).startswith("/dev/shm/")
+    again = SegmentDirectory(segments.link)  # a second process (worker) finds the same one
+    again.create()
+    assert again.path == segments.path
+    segments.delete()
+    assert not os.path.lexists(segments.link) and not os.path.lexists(segments.path)
+
+
+def test_a_path_taken_by_something_else_is_refused(tmp_path: Path):
+    (tmp_path / "x.segments").write_text("not a directory")
+    with pytest.raises(SegmentDirectoryError, match="not a directory of this user"):
+        SegmentDirectory(tmp_path / "x.segments").create()
+
+
+def _socket_of(directory: SegmentDirectory) -> str:
+    return str(directory.link)[: -len(".segments")]
+
+
+def test_a_body_round_trip_and_who_removes_it(directory: SegmentDirectory):
+    q = np.random.default_rng(0).normal(size=(300, 7))
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    parts = binary.encode_parts({"q": q})
+    answers = []
+    for round_ in range(3):  # the body file and the answer file are reused
+        segment = client.segment(parts)
+        assert segment is not None and segment.length == sum(len(p) for p in parts)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 20)
+        fields, arrays = binary.decode(served.body)
+        assert fields == {} and np.array_equal(arrays["q"], q)
+        del arrays
+        header = served.write_answer(binary.encode_parts({"tau": q * round_}))
+        served.end()  # the client holds its lock: the names stay for it
+        names = sorted(os.listdir(directory.path))
+        assert [n[:2] for n in names] == ["c-", "r-", "r-", "s-"]
+        answers.append(segment.answer(header, 200))
+        segment.release()
+        assert [n[:2] for n in sorted(os.listdir(directory.path))] == ["c-", "s-"]
+    for round_, content in enumerate(answers):  # each answer the caller's own copy
+        assert np.array_equal(binary.decode(content)[1]["tau"], q * round_)
+    client.close()
+    assert [n[:2] for n in os.listdir(directory.path)] == ["s-"]  # the service's, kept
+
+
+def test_the_service_removes_the_names_of_a_client_gone(directory: SegmentDirectory):
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    segment = client.segment([b"x" * 100])
+    assert segment is not None
+    served = RequestSegment(directory, segment.name, 100, 1 << 20)
+    client.close()  # (as the client's process ending: its lock goes with its descriptor)
+    os.close(segment._file.fd)
+    served.write_answer([b"y" * 64])
+    served.end()  # the request's names: removed at once
+    assert sorted(n[:2] for n in os.listdir(directory.path)) == ["c-", "s-"]
+    assert directory.sweep() == 1  # the dead client's body file: by the sweeper
+    assert [n[:2] for n in os.listdir(directory.path)] == ["s-"]
+
+
+def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: SegmentDirectory):
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "clients/python/src")}
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLDER, _socket_of(directory)],
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout is not None
+        name = holder.stdout.readline().strip()
+        body_file = next(n for n in os.listdir(directory.path) if n.startswith("c-"))
+        orphan = directory.path / ("r-" + "a" * 32 + ".answer")  # its request is gone
+        orphan.write_bytes(b"z")
+        stale = directory.path / (".c-" + "b" * 32 + ".tmp")  # a creator died long ago
+        stale.write_bytes(b"z")
+        old = time.time() - 2 * TEMPORARY_GRACE_S
+        os.utime(stale, (old, old))
+        fresh = directory.path / (".c-" + "c" * 32 + ".tmp")  # maybe being created now
+        fresh.write_bytes(b"z")
+        dead_server = directory.path / ("s-" + "d" * 32)  # no process holds it
+        dead_server.write_bytes(b"z")
+        other = directory.path / "not-ours"
+        other.write_bytes(b"z")
+        assert directory.sweep() == 3
+        kept = [name, body_file, fresh.name, other.name]
+        assert sorted(os.listdir(directory.path)) == sorted(kept)
+        holder.send_signal(signal.SIGKILL)
+        holder.wait(10)
+        (directory.path / (name + ".answer")).write_bytes(b"z")
+        assert directory.sweep() == 3  # the dead client's request, answer and body file
+        assert sorted(os.listdir(directory.path)) == sorted([fresh.name, other.name])
+    finally:
+        if holder.poll() is None:
+            holder.send_signal(signal.SIGKILL)
+            holder.wait(10)
+        if holder.stdout is not None:
+            holder.stdout.close()
+        other.unlink()
+
+
+def test_what_the_service_refuses_to_map(directory: SegmentDirectory, tmp_path: Path):
+    for name in ("../x", "r-" + "0" * 31, "r-" + "G" * 32, "c-" + "0" * 32):
+        with pytest.raises(SegmentError, match="not a segment name"):
+            RequestSegment(directory, name, 16, 1024)
+    with pytest.raises(SegmentError, match="does not exist"):
+        RequestSegment(directory, "r-" + "0" * 32, 16, 1024)
+    readable = directory.path / ("r-" + "1" * 32)
+    readable.write_bytes(b"x" * 16)
+    os.chmod(readable, 0o644)
+    with pytest.raises(SegmentError, match="readable by no one else"):
+        RequestSegment(directory, readable.name, 16, 1024)
+    os.chmod(readable, 0o600)
+    with pytest.raises(SegmentError, match="holds 16 bytes, fewer than the 17"):
+        RequestSegment(directory, readable.name, 17, 1024)
+    target = tmp_path / "elsewhere"
+    target.write_bytes(b"x" * 16)
+    os.chmod(target, 0o600)
+    os.symlink(target, directory.path / ("r-" + "2" * 32))
+    with pytest.raises(SegmentError, match="cannot be opened"):
+        RequestSegment(directory, "r-" + "2" * 32, 16, 1024)
+    with pytest.raises(SegmentTooLarge):
+        RequestSegment(directory, readable.name, 2048, 1024)
+    for each in os.listdir(directory.path):
+        os.unlink(directory.path / each)
+
+
+def test_a_client_uses_no_directory_that_is_not_its_own_and_private(tmp_path: Path):
+    public = tmp_path / "public.segments"
+    public.mkdir(mode=0o755)
+    os.chmod(public, 0o755)
+    assert shared_memory.SharedMemory(str(tmp_path / "public")).segment([b"x"]) is None
+    assert shared_memory.SharedMemory(str(tmp_path / "missing")).segment([b"x"]) is None
+    assert os.listdir(public) == []

@@ -162,11 +162,14 @@ def test_an_unsupported_robot_says_why(page, server) -> None:
 def test_tabs_follow_the_keyboard(page, server) -> None:
     open_explorer(page, server, "planar_arm")
     page.focus("#dynamics-view-button")
-    page.keyboard.press("ArrowLeft")  # wraps around to the last tab: Equations
+    page.keyboard.press("ArrowLeft")  # wraps around to the last tab: Model check
+    assert page.locator("#model-check-view-button").get_attribute("aria-selected") == "true"
+    page.keyboard.press("ArrowLeft")  # the one before it: Equations
     assert page.locator("#equations-view-button").get_attribute("aria-selected") == "true"
     assert page.evaluate("document.activeElement.id") == "equations-view-button"
     page.wait_for_selector(".eq-block[data-quantity='mass_matrix']")
-    page.keyboard.press("ArrowRight")  # back to Dynamics
+    page.keyboard.press("ArrowRight")
+    page.keyboard.press("ArrowRight")  # past Model check, wrapping around to Dynamics
     assert page.locator("#mass-matrix-figure").is_visible()
     assert page.locator("#equations-view").is_hidden()
 

@@ -41,7 +41,7 @@ from tests.service.dynamics.identification_logs import synthetic_log
 pytestmark = pytest.mark.slow
 
 HEALTH_P99_S = 0.25  # /health/live: 99 % of the probes (every 5 ms) answered within this
-HEALTH_MAX_S = 1.5  # and every one: single probes of 0.5-1.0 s were seen at a load of 10-11
+HEALTH_MAX_S = 0.5  # and every one (on a machine without other work: at a load of 10, 0.5-1.0 s)
 RETIME_S = 10.0  # a retiming alone takes about 0.7 s
 SMALL_FIT_S = 30.0  # a small identification, a worker start (about 6 s) included
 END_S = 30.0  # a killed process is gone within this

@@ -6,8 +6,10 @@ printing of each robot kept on its own:
 
 - from memory (a dict of JSON bytes, least recently used dropped beyond `max_bytes`);
 - else, for a stored upload or reduced model (content-derived ids: the same id is the same
-  model on every replica and after a restart), from
-  `<data_dir>/equations/v2/<id>/<form>-<digits>-<tolerance>.json`;
+  model on every replica and after a restart) printed readable (the defaults) or exact
+  (`digits=17&tolerance=0`), from `<data_dir>/equations/v2/<id>/<form>-<digits>-<tolerance>.json`
+  (other printings are kept in memory only: a client varying `tolerance` cannot fill the
+  disk);
 - else derived in a child process (`derive_isolated`, `service.api.workers.equations`) within
   the time limit, holding one of the derivation slots (`slots`: their own, never the upload
   builders'; none free in time, 503 overloaded), then kept in memory and, for a stored model,
@@ -63,6 +65,11 @@ MAX_REMEMBERED_REFUSALS = 10_000  # refusals for cost kept (least recently used 
 Key = tuple[str, Printing]  # (robot id, printing): one answer
 
 
+def _kept_on_disk(printing: Printing) -> bool:
+    """The readable (default) and the exact printing of each form are written to disk."""
+    return (printing.digits, printing.tolerance) in ((6, 1e-9), (17, 0.0))
+
+
 def content_key(model: Any, joints: list[Joint]) -> str:
     """A digest of what the derivation of `model` reads (its `moving_joints` without their
     names, and gravity, as exact decimals): equal for models whose derivations are the same
@@ -113,7 +120,7 @@ class EquationsCache:
         forkserver_context(PRELOAD)
 
     def _path(self, robot: Robot, printing: Printing) -> Path | None:
-        if self.dir is None or robot.source == "catalog":
+        if self.dir is None or robot.source == "catalog" or not _kept_on_disk(printing):
             return None
         return self.dir / robot.id / f"{printing.name()}.json"
 

@@ -321,3 +321,18 @@ def test_variants_keep_the_robots_geometry_and_repair_from_it(served):
     after = next(x for x in _check(client, fixed["id"])["links"] if x["name"] == "upper")
     np.testing.assert_allclose(after["center_of_mass"], center, atol=1e-12)
     np.testing.assert_allclose(after["inertia"], body["geometry"]["inertia"], atol=1e-12)
+
+
+def test_a_catalog_robots_payload_variant_keeps_its_mesh_geometry(served):
+    client, _ = served
+    base = {link["name"]: link for link in _check(client, "ur5")["links"]}
+    held = _post(client, "/v1/robots/ur5/variants", {"payloads": [{"frame": "tool0", "mass": 2.0}]})
+    links = {link["name"]: link for link in _check(client, held["id"])["links"]}
+    assert links["forearm_link"]["geometry"] is not None
+    for name, link in base.items():
+        assert links[name]["geometry"] == link["geometry"], name
+    _post(
+        client,
+        f"/v1/robots/{held['id']}/variants",
+        {"inertias": {"links": ["forearm_link"], "from": "geometry"}},
+    )

@@ -30,10 +30,9 @@ from service.registry.build_slots import BuildSlots, build_slot_count
 from service.registry.catalog import catalog_check_inputs, load_catalog
 from service.registry.check_inputs import (
     CheckInputs,
-    body_names,
     fitted_lineage,
+    identified_inputs,
     lineage_repairs,
-    model_links,
     upload_inputs,
 )
 from service.registry.lineage import Lineage, child_lineage
@@ -243,16 +242,14 @@ class Registry:
         record = self.store.read(robot.id)
         if record is None:
             raise RobotNotFound(f"no robot has id '{_shown(robot_id)}'; {NOT_FOUND_HINT}")
-        if fitted_lineage(record):
-            return CheckInputs(
-                None, robot.root_joint, body_names(robot.model), (), model_links(robot.model)
-            )
         repairs = lineage_repairs(record)
         base = record.get("base") if record.get("format") in VARIANT_FORMATS else None
         if base is not None and base["source"] == "catalog":
-            return catalog_check_inputs(base["id"], robot.model, repairs)
-        description = record if base is None else base["record"]
-        return upload_inputs(description, robot.model, repairs, assets=self.assets)
+            inputs = catalog_check_inputs(base["id"], robot.model, repairs)
+        else:
+            description = record if base is None else base["record"]
+            inputs = upload_inputs(description, robot.model, repairs, assets=self.assets)
+        return identified_inputs(inputs, robot.model) if fitted_lineage(record) else inputs
 
     def robot_page(self, limit: int, cursor: str | None = None) -> Page:
         """A page of the robot list (`robot_pages.page`): catalog first, then stored models by

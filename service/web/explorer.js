@@ -259,7 +259,7 @@ async function upload(ev) {
   const file = el("urdf-file").files[0];
   if (!file) return;
   const body = { urdf: await file.text(), root_joint: el("root-joint").value,
-                 inertia_check: el("inertia-warn").checked ? "warn" : "reject" };
+                 inertia_check: el("inertia-check").value };
   const name = el("upload-name").value.trim();
   if (name) body.name = name;
   out.className = "";

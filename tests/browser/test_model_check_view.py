@@ -1,7 +1,8 @@
 """The explorer's Model check view in a real browser: the findings are the API's, a chosen link
 shows its declared numbers beside its geometry's and draws both inertia ellipsoids at the link
 (the geometry's a box's: semi-axes √(5/12) × its sides), and the repair button stores the
-repaired variant and opens it, whose check has no error."""
+repaired variant and opens it, whose check has no error; the upload form refuses such a file by
+default and, with "repair them", stores the model the API's `inertia_check: "repair"` stores."""
 
 from __future__ import annotations
 
@@ -114,3 +115,45 @@ def test_the_pages_eigen_decomposition_and_ellipsoid_match_numpys(page, server):
     expected = np.sqrt(5 / 6 * (moments.sum() - 2 * moments))
     np.testing.assert_allclose(np.array(got["radii"])[order], expected, rtol=1e-12)
     assert np.linalg.det(np.array(got["axes"])) == pytest.approx(1.0, abs=1e-12)
+
+
+def _upload_in_page(page, text: str, how: str | None) -> None:
+    page.set_input_files(
+        "#urdf-file",
+        files=[{"name": "slipped.urdf", "mimeType": "text/xml", "buffer": text.encode()}],
+    )
+    if how is not None:
+        page.select_option("#inertia-check", how)
+    page.click("#upload button[type=submit]")
+
+
+def test_the_upload_form_rejects_by_default_and_repairs_on_request(page, server, api):
+    text = ARM.replace("slipped_arm", "slipped_arm_form")
+    open_explorer(page, server)
+    assert page.locator("#inertia-check").input_value() == "reject"
+    refused = api.post("/v1/robots", json={"urdf": text, "root_joint": "fixed"})
+    assert refused.status_code == 422
+    _upload_in_page(page, text, None)
+    page.locator("#upload-status .detail").wait_for()
+    assert page.locator("#upload-status .detail").inner_text() == refused.json()["detail"]
+
+    _upload_in_page(page, text, "repair")
+    page.locator("#upload-status.ok").wait_for()
+    # the API's own repaired upload of the same file: the same stored model (ids are derived
+    # from the record, repairs included), which the page then shows
+    expected = api.post(
+        "/v1/robots", json={"urdf": text, "root_joint": "fixed", "inertia_check": "repair"}
+    )
+    assert expected.status_code == 200, expected.text  # stored already, by the page
+    robot = expected.json()
+    assert robot["id"] in page.locator("#upload-status").inner_text()
+    assert [(w["name"], w["code"]) for w in robot["warnings"]] == [("arm", "inertia_repaired")]
+    page.wait_for_function("(id) => document.querySelector('#robot').value === id", arg=robot["id"])
+    check = api.get(f"/v1/robots/{robot['id']}/model-check").json()
+    assert not [f for f in check["findings"] if f["severity"] == "error"]
+    arm = next(link for link in check["links"] if link["name"] == "arm")
+    a, b, c = SIDES  # repaired from its box: the box's moments with its 2 kg
+    box = sorted(2 / 12 * x for x in (b * b + c * c, a * a + c * c, a * a + b * b))
+    np.testing.assert_allclose(arm["principal_moments"], box, rtol=1e-9)
+    assert not page.log.page_errors
+    assert len(page.log.console_errors) == 1 and "422" in page.log.console_errors[0]  # refused

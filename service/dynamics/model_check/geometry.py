@@ -8,6 +8,8 @@ along z, centred):
   mass m has I = m a²/6 about every axis;
 - cylinder radius r, length l: V = π r² l, Jxx = Jyy = V (3r² + l²)/12, Jzz = V r²/2;
 - sphere radius r: V = 4/3 π r³, J = 2/5 V r² · 1;
+- ellipsoid of semi-axes a, b, c (MJCF's): V = 4/3 π abc, J = V/5 · diag(b² + c², a² + c²,
+  a² + b²);
 - capsule (a cylinder r, l with hemispherical caps): the cylinder plus a sphere's volume
   Vs split in two caps whose centres sit 3r/8 beyond the cylinder's ends:
   Jzz = Vc r²/2 + 2/5 Vs r², Jxx = Vc (l²/12 + r²/4) + Vs (2r²/5 + l²/4 + 3lr/8).
@@ -67,6 +69,14 @@ def sphere(radius: float) -> MassProperties:
     )
 
 
+def ellipsoid(radii: list[float]) -> MassProperties:
+    a, b, c = (float(x) for x in radii)
+    volume = 4.0 / 3.0 * math.pi * a * b * c
+    inertia = volume / 5.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+    half = np.array([a, b, c])
+    return MassProperties(volume, np.zeros(3), inertia, np.array([-half, half]))
+
+
 def capsule(radius: float, length: float) -> MassProperties:
     r, length = float(radius), float(length)
     vc, vs = math.pi * r * r * length, 4.0 / 3.0 * math.pi * r**3
@@ -118,7 +128,8 @@ def convex_hull(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
 
 
 def primitive(geometry: dict[str, Any]) -> MassProperties | None:
-    """A box, cylinder, sphere or capsule of the API's geometry form; None for anything else."""
+    """A box, cylinder, sphere, capsule or ellipsoid of the API's geometry form; None for
+    anything else."""
     kind = geometry["type"]
     if kind == "box":
         return box(geometry["size"])
@@ -128,6 +139,8 @@ def primitive(geometry: dict[str, Any]) -> MassProperties | None:
         return sphere(geometry["radius"])
     if kind == "capsule":
         return capsule(geometry["radius"], geometry["length"])
+    if kind == "ellipsoid":
+        return ellipsoid(geometry["radii"])
     return None
 
 

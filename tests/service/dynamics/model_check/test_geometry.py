@@ -20,6 +20,7 @@ from service.dynamics.model_check.geometry import (
     closed_mesh,
     convex_hull,
     cylinder,
+    ellipsoid,
     sphere,
 )
 from service.dynamics.model_check.link_geometry import link_geometry
@@ -58,6 +59,17 @@ def test_box_cylinder_and_sphere_equal_their_closed_forms():
     np.testing.assert_allclose(
         ball.inertia * m / ball.volume, np.eye(3) * 0.4 * m * r * r, rtol=TOL
     )
+
+
+def test_an_ellipsoid_equals_its_closed_form_and_a_sphere_when_round():
+    a, b, c, m = 0.03, 0.05, 0.02, 1.5
+    solid = ellipsoid([a, b, c])
+    assert solid.volume == pytest.approx(4 / 3 * math.pi * a * b * c, rel=TOL)
+    expected = m / 5 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+    np.testing.assert_allclose(solid.inertia * m / solid.volume, expected, rtol=TOL, atol=0)
+    round_one, ball = ellipsoid([a, a, a]), sphere(a)
+    assert round_one.volume == pytest.approx(ball.volume, rel=TOL)
+    np.testing.assert_allclose(round_one.inertia, ball.inertia, rtol=TOL)
 
 
 def test_a_capsule_is_a_cylinder_and_two_hemispheres():

@@ -35,6 +35,7 @@ from service.api.routes import (
     stream,
     visuals,
 )
+from service.api.workers.batch_split import BatchSplit
 from service.api.workers.equations_cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
@@ -90,6 +91,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
             sweeper.cancel()
         if segments is not None:  # this process's answer files (the directory: __main__'s)
             segments.answers.close()
+        if app.state.batch_split is not None:  # its helpers and their shared files
+            app.state.batch_split.close()
         worker = getattr(app.state, "identification", None)
         if worker is not None:  # the identification worker process, if one was started
             worker.close()
@@ -140,6 +143,12 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     )
     app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
+    # Large mass-matrix and Coriolis batches shared with helper processes (started on the
+    # first such batch), one per CPU but the serving process's own unless configured.
+    helpers = settings.batch_helpers if settings.batch_helpers is not None else _usable_cpus() - 1
+    app.state.batch_split = (
+        BatchSplit(helpers, settings.batch_helper_buffer_mb * 1024 * 1024) if helpers else None
+    )
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
     # Twins of other lean routes: identify (JSON or the binary form in, JSON out), and the

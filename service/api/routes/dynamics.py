@@ -269,6 +269,7 @@ class Endpoint:
                     sizing,
                     fill,
                     stop,
+                    request.app.state.batch_split,
                 )
         else:
             states = inputs.prepare_states(robot, arrays, settings.max_batch, fill)
@@ -281,7 +282,14 @@ class Endpoint:
             if large:
                 async with cancellable(request, self.quantity.name) as stop:
                     result = await off_loop(
-                        request, dynamics.run, robot, self.quantity, states, options, stop
+                        request,
+                        dynamics.run,
+                        robot,
+                        self.quantity,
+                        states,
+                        options,
+                        stop,
+                        request.app.state.batch_split,
                     )
             else:
                 result = dynamics.run(robot, self.quantity, states, options)
@@ -307,10 +315,11 @@ class Endpoint:
         sizing: "_Sizing",
         fill: str | None = None,
         should_stop: Any = None,
+        split: Any = None,
     ) -> tuple[Any, dict[str, Any]]:
         states = inputs.prepare_states(robot, arrays, max_batch, fill)
         self._check_size(robot, states, options, sizing)
-        return states, dynamics.run(robot, self.quantity, states, options, should_stop)
+        return states, dynamics.run(robot, self.quantity, states, options, should_stop, split)
 
     def _check_size(
         self, robot: Any, states: Any, options: dict[str, Any], sizing: "_Sizing"

@@ -144,8 +144,13 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     # Large mass-matrix and Coriolis batches shared with helper processes (started on the
-    # first such batch), one per CPU but the serving process's own unless configured.
-    helpers = settings.batch_helpers if settings.batch_helpers is not None else _usable_cpus() - 1
+    # first such batch): unless configured, one per CPU left to this serving process (its
+    # share of the CPUs when there are several) but its own.
+    helpers = (
+        settings.batch_helpers
+        if settings.batch_helpers is not None
+        else max(0, _usable_cpus() // settings.workers - 1)
+    )
     app.state.batch_split = (
         BatchSplit(helpers, settings.batch_helper_buffer_mb * 1024 * 1024) if helpers else None
     )

@@ -74,7 +74,8 @@ class Settings(BaseSettings):
         description="Helper processes per server process that compute a share of each large "
         "mass-matrix or Coriolis batch (Pinocchio computes these state by state on one core "
         "and holds the GIL), writing it into shared memory; unset: one per CPU the process may "
-        "use but one, 0: off (every batch computed by the serving process alone).",
+        "use (divided by the server processes, `workers`) but one, 0: off (every batch "
+        "computed by the serving process alone).",
     )
     batch_helper_buffer_mb: int = Field(
         64,

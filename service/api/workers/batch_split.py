@@ -50,7 +50,7 @@ log = logging.getLogger("robodyn.batches")
 MIN_SPLIT_WORK = 20_000
 """States × nv of the smallest batch that is split (about 500 Talos states): below, the
 messages and copies cost about what the helpers save (measured: docs/performance.md)."""
-HELPER_SHARE = 1.15
+HELPER_SHARE = 1.0
 """A helper's slice is this many times the serving process's: the serving process also
 writes the helpers' inputs and copies their answers out."""
 MODELS_PER_HELPER = 16

@@ -144,11 +144,11 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     # Large mass-matrix and Coriolis batches shared with helper processes (started on the
-    # first such batch): unless configured, one per CPU left to this serving process (its
+    # first such batch) when configured; -1: one per CPU left to this serving process (its
     # share of the CPUs when there are several) but its own.
     helpers = (
         settings.batch_helpers
-        if settings.batch_helpers is not None
+        if settings.batch_helpers >= 0
         else max(0, _usable_cpus() // settings.workers - 1)
     )
     app.state.batch_split = (

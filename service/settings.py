@@ -67,15 +67,16 @@ class Settings(BaseSettings):
         description="Large batches computed or queued at once per process; more are "
         "answered 503 overloaded with Retry-After.",
     )
-    batch_helpers: int | None = Field(
-        None,
-        ge=0,
+    batch_helpers: int = Field(
+        0,
+        ge=-1,
         le=64,
         description="Helper processes per server process that compute a share of each large "
         "mass-matrix or Coriolis batch (Pinocchio computes these state by state on one core "
-        "and holds the GIL), writing it into shared memory; unset: one per CPU the process may "
-        "use (divided by the server processes, `workers`) but one, 0: off (every batch "
-        "computed by the serving process alone).",
+        "and holds the GIL), writing it into shared memory; -1: one per CPU the process may "
+        "use (divided by the server processes, `workers`) but one; 0 (the default): off, "
+        "every batch computed by the serving process alone (on the 2-core bench machine the "
+        "helpers did not make these batches measurably faster end to end: performance.md).",
     )
     batch_helper_buffer_mb: int = Field(
         64,

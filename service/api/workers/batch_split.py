@@ -2,10 +2,10 @@
 the batch's states shared between the serving process and long-lived helper processes.
 
 Pinocchio has no parallel CRBA or Coriolis algorithm and its Python bindings hold the GIL, so
-threads do not help; `BatchSplit` (the `split` given to `service.dynamics.run`) gives each of
-its helpers (`ROBODYN_BATCH_HELPERS`, by default one per CPU but the serving process's own)
-a slice of the states, computes its own slice meanwhile, then takes the helpers' slices from
-their shared files. Nothing large crosses a pipe:
+threads do not help; `BatchSplit` (the `split` given to `service.dynamics.run` when
+`ROBODYN_BATCH_HELPERS` is set: off by default, -1 for one per CPU but the serving process's
+own) gives each of its helpers a slice of the states, computes its own slice meanwhile, then
+takes the helpers' slices from their shared files. Nothing large crosses a pipe:
 
 - each helper (`processes.ResidentHelper`, spawned, dies with the server) holds an anonymous
   shared file (`processes.SharedFile`, at most `ROBODYN_BATCH_HELPER_BUFFER_MB`, kept mapped
@@ -279,10 +279,14 @@ def helper_main(conn: Connection) -> None:
     import mmap
     from multiprocessing.reduction import recv_handle
 
+    from service import unpin_this_thread
     from service.dynamics import QUANTITIES
     from service.registry.build_process import model_from_binary
     from service.registry.robot import Robot
 
+    # libgomp bound this thread to one CPU as Pinocchio loaded (the server's OMP_PROC_BIND,
+    # inherited): the helper runs wherever the machine has room, as the serving process does
+    unpin_this_thread()
     fd = recv_handle(conn)
     conn.send("ready")
     robots: dict[str, Robot] = {}

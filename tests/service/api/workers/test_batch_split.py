@@ -108,6 +108,7 @@ def test_small_batches_stay_in_process(catalog_registry, split, record_slices):
     robot = catalog_registry.get("talos")
     quantity = dynamics.QUANTITIES["mass-matrix"]
     _ready(split, robot, quantity)
+    record_slices.clear()
     n = batch_split.MIN_SPLIT_WORK // robot.nv - 1
     s = _states(robot.model, n, np.random.default_rng(4))
     got = dynamics.run(robot, quantity, States({"q": s["q"]}, True), {}, None, split)
@@ -124,6 +125,7 @@ def test_a_helper_lost_mid_batch_gives_the_right_answer(
     robot = catalog_registry.get("talos")
     quantity = dynamics.QUANTITIES["coriolis"]
     _ready(split, robot, quantity)
+    record_slices.clear()
     monkeypatch.setattr(batch_split, "WAIT_MIN_S", 0.5)  # a stopped helper is given up soon
     (slot,) = split._slots
     first = slot.helper.proc
@@ -146,6 +148,7 @@ def test_a_helper_lost_mid_batch_gives_the_right_answer(
     monkeypatch.setattr(BatchSplit, "_hand_out", hand_out)
     _ready(split, robot, quantity)  # a new helper serves the next batches
     assert slot.helper.proc is not first
+    record_slices.clear()
     got = dynamics.run(robot, quantity, States(s, True), {}, None, split)
     assert record_slices and np.array_equal(
         got["coriolis_matrix"], _reference(robot.model, "coriolis", s)["coriolis_matrix"]
@@ -164,7 +167,7 @@ def _memfds(pid: int) -> list[str]:
     return mapped + [link for link in links if link.startswith("/memfd:robodyn-batch")]
 
 
-def test_over_http_then_nothing_left_after_shutdown(catalog_registry):
+def test_over_http_then_nothing_left_after_shutdown(catalog_registry, record_slices):
     robot = catalog_registry.get("talos")
     app = create_app(
         Settings(data_dir=catalog_registry.store.dir.parent, batch_helpers=1),
@@ -172,6 +175,7 @@ def test_over_http_then_nothing_left_after_shutdown(catalog_registry):
     )
     s = _states(robot.model, 700, np.random.default_rng(6))
     body = {"q": s["q"].tolist()}
+    before = _memfds(os.getpid())  # (other tests' splits may hold theirs)
     with TestClient(app, raise_server_exceptions=False) as client:
         split = app.state.batch_split
         assert client.post("/v1/robots/talos/mass-matrix", json=body).status_code == 200
@@ -180,23 +184,43 @@ def test_over_http_then_nothing_left_after_shutdown(catalog_registry):
             assert time.monotonic() < deadline
             time.sleep(0.05)
         helper = split._slots[0].helper.proc
+        record_slices.clear()
         answer = client.post("/v1/robots/talos/mass-matrix", json=body)
         assert answer.status_code == 200, answer.text
+        assert record_slices  # the helper computed its slice
         expected = _reference(robot.model, "mass-matrix", s)["mass_matrix"]
         assert np.array_equal(np.array(answer.json()["mass_matrix"]), expected)
         os.kill(helper.pid, signal.SIGKILL)  # killed between requests: computed here, then
         answer = client.post("/v1/robots/talos/mass-matrix", json=body)  # a new one starts
         assert answer.status_code == 200, answer.text
         assert np.array_equal(np.array(answer.json()["mass_matrix"]), expected)
-        assert _memfds(os.getpid())  # the helper's shared file, mapped here
+        assert len(_memfds(os.getpid())) > len(before)  # the helper's shared file, mapped here
         replacement = split._slots[0].helper.proc
     assert not wait_ended([helper.pid] + ([replacement.pid] if replacement else []), END_S)
-    assert _memfds(os.getpid()) == []
+    assert _memfds(os.getpid()) == before
 
 
-def test_helpers_can_be_turned_off(catalog_registry):
-    app = create_app(
-        Settings(data_dir=catalog_registry.store.dir.parent, batch_helpers=0),
-        registry=catalog_registry,
+def test_helpers_are_off_unless_configured(catalog_registry):
+    data_dir = catalog_registry.store.dir.parent
+    assert (
+        create_app(Settings(data_dir=data_dir), registry=catalog_registry).state.batch_split is None
     )
-    assert app.state.batch_split is None
+    assert (
+        create_app(
+            Settings(data_dir=data_dir, batch_helpers=0), registry=catalog_registry
+        ).state.batch_split
+        is None
+    )
+    # -1: one helper per CPU of the process but its own (its share with several workers)
+    cpus = len(os.sched_getaffinity(0))
+    app = create_app(Settings(data_dir=data_dir, batch_helpers=-1), registry=catalog_registry)
+    split = app.state.batch_split
+    if cpus > 1:
+        assert split.processes == cpus
+        split.close()
+    else:
+        assert split is None
+    shared = create_app(
+        Settings(data_dir=data_dir, batch_helpers=-1, workers=cpus), registry=catalog_registry
+    )
+    assert shared.state.batch_split is None  # every CPU has a serving process already

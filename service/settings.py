@@ -109,22 +109,23 @@ class Settings(BaseSettings):
         "admits about 10 s of computing on one core.",
     )
     max_trajectory_work: int = Field(
-        20_000_000,
+        10_000_000,
         ge=1,
         description="Largest work of one trajectory-check: evaluated points × nv, where N "
         "samples give (N − 1) × samples_per_interval + 1 points when v and a come from the "
-        "spline, else N. A unit costs about 0.2–0.4 µs on one core and at most about 56 "
-        "bytes of memory (the samples are held whole, the points in chunks); the default "
-        "admits at most about 8 s and 1 GB on a 126-joint tree.",
+        "spline, else N. A unit costs about 0.9–1.2 µs of CPU (τ and the joint loads of the "
+        "same RNEA pass, point by point) and at most about 56 bytes of memory (the samples "
+        "are held whole, the points in chunks); the default admits about 13 s of CPU and "
+        "at most 0.6 GB on a 126-joint tree, and a UR5's 1,000,000 evaluated points.",
     )
     max_retime_work: int = Field(
         500_000,
         ge=1,
         description="Largest work of one retime: path intervals × nv × limited quantities, "
-        "where K waypoints give at most 200 + 3 (K − 1) intervals and the quantities are "
+        "where K waypoints give at most 800 + 16 (K − 1) intervals and the quantities are "
         "velocity and effort, and acceleration where acceleration limits are given. A unit "
-        "costs about 5–20 µs on one core and 1–1.6 kB of memory (TOPP-RA holds the whole "
-        "path's rows); the default admits about 10 s and 0.8 GB on a 126-joint tree.",
+        "costs about 5–25 µs on one core and 0.3–0.9 kB of memory (TOPP-RA holds the whole "
+        "path's rows); the default admits about 12 s and 0.5 GB.",
     )
     request_deadline_s: float = Field(
         60.0,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import TypeVar
@@ -142,6 +143,63 @@ def skewed_arm_urdf(joints: int, seed: int = 1) -> str:
             f'<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>'
         )
     return f'<robot name="skewed">{"".join(links + chain)}</robot>'
+
+
+def alternating_arm_urdf(joints: int = 6) -> str:
+    """A chain of `joints` revolute joints with axes alternating z, y, z, …, 0.2 m apart along
+    z, each link 1 kg with its centre of mass 0.1 m up its length: a plain arm whose explicit
+    form is large (every angle couples with its neighbours)."""
+    links, chain = ['<link name="l0"/>'], []
+    for i in range(1, joints + 1):
+        links.append(
+            f'<link name="l{i}"><inertial><origin xyz="0 0 0.1"/><mass value="1"/>'
+            '<inertia ixx="0.004" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.001"/>'
+            "</inertial></link>"
+        )
+        axis = "0 0 1" if i % 2 else "0 1 0"
+        chain.append(
+            f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
+            f'<origin xyz="0 0 {0 if i == 1 else 0.2}"/><axis xyz="{axis}"/>'
+            '<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>'
+        )
+    return f'<robot name="alternating">{"".join(links + chain)}</robot>'
+
+
+def _top_level_terms(text: str) -> list[tuple[float, str]]:
+    """A printed sum split at its " + " and " - " outside parentheses: (sign, term)."""
+    terms, depth, start, sign = [], 0, 0, 1.0
+    if text.startswith("-"):
+        sign, start = -1.0, 1
+    i = start
+    while i < len(text):
+        ch = text[i]
+        depth += (ch == "(") - (ch == ")")
+        if depth == 0 and text.startswith((" + ", " - "), i):
+            terms.append((sign, text[start:i]))
+            sign, start = (1.0 if text[i + 1] == "+" else -1.0), i + 3
+            i += 3
+            continue
+        i += 1
+    terms.append((sign, text[start:]))
+    return terms
+
+
+def evaluate_printed(text: str, values: dict[str, float]) -> float:
+    """The value of an expression of the equations' text (Python syntax: numbers, names q1…,
+    dq1…, p1…, `*`, `**`, cos, sin, parentheses) with the names' `values`: an evaluator of
+    its own, term by term (a sum of thousands of terms is too deep for one `eval`)."""
+    env = {"cos": math.cos, "sin": math.sin, **values}
+    total = 0.0
+    for sign, term in _top_level_terms(text):
+        cut = term.find("*(")
+        if term.endswith(")") and cut > 0 and "(" not in term[:cut]:
+            value = eval(term[:cut], {"__builtins__": {}}, env) * evaluate_printed(
+                term[cut + 2 : -1], values
+            )
+        else:
+            value = eval(term, {"__builtins__": {}}, env)
+        total += sign * value
+    return total
 
 
 STARVED = "of CPU time in its"  # in the detail of an `overloaded` answer for a starved child

@@ -19,6 +19,7 @@ import pinocchio as pin
 
 from service.dynamics import parallel
 from service.dynamics.external_forces import ExternalForces
+from service.dynamics.joint_loads import add_friction, moving_joints, rnea_with_wrenches
 from service.dynamics.quantity import (
     Quantity,
     Results,
@@ -112,6 +113,7 @@ def inverse_dynamics(
     *,
     external_forces: Sequence[Mapping[str, Any]] | None = None,
     friction: bool = False,
+    loads: bool = False,
 ) -> Results:
     """τ = M(q) a + C(q, v) v + g(q) by the recursive Newton–Euler algorithm, (N, nv).
 
@@ -119,21 +121,38 @@ def inverse_dynamics(
     the answer is τ = M a + C v + g − Σ Jᵀ w: the forces the joints must add to the wrenches
     the environment applies. With `friction` (a robot made by identification, whose RobotInfo
     lists its `friction`), the joints' friction torque is added:
-    τ + offset + coulomb ∘ sign(v) + viscous ∘ v."""
+    τ + offset + coulomb ∘ sign(v) + viscous ∘ v. With `loads`, also `joint_wrenches`
+    (N, njoints − 1, 6): the wrench each moving joint transmits to its child body, RNEA's
+    `data.f[j]`, f (N) then n (N·m) about the joint frame's origin in its axes, friction
+    included along the joint's motion (`service.dynamics.joint_loads`)."""
     q, v, a = s["q"], s["v"], s["a"]
-    out = np.empty((q.shape[0], robot.nv))
     forces = ExternalForces(robot, external_forces, s) if external_forces else None
-    with robot.data() as data:
-        if forces is None:
-            for i in range(q.shape[0]):
-                out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
-        else:
-            for i in range(q.shape[0]):
-                fext = forces.at(data, q[i], i)
-                out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i], fext)
+    wrenches = None
+    if loads:
+        out, wrenches = rnea_with_wrenches(robot, q, v, a, forces.at if forces else None)
+    else:
+        out = np.empty((q.shape[0], robot.nv))
+        with robot.data() as data:
+            if forces is None:
+                for i in range(q.shape[0]):
+                    out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i])
+            else:
+                for i in range(q.shape[0]):
+                    fext = forces.at(data, q[i], i)
+                    out[i] = pin.rnea(robot.model, data, q[i], v[i], a[i], fext)
     if friction:
-        out += joint_friction(robot)(v)
-    return finite("inverse-dynamics", tau=out)
+        friction_torque = joint_friction(robot)(v)
+        out += friction_torque
+        if wrenches is not None:
+            wrenches = add_friction(robot, wrenches, friction_torque)
+    if wrenches is None:
+        return finite("inverse-dynamics", tau=out)
+    return finite("inverse-dynamics", tau=out, joint_wrenches=wrenches)
+
+
+def inverse_dynamics_size(robot: Robot, options: dict[str, Any], with_v: bool) -> int:
+    """τ (nv numbers), and with `loads` the wrench of every moving joint (6 numbers each)."""
+    return robot.nv + (6 * moving_joints(robot) if options.get("loads") else 0)
 
 
 def joint_friction(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
@@ -218,7 +237,7 @@ EQUATION_OF_MOTION = (
         "Inverse dynamics τ = M a + C v + g (RNEA)",
         parallel=parallel.inverse_dynamics,
         joint_answers=("tau",),
-        answer_size=nv_numbers,
+        answer_size=inverse_dynamics_size,
     ),
     Quantity(
         "forward-dynamics",

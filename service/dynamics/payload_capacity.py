@@ -10,19 +10,25 @@ in the bodies' inertias, so at any state (q, v, a) the joint torques are affine 
 
 τ₁ includes the motion terms (the mass's share of M a + C v), not only gravity. For each velocity
 coordinate i with an effort limit Lᵢ > 0 (N·m or N), |τ₀ᵢ + m τ₁ᵢ| ≤ Lᵢ holds on an interval of m
-(|·| is convex), and the largest m ≥ 0 in it is, exactly (no search):
+(|·| is convex), exactly (no search):
 
-    mᵢ = 0                         if |τ₀ᵢ| > Lᵢ (over its limit already, with no payload)
-    mᵢ = (Lᵢ − τ₀ᵢ) / τ₁ᵢ           if τ₁ᵢ > 0
-    mᵢ = (Lᵢ + τ₀ᵢ) / (−τ₁ᵢ)        if τ₁ᵢ < 0
-    mᵢ = none (never limits)        if τ₁ᵢ = 0 (|τ₁ᵢ| ≤ ε₁: the rounding of a zero, below)
+    [(−Lᵢ − τ₀ᵢ) / τ₁ᵢ, (Lᵢ − τ₀ᵢ) / τ₁ᵢ]     if τ₁ᵢ > 0
+    [(Lᵢ − τ₀ᵢ) / τ₁ᵢ, (−Lᵢ − τ₀ᵢ) / τ₁ᵢ]     if τ₁ᵢ < 0
+    every m (never limits) if |τ₀ᵢ| ≤ Lᵢ, else no m    if τ₁ᵢ = 0 (|τ₁ᵢ| ≤ ε₁: below)
 
-and the capacity is m* = min mᵢ over the limited coordinates, the limiting joint the one that
-owns the minimizing coordinate (where several are over their limit already, the one furthest
-over, |τ₀ᵢ| / Lᵢ largest), and τ(m*) = τ₀ + m* τ₁ the torques at capacity. Coordinates with no
-effort limit (0, or none in the model, or Pinocchio's largest double where a description gives
-none) and a floating root's coordinates (a free-flyer's 6, a planar root's 3: the wrench that
-holds the base, no motor's) are not limits. When nothing limits, m* is none and τ is τ₀.
+Its part with m ≥ 0 is [loᵢ, hiᵢ], and the masses that keep every joint within its limit are
+their intersection, the interval `mass_range` = [lo, hi] = [max loᵢ, min hiᵢ] (empty when a
+coordinate suits no m ≥ 0 or when lo > hi). lo > 0 where the load is what keeps a joint within
+its limit (a counterweight: gravity alone over the limit, the payload pulling the other way).
+The capacity is m* = hi (0 when the range is empty); `mass_per_joint` is each coordinate's own
+hiᵢ (none where it never limits, 0 where no m ≥ 0 suits it). The limiting joint owns the
+minimizing coordinate of hi; where the range is empty, the coordinate that suits no m ≥ 0 and
+is furthest over its limit with no payload (|τ₀ᵢ| / Lᵢ largest), else (every coordinate suits
+some m, but not the same) the one whose hiᵢ is smallest. τ(m*) = τ₀ + m* τ₁ are the torques at
+capacity. Coordinates with no effort limit (0, or none in the model, or Pinocchio's largest
+double where a description gives none) and a floating root's coordinates (a free-flyer's 6, a
+planar root's 3: the wrench that holds the base, no motor's) are not limits. When nothing
+limits, m* is none (the range [0, none]) and τ is τ₀.
 
 A per-kg torque that is zero in exact arithmetic (a point on a joint's axis, a weight along a
 vertical axis) comes out of RNEA as rounding, and (Lᵢ − τ₀ᵢ) / rounding is a finite capacity
@@ -70,22 +76,40 @@ class Capacity:
     mass_per_joint: np.ndarray  # (N, nv) kg
     tau: np.ndarray  # (N, nv) N·m or N, at capacity
     joint_of_index: tuple[str, ...]  # (nv,) the joint that owns each velocity coordinate
+    mass_range: np.ndarray  # (N, 2) kg: [lo, hi] (hi inf: no upper end); NaN rows: empty
 
     def limiting_joint(self, state: int) -> str | None:
         index = int(self.limiting_index[state])
         return None if index < 0 else self.joint_of_index[index]
 
+    def common_range(self) -> list[float | None] | None:
+        """The masses that keep every joint within its limit at every state, [lo, hi] (kg; hi
+        None: no upper end), the intersection of the states' ranges; None when it is empty."""
+        if np.isnan(self.mass_range).any():
+            return None
+        lo, hi = float(self.mass_range[:, 0].max()), float(self.mass_range[:, 1].min())
+        return None if lo > hi else [lo, hi if np.isfinite(hi) else None]
+
     def minimum(self) -> dict[str, Any]:
         """The smallest capacity over the batch: {mass (kg, or None when nothing limits),
-        state (the first with it), limiting_joint}."""
+        state (the first with it), limiting_joint, mass_range (`common_range`)}."""
+        common = self.common_range()
         if not np.isfinite(self.mass).any():
-            return {"mass": None, "state": None, "limiting_joint": None}
+            return {"mass": None, "state": None, "limiting_joint": None, "mass_range": common}
         state = int(np.argmin(self.mass))
         return {
             "mass": float(self.mass[state]),
             "state": state,
             "limiting_joint": self.limiting_joint(state),
+            "mass_range": common,
         }
+
+    def ranges(self) -> list[list[float | None] | None]:
+        """Each state's `mass_range` as JSON: [lo, hi] (hi None: no upper end), None: empty."""
+        return [
+            None if np.isnan(lo) else [float(lo), float(hi) if np.isfinite(hi) else None]
+            for lo, hi in self.mass_range
+        ]
 
     def answer(self, batched: bool) -> dict[str, Any]:
         """The JSON answer: none as null; per state (lists) for a batch, plus `minimum`."""
@@ -101,6 +125,7 @@ class Capacity:
             "limiting_joint": [self.limiting_joint(i) for i in states],
             "mass_per_joint": nullable(self.mass_per_joint),
             "tau": self.tau.tolist(),
+            "mass_range": self.ranges(),
         }
         if not batched:
             return {name: value[0] for name, value in result.items()}
@@ -201,27 +226,35 @@ def zero_torque_per_kg(
 
 def capacity_from_torques(
     tau0: np.ndarray, tau1: np.ndarray, limit: np.ndarray, zero: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(mass (N,), limiting index (N,), mass per coordinate (N, nv), τ at capacity (N, nv))
-    from τ₀, τ₁ (N, nv), the limits L (nv; 0 = none) and the per-kg torque ε₁ (N,) at or
-    under which τ₁ counts as zero, by the rule of the module docstring."""
-    limited = limit > 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(mass (N,), limiting index (N,), mass per coordinate (N, nv), τ at capacity (N, nv),
+    mass range (N, 2)) from τ₀, τ₁ (N, nv), the limits L (nv; 0 = none) and the per-kg torque
+    ε₁ (N,) at or under which τ₁ counts as zero, by the rule of the module docstring. A row of
+    the range is [lo, hi] (hi inf: no upper end), NaN where no mass suits every joint."""
+    limited = np.broadcast_to(limit > 0, tau0.shape)
     moves = np.abs(tau1) > zero[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        room = np.where(tau1 > 0, limit - tau0, limit + tau0)
-        per = np.where(moves, room / np.abs(np.where(moves, tau1, 1.0)), np.inf)
-    over = limited & (np.abs(tau0) > limit)
-    per = np.where(over, 0.0, per)
-    per = np.where(limited, per, np.inf)
-    mass = per.min(axis=1)
-    index = np.where(np.isfinite(mass), per.argmin(axis=1), -1)
-    any_over = over.any(axis=1)
-    if any_over.any():  # furthest over its limit: |τ₀ᵢ| / Lᵢ largest
+    within = np.abs(tau0) <= limit
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        per_kg = np.where(moves, tau1, 1.0)
+        ends = ((-limit - tau0) / per_kg, (limit - tau0) / per_kg)
+        low = np.where(moves, np.minimum(*ends), np.where(within, -np.inf, np.inf))
+        high = np.where(moves, np.maximum(*ends), np.where(within, np.inf, -np.inf))
+    low = np.where(limited, np.maximum(low, 0.0), 0.0)  # m ≥ 0
+    high = np.where(limited, high, np.inf)
+    suits = high >= low  # some m ≥ 0 keeps this coordinate within its limit
+    per = np.where(suits, high, 0.0)
+    lo, hi = low.max(axis=1), per.min(axis=1)
+    empty = ~suits.all(axis=1) | (lo > hi)
+    mass = np.where(empty, 0.0, hi)
+    index = np.where(np.isfinite(hi), per.argmin(axis=1), -1)
+    unsuited = ~suits.all(axis=1)
+    if unsuited.any():  # suits no m ≥ 0: over its limit with no payload; the furthest over
         with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(over, np.abs(tau0) / np.where(limited, limit, 1.0), -np.inf)
-        index = np.where(any_over, ratio.argmax(axis=1), index)
+            ratio = np.where(~suits, np.abs(tau0) / np.where(limited, limit, 1.0), -np.inf)
+        index = np.where(unsuited, ratio.argmax(axis=1), index)
     tau = tau0 + np.where(np.isfinite(mass), mass, 0.0)[:, None] * tau1
-    return mass, index, per, tau
+    ranges = np.where(empty[:, None], np.nan, np.stack([lo, hi], axis=1))
+    return mass, index, per, tau, ranges
 
 
 def capacity(
@@ -252,9 +285,9 @@ def capacity(
     tau1 = batch_rnea(unit_mass_robot(carrier, fid, com), q, v, a)
     finite("payload-capacity", tau=tau0, torque_per_kg=tau1)
     zero = zero_torque_per_kg(carrier, fid, com, v, a)
-    mass, index, per, tau = capacity_from_torques(tau0, tau1, limit, zero)
+    mass, index, per, tau, ranges = capacity_from_torques(tau0, tau1, limit, zero)
     finite("payload-capacity", tau=tau)
-    return Capacity(mass, index, per, tau, velocity_owners(robot))
+    return Capacity(mass, index, per, tau, velocity_owners(robot), ranges)
 
 
 def payload_capacity(
@@ -268,11 +301,14 @@ def payload_capacity(
     """The heaviest point mass (kg) the robot can hold at `center_of_mass` (m, in `frame`;
     default its origin) without any joint torque exceeding its effort limit, per state (q; v
     and a default zero: holding still): τ(m) = τ₀ + m τ₁ is affine in m, so the answer is
-    exact (no search). Answers `mass` (N,) kg, null where nothing limits; `limiting_joint`;
-    `mass_per_joint` (N, nv) kg, the largest mass each velocity coordinate alone allows (null
-    where it never limits, 0 where it is over its limit already); `tau` (N, nv), N·m or N, the
-    torques at that mass; for a batch `minimum`: {mass, state, limiting_joint}, the smallest
-    capacity and the first state that has it. `effort_limits` (nv, ≥ 0, 0 = no limit) replaces
+    exact (no search). Answers `mass_range` [lo, hi] kg, the masses m ≥ 0 that keep every
+    joint within its limit (null when there are none; hi null: no upper end; lo > 0 for a
+    counterweight); `mass` (N,) kg, hi (0 when the range is empty), null where nothing limits;
+    `limiting_joint`; `mass_per_joint` (N, nv) kg, the largest mass each velocity coordinate
+    alone allows (null where it never limits, 0 where no mass ≥ 0 suits it); `tau` (N, nv),
+    N·m or N, the torques at that mass; for a batch `minimum`: {mass, state, limiting_joint},
+    the smallest capacity and the first state that has it, and its `mass_range`, the masses
+    that suit every state. `effort_limits` (nv, ≥ 0, 0 = no limit) replaces
     the model's; a floating root's rows are never limits. Payloads already carried count in
     τ₀ (the request's `payloads`)."""
     cap = capacity(
@@ -290,6 +326,7 @@ def payload_capacity(
         "limiting_joint": names if s.batched else names[0],
         "mass_per_joint": cap.mass_per_joint,
         "tau": cap.tau,
+        "mass_range": cap.ranges() if s.batched else cap.ranges()[0],
     }
     if s.batched:
         out["minimum"] = cap.minimum()
@@ -308,6 +345,6 @@ PAYLOAD_CAPACITY = (
         named_options=(("effort_limits", "nv"),),
         work=lambda r, s, o: 2 * s.count * r.nv,
         whole_batch=True,
-        answer_size=lambda r, o, v: 1 + 2 * r.nv,
+        answer_size=lambda r, o, v: 3 + 2 * r.nv,
     ),
 )

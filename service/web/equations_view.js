@@ -1,5 +1,8 @@
 // robodyn explorer, the "Equations" view: M(q), C(q, v) and g(q) of the chosen robot in closed
 // form (GET /v1/robots/{id}/equations), typeset by the vendored KaTeX (loaded on first use).
+// A switch chooses the form: readable (the default: 6 significant digits, residues left out),
+// exact (every term) or parametric (linear in the base inertial parameters p1 … pr, listed in
+// a table with their expressions and values).
 // Each entry is tinted by the set of coordinates it depends on (a legend lists the sets);
 // hovering an entry shows its value at the sliders' state, from the numbers the page computed.
 
@@ -11,6 +14,8 @@ const TINTS = ["#dbeafe", "#fde2cf", "#d9f2d9", "#f3d9f0", "#fff1b8", "#d6f0f5",
                "#f8d7da", "#e2ecc8", "#f0e1d2"];
 const CONSTANT = "#eceff3";
 const COMPACT_CHARS = 120; // LaTeX length up to which a quantity is shown as a matrix
+// The query of each form (the API's defaults are the readable form).
+const FORMS = { readable: "", exact: "?digits=17&tolerance=0", parametric: "?form=parametric" };
 
 let katexLoading = null;
 function loadKatex() {
@@ -50,6 +55,10 @@ export class EquationsView {
     this.values = null; // { M, g, C, labels } at the sliders' state
     this.seq = 0;
     const box = el("equations-view");
+    el("equations-form").addEventListener("change", () => {
+      this.rendered = null;
+      this.show();
+    });
     box.addEventListener("mousemove", (ev) => this.hover(ev));
     box.addEventListener("mouseleave", () => { el("equations-tooltip").hidden = true; });
   }
@@ -68,7 +77,8 @@ export class EquationsView {
   update(values) { this.values = values; }
 
   async show() {
-    if (!this.info || this.rendered === this.info.id) return;
+    const form = el("equations-form").value;
+    if (!this.info || this.rendered === `${this.info.id} ${form}`) return;
     const seq = ++this.seq;
     const id = this.info.id;
     const status = el("equations-status");
@@ -77,14 +87,20 @@ export class EquationsView {
     el("equations-body").replaceChildren();
     try {
       const [katex, answer] = await Promise.all([
-        loadKatex(), this.ctx.api(this.ctx.robotPath(id, "equations"))]);
+        loadKatex(), this.ctx.api(this.ctx.robotPath(id, "equations") + FORMS[form])]);
       if (seq !== this.seq) return;
       this.answer = answer;
       this.render(katex, answer);
-      this.rendered = id;
+      this.rendered = `${id} ${form}`;
+      const acc = answer.accuracy;
+      const bound = this.ctx.fmt(acc.max_abs_error.mass_matrix, 2);
       status.textContent = `${answer.joints.length} coordinates: ` +
         answer.joints.map((j, i) => `q${i + 1} = ${j}`).join(", ") +
-        ". Hover an entry for its value at the state set on the left.";
+        `. Coefficients to ${acc.digits} significant digits` +
+        (acc.tolerance ? `, terms below ${acc.tolerance} of their quantity's largest left out`
+          : ", every term") +
+        `: |printed − exact| ≤ ${bound} on M. ` +
+        "Hover an entry for its value at the state set on the left.";
     } catch (err) {
       if (seq !== this.seq) return;
       this.rendered = null;
@@ -132,6 +148,46 @@ export class EquationsView {
     legend.append(chip(CONSTANT, "constant"), chip("#ffffff", "zero"));
     for (const [key, colour] of sets) legend.append(chip(colour, `depends on ${key}`));
     body.prepend(legend);
+    if (answer.parameters) legend.after(this.parameterTable(katex, answer.parameters));
+  }
+
+  /** The base parameters p1 … pr: symbol, expression in the standard ones, value. */
+  parameterTable(katex, parameters) {
+    const fig = document.createElement("figure");
+    fig.className = "eq-block";
+    fig.dataset.quantity = "parameters";
+    const cap = document.createElement("figcaption");
+    cap.textContent = `Base inertial parameters (${parameters.length}: the regressor's rank), ` +
+      "in the standard ones (joint frame, inertia about the joint origin)";
+    const table = document.createElement("table");
+    table.className = "eq-parameters";
+    const head = document.createElement("tr");
+    for (const h of ["", "expression", "value"]) {
+      const th = document.createElement("th");
+      th.textContent = h;
+      head.append(th);
+    }
+    table.append(head);
+    for (const p of parameters) {
+      const tr = document.createElement("tr");
+      tr.className = "eq-parameter";
+      tr.dataset.symbol = p.symbol;
+      const sym = document.createElement("td");
+      katex.render(`${p.symbol[0]}_{${p.symbol.slice(1)}}`, sym,
+                   { throwOnError: false, output: "html" });
+      const expr = document.createElement("td");
+      expr.textContent = p.expression;
+      const value = document.createElement("td");
+      value.className = "number";
+      value.textContent = this.ctx.fmt(p.value, 6);
+      tr.append(sym, expr, value);
+      table.append(tr);
+    }
+    const scroll = document.createElement("div");
+    scroll.className = "eq-scroll";
+    scroll.append(table);
+    fig.append(cap, scroll);
+    return fig;
   }
 
   block(katex, symbol, caption, quantity, latex, deps, tint) {

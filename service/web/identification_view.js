@@ -174,7 +174,7 @@ export class IdentificationView {
   }
 
   show(answer) {
-    const names = answer.friction.map((f) => f.joint);
+    const names = answer.bodies.map((b) => b.name); // a body per joint, in joint order
     const table = node("table", { id: "ident-rmse" });
     table.append(node("caption", {}, "Joint torque RMSE on the held-out part (N·m or N)"));
     const head = node("tr");
@@ -191,7 +191,13 @@ export class IdentificationView {
       table.append(row);
     });
     const plots = node("div", { class: "ident-plots" });
-    this.results.replaceChildren(table, plots);
+    // the joints whose motion does not determine their friction (left out of the variant)
+    const warnings = node("ul", { id: "ident-warnings", class: "warnings" });
+    for (const w of answer.warnings || []) {
+      const item = node("li", { "data-joint": w.joint }, w.detail);
+      warnings.append(item);
+    }
+    this.results.replaceChildren(...(warnings.children.length ? [warnings] : []), table, plots);
     const series = answer.validation_series;
     if (!series || !series.t.length) return;
     const units = names.map((name) => {

@@ -119,12 +119,20 @@ export class PayloadView {
           cap.mass);
       add("Limiting joint", cap.limiting_joint, "payload-limiting", undefined);
       const share = p.mass / cap.mass;
+      const under = cap.mass_range && p.mass < cap.mass_range[0];
       add("This payload", cap.mass > 0
         ? `${fmt(p.mass, 5)} kg: ${fmt(100 * share, 3)} % of the capacity` +
-          (share > 1 ? " (over it: some joint exceeds its effort limit)" : "")
-        : `${fmt(p.mass, 5)} kg: a joint is over its limit without any payload`,
+          (share > 1 ? " (over it: some joint exceeds its effort limit)" : "") +
+          (under ? " (under the lightest mass that keeps every joint within its limit)" : "")
+        : `${fmt(p.mass, 5)} kg: no mass keeps every joint within its limit here`,
       "payload-share", share);
     }
+    // the masses that keep every joint within its limit: from lo > 0 for a counterweight
+    const range = cap.mass_range;
+    add("Within every limit", range === null
+      ? "no mass: a joint is over its limit whatever the payload"
+      : `${fmt(range[0], 5)} kg to ${range[1] === null ? "any mass" : `${fmt(range[1], 5)} kg`}`,
+    "payload-range", range === null ? "" : JSON.stringify(range));
     el("payload-summary").dataset.limiting = cap.limiting_joint || "";
     renderBars(el("payload-gravity-chart"), carried, "f");
     const owners = this.info.joints.flatMap((j) => Array(j.nv).fill(j.name));

@@ -1,9 +1,12 @@
 // robodyn explorer, the trajectory view: paste or upload a CSV (t, then one column per joint,
-// or waypoints: one column per joint), check the motion against the robot's limits or retime
-// it, see per-joint plots of τ ÷ limit and v ÷ limit over time with the violations shaded, and
-// play the motion in a 3-D view. Every number shown comes from the service
-// (POST .../trajectory-check and .../retime); plots are drawn by the vendored uPlot.
+// or waypoints: one column per joint), check the motion against the robot's limits (with an
+// acceleration limit and the spline's end conditions if asked) or retime it, see per-joint
+// plots of τ, v (and a of a retimed motion) ÷ limit over time with the violations shaded, the
+// joints' sizing figures (joint_sizing.js), and play the motion in a 3-D view. Every number
+// shown comes from the service (POST .../trajectory-check and .../retime); plots are drawn by
+// the vendored uPlot.
 import { apiWithProgress, progressText } from "./http.js";
+import { renderSizing } from "./joint_sizing.js";
 import { numberNode } from "./no_value.js";
 import { yAxis } from "./plot_axes.js";
 import { RobotDrawing } from "./robot_drawing.js";
@@ -13,6 +16,7 @@ const el = (id) => document.getElementById(id);
 const MAX_FRAMES = 400; // configurations placed for the 3-D playback (evenly picked)
 const TAU = "rgb(178, 24, 43)";
 const VEL = "rgb(33, 102, 172)";
+const ACC = "rgb(27, 120, 55)";
 
 /** Split CSV text into rows of cells (comma, semicolon or tab separated; # comments). */
 function csvRows(text) {
@@ -129,6 +133,8 @@ export class TrajectoryView {
     this.motion = null;
     el("trajectory-plots").replaceChildren();
     el("trajectory-summary").replaceChildren();
+    el("trajectory-sizing").replaceChildren();
+    el("trajectory-sizing").hidden = true;
     el("trajectory-player").hidden = true;
   }
 
@@ -138,9 +144,18 @@ export class TrajectoryView {
     s.className = error ? "error" : "";
   }
 
-  scales() {
+  /** The limits object of both routes: the scales, and the acceleration limit entered for
+   * every 1-DoF joint (null for the other entries of v; none at all when the field is empty). */
+  limits() {
     const read = (id) => Number(el(id).value);
-    return { effort_scale: read("effort-scale"), velocity_scale: read("velocity-scale") };
+    const limits = { effort_scale: read("effort-scale"), velocity_scale: read("velocity-scale") };
+    const text = el("acceleration-limit").value.trim();
+    if (text !== "") {
+      const acceleration = new Array(this.info.nv).fill(null);
+      for (const j of this.info.joints) if (j.nv === 1) acceleration[j.idx_v] = Number(text);
+      limits.acceleration = acceleration;
+    }
+    return limits;
   }
 
   async run(kind) {
@@ -164,13 +179,14 @@ export class TrajectoryView {
       if (kind === "check") {
         const k = Number(el("samples-per-interval").value);
         answer = await apiWithProgress(robotPath(info.id, "trajectory-check"),
-                                       { t: motion.t, q: motion.q, ...this.scales(),
+                                       { t: motion.t, q: motion.q, limits: this.limits(),
+                                         boundary: el("spline-boundary").value,
                                          samples_per_interval: k },
                                        (p) => this.status(`Checking: ${progressText(p)}…`));
         [t, q] = [motion.t, motion.q];
       } else {
         answer = await api(robotPath(info.id, "retime"),
-                           { waypoints: motion.q, limits: this.scales() });
+                           { waypoints: motion.q, limits: this.limits() });
         [t, q] = [answer.t, answer.q];
       }
       if (this.info !== info) return; // another robot was chosen meanwhile
@@ -178,7 +194,8 @@ export class TrajectoryView {
       const v = answer.v; // the check's: given or the spline's; the retimed motion's
       el("trajectory-plots").result = { kind, answer }; // for the tests and the console
       this.summarise(kind, answer, check);
-      this.plot(t, answer.tau, v, check);
+      this.plot(t, answer.tau, v, kind === "retime" ? answer.a : null, check);
+      renderSizing(el("trajectory-sizing"), check, info, this.ctx.fmt);
       this.status(kind === "check"
         ? `${t.length} samples checked.`
         : `Retimed: ${this.ctx.fmt(answer.duration, 4)} s, sampled every 0.01 s.`);
@@ -229,7 +246,7 @@ export class TrajectoryView {
     return { width, height: 170 };
   }
 
-  plot(t, tau, v, check) {
+  plot(t, tau, v, a, check) {
     const box = el("trajectory-plots");
     const index = new Map(this.info.joints.map((j) => [j.name, j.idx_v]));
     for (const joint of check.joints) {
@@ -244,6 +261,10 @@ export class TrajectoryView {
         series.push({ label: "v ÷ velocity limit", stroke: VEL, width: 1.5 });
         data.push(v.map((row) => row[iv] / joint.velocity_limit));
       }
+      if (joint.acceleration_limit && a) {
+        series.push({ label: "a ÷ acceleration limit", stroke: ACC, width: 1.5 });
+        data.push(a.map((row) => row[iv] / joint.acceleration_limit));
+      }
       if (data.length === 1) continue; // no limit to compare with
       const spans = check.violations.filter((x) => x.joint === joint.name &&
                                                    x.kind !== "position");
@@ -253,7 +274,11 @@ export class TrajectoryView {
       figure.dataset.violations = String(spans.length);
       const caption = document.createElement("figcaption");
       caption.append(`${joint.name}: peak |τ| `, this.ratioNode(joint, "effort"),
-                     ", peak |v| ", this.ratioNode(joint, "velocity"), " of the limit");
+                     ", peak |v| ", this.ratioNode(joint, "velocity"));
+      if (joint.acceleration_limit) {
+        caption.append(", peak |a| ", this.ratioNode(joint, "acceleration"));
+      }
+      caption.append(" of the limit");
       figure.append(caption);
       box.append(figure);
       const opts = {
@@ -269,7 +294,8 @@ export class TrajectoryView {
     }
   }
 
-  /** The joint's peak ÷ limit of `kind` (effort, velocity) in %, or n/a where it has none. */
+  /** The joint's peak ÷ limit of `kind` (effort, velocity, acceleration) in %, or n/a where
+   * it has none. */
   ratioNode(joint, kind) {
     return numberNode(joint[`${kind}_ratio`], (r) => `${this.ctx.fmt(100 * r, 3)} %`,
                       `${joint.name} has no ${kind} limit (after the scales): its peak is not ` +

@@ -1,6 +1,7 @@
 """The explorer's "Equations" view in a real browser: M, C and g typeset by the vendored KaTeX,
-entries tinted by the coordinates they depend on, hover values equal to the API's numbers at
-the sliders' state, refusals shown, nothing loaded from elsewhere."""
+readable by default with switches for the exact and parametric forms (the parameters' table
+with their values), entries tinted by the coordinates they depend on, hover values equal to the
+API's numbers at the sliders' state, refusals shown, nothing loaded from elsewhere."""
 
 from __future__ import annotations
 
@@ -60,6 +61,42 @@ def test_planar_arm_equations_are_typeset_and_tinted_by_dependence(page, server,
         path=str(ARTIFACTS / "equations-planar-arm.png"),
         clip=page.locator("#results").bounding_box(),
     )
+
+
+def _switch(page, form: str) -> None:
+    page.select_option("#equations-form", form)
+    page.wait_for_function(
+        """() => document.querySelector('#equations-status')
+        .textContent.match(/significant digits/)""",
+        timeout=90_000,
+    )
+
+
+def test_the_forms_switch_and_the_parametric_one_lists_its_parameters(page, server, api) -> None:
+    open_equations(page, server, "planar_arm")
+    assert page.locator("#equations-form").input_value() == "readable"
+    assert "6 significant digits" in page.locator("#equations-status").inner_text()
+    assert page.locator(".eq-parameter").count() == 0
+    _switch(page, "parametric")
+    answer = api.get("/v1/robots/planar_arm/equations?form=parametric").json()
+    rows = page.eval_on_selector_all(
+        ".eq-parameter",
+        "trs => trs.map(tr => [...tr.querySelectorAll('td')].map(td => td.innerText))",
+    )
+    assert len(rows) == len(answer["parameters"]) == 6
+    for row, parameter in zip(rows, answer["parameters"], strict=True):
+        assert row[1] == parameter["expression"]
+        assert float(row[2]) == float(f"{parameter['value']:.6g}")
+    by = {(e["row"], e["col"]): e for e in entries(page, "mass_matrix")}
+    # M22 is one parameter (p4 = elbow.Iyy here), M11 its own constant parameter plus cos q2
+    assert re.sub(r"[\s\u200b]", "", by[1, 1]["text"]) == "p4", by[1, 1]["text"]
+    assert "p" in by[0, 0]["text"] and "cos" in by[0, 0]["text"]
+    _switch(page, "exact")
+    assert "every term" in page.locator("#equations-status").inner_text()
+    assert page.locator(".eq-parameter").count() == 0
+    sent = [u for u in page.log.requests if "/equations" in u]
+    assert any("form=parametric" in u for u in sent) and any("digits=17" in u for u in sent)
+    assert page.log.console_errors == [] and page.log.page_errors == []
 
 
 def test_hover_shows_the_value_at_the_sliders(page, server, api) -> None:
@@ -125,11 +162,14 @@ def test_an_unsupported_robot_says_why(page, server) -> None:
 def test_tabs_follow_the_keyboard(page, server) -> None:
     open_explorer(page, server, "planar_arm")
     page.focus("#dynamics-view-button")
-    page.keyboard.press("ArrowLeft")  # wraps around to the last tab: Equations
+    page.keyboard.press("ArrowLeft")  # wraps around to the last tab: Model check
+    assert page.locator("#model-check-view-button").get_attribute("aria-selected") == "true"
+    page.keyboard.press("ArrowLeft")  # the one before it: Equations
     assert page.locator("#equations-view-button").get_attribute("aria-selected") == "true"
     assert page.evaluate("document.activeElement.id") == "equations-view-button"
     page.wait_for_selector(".eq-block[data-quantity='mass_matrix']")
-    page.keyboard.press("ArrowRight")  # back to Dynamics
+    page.keyboard.press("ArrowRight")
+    page.keyboard.press("ArrowRight")  # past Model check, wrapping around to Dynamics
     assert page.locator("#mass-matrix-figure").is_visible()
     assert page.locator("#equations-view").is_hidden()
 

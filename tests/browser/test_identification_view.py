@@ -72,7 +72,7 @@ def _assert_plots_show(page, expected: dict) -> None:
     series = expected["validation_series"]
     n = len(series["t"])
     picks = list(range(0, n, math.ceil(n / MAX_POINTS)))
-    names = [f["joint"] for f in expected["friction"]]
+    names = [b["name"] for b in expected["bodies"]]
     assert page.locator(".ident-plot .uplot").count() == len(names)
     for j, name in enumerate(names):
         data = page.evaluate(
@@ -95,6 +95,7 @@ def test_identify_a_log_in_the_page(page, server, api) -> None:
         "#ident-rmse tr", "rs => rs.slice(1).map(r => [...r.children].map(c => c.textContent))"
     )
     assert [r[0] for r in rows] == [f["joint"] for f in expected["friction"]]
+    assert page.locator("#ident-warnings").count() == 0  # every joint moves
     for j, row in enumerate(rows):
         for cell, key in zip(row[1:], ("validation_before", "validation", "train"), strict=True):
             assert float(cell) == float(f"{expected['rmse'][key][j]:.3g}")
@@ -129,6 +130,11 @@ def test_an_undetermined_log_shows_its_condition_number_as_not_available(page, s
     assert [float(r[2]) for r in rows] == [
         float(f"{x:.3g}") for x in expected["rmse"]["validation"]
     ]
+    # the still wrist is named: its friction is not determined by the log
+    assert expected["friction"][5] is None
+    warned = page.locator("#ident-warnings li")
+    assert warned.count() == 1 and warned.get_attribute("data-joint") == "wrist_3_joint"
+    assert warned.inner_text() == expected["warnings"][0]["detail"]
     _assert_plots_show(page, expected)
     assert page.log.console_errors == [] and page.log.page_errors == []
 

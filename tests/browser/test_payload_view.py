@@ -43,6 +43,8 @@ def assert_matches_api(page, api, q, frame: str, mass: float, com: list[float]) 
     shown = float(page.locator("#payload-capacity").get_attribute("data-value"))
     assert np.isclose(shown, cap["mass"], rtol=1e-12)
     assert page.locator("#payload-limiting").text_content() == cap["limiting_joint"]
+    shown_range = json.loads(page.locator("#payload-range").get_attribute("data-value"))
+    assert shown_range == cap["mass_range"]  # the masses within every limit
     limiting = page.eval_on_selector_all(
         "#payload-gravity-chart .bar-row.limiting", "rows => rows.map(r => +r.dataset.index)"
     )

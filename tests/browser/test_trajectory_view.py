@@ -141,3 +141,50 @@ def test_the_plots_y_axes_are_as_wide_as_their_tick_labels(page, server) -> None
         assert len(set(ticks)) == len(ticks) >= 2, ticks  # each tick says its own value
     assert clipped_y_tick_labels(page, "#trajectory-plots .uplot") == []
     assert page.log.console_errors == [] and page.log.page_errors == []
+
+
+def test_acceleration_limits_and_spline_ends_are_sent(page, server, api) -> None:
+    """An acceleration limit for every joint and the clamped spline: the check's answer is
+    the service's for the same limits object and boundary; retimed, the motion reaches that
+    limit and the plots show a ÷ its limit."""
+    _trajectory_tab(page, server)
+    page.fill("#trajectory-csv", CSV)
+    page.fill("#acceleration-limit", "2")
+    page.select_option("#spline-boundary", "clamped")
+    page.click("#trajectory-check")
+    page.locator("#trajectory-verdict").wait_for()
+    info = api.get("/v1/robots/ur5").json()
+    q0 = info["default_configuration"]
+    rows = [[float(x) for x in line.split(",")] for line in CSV.strip().splitlines()[1:]]
+    limits = {"effort_scale": 1, "velocity_scale": 1, "acceleration": [2.0] * 6}
+    expected = api.post(
+        "/v1/robots/ur5/trajectory-check",
+        json={
+            "t": [r[0] for r in rows],
+            "q": [[r[1], r[2], r[3], *q0[3:]] for r in rows],
+            "limits": limits,
+            "boundary": "clamped",
+            "samples_per_interval": 4,
+        },
+    ).json()
+    shown = page.evaluate("() => document.querySelector('#trajectory-plots').result.answer")
+    assert shown["joints"] == expected["joints"]
+    assert shown["violations"] == expected["violations"]
+    assert any(x["kind"] == "acceleration" for x in shown["violations"])
+    page.click("#waypoints-example")
+    page.click("#trajectory-retime")
+    page.wait_for_function(
+        "() => document.querySelector('#trajectory-plots').result?.kind === 'retime'"
+    )
+    page.locator("#trajectory-verdict").wait_for()
+    answer = page.evaluate("() => document.querySelector('#trajectory-plots').result.answer")
+    joints = answer["check"]["joints"]
+    assert all(j["acceleration_limit"] == 2.0 for j in joints)
+    assert 0.99 < max(j["acceleration_ratio"] for j in joints) <= 1 + 1e-6
+    figure = page.locator("figure.joint-plot").first
+    assert "peak |a|" in figure.locator("figcaption").inner_text()
+    series = page.evaluate(
+        "() => document.querySelector('figure.joint-plot').plot.series.map(s => s.label)"
+    )
+    assert "a ÷ acceleration limit" in series
+    assert page.log.console_errors == [] and page.log.page_errors == []

@@ -57,6 +57,7 @@ ANSWERS = {
     "coriolis_forces": [0.0],
     "nonlinear_effects": [0.0],
     "tau": [0.0],
+    "joint_wrenches": [[0.0] * 6],
     "a": [0.0],
     "robots": [],
     "unavailable": {},
@@ -100,6 +101,14 @@ EQUATIONS = {
         "mass_matrix": [[{"depends_on": [], "constant": True, "zero": False}]],
         "gravity": [{"depends_on": [], "constant": True, "zero": True}],
     },
+    "accuracy": {
+        "digits": 6,
+        "tolerance": 1e-9,
+        "max_abs_error": dict.fromkeys(
+            ("mass_matrix", "gravity", "coriolis_matrix", "kinetic_energy", "potential_energy"),
+            0.0,
+        ),
+    },
 }
 # a trajectory's mechanical energy has one value per sample (energy's has one per state)
 TRAJECTORY = {"t": [0.0], "q": [[0.0]], "v": [[0.0]], "mechanical_energy": [0.0]}
@@ -116,6 +125,7 @@ ARGS: dict[str, tuple[Any, ...]] = {
     "coriolis": ("r", [0.0], [0.0]),
     "nonlinear_effects": ("r", [0.0], [0.0]),
     "inverse_dynamics": ("r", [0.0], [0.0], [0.0]),
+    "joint_wrenches": ("r", [0.0], [0.0], [0.0]),
     "forward_dynamics": ("r", [0.0], [0.0], [0.0]),
     "mass_matrix_inverse": ("r", [0.0]),
     "energy": ("r", [0.0], [0.0]),
@@ -239,11 +249,14 @@ def test_every_request_the_client_sends_is_a_route_of_the_server(openapi: dict) 
     requests = sent_requests()
     assert set(requests) == set(ARGS) == set(BUILDERS)
     for name, request in requests.items():
-        path = request.url.raw_path.decode()
+        sent = request.url.raw_path.decode()
+        path = sent.partition("?")[0]
         assert any(rx.match(path) and m == request.method for rx, m in routes), (name, path)
         call = BUILDERS[name](*ARGS[name], **KWARGS.get(name, {}))
-        assert (call.method, call.path) == (request.method, path), name
-        assert call.method.lower() in openapi["paths"][call.route], name
+        assert (call.method, call.path) == (request.method, sent), name
+        operation = openapi["paths"][call.route][call.method.lower()]
+        declared = {p["name"] for p in operation.get("parameters", []) if p["in"] == "query"}
+        assert set(request.url.params) <= declared, (name, set(request.url.params))
 
 
 def test_request_bodies_validate_against_the_server_schemas() -> None:
@@ -265,6 +278,9 @@ def test_request_bodies_validate_against_the_server_schemas() -> None:
         assert tuple(body) == fields
         # strict: no extra or mistyped field
         SPECS[name.replace("_", "-")].request.model_validate(body)
+    wrenches = json.loads(requests["joint_wrenches"].content)
+    assert wrenches.pop("loads") is True and tuple(wrenches) == ("q", "v", "a")
+    SPECS["inverse-dynamics"].request.model_validate({**wrenches, "loads": True})
     for name in ("trajectory_check", "retime"):  # arrays and options alike
         SPECS[name.replace("_", "-")].request.model_validate(json.loads(requests[name].content))
 
@@ -333,7 +349,7 @@ def test_answers_are_numpy_and_match_the_server_answer_fields() -> None:
             "gravity",
             "coriolis",
             "nonlinear_effects",
-            "inverse_dynamics",
+            "joint_wrenches",  # inverse-dynamics with its optional joint_wrenches
             "forward_dynamics",
         )
     }

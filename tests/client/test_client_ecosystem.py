@@ -414,7 +414,8 @@ def test_the_examples_of_the_client_guide_run(
     out = capsys.readouterr().out
     assert "6000/6000 steps" in out and "422 dimension_mismatch ['panda_joint2'" in out
     assert "34.87 shoulder_lift_joint" in out
-    assert "2.1*cos(q2) + 4.235" in out  # the equations example
+    assert "4.235 + 2.1*cos(q2)" in out  # the equations example
+    assert "('p4', 'elbow.Iyy', 0.735)" in out  # the parametric one
 
 
 def test_a_request_stopped_at_the_server_deadline_is_not_retried(real_retries: Any) -> None:

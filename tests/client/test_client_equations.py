@@ -20,7 +20,8 @@ def test_planar_arm_equations_are_typed_and_read_back_by_sympy(client: Client) -
     eq = client.equations("planar_arm")
     assert isinstance(eq, robodyn.Equations)
     assert eq.joints == ("shoulder", "elbow") and eq.coordinates == ("q1", "q2")
-    assert eq.mass_matrix.expressions[0][0] == "2.1*cos(q2) + 4.235"
+    assert eq.mass_matrix.expressions[0][0] == "4.235 + 2.1*cos(q2)"
+    assert eq.accuracy.digits == 6 and eq.accuracy.tolerance == 1e-9 and eq.parameters == ()
     assert eq.mass_matrix.latex[1][1] == "0.735"
     (_, q2), (dq1, dq2) = eq.symbols()
     M = eq.mass_matrix.sympy(rational=True)
@@ -39,7 +40,8 @@ def test_planar_arm_equations_are_typed_and_read_back_by_sympy(client: Client) -
 
 
 def test_ur5_sympy_objects_equal_pinocchio(client: Client, registry: Any) -> None:
-    eq = client.equations("ur5")
+    eq = client.equations("ur5", digits=17, tolerance=0)  # the exact form
+    assert eq.accuracy.digits == 17 and eq.accuracy.tolerance == 0
     q, dq = eq.symbols()
     M = sp.lambdify(q, eq.mass_matrix.sympy(), "numpy")
     C = sp.lambdify((*q, *dq), eq.coriolis_matrix.sympy(), "numpy")
@@ -56,6 +58,26 @@ def test_ur5_sympy_objects_equal_pinocchio(client: Client, registry: Any) -> Non
         np.testing.assert_allclose(
             np.ravel(g(*qv)), pin.computeGeneralizedGravity(model, data, qv), atol=1e-9
         )
+
+
+def test_parametric_form_substitutes_back_to_the_numbers(client: Client, registry: Any) -> None:
+    eq = client.equations("planar_arm", form="parametric")
+    assert [p.symbol for p in eq.parameters] == [f"p{i}" for i in range(1, 7)]
+    assert all(isinstance(p, robodyn.equations.Parameter) for p in eq.parameters)
+    M = eq.mass_matrix.sympy()
+    values = {sp.Symbol(p.symbol, real=True): p.value for p in eq.parameters}
+    (q1, q2), _ = eq.symbols()
+    model = registry.get("planar_arm").model
+    qv = np.array([0.3, -1.2])
+    at = sp.lambdify((q1, q2), M.subs(values), "numpy")
+    np.testing.assert_allclose(at(*qv), pin.crba(model, model.createData(), qv), atol=1e-9)
+
+
+def test_bad_printing_options_are_validation_errors(client: Client) -> None:
+    with pytest.raises(robodyn.ValidationError, match="digits"):
+        client.equations("planar_arm", digits=0)
+    with pytest.raises(robodyn.ValidationError, match="form"):
+        client.equations("planar_arm", form="symbolic")
 
 
 @pytest.mark.parametrize(
@@ -76,6 +98,9 @@ def test_errors(client: Client, robot_id: str, error: type, says: str) -> None:
 @pytest.mark.anyio
 async def test_async_client_gives_the_same_answer(aclient: AsyncClient, client: Client) -> None:
     assert await aclient.equations("planar_arm") == client.equations("planar_arm")
+    parametric = await aclient.equations("planar_arm", form="parametric", digits=4)
+    assert parametric == client.equations("planar_arm", form="parametric", digits=4)
+    assert parametric.accuracy.digits == 4 and len(parametric.parameters) == 6
     with pytest.raises(robodyn.UnsupportedModelError):
         await aclient.equations("talos")
 

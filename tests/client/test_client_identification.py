@@ -111,6 +111,32 @@ async def test_async_identify(app: Any, registry: Any, log: Any) -> None:
     assert parameters.layout[0] == "m"
 
 
+@pytest.mark.anyio
+async def test_async_identify_names_a_joint_that_barely_moves(
+    client: Client, app: Any, log: Any
+) -> None:
+    """wrist_3 trembles over 0.006 rad: a warning names it, its friction is None. (`client`:
+    the app's lifespan, which ends its identification worker.)"""
+    q, v = log.q.copy(), log.v.copy()
+    q[:, 5] = 0.2 + 0.003 * np.sin(3.0 * log.t)
+    v[:, 5] = 0.009 * np.cos(3.0 * log.t)
+    a = log.a.copy()
+    a[:, 5] = -0.027 * np.sin(3.0 * log.t)
+    transport = httpx.ASGITransport(app=app)
+    async with (
+        httpx.AsyncClient(transport=transport, base_url="http://app") as http,
+        AsyncClient(http_client=http) as client,
+    ):
+        result = await client.identify("ur5", log.t, q, log.tau, v=v, a=a, store=False)
+    assert result.warnings == (
+        robodyn.IdentificationWarning(
+            "unexcited_joint", "wrist_3_joint", result.warnings[0].detail
+        ),
+    )
+    assert "wrist_3_joint moves over 0.006 rad" in result.warnings[0].detail
+    assert result.friction[5] is None and isinstance(result.friction[0], robodyn.JointFriction)
+
+
 def _recording_client(app: Any, seen: list[httpx.Request], **options: Any) -> Any:
     """A TestClient on the app whose requests are recorded, bodies read (`request.read()`
     keeps them sendable), and a robodyn Client over it."""

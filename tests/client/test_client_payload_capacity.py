@@ -38,6 +38,12 @@ def _check(got: PayloadCapacity, want: Any, batched: bool) -> None:
     )
     names = tuple(want.limiting_joint(i) for i in range(want.mass.shape[0]))
     assert got.limiting_joint == (names if batched else names[0])
+    ranges = np.where(np.isinf(want.mass_range), np.inf, want.mass_range)
+    if batched:
+        np.testing.assert_allclose(got.mass_range, ranges, rtol=1e-12)
+    else:
+        expected = None if np.isnan(ranges[0, 0]) else tuple(ranges[0])
+        assert got.mass_range == (pytest.approx(expected, rel=1e-12) if expected else None)
 
 
 def test_single_state_and_batch_equal_the_physics(
@@ -53,7 +59,11 @@ def test_single_state_and_batch_equal_the_physics(
     )
     _check(got, want, batched=True)
     low = int(np.argmin(want.mass))
-    assert got.minimum == CapacityMinimum(float(want.mass[low]), low, want.limiting_joint(low))
+    common = want.common_range()
+    assert common is not None and common[1] is not None
+    assert got.minimum == CapacityMinimum(
+        float(want.mass[low]), low, want.limiting_joint(low), (common[0], common[1])
+    )
     one = client.payload_capacity(
         "ur5", s["q"][0], "tool0", center_of_mass=COM, v=s["v"][0], a=s["a"][0], payloads=[TOOL]
     )
@@ -94,6 +104,16 @@ async def test_async_payload_capacity_and_variant(aclient: AsyncClient, registry
         },
     )
     _check(got, capacity(registry.get("ur5"), q[None], "tool0"), batched=False)
+    # the counterweight: gravity alone over the shoulder's 45.26 N·m, the mass pulling back
+    held = await aclient.payload_capacity(
+        "ur5",
+        [0.0, -0.3, 0.0, 0.0, 0.0, 0.0],
+        "upper_arm_link",
+        center_of_mass=[0.0, 0.0, -0.25],
+        effort_limits=[150.0, 45.26, 150.0, 28.0, 28.0, 28.0],
+    )
+    assert held.mass_range == (pytest.approx(4.8313, abs=1e-4), held.mass)
+    assert round(held.mass, 2) == 43.47
     info = await aclient.variant("ur5", payloads=[TOOL], name="async tool")
     assert info.parent == "ur5" and info.name == "async tool"
 
@@ -117,7 +137,7 @@ def test_a_variant_answers_as_its_parent_carrying_the_payloads(client: Client) -
     q = np.array([0.1, -1.0, 1.2, 0.3, -0.4, 0.0])
     carried = client.gravity("ur5", q, payloads=[TOOL, {"frame": "wrist_1_link", "mass": 0.4}])
     np.testing.assert_allclose(client.gravity(info.id, q[:5]), carried[:5], rtol=1e-12, atol=1e-12)
-    with pytest.raises(InputError, match="payloads, locked_joints or both"):
+    with pytest.raises(InputError, match="payloads, locked_joints, inertias or several"):
         client.variant("ur5")
     with pytest.raises(InputError, match="center_of_mass"):
         client.payload_capacity("ur5", q, "tool0", center_of_mass=[0, 0])

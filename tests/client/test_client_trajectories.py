@@ -79,3 +79,50 @@ async def test_async_client_answers_the_same(aclient: AsyncClient, client: Clien
     t = np.linspace(0.0, 1.0, 5)
     check = await aclient.trajectory_check("ur5", t, np.zeros((5, 6)))
     assert check.feasible and check.tau.shape == (5, 6)
+
+
+ACCELERATION = [3.0, None, 2.0, float("nan"), None, 1.5]  # None or NaN: no limit
+AS_SENT = [3.0, None, 2.0, None, None, 1.5]
+
+
+def test_acceleration_limits_and_boundary_are_sent(client: Client, registry) -> None:
+    """The check's acceleration limits (None and NaN entries: none) and spline boundary, and
+    retime's acceleration limits with None entries: the in-process answers."""
+    t = np.linspace(0.0, 1.0, 21)
+    q = np.outer(np.sin(3.0 * t), [0.5, -1.0, 1.2, 0.4, -0.6, 0.9])
+    result = client.trajectory_check(
+        "ur5", t, q, acceleration=ACCELERATION, boundary="clamped", velocity_scale=0.5
+    )
+    expected = check_trajectory(
+        registry.get("ur5"), t, q, acceleration=AS_SENT, boundary="clamped", velocity_scale=0.5
+    )
+    np.testing.assert_allclose(result.tau, expected.tau, rtol=1e-12, atol=1e-12)
+    assert [j._asdict() for j in result.joints] == expected.joints
+    assert [v._asdict() for v in result.violations] == expected.violations
+    assert "acceleration" in {v.kind for v in result.violations}
+    timed = client.retime("ur5", WAYPOINTS, acceleration=np.array(ACCELERATION))
+    assert timed.duration == retime(registry.get("ur5"), WAYPOINTS, acceleration=AS_SENT).duration
+    assert timed.check.joints[1].acceleration_limit is None
+    with pytest.raises(robodyn.InputError, match="boundary must be one of"):
+        client.trajectory_check("ur5", t, q, boundary="periodic")
+    with pytest.raises(robodyn.InputError, match=r"acceleration\[1\]"):
+        client.retime("ur5", WAYPOINTS, acceleration=[1.0, -1.0, 1, 1, 1, 1])
+
+
+@pytest.mark.anyio
+async def test_async_client_sends_acceleration_limits_and_boundary(
+    aclient: AsyncClient, client: Client
+) -> None:
+    t = np.linspace(0.0, 1.0, 21)
+    q = np.outer(np.sin(3.0 * t), [0.5, -1.0, 1.2, 0.4, -0.6, 0.9])
+    options: dict[str, Any] = {"acceleration": ACCELERATION, "boundary": "natural"}
+    result = await aclient.trajectory_check("ur5", t, q, **options)
+    same = client.trajectory_check("ur5", t, q, **options)
+    np.testing.assert_array_equal(result.tau, same.tau)
+    assert result.joints == same.joints and result.violations == same.violations
+    assert result.joints[0].acceleration_limit == 3.0
+    timed = await aclient.retime("ur5", WAYPOINTS, acceleration=ACCELERATION, sample_dt=0.05)
+    assert (
+        timed.duration
+        == client.retime("ur5", WAYPOINTS, acceleration=ACCELERATION, sample_dt=0.05).duration
+    )

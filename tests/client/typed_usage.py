@@ -102,7 +102,15 @@ def carrying(client: Client, q: np.ndarray) -> float:
     )
     variant = client.variant("ur5", payloads=[tool], name="ur5 with a tool")
     assert variant.parent == "ur5" and cap.minimum is None
-    return float(g[1]) / (limit if isinstance(limit, float) else 1.0) + float(cap.mass)
+    held: tuple[float, float] | np.ndarray | None = cap.mass_range
+    assert held is not None
+    tau, wrenches = client.joint_wrenches("ur5", q, q, q, payloads=[tool])
+    bending: np.ndarray = np.linalg.norm(wrenches[:, 3:], axis=-1)
+    return (
+        float(g[1]) / (limit if isinstance(limit, float) else 1.0)
+        + float(cap.mass)
+        + float(bending.max() + tau[0])
+    )
 
 
 def identifying(client: Client, t: np.ndarray, q: np.ndarray, tau: np.ndarray) -> float:
@@ -120,8 +128,10 @@ def identifying(client: Client, t: np.ndarray, q: np.ndarray, tau: np.ndarray) -
         store=False,
         payload_frame="tool0",
     )
-    friction: robodyn.JointFriction = result.friction[0]
-    return float(Y @ params.parameters @ result.rmse.validation) + friction.viscous
+    friction: robodyn.JointFriction | None = result.friction[0]  # None: a joint in warnings
+    warned: tuple[robodyn.IdentificationWarning, ...] = result.warnings
+    viscous = 0.0 if friction is None else friction.viscous
+    return float(Y @ params.parameters @ result.rmse.validation) + viscous + len(warned)
 
 
 async def main_async(url: str) -> float:
@@ -130,7 +140,10 @@ async def main_async(url: str) -> float:
         tau = await client.inverse_dynamics(
             "ur5", np.zeros(info.nq), np.zeros(info.nv), np.zeros(info.nv)
         )
-        return float(tau[1])
+        _, wrenches = await client.joint_wrenches(
+            "ur5", np.zeros(info.nq), np.zeros(info.nv), np.zeros(info.nv)
+        )
+        return float(tau[1]) + float(wrenches[0, 2])
 
 
 if __name__ == "__main__":

@@ -41,7 +41,7 @@ from tests.service.dynamics.identification_logs import synthetic_log
 pytestmark = pytest.mark.slow
 
 HEALTH_P99_S = 0.25  # /health/live: 99 % of the probes (every 5 ms) answered within this
-HEALTH_MAX_S = 1.5  # and every one: single probes of 0.5-1.0 s were seen at a load of 10-11
+HEALTH_MAX_S = 0.5  # and every one (on a machine without other work: at a load of 10, 0.5-1.0 s)
 RETIME_S = 10.0  # a retiming alone takes about 0.7 s
 SMALL_FIT_S = 30.0  # a small identification, a worker start (about 6 s) included
 END_S = 30.0  # a killed process is gone within this
@@ -141,9 +141,9 @@ def test_abandoned_fits_stop_at_once(server_factory, ur5_model):
 def test_a_costly_derivation_holds_its_own_slot_and_is_remembered(server_factory):
     server = server_factory(
         catalog="ur5",
-        env={"ROBODYN_EQUATIONS_TIMEOUT_S": "8", "ROBODYN_MAX_CONCURRENT_BUILDS": "1"},
+        env={"ROBODYN_EQUATIONS_TIMEOUT_S": "1", "ROBODYN_MAX_CONCURRENT_BUILDS": "1"},
     ).start()
-    costly = skewed_arm_urdf(6)  # tens of seconds of derivation and printing
+    costly = skewed_arm_urdf(6)  # seconds of CPU: past a 1 s limit
     renamed = re.sub(r'\b(name|link)="', r'\1="other_', costly)  # the same numbers
     with httpx.Client(base_url=server.base, timeout=300) as client:
         first = client.post("/v1/robots", json={"urdf": costly}).json()["id"]
@@ -173,7 +173,7 @@ def test_a_costly_derivation_holds_its_own_slot_and_is_remembered(server_factory
         )
     assert upload.status_code == 201, upload.text[:300]
     assert refused.status_code == 422, refused.text
-    assert "time limit of 8 s" in refused.json()["detail"]
+    assert "time limit of 1 s" in refused.json()["detail"]
     assert remembered.status_code == 422 and remembered.json() == refused.json()
     assert seconds < 2.0, seconds  # at once: no derivation
     _assert_live(latencies)

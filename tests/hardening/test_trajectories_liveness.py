@@ -35,9 +35,9 @@ def test_long_trajectory_work_does_not_stall_health(tmp_path) -> None:
     assert [a.status_code for a in answers] == [200, 200], [a.text[:200] for a in answers]
     assert len(latencies) > 20
     assert np.percentile(latencies, 99) < 0.25, sorted(latencies)[-5:]
-    # (alone: under 0.1 s; one probe of 0.53 s was seen with the whole suite running beside
-    # other work on two cores, so the bound on a single probe leaves room for the machine)
-    assert max(latencies) < 1.0, sorted(latencies)[-5:]
+    # every probe within 0.5 s on a machine without other work (alone: under 0.1 s; a probe of
+    # 0.53 s was seen with the whole suite running beside other work on two cores)
+    assert max(latencies) < 0.5, sorted(latencies)[-5:]
 
 
 @pytest.mark.slow  # a latency bound

@@ -10,11 +10,14 @@ every robot with the same numbers.
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request, Response
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, Query, Request, Response
 
 from service.api.deps import RegistryDep, served_robot
 from service.api.schemas.common import Problem
 from service.api.schemas.equations import Equations
+from service.api.workers.equations import Printing
 from service.api.workers.equations_cache import EquationsCache
 
 router = APIRouter(prefix="/v1/robots", tags=["robots"])
@@ -28,7 +31,8 @@ router = APIRouter(prefix="/v1/robots", tags=["robots"])
         404: {"model": Problem, "description": "robot_not_found"},
         422: {
             "model": Problem,
-            "description": "unsupported_model: a floating "
+            "description": "validation_error: digits, tolerance or form out of range; "
+            "unsupported_model: a floating "
             "base, a joint other than revolute or prismatic, more than 6 "
             "moving joints, or a derivation past its time limit (remembered: at once "
             "on every later request for a robot with the same numbers)",
@@ -43,13 +47,42 @@ router = APIRouter(prefix="/v1/robots", tags=["robots"])
     "Christoffel symbols and the energies as SymPy text and LaTeX, with the structure "
     "of M and g",
 )
-async def equations(robot_id: str, request: Request, registry: RegistryDep) -> Response:
+async def equations(
+    robot_id: str,
+    request: Request,
+    registry: RegistryDep,
+    digits: Annotated[
+        int,
+        Query(ge=1, le=17, description="Significant digits of the printed coefficients."),
+    ] = 6,
+    tolerance: Annotated[
+        float,
+        Query(
+            ge=0,
+            le=1,
+            allow_inf_nan=False,
+            description="Relative: a term whose coefficient is below tolerance × the largest "
+            "coefficient of the same quantity is left out (0 keeps every term). "
+            "digits=17&tolerance=0 is the exact form.",
+        ),
+    ] = 1e-9,
+    form: Annotated[
+        Literal["numeric", "parametric"],
+        Query(
+            description="numeric: the model's numbers; parametric: linear in the base "
+            "inertial parameters p1 … pr (listed under `parameters`)."
+        ),
+    ] = "numeric",
+) -> Response:
     """M(q) q̈ + C(q, q̇) q̇ + g(q) = τ in closed form, derived symbolically from the model's
     own joint placements, axes and inertias (exact decimals), for a fixed-base robot with at
     most 6 moving joints, each revolute or prismatic. Coordinates q1 … qn and velocities
-    dq1 … dqn follow the order of `joints`. The first request for a robot derives them (a UR5
-    takes about 0.3 s; at most `ROBODYN_EQUATIONS_TIMEOUT_S`), later ones are answered from
-    memory (stored models also from disk). See docs/equations.md."""
+    dq1 … dqn follow the order of `joints`. Readable by default (6 significant digits, terms
+    below 1e-9 of their quantity's largest left out, `accuracy` bounding what that changes);
+    `form=parametric` writes them in the base inertial parameters. The first request for a
+    robot and printing derives them (at most `ROBODYN_EQUATIONS_TIMEOUT_S`), later ones are
+    answered from memory (stored models also from disk). See docs/equations.md."""
     robot = await served_robot(registry, robot_id)
     cache: EquationsCache = request.app.state.equations
-    return Response(await cache.answer(robot), media_type="application/json")
+    printing = Printing(form, digits, tolerance)
+    return Response(await cache.answer(robot, printing), media_type="application/json")

@@ -250,6 +250,7 @@ def identification_answer(
         "parameters": result.parameters,
         "bodies": result.bodies,
         "friction": result.friction,
+        "warnings": result.warnings,
         "base_parameters": result.base_parameters,
         "condition_number": condition if np.isfinite(condition) else None,
         "physically_consistent": result.physically_consistent,
@@ -269,7 +270,9 @@ def _store(
 ) -> tuple[dict[str, Any] | None, str | None]:
     """Store the identified robot as a variant of `robot`: (its RobotInfo, None), or (None,
     why it was not stored) when the fit is not a physically possible robot."""
-    friction = Fitted.from_dict({"friction": result.friction}).friction
+    # (a joint whose motion does not determine its friction has none: no row)
+    known = [row for row in result.friction if row is not None]
+    friction = Fitted.from_dict({"friction": known}).friction
     if result.payload is None:
         if not result.physically_consistent:
             return None, (
@@ -369,8 +372,11 @@ def openapi_routes() -> APIRouter:
     async def describe_identify(robot_id: str, body: IdentifyRequest) -> None:
         """Fit a fixed-base robot's inertial parameters and friction (or a payload's) to a
         logged motion (t, q, measured τ; v and a optional), check the fit on the held-out
-        end of the log, and store the identified robot as a variant. The fit runs in a worker
-        process with a time limit (ROBODYN_IDENTIFY_TIMEOUT_S). See docs/identification.md.
+        end of the log, and store the identified robot as a variant. `warnings` names every
+        joint whose motion does not determine its friction (it barely moves, or its speed
+        stays near zero): its friction entry is null and the variant adds none on it. The fit
+        runs in a worker process with a time limit (ROBODYN_IDENTIFY_TIMEOUT_S). See
+        docs/identification.md.
 
         The log may also be sent in the binary form ({media_type}: t, q, tau, v, a as F64
         tensors, the other members as JSON texts in `__metadata__`; see

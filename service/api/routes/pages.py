@@ -61,6 +61,7 @@ MODULE_FILES = {
         "model_check_view.js",
         "equations_view.js",
         "trajectory_view.js",
+        "joint_sizing.js",
         "vendor/uplot/uPlot.esm.js",
         "identification_view.js",
         THREE_DIR + "build/three.module.min.js",

@@ -24,6 +24,12 @@ class InverseDynamicsRequest(QVARequest):
         "coulomb sign(v) + viscous v: for a robot stored by identification "
         "(its RobotInfo lists `friction`); any other robot is a 422.",
     )
+    loads: bool = Field(
+        False,
+        description="Also answer `joint_wrenches`: the wrench each moving joint transmits "
+        "from its parent body to its child body (RNEA's data.f), with the payloads, external "
+        "forces and friction of the request.",
+    )
 
 
 class ForwardDynamicsRequest(QVTauRequest):
@@ -58,6 +64,15 @@ class NonlinearEffectsAnswer(BaseModel):
 class InverseDynamicsAnswer(BaseModel):
     tau: JointVector = Field(
         description="τ = M(q) a + C(q, v) v + g(q), length nv, N·m or N." + BY_NAME
+    )
+    joint_wrenches: list[list[float]] | list[list[list[float]]] | None = Field(
+        None,
+        description="With `loads`: [joints][6] per state ([N][joints][6] for a batch), one "
+        "row per moving joint in model order (the joints of RobotInfo, the universe "
+        "excluded): the wrench the joint transmits to its child body, force f (N) then "
+        "moment n (N·m) about the joint frame's origin, in the joint frame's axes. For a "
+        "1-DoF joint with unit axis s, τ = s · n (revolute) or s · f (prismatic), plus the "
+        "armature's share; friction adds along s.",
     )
 
 

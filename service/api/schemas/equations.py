@@ -1,8 +1,9 @@
 """Answer schema of `GET /v1/robots/{id}/equations`: the equations of motion in explicit form.
 
 Each quantity is `{"expressions": …, "latex": …}` of the quantity's shape: text SymPy parses
-(`sympify`) with the names of `coordinates` and `velocities`, `sin`, `cos` and decimal numbers
-written to round-trip precision, and the same terms in LaTeX. See docs/equations.md.
+(`sympify`) with the names of `coordinates` and `velocities` (and p1 … in the parametric form),
+`sin`, `cos` and decimal numbers rounded to `accuracy.digits` significant digits, and the same
+terms in LaTeX. See docs/equations.md.
 """
 
 from __future__ import annotations
@@ -10,8 +11,8 @@ from __future__ import annotations
 from pydantic import BaseModel, Field
 
 _TEXT = (
-    "text SymPy parses (names q1…, dq1…, sin, cos, numbers to round-trip precision); "
-    "LaTeX in `latex`, same shape"
+    "text SymPy parses (names q1…, dq1…, p1… in the parametric form, sin, cos, numbers to "
+    "`accuracy.digits` significant digits); LaTeX in `latex`, same shape"
 )
 
 
@@ -51,6 +52,39 @@ class EquationsStructure(BaseModel):
     gravity: list[EntryStructure] = Field(description="Per entry of g (nv).")
 
 
+class MaxAbsError(BaseModel):
+    mass_matrix: float = Field(description="kg·m² (kg on prismatic rows and columns).")
+    gravity: float = Field(description="N·m or N.")
+    coriolis_matrix: float = Field(description="N·m·s per unit of ‖q̇‖∞ (rad/s or m/s).")
+    kinetic_energy: float = Field(description="J per unit of ‖q̇‖∞².")
+    potential_energy: float = Field(description="J.")
+
+
+class Accuracy(BaseModel):
+    digits: int = Field(description="Significant digits of the printed coefficients (1–17).")
+    tolerance: float = Field(
+        description="Terms whose coefficient is below tolerance × the largest coefficient of "
+        "the same quantity are left out (0: none)."
+    )
+    max_abs_error: MaxAbsError = Field(
+        description="Per quantity, a bound over every q of |printed − exact| of any entry: "
+        "what the left-out terms and the rounding can change (prismatic coordinates within "
+        "the larger magnitude of their limits, or 1 m)."
+    )
+
+
+class Parameter(BaseModel):
+    symbol: str = Field(description="p1 … pr, as the expressions name it.")
+    expression: str = Field(
+        description="The base parameter in the standard inertial parameters, named "
+        "`<joint>.m`, `<joint>.m_cx`, `<joint>.m_cy`, `<joint>.m_cz`, `<joint>.Ixx`, "
+        "`<joint>.Ixy`, `<joint>.Iyy`, `<joint>.Ixz`, `<joint>.Iyz`, `<joint>.Izz` "
+        "(identification's layout: joint frame, inertia about the joint origin) and "
+        "`<joint>.armature`; coefficients to 6 significant digits."
+    )
+    value: float = Field(description="Its value for this robot (kg, kg·m or kg·m²).")
+
+
 class Equations(BaseModel):
     joints: list[str] = Field(
         description="The moving joints, in the order of q: coordinate "
@@ -75,7 +109,13 @@ class Equations(BaseModel):
     potential_energy: ScalarExpression = Field(
         description="U(q), J, zero at the world origin: U = −Σ m g₀·c over the bodies."
     )
+    accuracy: Accuracy = Field(description="How the printed form may differ from the exact one.")
     structure: EquationsStructure = Field(
-        description="Per entry of M and g: the coordinates it depends on, whether it is "
-        "constant, whether it is zero."
+        description="Per entry of M and g (as printed): the coordinates it depends on, "
+        "whether it is constant, whether it is zero."
+    )
+    parameters: list[Parameter] | None = Field(
+        default=None,
+        description="The parametric form's base parameters p1 … pr (r: the joint-torque "
+        "regressor's rank); substituting their values gives the numeric form.",
     )

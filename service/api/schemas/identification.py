@@ -170,10 +170,28 @@ class ValidationSeries(BaseModel):
     before: list[list[float]] = Field(description="The model's own τ (no friction).")
 
 
+class IdentificationWarning(BaseModel):
+    code: Literal["unexcited_joint"] = Field(
+        description="unexcited_joint: the joint's motion in the log does not determine its "
+        "friction (it barely moves, or its speed stays near zero)."
+    )
+    joint: str
+    detail: str = Field(description="What the log shows of the joint, for a user.")
+
+
 class IdentifyAnswer(BaseModel):
     parameters: list[float] = Field(description="The identified " + PI_DESC)
     bodies: list[IdentifiedBody]
-    friction: list[JointFriction]
+    friction: list[JointFriction | None] = Field(
+        description="Per joint, in joint order; null for a joint named in `warnings`: its "
+        "friction columns are fitted (its Coulomb switching is in the torques) but their "
+        "values are not determined by the log, so they are not reported, and the stored "
+        "variant adds no friction on that joint."
+    )
+    warnings: list[IdentificationWarning] = Field(
+        default_factory=list,
+        description="Every joint whose motion in the log does not determine its friction.",
+    )
     base_parameters: BaseParametersAnswer
     condition_number: float | None = Field(
         description="Of the weighted regressor, its "

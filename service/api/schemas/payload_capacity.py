@@ -47,22 +47,35 @@ class CapacityMinimum(BaseModel):
     )
     state: int | None = Field(description="The first state (index) that has it.")
     limiting_joint: str | None = Field(description="Its limiting joint.")
+    mass_range: list[float | None] | None = Field(
+        None,
+        description="[lo, hi], kg: the masses that keep every joint within its limit at "
+        "every state of the batch (the intersection of the states' ranges; hi null: no upper "
+        "end); null when no mass suits every state.",
+    )
 
 
 class PayloadCapacityAnswer(BaseModel):
     mass: float | list[float | None] | None = Field(
         description="The heaviest point mass the frame can hold, kg (one per state for a "
-        "batch); 0 when a joint is over its limit with no payload; null when no joint limits "
-        "it (a frame fixed to the world, no effort limits)."
+        "batch): the upper end of mass_range, 0 when that range is empty; null when no joint "
+        "limits it (a frame fixed to the world, no effort limits)."
+    )
+    mass_range: list[float | None] | list[list[float | None] | None] | None = Field(
+        description="[lo, hi], kg (one per state for a batch): the masses m ≥ 0 with every "
+        "joint within its limit, an interval since τ(m) = τ₀ + m τ₁ is affine in m; lo > 0 "
+        "when the load is what keeps a joint within its limit (a counterweight); hi null when "
+        "nothing limits; null when no mass suits every joint."
     )
     limiting_joint: str | list[str | None] | None = Field(
         description="The joint whose limit sets it (where several are over their limit with "
         "no payload, the one furthest over); null when nothing limits."
     )
     mass_per_joint: list[float | None] | list[list[float | None]] = Field(
-        description="nv numbers, kg: the largest mass each velocity coordinate alone allows; "
-        "null where it never limits (no effort limit, a floating root's rows, a joint the "
-        "mass does not load), 0 where it is over its limit with no payload."
+        description="nv numbers, kg: the largest mass each velocity coordinate alone allows "
+        "(the upper end of its own range); null where it never limits (no effort limit, a "
+        "floating root's rows, a joint the mass does not load), 0 where no mass ≥ 0 keeps it "
+        "within its limit."
     )
     tau: JointVector = Field(
         description="τ at that mass, nv numbers, N·m or N (τ₀ where nothing limits)." + BY_NAME

@@ -29,6 +29,21 @@ def _scale(what: str) -> Scale:
     )
 
 
+class TrajectoryLimits(StrictRequest):
+    """The limits a motion is checked or timed against, beyond the model's."""
+
+    velocity_scale: Scale = _scale("velocity")
+    effort_scale: Scale = _scale("effort")
+    acceleration: list[Number | None] | None = Field(
+        None,
+        description="Joint acceleration limits, nv entries, rad/s² or m/s²: each a number > 0, "
+        "or null (no limit on that joint); null: no acceleration limit at all.",
+    )
+
+
+Boundary = Literal["not-a-knot", "clamped", "natural"]
+
+
 class TrajectoryCheckRequest(QRequest):
     """Samples of a motion: q [N][nq] at times t, optionally v and a [N][nv]."""
 
@@ -38,11 +53,22 @@ class TrajectoryCheckRequest(QRequest):
     )
     v: JointArray | None = joint_field(
         "Optional. " + V_DESC + " Without v and a they are the "
-        "derivatives of the not-a-knot cubic spline through "
-        "(t, q) (robots with nq = nv only).",
+        "derivatives of the cubic spline through (t, q) with the "
+        "`boundary` conditions (robots with nq = nv only).",
         None,
     )
     a: JointArray | None = joint_field("Optional. " + A_DESC, None)
+    boundary: Boundary = Field(
+        "not-a-knot",
+        description="The end conditions of the cubic spline through (t, q) where v or a is "
+        "absent: not-a-knot, clamped (zero velocity at both ends: a motion from rest to rest) "
+        "or natural (zero acceleration at both ends).",
+    )
+    limits: TrajectoryLimits | None = Field(
+        None,
+        description="Limits beyond the model's: scales and optional acceleration limits, as "
+        "retime takes them (not together with the top-level effort_scale or velocity_scale).",
+    )
     effort_scale: Scale = _scale("effort")
     velocity_scale: Scale = _scale("velocity")
     friction: bool = Field(
@@ -71,15 +97,40 @@ class JointCheck(BaseModel):
     velocity_limit: float | None = Field(description="rad/s or m/s, × velocity_scale.")
     peak_velocity: float = Field(description="max |v| over every evaluated point.")
     velocity_ratio: float | None = Field(description="peak_velocity ÷ velocity_limit.")
+    acceleration_limit: float | None = Field(
+        description="rad/s² or m/s², from limits.acceleration; null: none."
+    )
+    peak_acceleration: float = Field(description="max |a| over every evaluated point.")
+    acceleration_ratio: float | None = Field(description="peak_acceleration ÷ acceleration_limit.")
     lower: float | None = Field(description="Lower position limit, rad or m; null: none.")
     upper: float | None = Field(description="Upper position limit, rad or m; null: none.")
     min_position: float | None = Field(description="Smallest q over the evaluated points.")
     max_position: float | None = Field(description="Largest q over the evaluated points.")
+    rms_effort: float = Field(
+        description="√(∫ τ² dt ÷ duration) by the trapezoidal rule over the evaluated points, "
+        "N·m or N: the torque that heats the motor as the motion does."
+    )
+    peak_power: float = Field(description="max |τ v| over every evaluated point, W.")
+    peak_force: float = Field(
+        description="max ‖f‖ over every evaluated point, N: f the force of the wrench the "
+        "joint transmits to its child body (RNEA's data.f, in the joint frame)."
+    )
+    peak_moment: float = Field(
+        description="max ‖n‖, N·m: n the moment of that wrench about the joint frame's origin."
+    )
+    peak_axial_force: float = Field(
+        description="max |f · s|, N, s the joint's unit axis: a revolute joint's bearing "
+        "thrust, a prismatic joint's |τ|."
+    )
+    peak_bending_moment: float = Field(
+        description="max ‖n − (n · s) s‖, N·m: the moment the bearings carry across the axis "
+        "(a revolute joint's τ is n · s)."
+    )
 
 
 class Violation(BaseModel):
     joint: str
-    kind: Literal["effort", "velocity", "position"]
+    kind: Literal["effort", "velocity", "acceleration", "position"]
     t_start: float = Field(description="Time of the first evaluated point beyond the limit, s.")
     t_end: float = Field(description="Time of the last one of that run, s.")
     worst: float = Field(description="The value farthest beyond the limit (signed).")
@@ -102,14 +153,6 @@ class TrajectoryCheckAnswer(BaseModel):
     work: Work
 
 
-class RetimeLimits(StrictRequest):
-    velocity_scale: Scale = _scale("velocity")
-    effort_scale: Scale = _scale("effort")
-    acceleration: list[Number] | None = Field(
-        None, description="Joint acceleration limits, nv numbers > 0, rad/s² or m/s²; null: none."
-    )
-
-
 class RetimeRequest(StrictRequest):
     """A path through waypoints [K][nq] to time."""
 
@@ -120,7 +163,7 @@ class RetimeRequest(StrictRequest):
             "cumulative joint-space distance; the motion starts and ends at rest."
         )
     )
-    limits: RetimeLimits | None = Field(
+    limits: TrajectoryLimits | None = Field(
         None, description="Limits beyond the model's: scales and optional acceleration limits."
     )
     sample_dt: Number = Field(0.01, gt=0, description="Time between answer samples, s.")

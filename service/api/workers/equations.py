@@ -1,15 +1,16 @@
 """Deriving the equations in a separate process, with a time limit.
 
 The derivation (`service.dynamics.equations`) is pure Python and holds the GIL for its whole
-duration (up to tens of seconds for a 6-joint arm with skewed axes): in a thread of the serving
-process it would stall the event loop and `/health/live`. `derive_isolated` runs it in a
-short-lived child forked from the forkserver the upload builders use (`service.processes`,
-with Pinocchio already imported there). The child receives the model in Pinocchio's binary
-serialization, is limited (CPU time, address space, nice 10, no core files), derives, renders
-the answer and sends it back as JSON bytes (encoded there, so the serving process only forwards
-them). The parent waits at most the time limit plus `GRACE_S` seconds of wall clock and then
-kills the child; the child's CPU limit is the time limit (rounded up). The time is judged by
-the parent alone, so that a child the machine starved is told from one that is too costly.
+duration (seconds for a 6-joint arm with skewed axes): in a thread of the serving process it
+would stall the event loop and `/health/live`. `derive_isolated` runs it in a short-lived child
+forked from the forkserver the upload builders use (`service.processes`, with Pinocchio and the
+derivation's modules already imported there). The child receives the model in Pinocchio's
+binary serialization, is limited (CPU time, address space, no core files; its priority is the
+server's, `NICENESS`), derives, renders the answer and sends it back as JSON bytes (encoded
+there, so the serving process only forwards them). The parent waits at most the time limit
+plus `GRACE_S` seconds of wall clock and then kills the child; the child's CPU limit is the
+time limit (rounded up). The time is judged by the parent alone, so that a child the machine
+starved is told from one that is too costly.
 
 Outcomes: the JSON bytes; `UnsupportedModel` for a model out of scope or a crash, and its
 subclass `TooCostly` for the model's own cost: a derivation past its time limit having had at
@@ -24,6 +25,7 @@ from __future__ import annotations
 import logging
 import math
 import signal
+from dataclasses import dataclass
 from typing import Any
 
 import orjson
@@ -48,11 +50,33 @@ class TooCostly(UnsupportedModel):
     `unsupported_model`, remembered by `equations_cache`)."""
 
 
+# the forkserver imports these when it starts: the builders' modules and the derivation's
+# (its package imports every topic module, scipy with them: seconds a child would pay each time)
+PRELOAD = (*FORKSERVER_PRELOAD, "service.dynamics.equations")
 MEMORY_MB = 2048  # address space of the child (a skewed 6-joint arm's derivation: ~300 MB)
 GRACE_S = 2.0  # the parent waits this much longer than the child's own time limit
+# The derivation runs at the serving process's priority, not lowered like the other children:
+# a request waits for it (seconds of CPU for a six-joint arm), and at nice 10 on a machine busy
+# with other work it would get a few percent of a core. Its slots bound how many run at once.
+NICENESS = 0
 
 
-def _child_derive(conn: Any, raw_model: bytes, memory_mb: int) -> None:
+@dataclass(frozen=True)
+class Printing:
+    """What the answer is asked for: `form` "numeric" or "parametric", coefficients to
+    `digits` significant digits, terms below `tolerance` × their quantity's largest left out
+    (`service.dynamics.equations.answer`)."""
+
+    form: str = "numeric"
+    digits: int = 6
+    tolerance: float = 1e-9
+
+    def name(self) -> str:
+        """A file name part that tells one printing from another: `numeric-6-1e-09`."""
+        return f"{self.form}-{self.digits}-{self.tolerance!r}"
+
+
+def _child_derive(conn: Any, raw_model: bytes, memory_mb: int, printing: Printing) -> None:
     """The child (its limits already set): answers ("ok", JSON bytes), ("unsupported",
     detail) or ("too costly", detail). Its time is the parent's to judge (see the module
     docstring)."""
@@ -60,7 +84,8 @@ def _child_derive(conn: Any, raw_model: bytes, memory_mb: int) -> None:
 
     try:
         model = model_from_binary(raw_model)
-        answer = equations_answer(derive_equations(model))
+        eq = derive_equations(model, form=printing.form)
+        answer = equations_answer(eq, printing.digits, printing.tolerance)
         conn.send(("ok", orjson.dumps(answer)))
     except UnsupportedModel as exc:
         conn.send(("unsupported", exc.detail))
@@ -99,18 +124,24 @@ def _death(died: ChildDied, time_limit_s: float, cpu_limit_s: int) -> Exception:
     )
 
 
-def derive_isolated(model: Any, time_limit_s: float, memory_mb: int = MEMORY_MB) -> bytes:
-    """The JSON answer of `equations_answer` for `model`, derived in a child process within
-    `time_limit_s` seconds of wall clock (see the module docstring). Blocking: call it off
-    the event loop."""
+def derive_isolated(
+    model: Any,
+    time_limit_s: float,
+    memory_mb: int = MEMORY_MB,
+    printing: Printing | None = None,
+) -> bytes:
+    """The JSON answer of `equations_answer` for `model` as `printing` asks, derived in a
+    child process within `time_limit_s` seconds of wall clock (see the module docstring).
+    Blocking: call it off the event loop."""
     cpu_limit_s = math.ceil(time_limit_s)
+    printing = printing or Printing()
     try:
         answer = run_child(
             _child_derive,
-            (model_to_binary(model), memory_mb),
+            (model_to_binary(model), memory_mb, printing),
             timeout_s=time_limit_s + GRACE_S,
-            limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_limit_s),
-            preload=FORKSERVER_PRELOAD,
+            limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_limit_s, niceness=NICENESS),
+            preload=PRELOAD,
         )
     except ChildNotStarted:
         raise Overloaded("could not start a process for the derivation; retry shortly") from None

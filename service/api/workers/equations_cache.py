@@ -1,10 +1,15 @@
 """The equations of each robot, derived once: in memory, and on disk for stored models.
 
-`await EquationsCache.answer(robot)` gives the JSON answer of `GET /v1/robots/{id}/equations`:
+`await EquationsCache.answer(robot, printing)` gives the JSON answer of
+`GET /v1/robots/{id}/equations` printed as asked (`Printing`: form, digits, tolerance), each
+printing of each robot kept on its own:
 
 - from memory (a dict of JSON bytes, least recently used dropped beyond `max_bytes`);
 - else, for a stored upload or reduced model (content-derived ids: the same id is the same
-  model on every replica and after a restart), from `<data_dir>/equations/v1/<id>.json`;
+  model on every replica and after a restart) printed readable (the defaults) or exact
+  (`digits=17&tolerance=0`), from `<data_dir>/equations/v2/<id>/<form>-<digits>-<tolerance>.json`
+  (other printings are kept in memory only: a client varying `tolerance` cannot fill the
+  disk);
 - else derived in a child process (`derive_isolated`, `service.api.workers.equations`) within
   the time limit, holding one of the derivation slots (`slots`: their own, never the upload
   builders'; none free in time, 503 overloaded), then kept in memory and, for a stored model,
@@ -14,12 +19,12 @@
 Refusals are remembered. A model out of scope is refused in this process before any child
 starts (the check is cheap), remembered per robot id. A refusal for the model's cost (past its
 time limit with its share of the CPU, its CPU or memory limit: `TooCostly`, a 422
-`unsupported_model`) is remembered per content: the numbers the derivation reads
+`unsupported_model`) is remembered per content and form: the numbers the derivation reads
 (`content_key`: joint kinds, axes, placements, inertias, armature, gravity), so every robot
-with the same numbers —
-the same id again, a variant that only adds friction or a name — is refused at once with the
-same 422, without a derivation. A derivation the machine starved of CPU, or whose child was
-killed from outside (`Overloaded`, 503), says nothing of the model and is not remembered.
+with the same numbers — the same id again, a variant that only adds friction or a name, any
+digits or tolerance — is refused at once with the same 422, without a derivation. A
+derivation the machine starved of CPU, or whose child was killed from outside (`Overloaded`,
+503), says nothing of the model and is not remembered.
 
 Concurrent requests for the same robot wait for one derivation (single flight), awaited on the
 event loop: no thread waits for another request's derivation. The disk and the derivation run
@@ -39,17 +44,30 @@ from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
 
-from service.api.workers.equations import MEMORY_MB, TooCostly, derive_isolated
+from service.api.workers.equations import (
+    MEMORY_MB,
+    PRELOAD,
+    Printing,
+    TooCostly,
+    derive_isolated,
+)
 from service.dynamics.equations.model_numbers import Joint, gravity, moving_joints
 from service.errors import UnsupportedModel
+from service.processes.contexts import forkserver_context
 from service.registry.build_slots import BuildSlots
 from service.registry.robot import Robot
 from service.registry.store import write_atomically
 
 log = logging.getLogger("robodyn.equations")
 
-FORMAT_VERSION = "v1"  # the directory of the files on disk; a new answer format gets a new one
+FORMAT_VERSION = "v2"  # the directory of the files on disk; a new answer format gets a new one
 MAX_REMEMBERED_REFUSALS = 10_000  # refusals for cost kept (least recently used dropped)
+Key = tuple[str, Printing]  # (robot id, printing): one answer
+
+
+def _kept_on_disk(printing: Printing) -> bool:
+    """The readable (default) and the exact printing of each form are written to disk."""
+    return (printing.digits, printing.tolerance) in ((6, 1e-9), (17, 0.0))
 
 
 def content_key(model: Any, joints: list[Joint]) -> str:
@@ -90,19 +108,23 @@ class EquationsCache:
         self.memory_mb = memory_mb
         self.slots = slots
         self.max_bytes = max_bytes
-        self._memory: OrderedDict[str, bytes] = OrderedDict()
+        self._memory: OrderedDict[Key, bytes] = OrderedDict()
         self._bytes = 0
         self._refused: dict[str, UnsupportedModel] = {}  # out of scope, by robot id
-        self._too_costly: OrderedDict[str, UnsupportedModel] = OrderedDict()  # by content_key
-        self._pending: dict[str, Future[bytes]] = {}
+        # refused for cost, by (content_key, form)
+        self._too_costly: OrderedDict[tuple[str, str], UnsupportedModel] = OrderedDict()
+        self._pending: dict[Key, Future[bytes]] = {}
         self._lock = threading.Lock()
+        # whoever starts the forkserver first (an upload's build, or a derivation), it imports
+        # the derivation's modules: a derivation's child starts with them loaded
+        forkserver_context(PRELOAD)
 
-    def _path(self, robot: Robot) -> Path | None:
-        if self.dir is None or robot.source == "catalog":
+    def _path(self, robot: Robot, printing: Printing) -> Path | None:
+        if self.dir is None or robot.source == "catalog" or not _kept_on_disk(printing):
             return None
-        return self.dir / f"{robot.id}.json"
+        return self.dir / robot.id / f"{printing.name()}.json"
 
-    def _remember(self, key: str, body: bytes) -> None:
+    def _remember(self, key: Key, body: bytes) -> None:
         with self._lock:
             if key in self._memory:
                 return
@@ -112,18 +134,19 @@ class EquationsCache:
                 _, dropped = self._memory.popitem(last=False)
                 self._bytes -= len(dropped)
 
-    def cached(self, robot: Robot) -> bytes | None:
+    def cached(self, robot: Robot, printing: Printing | None = None) -> bytes | None:
         """The answer when it is in memory (no disk, no derivation); refusals by id raise."""
+        key = (robot.id, printing or Printing())
         with self._lock:
             refused = self._refused.get(robot.id)
             if refused is not None:
                 raise UnsupportedModel(refused.detail)
-            body = self._memory.get(robot.id)
+            body = self._memory.get(key)
             if body is not None:
-                self._memory.move_to_end(robot.id)
+                self._memory.move_to_end(key)
             return body
 
-    def _content(self, robot: Robot) -> str:
+    def _content(self, robot: Robot, form: str) -> tuple[str, str]:
         """The robot's `content_key`; `UnsupportedModel` (remembered) when out of scope or
         already refused for its cost."""
         try:
@@ -132,7 +155,7 @@ class EquationsCache:
             with self._lock:
                 self._refused[robot.id] = exc
             raise
-        key = content_key(robot.model, joints)
+        key = (content_key(robot.model, joints), form)
         with self._lock:
             refused = self._too_costly.get(key)
             if refused is not None:
@@ -140,59 +163,65 @@ class EquationsCache:
                 raise UnsupportedModel(refused.detail)
         return key
 
-    async def answer(self, robot: Robot) -> bytes:
-        """The JSON answer for `robot` (see the module docstring)."""
-        body = self.cached(robot)
+    async def answer(self, robot: Robot, printing: Printing | None = None) -> bytes:
+        """The JSON answer for `robot` printed as asked (see the module docstring)."""
+        printing = printing or Printing()
+        body = self.cached(robot, printing)
         if body is not None:
             return body
-        key = self._content(robot)
+        content = self._content(robot, printing.form)
+        key = (robot.id, printing)
         with self._lock:
-            pending = self._pending.get(robot.id)
+            pending = self._pending.get(key)
             owner = pending is None
             if pending is None:
-                pending = self._pending[robot.id] = Future()
+                pending = self._pending[key] = Future()
         if owner:
             threading.Thread(
                 target=self._settle,
-                args=(robot, key, pending),
+                args=(robot, printing, content, pending),
                 name="robodyn-equations",
                 daemon=True,
             ).start()
         return await asyncio.wrap_future(pending)
 
-    def _settle(self, robot: Robot, key: str, pending: Future[bytes]) -> None:
+    def _settle(
+        self, robot: Robot, printing: Printing, content: tuple[str, str], pending: Future[bytes]
+    ) -> None:
         """In the derivation's thread: the answer (disk or derivation) into `pending`."""
+        key = (robot.id, printing)
         try:
-            body = self._load_or_derive(robot, key)
+            body = self._load_or_derive(robot, printing, content)
         except BaseException as exc:
             with self._lock:
-                del self._pending[robot.id]
+                del self._pending[key]
             pending.set_exception(exc)
         else:
             with self._lock:
-                del self._pending[robot.id]
+                del self._pending[key]
             pending.set_result(body)
 
-    def _load_or_derive(self, robot: Robot, key: str) -> bytes:
-        path = self._path(robot)
+    def _load_or_derive(self, robot: Robot, printing: Printing, content: tuple[str, str]) -> bytes:
+        key = (robot.id, printing)
+        path = self._path(robot, printing)
         if path is not None and path.is_file():
             try:
                 body = path.read_bytes()
             except OSError as exc:
                 log.warning("equations of %s not read from disk: %s", robot.id, exc)
             else:
-                self._remember(robot.id, body)
+                self._remember(key, body)
                 return body
         with self.slots.slot():
             try:
-                body = derive_isolated(robot.model, self.time_limit_s, self.memory_mb)
-            except TooCostly as exc:  # the model's own cost: remembered by content
+                body = derive_isolated(robot.model, self.time_limit_s, self.memory_mb, printing)
+            except TooCostly as exc:  # the model's own cost: remembered by content and form
                 with self._lock:
-                    self._too_costly[key] = exc
+                    self._too_costly[content] = exc
                     while len(self._too_costly) > MAX_REMEMBERED_REFUSALS:
                         self._too_costly.popitem(last=False)
                 raise
-        self._remember(robot.id, body)
+        self._remember(key, body)
         if path is not None:
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)

@@ -7,6 +7,8 @@ A `Series` over n joint coordinates is a finite sum of terms
 with an exact rational coefficient a (`fractions.Decimal`), an integer frequency vector k (one
 entry per coordinate; zero for prismatic ones), and a monomial x^e in the polynomial variables
 x = (q₁ … qₙ, dq₁ … dqₙ) — the prismatic coordinates and the joint velocities (e has 2n entries).
+A term may also carry one inertial parameter symbol p_j (j ≥ 1; 0 for none) as a factor: the
+parametric form, linear in the parameters (see `parameter`).
 
 The form is canonical: the first non-zero entry of k is positive (cos(−θ) = cos θ,
 sin(−θ) = −sin θ), a term with k = 0 is a cosine (sin 0 = 0, cos 0 = 1), and no coefficient is
@@ -27,7 +29,9 @@ from decimal import Context, Decimal
 # packed into integers, digit i (most significant first) in base BASE: k = Σ kᵢ BASEⁿ⁻¹⁻ⁱ (digits
 # in −BASE/2 … BASE/2, so k's sign is the sign of its first non-zero entry), e likewise over
 # 2n non-negative digits. Adding or subtracting frequency vectors or monomial exponents is then
-# adding or subtracting integers.
+# adding or subtracting integers. The parameter symbol of a term, if any, is its index j times
+# BASE^(2n) in e: above the monomial's digits, so a product of a parametric and a numeric term
+# carries it (a product of two parametric terms never occurs: the equations are linear in it).
 Key = tuple[int, int, int]
 COS, SIN = 0, 1
 BASE = 1024
@@ -63,8 +67,15 @@ def unpack(value: int, size: int) -> tuple[int, ...]:
 
 
 def unpack_key(key: Key, n: int) -> tuple[tuple[int, ...], tuple[int, ...], int]:
-    """(k, e, kind) of a key as plain tuples: k over the n coordinates, e over (q, dq)."""
-    return unpack(key[0], n), unpack(key[1], 2 * n), key[2]
+    """(k, e, kind) of a key as plain tuples: k over the n coordinates, e over (q, dq) (the
+    parameter symbol left out: `parameter_index`)."""
+    return unpack(key[0], n), unpack(key[1] % BASE ** (2 * n), 2 * n), key[2]
+
+
+def parameter_index(e: int, n: int) -> int:
+    """The parameter symbol's index j of a term's packed monomial e (0: none)."""
+    index: int = e // BASE ** (2 * n)
+    return index
 
 
 class Series:
@@ -88,6 +99,11 @@ class Series:
     def trig(cls, n: int, i: int, kind: int) -> Series:
         """cos(qᵢ) or sin(qᵢ) (i from 0)."""
         return cls(n, {(BASE ** (n - 1 - i), 0, kind): ONE})
+
+    @classmethod
+    def parameter(cls, n: int, index: int) -> Series:
+        """The parameter symbol p_index (index from 1) as a series: one term of coefficient 1."""
+        return cls(n, {(0, index * BASE ** (2 * n), COS): ONE})
 
     @classmethod
     def variable(cls, n: int, index: int) -> Series:
@@ -140,6 +156,12 @@ class Series:
         b = other.constant_value()
         if b is not None:
             return self.scale(b)
+        if len(other.terms) == 1:  # a monomial (or parameter) of coefficient 1: shift e
+            (k, e, _), c = next(iter(other.terms.items()))
+            if not k and c == ONE:
+                return Series(
+                    self.n, {(ka, ea + e, ta): ca for (ka, ea, ta), ca in self.terms.items()}
+                )
         out: dict[Key, Decimal] = {}
         half = HALF
 
@@ -214,8 +236,14 @@ class Series:
                     used[i] = True
         return [i for i in range(self.n) if used[i]]
 
-    def evaluate(self, q: Sequence[float], dq: Sequence[float] | None = None) -> float:
-        """The value at joint positions q (rad or m) and velocities dq, in double precision."""
+    def evaluate(
+        self,
+        q: Sequence[float],
+        dq: Sequence[float] | None = None,
+        parameters: Sequence[float] | None = None,
+    ) -> float:
+        """The value at joint positions q (rad or m) and velocities dq, in double precision;
+        a parametric series with the values of p1, p2, … in `parameters`."""
         x = [float(v) for v in q] + [float(v) for v in (dq if dq is not None else [0.0] * self.n)]
         out = 0.0
         for key, c in self.terms.items():
@@ -225,6 +253,11 @@ class Series:
             for i, ei in enumerate(e):
                 if ei:
                     value *= x[i] ** ei
+            j = parameter_index(key[1], self.n)
+            if j:
+                if parameters is None:
+                    raise ValueError("a parametric series needs the parameters' values")
+                value *= float(parameters[j - 1])
             out += value
         return out
 

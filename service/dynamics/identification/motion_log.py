@@ -18,6 +18,11 @@
   samples, filtered when the log is, below MIN_RANGE: MIN_RANGE_REVOLUTE rad or
   MIN_RANGE_PRISMATIC m) reveals only gravity at one configuration, no inertia and no friction:
   `check_motion` refuses it, naming each joint's range, before any fit.
+- **Friction.** A joint whose motion does not show its friction — it barely moves (range below
+  MIN_RANGE) or its speed stays near zero (|v| below MIN_SPEED: MIN_SPEED_REVOLUTE rad/s or
+  MIN_SPEED_PRISMATIC m/s over the kept samples) — is named by `unexcited_joints`: its friction
+  columns stay in the fit (its Coulomb switching is in the torques, and leaving them out biases
+  every rigid-body parameter), but their values are not reported or stored.
 - **Edges.** Zero-phase filtering and differences are wrong near both ends of a signal; a margin
   of MARGIN_PERIODS / filter_hz seconds is dropped at both ends of each part after filtering.
 - **Decimation.** Filtered samples are correlated; the fit keeps one every `decimation` of the
@@ -50,6 +55,8 @@ RESAMPLING_GROWTH = 4  # a uniform grid of at most this many times a part's samp
 ONE_DOF = ("revolute", "prismatic", "continuous")
 MIN_RANGE_REVOLUTE = 0.02  # rad (about 1.1°): below it a joint "barely moves"
 MIN_RANGE_PRISMATIC = 0.005  # m
+MIN_SPEED_REVOLUTE = 0.05  # rad/s: a joint whose speed stays below it shows no friction
+MIN_SPEED_PRISMATIC = 0.01  # m/s
 
 
 @dataclass(frozen=True)
@@ -328,6 +335,45 @@ def barely_moving(robot: Robot, log: MotionLog) -> dict[str, float]:
         extent = float(ranges[robot.model.joints[jid].idx_v])
         if extent < _min_range(robot.joint_types[name]):
             out[name] = extent
+    return out
+
+
+def _min_speed(kind: str) -> float:
+    return MIN_SPEED_PRISMATIC if kind == "prismatic" else MIN_SPEED_REVOLUTE
+
+
+def joint_speeds(log: MotionLog) -> np.ndarray:
+    """Each velocity coordinate's largest |v| over the kept samples of both parts (nv,), rad/s
+    or m/s; zeros when no sample is kept."""
+    kept = [np.abs(part.v[part.keep]) for part in (log.train, log.validation)]
+    x = np.concatenate([k for k in kept if k.size] or [np.zeros((1, log.train.v.shape[1]))])
+    return np.asarray(x.max(axis=0))
+
+
+def unexcited_joints(robot: Robot, log: MotionLog) -> dict[str, str]:
+    """The joints whose motion in the log does not determine their friction, in joint order:
+    {name: why, for a user} — its range below MIN_RANGE, or its largest speed below
+    MIN_SPEED (module docstring)."""
+    ranges, speeds = joint_ranges(robot, log), joint_speeds(log)
+    out = {}
+    for jid in range(1, robot.model.njoints):
+        name = str(robot.model.names[jid])
+        kind = robot.joint_types[name]
+        unit = "m" if kind == "prismatic" else "rad"
+        iv = robot.model.joints[jid].idx_v
+        extent, speed = float(ranges[iv]), float(speeds[iv])
+        if extent < _min_range(kind):
+            out[name] = (
+                f"{name} moves over {extent if extent > 1e-12 else 0.0:.2g} {unit} in the log "
+                f"(under {_min_range(kind):g} {unit}): its motion does not determine its "
+                "friction, which is not reported or stored"
+            )
+        elif speed < _min_speed(kind):
+            out[name] = (
+                f"{name} moves at {speed:.2g} {unit}/s at most in the log (under "
+                f"{_min_speed(kind):g} {unit}/s): its motion does not determine its friction, "
+                "which is not reported or stored"
+            )
     return out
 
 

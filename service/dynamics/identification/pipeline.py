@@ -44,6 +44,7 @@ from service.dynamics.identification.motion_log import (
     describe_ranges,
     joint_configurations,
     motion_log,
+    unexcited_joints,
 )
 from service.dynamics.identification.parameters import (
     PER_BODY,
@@ -71,7 +72,8 @@ class Identification:
 
     parameters: np.ndarray  # π (10 · bodies,) of the identified robot
     bodies: list[dict[str, Any]]  # `parameters.body_summary` of each body
-    friction: list[dict[str, Any]]  # {"joint", "coulomb", "viscous", "offset"} per joint
+    friction: list[dict[str, Any] | None]  # {"joint", "coulomb", "viscous", "offset"}; None:
+    # a joint whose motion does not determine its friction (`warnings`)
     base_parameters: dict[str, Any]  # {"expressions", "values", "standard_deviation"}
     condition_number: float
     physically_consistent: bool
@@ -80,6 +82,7 @@ class Identification:
     validation: dict[str, np.ndarray]  # "t", "measured", "predicted", "before" on kept samples
     filter_hz: float | None  # the cut-off used; None when the log was used as given
     samples: dict[str, int]  # "train" and "validation" kept, "fit" (after decimation)
+    warnings: list[dict[str, str]]  # {"code": "unexcited_joint", "joint", "detail"}
 
 
 def random_rows(robot: Robot, columns: Columns) -> Any:
@@ -253,6 +256,7 @@ def identify(
         terms,
         (A, known, measured),
         (val_A, val_known, val_measured),
+        unexcited_joints(robot, log),
     )
     numbers = [answer.parameters, result.beta, result.beta_std, *answer.rmse.values()]
     if not all(np.isfinite(x).all() for x in numbers):
@@ -298,6 +302,7 @@ def _answer(
     terms: tuple[str, ...],
     train: tuple[np.ndarray, ...],
     validation: tuple[np.ndarray, ...],
+    unexcited: dict[str, str],
 ) -> Identification:
     beta0 = base.projection() @ columns.theta0
     predicted_train = train[0] @ result.beta + train[1]
@@ -309,8 +314,10 @@ def _answer(
         body_summary(name, pi[PER_BODY * i : PER_BODY * (i + 1)]) for i, name in enumerate(names)
     ]
     fitted = result.theta[columns.inertial_count :].reshape(robot.nv, len(terms))
-    friction = [
-        {
+    friction: list[dict[str, Any] | None] = [
+        None
+        if joint in unexcited
+        else {
             "joint": joint,
             "coulomb": 0.0,
             "viscous": 0.0,
@@ -360,4 +367,8 @@ def _answer(
             "validation": int(validation[0].shape[0]),
             "fit": int(train[0][:: log.decimation].shape[0]),
         },
+        warnings=[
+            {"code": "unexcited_joint", "joint": joint, "detail": detail}
+            for joint, detail in unexcited.items()
+        ],
     )

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from service.dynamics.model_check.link_geometry import LinkGeometry
+from service.dynamics.model_check.link_geometry import LinkShape
 from service.registry.inertia_rules import (
     ABS_TOL,
     inertia_error,
@@ -46,7 +46,7 @@ TWIN_MOMENT_REL_DIFF = 0.5  # of the larger moment
 
 
 @dataclass(frozen=True)
-class Finding:
+class InertiaFinding:
     """One finding: `code`, `severity` ("error" or "warning"), `link`, `message`, and the
     power-of-ten `suggestion` {"attribute", "value"} or None."""
 
@@ -70,7 +70,7 @@ def is_zero(inertia: np.ndarray) -> bool:
     return bool(np.max(np.abs(inertia)) <= ABS_TOL)
 
 
-def link_error(link: LinkDescription) -> Finding | None:
+def link_error(link: LinkDescription) -> InertiaFinding | None:
     """The error of a link's inertial, with its suggestion, or None."""
     error = inertia_error(link.mass, link.inertia)
     if error is None:
@@ -80,16 +80,16 @@ def link_error(link: LinkDescription) -> Finding | None:
     message = f"link '{shown(link.name)}': {error.what}"
     if fix is not None:
         message += f"; {fix[0]} = {fix[1]:.12g} (the written value times a power of ten) fixes it"
-    return Finding(error.code, "error", link.name, message, suggestion)
+    return InertiaFinding(error.code, "error", link.name, message, suggestion)
 
 
-def link_warnings(link: LinkDescription, geometry: LinkGeometry | None) -> list[Finding]:
+def link_warnings(link: LinkDescription, geometry: LinkShape | None) -> list[InertiaFinding]:
     """The warnings of a link without error, in the module docstring's order."""
     name = shown(link.name)
-    out: list[Finding] = []
+    out: list[InertiaFinding] = []
 
     def warn(code: str, message: str) -> None:
-        out.append(Finding(code, "warning", link.name, f"link '{name}': {message}"))
+        out.append(InertiaFinding(code, "warning", link.name, f"link '{name}': {message}"))
 
     has_geometry = bool(link.collision or link.visual)
     point_mass = link.mass > 0.0 and is_zero(link.inertia)
@@ -180,7 +180,7 @@ def twins(names: list[str]) -> list[tuple[str, str]]:
     return pairs
 
 
-def mirror_finding(a: LinkDescription, b: LinkDescription) -> Finding | None:
+def mirror_finding(a: LinkDescription, b: LinkDescription) -> InertiaFinding | None:
     """`mirror_asymmetry` for twins with equal masses whose principal moments differ by more
     than half of the larger one."""
     if not (a.mass > 0.0 and abs(a.mass - b.mass) <= TWIN_MASS_REL_TOL * max(a.mass, b.mass)):
@@ -191,7 +191,7 @@ def mirror_finding(a: LinkDescription, b: LinkDescription) -> Finding | None:
         return None
     shown_a = ", ".join(f"{x:.6g}" for x in la)
     shown_b = ", ".join(f"{x:.6g}" for x in lb)
-    return Finding(
+    return InertiaFinding(
         "mirror_asymmetry",
         "warning",
         a.name,

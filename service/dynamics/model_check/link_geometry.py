@@ -30,7 +30,7 @@ MeshReader = Callable[[str], Triangles | None]
 
 
 @dataclass(frozen=True)
-class LinkGeometry:
+class LinkShape:
     """`source` "collision" or "visual", the unit-density mass properties in the link frame,
     and the asset keys of open meshes replaced by their convex hulls."""
 
@@ -61,7 +61,7 @@ def _element(
     return None if part is None else placed(part, rotation, translation)
 
 
-def link_geometry(link: LinkDescription, read: MeshReader) -> LinkGeometry | None:
+def link_geometry(link: LinkDescription, read: MeshReader) -> LinkShape | None:
     """The geometry of `link` (module docstring), None if neither source counts."""
     for source, elements in (("collision", link.collision), ("visual", link.visual)):
         if not elements:
@@ -71,5 +71,5 @@ def link_geometry(link: LinkDescription, read: MeshReader) -> LinkGeometry | Non
         if all(p is not None for p in parts):
             whole = combined([p for p in parts if p is not None])
             if whole is not None:
-                return LinkGeometry(source, whole, open_meshes)
+                return LinkShape(source, whole, open_meshes)
     return None

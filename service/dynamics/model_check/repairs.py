@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from service.dynamics.model_check.link_geometry import LinkGeometry
+from service.dynamics.model_check.link_geometry import LinkShape
 from service.registry.link_descriptions import LinkDescription
 
 # rows a of the constraints a · λ ≥ 0
@@ -62,7 +62,7 @@ def nearest_valid(link: LinkDescription) -> tuple[np.ndarray, np.ndarray]:
     return link.center_of_mass.copy(), (fixed + fixed.T) / 2.0
 
 
-def from_geometry(link: LinkDescription, geometry: LinkGeometry) -> tuple[np.ndarray, np.ndarray]:
+def from_geometry(link: LinkDescription, geometry: LinkShape) -> tuple[np.ndarray, np.ndarray]:
     """(centre of mass, inertia) of the `geometry` repair of `link`."""
     props = geometry.properties
     return props.center.copy(), props.inertia * (link.mass / props.volume)

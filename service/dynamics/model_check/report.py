@@ -25,14 +25,14 @@ from collections.abc import Sequence
 from typing import Any
 
 from service.dynamics.model_check.findings import (
-    Finding,
+    InertiaFinding,
     is_zero,
     link_error,
     link_warnings,
     mirror_finding,
     twins,
 )
-from service.dynamics.model_check.link_geometry import LinkGeometry, link_geometry
+from service.dynamics.model_check.link_geometry import LinkShape, link_geometry
 from service.dynamics.model_check.repairs import from_geometry, nearest_valid, repair_record
 from service.errors import InvalidInput
 from service.registry.check_inputs import CheckInputs
@@ -41,7 +41,7 @@ from service.registry.link_descriptions import LinkDescription
 from service.registry.safe_xml import shown
 
 
-def _geometries(inputs: CheckInputs, links: list[LinkDescription]) -> list[LinkGeometry | None]:
+def _geometries(inputs: CheckInputs, links: list[LinkDescription]) -> list[LinkShape | None]:
     read = functools.lru_cache(maxsize=None)(inputs.read_mesh)  # a mesh shared by links: once
     return [link_geometry(link, read) for link in links]
 
@@ -51,7 +51,7 @@ def _listed(link: LinkDescription) -> bool:
     return link.mass > 0.0 or not is_zero(link.inertia) or bool(link.collision or link.visual)
 
 
-def _link_entry(link: LinkDescription, geometry: LinkGeometry | None) -> dict[str, Any]:
+def _link_entry(link: LinkDescription, geometry: LinkShape | None) -> dict[str, Any]:
     shape = None
     if geometry is not None:
         props = geometry.properties
@@ -75,10 +75,10 @@ def _link_entry(link: LinkDescription, geometry: LinkGeometry | None) -> dict[st
 
 
 def link_findings(
-    links: Sequence[LinkDescription], geometries: Sequence[LinkGeometry | None]
-) -> list[Finding]:
+    links: Sequence[LinkDescription], geometries: Sequence[LinkShape | None]
+) -> list[InertiaFinding]:
     """Every finding of `links` (with their geometries), link by link, then the twins'."""
-    out: list[Finding] = []
+    out: list[InertiaFinding] = []
     for link, geometry in zip(links, geometries, strict=True):
         error = link_error(link)
         out += [error] if error is not None else link_warnings(link, geometry)

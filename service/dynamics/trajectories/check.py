@@ -1,17 +1,21 @@
 """Does a sampled joint trajectory stay within the robot's limits?
 
 Input: samples at times t [N] (s, strictly increasing, N ≥ 2) of q [N, nq], and optionally v and
-a [N, nv]. Where v and a are absent they are the derivatives of the not-a-knot cubic spline
-through (t, q) (`evaluation.SampleSpline`; robots with nq = nv only), and the check also
+a [N, nv]. Where v and a are absent they are the derivatives of the cubic spline through (t, q)
+with the `boundary` conditions asked for (`evaluation.SampleSpline`: not-a-knot, clamped or
+natural; robots with nq = nv only), and the check also
 evaluates k − 1 evenly spaced points inside every interval (k = `samples_per_interval`), so that
 a limit broken between two samples is found. Where v and a are given, the motion is known at the
 samples only and is evaluated there.
 
 At every evaluated point: τ = M(q) a + C(q, v) v + g(q) (+ friction(v) where a friction model
-is given), by batch RNEA. Answer: τ at the samples, per 1-DoF joint the peaks of |τ| and |v|,
-the extremes of q and their ratios to the limits, the violations with their time spans, and the
-work: the integrals over time of max(τᵀv, 0) (positive, J) and min(τᵀv, 0) (negative, J) by the
-trapezoidal rule over the evaluated points (`summary.MotionSummary`).
+is given) and the wrench each 1-DoF joint transmits, by RNEA state by state (its `data.f`: the
+same pass). Answer: τ at the samples, per 1-DoF joint the peaks of |τ|, |v| and |a|, the
+extremes of q and their ratios to the limits (acceleration limits where the request gives
+them; `summary.MotionSummary`), its RMS effort, peak power and peak loads
+(`loads.JointLoadPeaks`), the violations with their time spans, and the work: the integrals
+over time of max(τᵀv, 0) (positive, J) and min(τᵀv, 0) (negative, J) by the trapezoidal rule
+over the evaluated points.
 
 Cost: the evaluated points × nv (`check_work`), refused over `max_work` before anything is
 computed (`admit_check`: the service's ROBODYN_MAX_TRAJECTORY_WORK). The points are evaluated
@@ -29,9 +33,19 @@ from typing import Any
 import numpy as np
 
 from service.dynamics.stopping import ShouldStop, Stopper
-from service.dynamics.trajectories import rnea
-from service.dynamics.trajectories.evaluation import SampleSpline, chunks, evaluated_points
-from service.dynamics.trajectories.inputs import positive, sample_times, samples
+from service.dynamics.trajectories.evaluation import (
+    BOUNDARIES,
+    SampleSpline,
+    chunks,
+    evaluated_points,
+)
+from service.dynamics.trajectories.inputs import (
+    acceleration_limits,
+    positive,
+    sample_times,
+    samples,
+)
+from service.dynamics.trajectories.loads import JointLoadPeaks, inverse_dynamics_with_loads
 from service.dynamics.trajectories.summary import MotionSummary
 from service.errors import InvalidInput, NonFiniteResult
 from service.registry.robot import Robot
@@ -120,13 +134,17 @@ def check_trajectory(
     *,
     effort_scale: float = 1.0,
     velocity_scale: float = 1.0,
+    acceleration: Any = None,
+    boundary: str = "not-a-knot",
     samples_per_interval: int = 4,
     friction: Friction | None = None,
 ) -> TrajectoryCheck:
     """Check the motion (t, q[, v, a]) of `robot` against its effort, velocity and position
-    limits (effort and velocity limits × `effort_scale`, `velocity_scale`). q is in the API's
-    order (`Robot.pinocchio_q`). `friction(v)`, where given, adds a friction torque to τ.
-    Raises InvalidInput / DimensionMismatch naming the field at fault."""
+    limits (effort and velocity limits × `effort_scale`, `velocity_scale`) and the joint
+    acceleration limits `acceleration` [nv] (None, or an entry None: no limit). `boundary`:
+    the spline's end conditions where v or a is absent. q is in the API's order
+    (`Robot.pinocchio_q`). `friction(v)`, where given, adds a friction torque to τ. Raises
+    InvalidInput / DimensionMismatch naming the field at fault."""
     times = sample_times("t", t)
     n = times.shape[0]
     qs = configurations(robot, samples("q", q, n, robot.nq, "nq", "t"))
@@ -140,6 +158,8 @@ def check_trajectory(
         acc,
         effort_scale=effort_scale,
         velocity_scale=velocity_scale,
+        acceleration=acceleration,
+        boundary=boundary,
         samples_per_interval=samples_per_interval,
         friction=friction,
     )
@@ -154,6 +174,8 @@ def check_samples(
     *,
     effort_scale: float = 1.0,
     velocity_scale: float = 1.0,
+    acceleration: Any = None,
+    boundary: str = "not-a-knot",
     samples_per_interval: int = 4,
     friction: Friction | None = None,
     max_work: int | None = None,
@@ -167,6 +189,9 @@ def check_samples(
     n = times.shape[0]
     effort_scale = positive("effort_scale", effort_scale)
     velocity_scale = positive("velocity_scale", velocity_scale)
+    accel = acceleration_limits("limits.acceleration", acceleration, robot.nv)
+    if boundary not in BOUNDARIES:
+        raise InvalidInput(f"boundary must be one of {', '.join(BOUNDARIES)}")
     k = _samples_per_interval(samples_per_interval)
     given = vs is not None or acc is not None
     if (vs is None or acc is None) and robot.nq != robot.nv:
@@ -183,7 +208,7 @@ def check_samples(
             f"exceed the {MAX_EVALUATED_POINTS} points one check evaluates"
         )
     admit_check(n, step, not given, robot.nv, max_work)
-    spline = SampleSpline(times, qs) if vs is None or acc is None else None
+    spline = SampleSpline(times, qs, boundary) if vs is None or acc is None else None
     stop = Stopper(
         should_stop,
         "the trajectory check",
@@ -191,21 +216,25 @@ def check_samples(
         total=points,
         stage="inverse dynamics",
     )
-    summary = MotionSummary(robot, effort_scale, velocity_scale)
+    summary = MotionSummary(robot, effort_scale, velocity_scale, accel)
+    loads = JointLoadPeaks(robot, float(np.diff(times).max()))
     tau = np.empty((n, robot.nv))
     v_samples = np.empty((n, robot.nv)) if vs is None else vs
     for chunk in chunks(times, qs, vs, acc, spline, step, chunk_points(robot.nv)):
         stop.poll(chunk.first)
-        tau_chunk = rnea.inverse_dynamics(robot, chunk.q, chunk.v, chunk.a, checked=False)
-        if friction is not None:
-            with np.errstate(over="ignore", invalid="ignore"):
-                tau_chunk = tau_chunk + friction(chunk.v)
+        tau_chunk, wrenches = inverse_dynamics_with_loads(
+            robot, chunk.q, chunk.v, chunk.a, friction
+        )
         _require_finite_torques(tau_chunk, chunk.t, times, given)
-        summary.add(chunk.t, chunk.q, chunk.v, tau_chunk)
+        summary.add(chunk.t, chunk.q, chunk.v, chunk.a, tau_chunk)
+        loads.add(chunk.t, chunk.v, tau_chunk, wrenches)
         tau[chunk.samples] = tau_chunk[chunk.sample_rows]
         if vs is None:
             v_samples[chunk.samples] = chunk.v[chunk.sample_rows]
-    joints = summary.joints()
+    joints = [
+        {**joint, **figures}
+        for joint, figures in zip(summary.joints(), loads.figures(), strict=True)
+    ]
     violations = summary.violations.in_time_order()
     return TrajectoryCheck(
         feasible=not violations,

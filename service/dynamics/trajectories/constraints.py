@@ -18,7 +18,7 @@ this for θ = 0 and θ = 1; here it is written for θ = 0, 1/m, …, 1 (m + 1 po
 interval), so the solver itself keeps the limits inside the intervals. Each row is divided by
 its limit (f / f_max ≤ 1): rows of every unit then weigh alike in the solver's tolerances.
 A `Family` holds one limited quantity of every joint at those points; `tightening` (≤ 1) per
-joint shrinks the limit the solver sees, for the correction `retime` makes. The rows go to
+stage and joint shrinks the limit the solver sees, for the correction `retime` makes. The rows go to
 toppra as `toppra_rows.SampledRows`.
 """
 
@@ -54,18 +54,20 @@ class Family:
         self, theta: np.ndarray, deltas: np.ndarray, tightening: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The solver's rows a u + b x + c ≤ 1 per stage: arrays (N + 1, R), the limits × the
-        per-joint `tightening` [J]. Stage N (the last gridpoint) gets the rows of its own
-        point, repeated (θ = 0 of a zero-length interval)."""
+        `tightening` (≤ 1) per stage and joint, (N + 1, J) (or [J]: the same at every stage).
+        Stage N (the last gridpoint) gets the rows of its own point, repeated (θ = 0 of a
+        zero-length interval)."""
         a = self.A + 2.0 * theta[None, :, None] * deltas[:, None, None] * self.B
         coefficients = []
         for inner, end in ((a, self.A), (self.B, self.B), (self.C, self.C)):
             last = np.broadcast_to(end[-1:, -1:, :], (1, *inner.shape[1:]))
             coefficients.append(np.concatenate([inner, last]))  # (N + 1, p, J)
-        upper = self.upper * tightening
+        shrink = np.asarray(tightening).reshape(-1, 1, len(self.joints))
+        upper = self.upper * shrink
         out = []
         for f in coefficients:
             parts = [f / upper]
             if self.lower is not None:
-                parts.append(-f / (-self.lower * tightening))
+                parts.append(-f / (-self.lower * shrink))
             out.append(np.concatenate(parts, axis=2).reshape(f.shape[0], -1))
         return out[0], out[1], out[2]

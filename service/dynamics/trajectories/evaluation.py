@@ -1,7 +1,9 @@
 """The points a trajectory check evaluates, with q, v and a there, chunk by chunk.
 
 N samples at times t [N] (s) with q [N, nq]. Where v and a are both absent they are the
-derivatives of the not-a-knot cubic spline through (t, q) (`SampleSpline`), and with
+derivatives of the cubic spline through (t, q) (`SampleSpline`: not-a-knot, clamped — zero
+velocity at both ends, a motion from rest to rest — or natural — zero acceleration at both
+ends), and with
 k = samples_per_interval the check also evaluates k − 1 evenly spaced points inside every
 interval: (N − 1) k + 1 points in time order, sample i at point i·k (`evaluation_times`).
 Otherwise the N samples are the points (a missing v or a is the spline's, at the samples).
@@ -22,6 +24,7 @@ from scipy.interpolate import CubicSpline
 from service.errors import InvalidInput
 
 SPLINE_COLUMNS = 16  # coordinates fitted at once (the fit's solve holds ~10 arrays of them)
+BOUNDARIES = ("not-a-knot", "clamped", "natural")  # scipy's bc_type of the same names
 
 
 def evaluated_points(samples: int, samples_per_interval: int, spline: bool) -> int:
@@ -43,14 +46,15 @@ def evaluation_times(t: np.ndarray, k: int, start: int = 0, stop: int | None = N
 
 
 class SampleSpline:
-    """The not-a-knot cubic spline through (t, q), kept in the unit time τ = (t − t₀) / T
+    """The cubic spline through (t, q) with the end conditions `boundary` (one of BOUNDARIES,
+    `scipy.interpolate.CubicSpline`'s bc_type), kept in the unit time τ = (t − t₀) / T
     (T the largest sample interval, τ built from the intervals), so that its pieces never
     raise t to the third power: q(t) = Q(τ), q̇ = Q'(τ) / T, q̈ = Q''(τ) / T². Fitted
     SPLINE_COLUMNS coordinates at a time (each coordinate's spline is its own). InvalidInput
     names the samples where q changes faster than float64 holds (Δq / Δt, or a derivative of
     the spline, overflows)."""
 
-    def __init__(self, times: np.ndarray, qs: np.ndarray) -> None:
+    def __init__(self, times: np.ndarray, qs: np.ndarray, boundary: str = "not-a-knot") -> None:
         steps = np.diff(times)
         self.times = times
         groups = [slice(c, c + SPLINE_COLUMNS) for c in range(0, qs.shape[1], SPLINE_COLUMNS)]
@@ -60,9 +64,7 @@ class SampleSpline:
             raise self._too_fast(first, "velocity overflows")
         self.unit = float(steps.max())  # T, s
         self.tau = np.concatenate([[0.0], np.cumsum(steps / self.unit)])
-        self.splines = [
-            CubicSpline(self.tau, qs[:, g], bc_type="not-a-knot", axis=0) for g in groups
-        ]
+        self.splines = [CubicSpline(self.tau, qs[:, g], bc_type=boundary, axis=0) for g in groups]
 
     @staticmethod
     def _first_overflow(q: np.ndarray, steps: np.ndarray) -> int | None:

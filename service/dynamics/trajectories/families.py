@@ -54,11 +54,8 @@ def sample_path(
     )
 
 
-def families(
-    samples: PathSamples, limits: list[JointLimit], acceleration: np.ndarray | None
-) -> list[Family]:
-    """The velocity, acceleration (where `acceleration` [nv] is given) and effort families of
-    the joints that have those limits."""
+def families(samples: PathSamples, limits: list[JointLimit]) -> list[Family]:
+    """The velocity, acceleration and effort families of the joints that have those limits."""
     out = []
     zero = np.zeros_like(samples.dq)
     moving = [lim for lim in limits if lim.velocity is not None]
@@ -75,17 +72,19 @@ def families(
                 None,
             )
         )
-    if acceleration is not None:
-        iv = [lim.iv for lim in limits]
+    quick = [lim for lim in limits if lim.acceleration is not None]
+    if quick:
+        iv = [lim.iv for lim in quick]
+        acceleration = np.array([lim.acceleration for lim in quick])
         out.append(
             Family(
                 "acceleration",
-                [lim.name for lim in limits],
+                [lim.name for lim in quick],
                 samples.dq[..., iv],
                 samples.ddq[..., iv],
                 zero[..., iv],
-                acceleration[iv],
-                -acceleration[iv],
+                acceleration,
+                -acceleration,
             )
         )
     strong = [lim for lim in limits if lim.effort is not None]
@@ -148,16 +147,22 @@ def subsample(family: Family, every: int) -> Family:
     )
 
 
-def ratios(family: Family, profile: Profile, theta: np.ndarray) -> np.ndarray:
-    """The estimated largest value of the family's quantity over the whole timed path (the
-    envelope over each interval, `envelope`), divided by its limit, per joint [J]; for
-    velocity in squared units (q̇² / v_max²)."""
+def interval_ratios(family: Family, profile: Profile, theta: np.ndarray) -> np.ndarray:
+    """The estimated largest value of the family's quantity over each interval of the timed
+    path (its envelope there, `envelope`), divided by its limit: (N, J); for velocity in
+    squared units (q̇² / v_max²)."""
     _, x, u = profile.on_intervals(theta)
     f = family.values(x, u)
-    worst = (upper_envelope(f) / family.upper).max(axis=0)
+    worst = upper_envelope(f) / family.upper
     if family.lower is not None:
-        worst = np.maximum(worst, (lower_envelope(f) / family.lower).max(axis=0))
+        worst = np.maximum(worst, lower_envelope(f) / family.lower)
     ratio: np.ndarray = worst
+    return ratio
+
+
+def ratios(family: Family, profile: Profile, theta: np.ndarray) -> np.ndarray:
+    """The largest of `interval_ratios` over the whole path, per joint [J]."""
+    ratio: np.ndarray = interval_ratios(family, profile, theta).max(axis=0)
     return ratio
 
 

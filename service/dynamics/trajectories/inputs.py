@@ -66,14 +66,28 @@ def positive(name: str, value: Any) -> float:
     return x
 
 
-def positive_vector(name: str, value: Any, width: int, width_name: str) -> np.ndarray:
-    """A vector of `width` finite numbers > 0 (per-joint limits)."""
-    arr = _array(name, value, 1)
+def acceleration_limits(name: str, value: Any, width: int) -> np.ndarray | None:
+    """Joint acceleration limits: None, or `width` (nv) entries each a finite number > 0 or
+    None (no limit on that joint); an array [nv] with inf for no limit, or None where no
+    entry limits anything."""
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise InvalidInput(f"{name} must be an array of nv numbers or nulls")
+    entries = [np.inf if x is None else x for x in value]
+    try:
+        arr = np.asarray(entries, dtype=np.float64)
+    except (ValueError, TypeError):
+        raise InvalidInput(f"{name} must be an array of nv numbers or nulls") from None
+    if arr.ndim != 1:
+        raise InvalidInput(f"{name} must be 1-D, not {arr.ndim}-D")
     if arr.shape[0] != width:
-        raise DimensionMismatch(
-            f"{name} has {arr.shape[0]} entries; the robot has {width_name} = {width}"
-        )
-    bad = np.flatnonzero(~(arr > 0))
+        raise DimensionMismatch(f"{name} has {arr.shape[0]} entries; the robot has nv = {width}")
+    given = np.array([x is not None for x in value], dtype=bool)
+    bad = np.flatnonzero(given & ~((arr > 0) & np.isfinite(arr)))
     if bad.size:
-        raise InvalidInput(f"{name} must be greater than 0; entry {int(bad[0])} is not")
-    return arr
+        raise InvalidInput(
+            f"{name} must be finite numbers greater than 0 (or null: no limit); entry "
+            f"{int(bad[0])} is not"
+        )
+    return arr if given.any() else None

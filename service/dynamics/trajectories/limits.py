@@ -1,8 +1,9 @@
 """The limits a motion is checked against, and the time spans where a series breaks them.
 
 A limit belongs to a 1-DoF joint (nv = 1: revolute, prismatic, continuous): its effort limit
-|τ| ≤ τ_max (N·m or N), velocity limit |v| ≤ v_max (rad/s or m/s) and position limits
-lower ≤ q ≤ upper (rad or m; none for a continuous joint, whose q is (cos θ, sin θ)). A model
+|τ| ≤ τ_max (N·m or N), velocity limit |v| ≤ v_max (rad/s or m/s), position limits
+lower ≤ q ≤ upper (rad or m; none for a continuous joint, whose q is (cos θ, sin θ)), and the
+acceleration limit |a| ≤ a_max (rad/s² or m/s²) a request gives (models carry none). A model
 value that is not a usable bound (non-finite, ≤ 0 for effort and velocity, |x| ≥ 1e300 for
 positions, or lower = upper: URDF's "unset" conventions) is no limit (None).
 """
@@ -35,7 +36,8 @@ def _position_bound(value: float) -> float | None:
 @dataclass(frozen=True)
 class JointLimit:
     """The limits of one 1-DoF joint: its index in q (`iq`) and in v (`iv`), effort and velocity
-    limits after the request's scales, position bounds (None where there is none);
+    limits after the request's scales, position bounds, the acceleration limit the request
+    gives (None where there is none);
     `positioned`: q[iq] is the joint's position (revolute, prismatic; not continuous)."""
 
     name: str
@@ -46,13 +48,18 @@ class JointLimit:
     lower: float | None
     upper: float | None
     positioned: bool
+    acceleration: float | None = None
 
 
 def joint_limits(
-    robot: Robot, effort_scale: float = 1.0, velocity_scale: float = 1.0
+    robot: Robot,
+    effort_scale: float = 1.0,
+    velocity_scale: float = 1.0,
+    acceleration: np.ndarray | None = None,
 ) -> list[JointLimit]:
     """The limits of every 1-DoF joint of `robot`, in model order; effort limits × effort_scale,
-    velocity limits × velocity_scale (fractions of the model's limits)."""
+    velocity limits × velocity_scale (fractions of the model's limits), and the acceleration
+    limits `acceleration` [nv] (inf or absent: none)."""
     m = robot.model
     out = []
     for jid in range(1, m.njoints):
@@ -73,6 +80,11 @@ def joint_limits(
                 lower=_position_bound(lower) if bounded else None,
                 upper=_position_bound(upper) if bounded else None,
                 positioned=positioned,
+                acceleration=(
+                    float(acceleration[iv])
+                    if acceleration is not None and np.isfinite(acceleration[iv])
+                    else None
+                ),
             )
         )
     return out

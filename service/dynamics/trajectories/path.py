@@ -69,6 +69,40 @@ class WaypointPath:
             value = value / self.length
         return np.asarray(value)
 
+    def extremes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The exact smallest and largest value of every coordinate on every spline segment,
+        and where each is (s): (low, s_low, high, s_high), each (K − 1, nq). On a segment the
+        path is one cubic, so its extremes are at the segment's ends or where its derivative,
+        a quadratic, vanishes inside it; the ends are the waypoints themselves."""
+        c = self.spline.c  # (4, K − 1, nq): c0 h³ + c1 h² + c2 h + c3 on [σ_k, σ_k+1]
+        width = np.diff(self.spline.x)[:, None]  # (K − 1, 1), in σ
+        a, b, d = 3.0 * c[0], 2.0 * c[1], c[2]  # the derivative a h² + b h + d
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            root = np.sqrt(b * b - 4.0 * a * d)
+            quadratic = np.abs(a) > 1e-14 * (np.abs(b) + np.abs(d))
+            h1 = np.where(quadratic, (-b + root) / (2.0 * a), -d / b)
+            h2 = np.where(quadratic, (-b - root) / (2.0 * a), np.nan)
+        candidates = [np.zeros_like(a), np.broadcast_to(width, a.shape), h1, h2]
+        values, places = [], []
+        for h in candidates:
+            inside = np.isfinite(h) & (h >= 0.0) & (h <= width)
+            h = np.where(inside, h, 0.0)
+            value = ((c[0] * h + c[1]) * h + c[2]) * h + c[3]
+            values.append(np.where(inside, value, c[3]))
+            places.append(self.spline.x[:-1, None] + h)
+        values_arr, places_arr = np.stack(values), np.stack(places)
+        # the ends exactly: the waypoints, not the cubic evaluated there
+        kept = self.waypoints[self.indices]
+        values_arr[0], values_arr[1] = kept[:-1], kept[1:]
+        low, high = values_arr.argmin(axis=0), values_arr.argmax(axis=0)
+        pick = np.indices(low.shape)
+        return (
+            values_arr[low, pick[0], pick[1]],
+            places_arr[low, pick[0], pick[1]] * self.length,
+            values_arr[high, pick[0], pick[1]],
+            places_arr[high, pick[0], pick[1]] * self.length,
+        )
+
     def where(self, s: float) -> tuple[int, float]:
         """(the caller's index of the waypoint that starts the segment holding s, the path
         fraction s / L)."""

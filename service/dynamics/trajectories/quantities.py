@@ -30,8 +30,10 @@ def trajectory_check(
     s: States,
     *,
     t: Any,
-    effort_scale: float = 1.0,
-    velocity_scale: float = 1.0,
+    limits: dict[str, Any] | None = None,
+    effort_scale: float | None = None,
+    velocity_scale: float | None = None,
+    boundary: str = "not-a-knot",
     samples_per_interval: int = 4,
     friction: bool = False,
     max_trajectory_work: int | None = None,
@@ -39,19 +41,27 @@ def trajectory_check(
 ) -> dict[str, Any]:
     """Check the motion sampled at times `t` [N] (s, strictly increasing, N ≥ 2) with
     configurations q [N][nq] and optional velocities v and accelerations a [N][nv] against the
-    robot's effort, velocity and position limits (effort and velocity limits × effort_scale,
-    velocity_scale). Where v and a are absent they are the derivatives of the not-a-knot cubic
-    spline through (t, q) (robots with nq = nv), and k − 1 evenly spaced points inside every
-    interval are evaluated too (k = samples_per_interval, at most 64). τ = M(q) a + C(q, v) v
-    + g(q) by RNEA at every evaluated point. Answer: `feasible`, `tau` [N][nv] and `v`
-    [N][nv] at the samples, per 1-DoF joint its limits, peaks and ratios (peak ÷ limit over
-    every evaluated point, null without a limit), the `violations` with their time spans,
-    and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The samples are one motion:
-    never split into batches of states; its evaluated points are computed in chunks, and
-    `should_stop` is asked between them.
+    robot's effort, velocity and position limits and the joint acceleration limits given:
+    `limits` {velocity_scale, effort_scale, acceleration [nv] (an entry null: no limit)}
+    (the scales may also come at top level, not both forms at once). Where v and a are absent
+    they are the derivatives of the cubic spline through (t, q) with the `boundary` conditions
+    not-a-knot (default), clamped (zero velocity at both ends: rest to rest) or natural (zero
+    acceleration at both ends) (robots with nq = nv), and k − 1 evenly spaced points inside
+    every interval are evaluated too (k = samples_per_interval, at most 64). τ = M(q) a +
+    C(q, v) v + g(q) by RNEA at every evaluated point. Answer: `feasible`, `tau` [N][nv] and
+    `v` [N][nv] at the samples, per 1-DoF joint its limits, peaks of |τ|, |v| and |a| and
+    ratios (peak ÷ limit over every evaluated point, null without a limit) and its sizing
+    figures (rms_effort √(∫ τ² dt ÷ duration), peak_power max |τ v| in W, and the peaks of
+    the wrench (f, n) it transmits, in its frame with s its axis: peak_force ‖f‖, peak_moment
+    ‖n‖, peak_axial_force |f · s|, peak_bending_moment ‖n − (n · s) s‖), the `violations`
+    with their time spans, and the `work` (J): ∫ max(τᵀv, 0) dt and ∫ min(τᵀv, 0) dt. The
+    samples are one motion: never split into batches of states; its evaluated points are
+    computed in chunks, and `should_stop` is asked between them.
     With `friction` (a robot made by identification) τ includes the joints' friction torque,
-    offset + coulomb ∘ sign(v) + viscous ∘ v. Its work, evaluated points × nv, is at most
-    `max_trajectory_work` (the service's setting; over it a 422 before computing)."""
+    offset + coulomb ∘ sign(v) + viscous ∘ v (and the joint loads, along each joint's axis).
+    Its work, evaluated points × nv, is at most `max_trajectory_work` (the service's setting;
+    over it a 422 before computing)."""
+    scales = _check_scales(limits, effort_scale, velocity_scale)
     times = sample_times("t", t)
     q = s["q"]
     if q.shape[0] != times.shape[0]:
@@ -62,8 +72,10 @@ def trajectory_check(
         q,
         s.arrays.get("v"),
         s.arrays.get("a"),
-        effort_scale=effort_scale,
-        velocity_scale=velocity_scale,
+        effort_scale=scales.get("effort_scale", 1.0),
+        velocity_scale=scales.get("velocity_scale", 1.0),
+        acceleration=scales.get("acceleration"),
+        boundary=boundary,
         samples_per_interval=samples_per_interval,
         friction=joint_friction(robot) if friction else None,
         max_work=max_trajectory_work,
@@ -77,6 +89,24 @@ def trajectory_check(
         "violations": result.violations,
         "work": result.work,
     }
+
+
+def _check_scales(
+    limits: dict[str, Any] | None, effort_scale: float | None, velocity_scale: float | None
+) -> dict[str, Any]:
+    """The check's limits from either form: the `limits` object, or the scales at top
+    level; both at once is an InvalidInput."""
+    top = {
+        name: value
+        for name, value in (("effort_scale", effort_scale), ("velocity_scale", velocity_scale))
+        if value is not None
+    }
+    if limits is not None and top:
+        raise InvalidInput(
+            f"{' and '.join(top)} at top level and limits: give the scales in one place, "
+            "preferably limits (velocity_scale, effort_scale, acceleration)"
+        )
+    return dict(limits) if limits is not None else top
 
 
 def check_work(robot: Robot, s: States, options: dict[str, Any]) -> int:
@@ -106,9 +136,11 @@ def retime(
     clamped: zero derivative at both ends; parameterised by the cumulative joint-space
     distance between waypoints), from rest to rest, under the joint velocity limits ×
     limits.velocity_scale, the effort limits × limits.effort_scale and the joint accelerations
-    limits.acceleration [nv] where given: TOPP-RA (toppra) with the limits kept at 9 points of
-    each of about 200 path intervals, then verified between them and corrected, so that the
-    motion is within every limit everywhere (1e-6 relative). Answer: `duration` (s), samples
+    limits.acceleration [nv] where given (an entry null: no limit on that joint): TOPP-RA
+    (toppra) with the limits kept at 3 points of each of 800 + 16 per segment path intervals,
+    then verified between them and corrected, so that the motion is within every limit
+    everywhere (1e-6 relative) and at most 1 % slower than the optimum. A waypoint on a
+    position limit is within it. Answer: `duration` (s), samples
     every `sample_dt` s and at the end — `t` [M], `q` [M][nq], `v`, `a`, `tau` [M][nv] — and
     `check`, the trajectory check of those samples. Robots whose joints are all revolute or
     prismatic (else 422 unsupported_model); a path no timing can follow is 422

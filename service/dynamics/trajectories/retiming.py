@@ -4,29 +4,34 @@ and corrected.
 
 1. The path: the clamped cubic spline through the waypoints, near-duplicates merged
    (`path.WaypointPath`).
-2. The grid: N intervals of the path (`INTERVALS`, the spline's knots among the gridpoints), and
-   a verification grid of V + 1 points per interval (`VERIFY_POINTS`).
-3. Before any timing: a path that leaves a joint's position limits, or on which gravity alone
-   needs more than a joint's torque limit, is `InfeasiblePath`: no timing can follow it.
+2. The grid (`gridpoints`): each spline segment gets MIN_SEGMENT_INTERVALS intervals plus its
+   share by length of INTERVALS, denser towards its knots (the spline's knots among the
+   gridpoints), and a verification grid of V + 1 points per interval (`VERIFY_POINTS`).
+3. Before any timing: a path that leaves a joint's position limits (the spline's exact
+   extremes), or on which gravity alone needs more than a joint's torque limit, is
+   `InfeasiblePath`: no timing can follow it.
 4. TOPP-RA (toppra's `TOPPRA` with its seidel solver) with the limits enforced at m + 1 points
-   of every interval (`constraints`, m = `SOLVE_POINTS`), each limit tightened by
-   `INITIAL_MARGIN`: the path speed profile x = ṡ² at the gridpoints (`profile.Profile`). The
-   solver works in the path's own units (`toppra_rows`: s / L and x / x̄), so that a path
-   1e-10 rad long, or limits 1e-10 of the model's, are timed like any other; a limit whose
-   path quantities overflow float64 is an InvalidInput naming it (`families`).
+   of every interval (`constraints`, m = `SOLVE_POINTS`: its ends and middle), each limit
+   tightened by `INITIAL_MARGIN`: the path speed profile x = ṡ² at the gridpoints
+   (`profile.Profile`). The solver works in the path's own units (`toppra_rows`: s / L and
+   x / x̄), so that a path 1e-10 rad long, or limits 1e-10 of the model's, are timed like any
+   other; a limit whose path quantities overflow float64 is an InvalidInput naming it
+   (`families`).
 5. The exact timed motion on the verification grid: every limited quantity's estimated maximum
    over each interval (`envelope`: the points' maximum plus a curvature margin) divided by
-   its limit. Where one exceeds `RESOLVE_ABOVE`, that joint's limit is tightened by 1.5 × the
-   overshoot and TOPP-RA runs again (up to `MAX_RESOLVES` times); a smaller overshoot (the
-   usual case: about 1e-4) is removed by slowing the whole motion uniformly by the smallest
-   factor that does it (`families.slowdown`), which lengthens it by about half the overshoot.
+   its limit. Where one exceeds `TIGHTEN_ABOVE`, the limits of that interval are tightened by
+   the square of the overshoot and TOPP-RA runs again (up to `MAX_TIGHTENINGS` times; the
+   motion slows there only); what overshoot remains (about 1e-4) is removed by slowing the
+   whole motion uniformly by the smallest factor that does it (`families.slowdown`), which
+   lengthens it by about half the overshoot.
 6. The answer: the motion sampled every `sample_dt` (and at its end), τ by RNEA, and the
    trajectory check of those samples. A motion longer than `max_samples` × `sample_dt` is
    refused (`TooManySamples`) however long it is: the limits decide what is infeasible, never
    the motion's length.
 
-Cost: TOPP-RA's rows (the limited quantities of every joint at 9 points of every interval) and
-their solve grow with the path's intervals × nv × the limited quantities (`retime_work`), and
+Cost: TOPP-RA's rows (the limited quantities of every joint at 3 points of every interval), the
+path on the verification grid (9 points of every interval) and their solve grow with the
+path's intervals × nv × the limited quantities (`retime_work`), and
 are held at once (the solver needs the whole path). A request over `max_work` is refused before
 anything is computed (`admit_retime`: the service's ROBODYN_MAX_RETIME_WORK), from its number
 of waypoints: the grid has at most INTERVALS + MIN_SEGMENT_INTERVALS × (K − 1) intervals.
@@ -48,13 +53,14 @@ from service.dynamics.trajectories.envelope import lower_envelope, upper_envelop
 from service.dynamics.trajectories.families import (
     PathSamples,
     families,
+    interval_ratios,
     ratios,
     sample_path,
     slowdown,
     subsample,
 )
-from service.dynamics.trajectories.inputs import positive, positive_vector
-from service.dynamics.trajectories.limits import JointLimit, joint_limits
+from service.dynamics.trajectories.inputs import acceleration_limits, positive
+from service.dynamics.trajectories.limits import JointLimit, joint_limits, slack
 from service.dynamics.trajectories.path import WaypointPath
 from service.dynamics.trajectories.profile import Profile
 from service.errors import InfeasiblePath, InvalidInput, UnsupportedModel
@@ -63,13 +69,14 @@ from service.registry.robot import Robot
 # toppra's warnings (a re-run, a slowdown) are decisions taken here, not news for the log
 logging.getLogger("toppra").setLevel(logging.ERROR)
 
-INTERVALS = 200  # TOPP-RA intervals along the path
-MIN_SEGMENT_INTERVALS = 3  # per spline segment (waypoints close together get a finer grid)
-SOLVE_POINTS = 8  # m: points per interval (besides its start) where the solver keeps limits
+INTERVALS = 800  # TOPP-RA intervals along the path, shared among its segments by length
+MIN_SEGMENT_INTERVALS = 16  # more per spline segment (a path that turns often: a finer grid)
+SOLVE_POINTS = 2  # m: points per interval (besides its start) where the solver keeps limits
 VERIFY_POINTS = 8  # V: points per interval (a multiple of m) where the timing is verified
 INITIAL_MARGIN = 1e-6  # the solver sees every limit × (1 − this)
-RESOLVE_ABOVE = 1.01  # an overshoot ratio above this re-runs TOPP-RA; below, slow down
-MAX_RESOLVES = 3
+TIGHTEN_ABOVE = 1.002  # an interval whose ratio is above this gets its limits tightened
+MAX_TIGHTENINGS = 3
+TIGHTEN_POWER = 2.0  # by its ratio to this power (beyond the overshoot: one run, mostly)
 ROW_GROUP = 8  # solver rows per toppra constraint object
 MAX_SAMPLES = 20_000  # samples of the answer (200 s every 0.01 s)
 MAX_PATH_SPEED2 = 1e7  # X = ṡ² / x̄ this large: no limit bounds the speed (toppra caps at 1e8)
@@ -109,20 +116,24 @@ class Retimed:
 
 
 def gridpoints(path: WaypointPath, intervals: int = INTERVALS) -> np.ndarray:
-    """About `intervals` intervals of [0, L], evenly spaced within each spline segment (each
-    segment gets a share by its length, at least MIN_SEGMENT_INTERVALS), so every knot is a
-    gridpoint and the path is one cubic polynomial on every interval."""
+    """The grid of a path: each spline segment [s_k, s_{k+1}] gets MIN_SEGMENT_INTERVALS
+    intervals plus its share of `intervals` by length (rounded down), so every knot is a
+    gridpoint and the path is one cubic polynomial on every interval. Within a segment the
+    gridpoints are denser towards its knots, s_k + (s_{k+1} − s_k) (1 − cos(π j / n)) / 2 for
+    j = 0 … n − 1: where the path turns, and where the motion starts and stops, the path
+    acceleration the limits allow changes fastest, and one constant path acceleration per
+    interval loses most there."""
     pieces = []
     for s0, s1 in zip(path.knots[:-1], path.knots[1:], strict=True):
-        count = max(MIN_SEGMENT_INTERVALS, round(intervals * (s1 - s0) / path.length))
-        pieces.append(np.linspace(s0, s1, count + 1)[:-1])
+        count = MIN_SEGMENT_INTERVALS + int(intervals * (s1 - s0) / path.length)
+        pieces.append(s0 + (s1 - s0) * (1.0 - np.cos(np.pi * np.arange(count) / count)) / 2.0)
     return np.concatenate([*pieces, path.knots[-1:]])
 
 
 def path_intervals(waypoints: int, intervals: int = INTERVALS) -> int:
     """The most intervals of the grid (`gridpoints`) of a path through K `waypoints`: each of
-    its K − 1 segments gets max(MIN_SEGMENT_INTERVALS, its share of `intervals` by length,
-    rounded), so at most `intervals` + MIN_SEGMENT_INTERVALS × (K − 1) in all."""
+    its K − 1 segments gets MIN_SEGMENT_INTERVALS plus its share of `intervals` by length,
+    rounded down, so at most `intervals` + MIN_SEGMENT_INTERVALS × (K − 1) in all."""
     return intervals + MIN_SEGMENT_INTERVALS * max(waypoints - 1, 1)
 
 
@@ -197,15 +208,11 @@ def retime(
         )
     velocity_scale = positive("limits.velocity_scale", velocity_scale)
     effort_scale = positive("limits.effort_scale", effort_scale)
-    accel = (
-        None
-        if acceleration is None
-        else positive_vector("limits.acceleration", acceleration, robot.nv, "nv")
-    )
+    accel = acceleration_limits("limits.acceleration", acceleration, robot.nv)
     sample_dt = positive("sample_dt", sample_dt)
     path = WaypointPath(waypoints, robot.nq)
     admit_retime(path.waypoints.shape[0], robot.nv, accel is not None, max_work, intervals)
-    limits = joint_limits(robot, effort_scale, velocity_scale)
+    limits = joint_limits(robot, effort_scale, velocity_scale, accel)
     grid = gridpoints(path, intervals)
     stop = Stopper(should_stop, "retime", "step", total=3, stage="path")
     stop.poll(0)
@@ -213,12 +220,7 @@ def retime(
     stop.stage = "TOPP-RA and correction"
     stop.poll(1)
     _require_followable(robot, path, dense, limits)
-    fams = families(dense, limits, accel)
-    if not fams:
-        raise InvalidInput(
-            f"robot '{robot.id}' has no velocity or effort limits; give limits.acceleration"
-        )
-    profile, toppra_duration, resolves = _solve_and_correct(path, grid, dense, fams, limits)
+    fams, profile, toppra_duration, resolves = _solve_and_tighten(robot, path, grid, dense, limits)
     factor = 1.0
     worst = max(float(ratios(f, profile, dense.theta).max()) for f in fams)
     if worst > 1.0:
@@ -227,10 +229,28 @@ def retime(
     stop.poll(2)
     t, q, v, a, tau = _samples(robot, path, profile, sample_dt, max_samples)
     check = check_trajectory(
-        robot, t, q, v, a, effort_scale=effort_scale, velocity_scale=velocity_scale
+        robot,
+        t,
+        q,
+        v,
+        a,
+        effort_scale=effort_scale,
+        velocity_scale=velocity_scale,
+        acceleration=acceleration,
     )
     return Retimed(
-        profile.duration, t, q, v, a, tau, check, toppra_duration, resolves, factor, worst, profile
+        profile.duration,
+        t,
+        q,
+        v,
+        a,
+        tau,
+        check,
+        toppra_duration,
+        resolves,
+        factor,
+        worst,
+        profile,
     )
 
 
@@ -243,41 +263,51 @@ def _require_followable(
     robot: Robot, path: WaypointPath, dense: PathSamples, limits: list[JointLimit]
 ) -> None:
     """InfeasiblePath at the first place along the path where it leaves a joint's position
-    limits, or gravity alone needs more than a joint's torque limit (estimated over each
-    interval by its envelope, so a crossing between points is found too)."""
+    limits (the spline's exact extremes on each segment, beyond a bound by more than the
+    checks' tolerance, `limits.slack`: a waypoint on a limit is within it), or gravity alone
+    needs more than a joint's torque limit (estimated over each interval by its envelope, so
+    a crossing between points is found too)."""
     found: list[tuple[float, JointLimit, str, float]] = []  # (s, joint, kind, value)
+    low, s_low, high, s_high = path.extremes()
     for lim in limits:
-        series = [("position", dense.q[..., lim.iq], lim.lower, lim.upper)]
-        if lim.effort is not None:
-            series.append(("effort", dense.C[..., lim.iv], -lim.effort, lim.effort))
-        for kind, f, lower, upper in series:
-            for bound, sign, envelope in (
-                (upper, 1.0, upper_envelope(f)),
-                (lower, -1.0, lower_envelope(f)),
-            ):
-                if bound is None:
-                    continue
-                beyond = np.flatnonzero(sign * (envelope - bound) >= 0)
-                if beyond.size:
-                    i = int(beyond[0])
-                    over = np.flatnonzero(sign * (f[i] - bound) >= 0)
-                    j = int(over[0]) if over.size else int(np.argmax(sign * f[i]))
-                    found.append((float(dense.s[i, j]), lim, kind, float(f[i, j])))
+        for bound, sign, extreme, place in (
+            (lim.upper, 1.0, high[:, lim.iq], s_high[:, lim.iq]),
+            (lim.lower, -1.0, low[:, lim.iq], s_low[:, lim.iq]),
+        ):
+            if bound is None:
+                continue
+            beyond = np.flatnonzero(sign * (extreme - bound) > slack(bound))
+            if beyond.size:
+                k = int(beyond[0])
+                found.append((float(place[k]), lim, "position", float(extreme[k])))
+        if lim.effort is None:
+            continue
+        f = dense.C[..., lim.iv]
+        for bound, sign, envelope in (
+            (lim.effort, 1.0, upper_envelope(f)),
+            (-lim.effort, -1.0, lower_envelope(f)),
+        ):
+            beyond = np.flatnonzero(sign * (envelope - bound) >= 0)
+            if beyond.size:
+                i = int(beyond[0])
+                over = np.flatnonzero(sign * (f[i] - bound) >= 0)
+                j = int(over[0]) if over.size else int(np.argmax(sign * f[i]))
+                found.append((float(dense.s[i, j]), lim, "effort", float(f[i, j])))
     if not found:
         return
-    s, lim, kind, value = min(found, key=lambda item: item[0])
-    k, fraction = path.where(s)
+    at, lim, kind, value = min(found, key=lambda item: item[0])
+    k, fraction = path.where(at)
     unit = "N" if robot.joint_types.get(lim.name) == "prismatic" else "N·m"
-    low = "-inf" if lim.lower is None else f"{lim.lower:.6g}"
-    high = "inf" if lim.upper is None else f"{lim.upper:.6g}"
+    low_text = "-inf" if lim.lower is None else f"{lim.lower:.6g}"
+    high_text = "inf" if lim.upper is None else f"{lim.upper:.6g}"
     what = (
-        f"leaves its position limits [{low}, {high}]"
+        f"leaves its position limits [{low_text}, {high_text}]"
         if kind == "position"
         else f"needs {abs(value):.4g} {unit} against gravity alone, more than its torque limit "
         f"{lim.effort:.4g} {unit}"
     )
     raise InfeasiblePath(
-        f"no timing can follow this path: joint '{lim.name}' {what} {_where(path, s)}",
+        f"no timing can follow this path: joint '{lim.name}' {what} {_where(path, at)}",
         joint=lim.name,
         waypoint=k,
         path_fraction=fraction,
@@ -286,7 +316,10 @@ def _require_followable(
 
 
 def _toppra(
-    path: WaypointPath, grid: np.ndarray, fams: list[Family], tightening: list[np.ndarray]
+    path: WaypointPath,
+    grid: np.ndarray,
+    fams: list[Family],
+    tightening: list[np.ndarray] | None,
 ) -> tuple[np.ndarray | None, np.ndarray]:
     """Run TOPP-RA with every family's rows at the solver's points, in the path's own units
     (`toppra_rows`: σ = s / L, X = x / x̄); (x = ṡ² at the gridpoints, or None when it finds
@@ -299,8 +332,10 @@ def _toppra(
     every = VERIFY_POINTS // SOLVE_POINTS
     theta = np.linspace(0.0, 1.0, SOLVE_POINTS + 1)
     deltas = np.diff(grid)
+    shrinks = tightening or [np.ones(len(f.joints)) for f in fams]
     rows = [
-        subsample(f, every).rows(theta, deltas, t) for f, t in zip(fams, tightening, strict=True)
+        subsample(f, every).rows(theta, deltas, (1.0 - INITIAL_MARGIN) * shrink)
+        for f, shrink in zip(fams, shrinks, strict=True)
     ]
     a, b, c = (np.concatenate([r[i] for r in rows], axis=1) for i in range(3))
     speed2 = path_speed_scale(b, c)  # x̄
@@ -334,33 +369,41 @@ def _toppra(
     return np.asarray(sd) ** 2 * speed2, K
 
 
-def _solve_and_correct(
+def _solve_and_tighten(
+    robot: Robot,
     path: WaypointPath,
     grid: np.ndarray,
     dense: PathSamples,
-    fams: list[Family],
     limits: list[JointLimit],
-) -> tuple[Profile, float, int]:
-    """TOPP-RA, then re-runs with the overshooting joints' limits tightened (step 5).
-    Returns (the last profile, TOPP-RA's first duration, the number of re-runs)."""
-    tightening = [np.full(len(f.joints), 1.0 - INITIAL_MARGIN) for f in fams]
-    x, K = _toppra(path, grid, fams, tightening)
+) -> tuple[list[Family], Profile, float, int]:
+    """TOPP-RA with the limits at the solver's points of every interval, then (step 5) the
+    limits of each interval where the timed motion goes beyond one between those points by
+    more than TIGHTEN_ABOVE tightened there, by the overshoot to the power TIGHTEN_POWER, and
+    TOPP-RA run again (up to MAX_TIGHTENINGS times). Returns (the limited quantities, the
+    last timing, TOPP-RA's first duration, the number of TOPP-RA runs after the first)."""
+    fams = families(dense, limits)
+    if not fams:
+        raise InvalidInput(
+            f"robot '{robot.id}' has no velocity or effort limits; give limits.acceleration"
+        )
+    x, K = _toppra(path, grid, fams, None)
     if x is None:
         raise _no_timing(path, dense, K, limits)
     profile = Profile(grid, x)
-    first = profile.duration
-    for attempt in range(MAX_RESOLVES):
-        over = [ratios(f, profile, dense.theta) for f in fams]
-        if max(float(r.max()) for r in over) <= RESOLVE_ABOVE:
-            return profile, first, attempt
-        tightening = [
-            t - np.maximum(r - 1.0, 0.0) * 1.5 for t, r in zip(tightening, over, strict=True)
-        ]
+    first, runs = profile.duration, 0
+    intervals = len(grid) - 1
+    tightening = [np.ones((intervals + 1, len(f.joints))) for f in fams]
+    for _ in range(MAX_TIGHTENINGS):
+        over = [interval_ratios(f, profile, dense.theta) for f in fams]  # (N, J) each
+        if max(float(r.max()) for r in over) <= TIGHTEN_ABOVE:
+            break
+        for shrink, ratio in zip(tightening, over, strict=True):
+            shrink[:intervals] /= np.maximum(ratio, 1.0) ** TIGHTEN_POWER
         x, _ = _toppra(path, grid, fams, tightening)
-        if x is None:  # tightened too far: keep the last timing and slow it down
-            return profile, first, attempt + 1
-        profile = Profile(grid, x)
-    return profile, first, MAX_RESOLVES
+        if x is None:  # (rounding at a standstill): keep the last timing, slow it down
+            break
+        profile, runs = Profile(grid, x), runs + 1
+    return fams, profile, first, runs
 
 
 def _slow_down(

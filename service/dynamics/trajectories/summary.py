@@ -1,8 +1,8 @@
 """What a trajectory check reports about a motion, gathered from its evaluated points chunk by
 chunk (`MotionSummary.add`), so that no array of all the points is ever held.
 
-Per 1-DoF joint (`limits.joint_limits`): the peaks of |τ| and |v| and the extremes of q over
-every evaluated point, their ratios to the limits, and the violations with their time spans
+Per 1-DoF joint (`limits.joint_limits`): the peaks of |τ|, |v| and |a| and the extremes of q
+over every evaluated point, their ratios to the limits, and the violations with their time spans
 (`limits.Violations`); for the motion: the work, the integrals over time of max(τᵀv, 0)
 (positive, J) and min(τᵀv, 0) (negative, J) by the trapezoidal rule over the evaluated points.
 """
@@ -46,17 +46,27 @@ class MotionSummary:
     consecutive chunks, in time order (`add`); at the end `joints()`,
     `violations.in_time_order()` and `total_work()`."""
 
-    def __init__(self, robot: Robot, effort_scale: float, velocity_scale: float) -> None:
-        self.limits = joint_limits(robot, effort_scale, velocity_scale)
+    def __init__(
+        self,
+        robot: Robot,
+        effort_scale: float,
+        velocity_scale: float,
+        acceleration: np.ndarray | None = None,
+    ) -> None:
+        self.limits = joint_limits(robot, effort_scale, velocity_scale, acceleration)
         count = len(self.limits)
         self._iv = np.array([lim.iv for lim in self.limits], dtype=int)
         self._positioned = [j for j, lim in enumerate(self.limits) if lim.positioned]
         self._iq = np.array([self.limits[j].iq for j in self._positioned], dtype=int)
         self.peak_effort, self.peak_velocity = np.zeros(count), np.zeros(count)
+        self.peak_acceleration = np.zeros(count)
         self.min_position = np.full(len(self._positioned), np.inf)
         self.max_position = np.full(len(self._positioned), -np.inf)
         self.effort = _Bounds("effort", self.limits, "iv", lambda x: _symmetric(x.effort))
         self.velocity = _Bounds("velocity", self.limits, "iv", lambda x: _symmetric(x.velocity))
+        self.acceleration = _Bounds(
+            "acceleration", self.limits, "iv", lambda x: _symmetric(x.acceleration)
+        )
         self.position = _Bounds(
             "position",
             [x for x in self.limits if x.positioned],
@@ -67,19 +77,28 @@ class MotionSummary:
         self.work = {"positive": 0.0, "negative": 0.0}
         self._last: tuple[float, float] | None = None  # (t, τᵀv) of the last point so far
 
-    def add(self, t: np.ndarray, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> None:
-        """The next evaluated points: times t [n] (s), q [n, nq], v and τ [n, nv]."""
+    def add(
+        self, t: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray, tau: np.ndarray
+    ) -> None:
+        """The next evaluated points: times t [n] (s), q [n, nq], v, a and τ [n, nv]."""
         if self._iv.size:
-            np.maximum(self.peak_effort, np.abs(tau[:, self._iv]).max(axis=0), out=self.peak_effort)
-            np.maximum(
-                self.peak_velocity, np.abs(v[:, self._iv]).max(axis=0), out=self.peak_velocity
-            )
+            for peak, series in (
+                (self.peak_effort, tau),
+                (self.peak_velocity, v),
+                (self.peak_acceleration, a),
+            ):
+                np.maximum(peak, np.abs(series[:, self._iv]).max(axis=0), out=peak)
         if self._iq.size:
             positions = q[:, self._iq]
             np.minimum(self.min_position, positions.min(axis=0), out=self.min_position)
             np.maximum(self.max_position, positions.max(axis=0), out=self.max_position)
         self.violations.next_piece()
-        for bounds, series in ((self.effort, tau), (self.velocity, v), (self.position, q)):
+        for bounds, series in (
+            (self.effort, tau),
+            (self.velocity, v),
+            (self.acceleration, a),
+            (self.position, q),
+        ):
             for j in bounds.beyond(series):
                 self.violations.add(
                     bounds.names[j],
@@ -114,6 +133,7 @@ class MotionSummary:
         )
         for j, lim in enumerate(self.limits):
             peak_effort, peak_velocity = float(self.peak_effort[j]), float(self.peak_velocity[j])
+            peak_acceleration = float(self.peak_acceleration[j])
             low, high = extremes.get(j, (None, None))
             out.append(
                 {
@@ -125,6 +145,11 @@ class MotionSummary:
                     "peak_velocity": peak_velocity,
                     "velocity_ratio": _ratio(
                         peak_velocity, lim.velocity, lim.name, "velocity_scale"
+                    ),
+                    "acceleration_limit": lim.acceleration,
+                    "peak_acceleration": peak_acceleration,
+                    "acceleration_ratio": _ratio(
+                        peak_acceleration, lim.acceleration, lim.name, "limits.acceleration"
                     ),
                     "lower": lim.lower,
                     "upper": lim.upper,

@@ -63,9 +63,10 @@ def test_expressions_equal_pinocchio_at_random_states(arms, name):
 
 
 def test_ur5_text_parsed_by_sympy_equals_pinocchio(arms):
-    """The answer's text itself (not the internal form) evaluates to Pinocchio's numbers."""
+    """The exact form's text itself (digits=17, tolerance=0; not the internal form) evaluates
+    to Pinocchio's numbers."""
     model, eq = arms["ur5"]
-    ans = equations_answer(eq)
+    ans = equations_answer(eq, 17, 0.0)
     n = model.nv
     qs = sp.symbols(f"q1:{n + 1}")
     dqs = sp.symbols(f"dq1:{n + 1}")
@@ -136,7 +137,8 @@ def test_structure_of_the_ur5(arms):
     last = structure["mass_matrix"][5][5]
     assert last["constant"] and not last["zero"]
     # wrist 3's inertia about its axis (y): constant, and what crba gives at any q
-    assert float(ans["mass_matrix"]["expressions"][5][5]) == pytest.approx(
+    exact = equations_answer(eq, 17, 0.0)
+    assert float(exact["mass_matrix"]["expressions"][5][5]) == pytest.approx(
         pin.crba(model, model.createData(), pin.neutral(model))[5, 5], rel=1e-15
     )
     assert ans["joints"] == [model.names[j] for j in range(1, model.njoints)]
@@ -178,9 +180,10 @@ def test_structure_agrees_with_pinocchio(arms, name):
 
 
 def test_numbers_are_written_to_round_trip_precision(arms):
-    """Every coefficient of the text reads back to the double nearest the derived value."""
+    """Every coefficient of the exact form's text reads back to the double nearest the derived
+    value."""
     _, eq = arms["ur5"]
-    text = equations_answer(eq)["mass_matrix"]["expressions"][0][0]
+    text = equations_answer(eq, 17, 0.0)["mass_matrix"]["expressions"][0][0]
     numbers = {abs(float(x)) for x in sp.sympify(text).atoms(sp.Float)}
     derived = {abs(float(c)) for c in eq.mass_matrix[0][0].terms.values()}
     assert numbers == derived and len(derived) > 10

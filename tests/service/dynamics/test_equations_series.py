@@ -1,5 +1,5 @@
 """The algebra of exact trigonometric polynomials: products, derivatives and the canonical form
-against numbers, and their SymPy expressions, text and LaTeX."""
+against numbers, and their printed text and LaTeX."""
 
 from __future__ import annotations
 
@@ -10,18 +10,20 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from service.dynamics.equations.printing import latex, symbols, text, to_sympy
+from service.dynamics.equations.printing import Printer
 from service.dynamics.equations.series import COS, SIN, Series, pack, unpack
+from service.dynamics.equations.sympy_form import symbols
 
 N = 3
 
 
 def render(series: Series) -> str:
-    return text(to_sympy(series))
+    """The exact form's text (17 digits, every term)."""
+    return Printer(series.n, 17).entry(series, 0.0).text
 
 
 def render_latex(series: Series) -> str:
-    return latex(to_sympy(series), series.n)
+    return Printer(series.n, 17).entry(series, 0.0).latex
 
 
 def _random_series(rng: np.random.Generator, terms: int = 4) -> Series:
@@ -86,10 +88,11 @@ def test_text_layout_and_numbers():
         + (dq2 * dq2).scale(Decimal("0.3675"))
         + (dq1 * (Series.constant(n, Decimal("2")) + Series.trig(n, 1, COS)))
     )
-    # grouped by the monomial in the velocities; a whole coefficient is an exact integer
-    assert render(expr) == "dq1*(-1.05*sin(q2) + cos(q2) + 2) + 0.3675*dq2**2"
+    # grouped by the monomial in the velocities, the constant first, then by coordinate; a
+    # whole coefficient is an integer, a coefficient 1 not written
+    assert render(expr) == "dq1*(2 + cos(q2) - 1.05*sin(q2)) + 0.3675*dq2**2"
     assert render_latex(expr) == (
-        r"\dot{q}_{1} \left(- 1.05 \sin{\left(q_{2} \right)} + \cos{\left(q_{2} \right)} + 2\right)"
+        r"\dot{q}_{1} \left(2 + \cos{\left(q_{2} \right)} - 1.05 \sin{\left(q_{2} \right)}\right)"
         r" + 0.3675 \dot{q}_{2}^{2}"
     )
     tiny = Series.constant(n, Decimal("1.5e-12")) * s2

@@ -132,10 +132,12 @@ def test_a_batch_is_its_states_and_its_minimum(catalog_registry):
         assert one.mass[0] == pytest.approx(cap.mass[i], rel=1e-12)
     answer = cap.answer(batched=True)
     low = int(np.argmin(cap.mass))
+    ranges = np.array(answer["mass_range"], dtype=float)  # every state holds some mass here
     assert answer["minimum"] == {
         "mass": cap.mass[low],
         "state": low,
         "limiting_joint": cap.limiting_joint(low),
+        "mass_range": [ranges[:, 0].max(), ranges[:, 1].min()],
     }
     assert len(answer["mass"]) == len(answer["limiting_joint"]) == 80
     single = payload_capacity(robot, q[:1], "tool0").answer(batched=False)
@@ -284,3 +286,91 @@ def test_the_zero_of_a_torque_per_kg_comes_from_the_model_and_the_state():
     v, a = np.array([[0.0, 0.0], [1.0, -2.0]]), np.array([[0.0, 0.0], [3.0, 0.5]])
     want = ZERO_TORQUE_PER_KG * lever * (9.81 + lever * np.array([0.0, 3.5 + 3.0**2]))
     np.testing.assert_allclose(zero_torque_per_kg(robot, fid, 2 * tip, v, a), want, rtol=1e-14)
+
+
+def _counterweight_case(robot):
+    """The UR5 at q = (0, −0.3, 0, 0, 0, 0) with a point mass 0.25 m along −z of upper_arm_link
+    and the shoulder-lift limit at 45.26 N·m: gravity alone is over that limit (56.6 N·m), and
+    the mass, on the other side of the shoulder's axis, pulls the torque back."""
+    q = np.array([[0.0, -0.3, 0.0, 0.0, 0.0, 0.0]])
+    limit = limits_of(robot)
+    limit[1] = 45.26
+    return q, limit, [0.0, 0.0, -0.25]
+
+
+def test_a_counterweight_is_a_range_of_masses(catalog_registry):
+    robot = catalog_registry.catalog["ur5"]
+    q, limit, com = _counterweight_case(robot)
+    cap = payload_capacity(robot, q, "upper_arm_link", center_of_mass=com, effort_limits=limit)
+    answer = cap.answer(batched=False)
+    lo, hi = answer["mass_range"]
+    assert (round(lo, 2), round(hi, 2)) == (4.83, 43.47)  # the issue's numbers
+    assert answer["mass"] == hi and answer["limiting_joint"] == "shoulder_lift_joint"
+    assert answer["mass_per_joint"][1] == hi
+    # brute force: the masses within every limit, composed by hand, are exactly [lo, hi]
+    zero = np.zeros(6)
+    grid = np.linspace(0.0, 60.0, 6001)
+    ok = np.array(
+        [
+            feasible(torques(robot.model, "upper_arm_link", com, m, q[0], zero, zero), limit)
+            for m in grid
+        ]
+    )
+    inside = grid[ok]
+    assert inside.min() == pytest.approx(lo, abs=0.01) and inside.max() == pytest.approx(
+        hi, abs=0.01
+    )
+    assert ok[(grid >= lo + 1e-9) & (grid <= hi - 1e-9)].all()
+    for end in (lo, hi):
+        tau = torques(robot.model, "upper_arm_link", com, end, q[0], zero, zero)
+        assert abs(tau[1]) == pytest.approx(45.26, rel=1e-12)  # each end exactly at the limit
+
+
+def test_a_joint_no_mass_can_help_empties_the_range(catalog_registry):
+    """The elbow over a limit the mass does not load (its weight is on the shoulder's side):
+    no mass suits it, the range is empty and the capacity 0, the elbow limiting."""
+    robot = catalog_registry.catalog["ur5"]
+    q, limit, com = _counterweight_case(robot)
+    limit[2] = 10.0  # the elbow holds 15 N·m with no payload
+    cap = payload_capacity(robot, q, "upper_arm_link", center_of_mass=com, effort_limits=limit)
+    answer = cap.answer(batched=False)
+    assert answer["mass_range"] is None and answer["mass"] == 0.0
+    assert answer["limiting_joint"] == "elbow_joint" and answer["mass_per_joint"][2] == 0.0
+    assert answer["mass_per_joint"][1] == pytest.approx(43.47, abs=0.005)  # its own upper end
+
+
+def test_a_batch_range_is_the_masses_that_suit_every_state(catalog_registry):
+    """The counterweight case with the shoulder at −0.3 and −0.5 rad: each state has its
+    range, the batch's is their intersection [max lo, min hi]."""
+    robot = catalog_registry.catalog["ur5"]
+    q, limit, com = _counterweight_case(robot)
+    batch = np.concatenate([q, q])
+    batch[1, 1] = -0.5
+    answer = payload_capacity(
+        robot, batch, "upper_arm_link", center_of_mass=com, effort_limits=limit
+    ).answer(batched=True)
+    (lo0, hi0), (lo1, hi1) = answer["mass_range"]
+    assert lo1 < lo0 < hi0 < hi1  # the steeper shoulder needs less counterweight
+    assert answer["minimum"]["mass_range"] == [lo0, hi0]
+    assert answer["minimum"]["mass"] == hi0 and answer["minimum"]["state"] == 0
+
+
+def test_the_counterweight_over_http(api):
+    body = {
+        "q": [0.0, -0.3, 0.0, 0.0, 0.0, 0.0],
+        "frame": "upper_arm_link",
+        "center_of_mass": [0.0, 0.0, -0.25],
+        "effort_limits": {
+            "shoulder_pan_joint": 150.0,
+            "shoulder_lift_joint": 45.26,
+            "elbow_joint": 150.0,
+            "wrist_1_joint": 28.0,
+            "wrist_2_joint": 28.0,
+            "wrist_3_joint": 28.0,
+        },
+    }
+    answer = api.post("/v1/robots/ur5/payload-capacity", json=body)
+    assert answer.status_code == 200, answer.text
+    got = answer.json()
+    assert [round(x, 2) for x in got["mass_range"]] == [4.83, 43.47]
+    assert got["mass"] == got["mass_range"][1]

@@ -220,7 +220,13 @@ def test_a_point_no_joint_feels_never_limits_over_http(api, catalog_registry):
     got = answer.json()
     assert got["mass"] == [None] * 200 and got["limiting_joint"] == [None] * 200
     assert got["mass_per_joint"] == [[None] * 6] * 200
-    assert got["minimum"] == {"mass": None, "state": None, "limiting_joint": None}
+    assert got["mass_range"] == [[0.0, None]] * 200  # every mass ≥ 0, no upper end
+    assert got["minimum"] == {
+        "mass": None,
+        "state": None,
+        "limiting_joint": None,
+        "mass_range": [0.0, None],
+    }
     data = robot.model.createData()
     gravity = [pin.computeGeneralizedGravity(robot.model, data, row) for row in q]
     np.testing.assert_allclose(got["tau"], gravity, rtol=1e-12, atol=1e-12)

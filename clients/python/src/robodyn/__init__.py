@@ -63,6 +63,7 @@ from robodyn.errors import (
 )
 from robodyn.identification import (
     Identification,
+    IdentificationWarning,
     IdentifiedBody,
     InertialParameters,
     JointFriction,
@@ -129,6 +130,7 @@ __all__ = [
     "FrameInfo",
     "FrameJacobian",
     "Identification",
+    "IdentificationWarning",
     "IdentifiedBody",
     "ImpulseDynamics",
     "InertiaCheck",

@@ -2,14 +2,18 @@
 
     M(q) q̈ + C(q, q̇) q̇ + g(q) = τ,
 
-as text SymPy parses and as LaTeX, with the structure of M and g. Coordinates are `q1 … qn`
-and velocities `dq1 … dqn`, in the order of `joints`. With SymPy installed
+as text SymPy parses and as LaTeX, with the structure of M and g and the accuracy of the
+printed form. Coordinates are `q1 … qn` and velocities `dq1 … dqn`, in the order of `joints`;
+the parametric form's base parameters are `p1 … pr` (`parameters`). With SymPy installed
 (`pip install 'robodyn[sympy]'`), `.sympy()` turns any quantity into SymPy objects:
 
     eq = client.equations("planar_arm")
-    eq.mass_matrix.expressions[0][0]      # '2.1*cos(q2) + 4.235'
+    eq.mass_matrix.expressions[0][0]      # '4.235 + 2.1*cos(q2)'
     M = eq.mass_matrix.sympy()            # sympy.Matrix 2×2 in the symbols q1, q2
     eq.structure.mass_matrix[1][1].constant   # True
+    eq.accuracy.max_abs_error["mass_matrix"]  # a bound of |printed − exact| over every q
+    p = client.equations("planar_arm", form="parametric")
+    p.mass_matrix.expressions[1][1], p.parameters[3].expression  # 'p4', 'elbow.Iyy'
 """
 
 from __future__ import annotations
@@ -35,10 +39,10 @@ def _tuples(value: Any) -> Any:
 
 @dataclass(frozen=True)
 class Expressions:
-    """One quantity: `expressions`, text SymPy's `sympify` reads (names q1…, dq1…, `sin`,
-    `cos`, decimals to round-trip precision), and `latex`, the same terms in LaTeX — a str for
-    a scalar, nested tuples of the quantity's shape otherwise. `names` are the coordinate and
-    velocity names the text uses."""
+    """One quantity: `expressions`, text SymPy's `sympify` reads (names q1…, dq1…, p1… in the
+    parametric form, `sin`, `cos`, decimals to the accuracy's digits), and `latex`, the same
+    terms in LaTeX — a str for a scalar, nested tuples of the quantity's shape otherwise.
+    `names` are the coordinate, velocity and parameter names the text uses."""
 
     expressions: Any
     latex: Any
@@ -51,7 +55,7 @@ class Expressions:
     def sympy(self, rational: bool = False) -> Any:
         """The quantity as SymPy objects: an expression for a scalar, a `sympy.Matrix` for a
         vector (a column) or a matrix, a `sympy.Array` for the Christoffel symbols. The symbols
-        are `sympy.Symbol(name)` for the names q1…, dq1… (real). `rational=True` reads the
+        are `sympy.Symbol(name)` for the names q1…, dq1…, p1… (real). `rational=True` reads the
         decimals as exact rationals. Needs SymPy (the `sympy` extra)."""
         sp = _sympy()
         symbols = {n: sp.Symbol(n, real=True) for n in self.names}
@@ -101,13 +105,48 @@ class EquationsStructure:
 
 
 @dataclass(frozen=True)
+class Accuracy:
+    """How the printed form may differ from the exact one: coefficients to `digits`
+    significant digits, terms below `tolerance` × their quantity's largest coefficient left
+    out, and `max_abs_error`, per quantity ("mass_matrix", "gravity", "coriolis_matrix",
+    "kinetic_energy", "potential_energy"), a bound over every q of |printed − exact| of any
+    entry (C per unit of ‖q̇‖∞, T per unit of ‖q̇‖∞²)."""
+
+    digits: int
+    tolerance: float
+    max_abs_error: Mapping[str, float]
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any]) -> Accuracy:
+        errors = {k: float(v) for k, v in body["max_abs_error"].items()}
+        return cls(int(body["digits"]), float(body["tolerance"]), errors)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A base inertial parameter of the parametric form: its `symbol` (p1 …), its
+    `expression` in the standard parameters (`<joint>.m`, `<joint>.m_cx`, …, `<joint>.Izz`,
+    identification's layout, and `<joint>.armature`) and its `value`."""
+
+    symbol: str
+    expression: str
+    value: float
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any]) -> Parameter:
+        return cls(str(body["symbol"]), str(body["expression"]), float(body["value"]))
+
+
+@dataclass(frozen=True)
 class Equations:
     """A robot's equations of motion in explicit form (see the module docstring).
 
     `mass_matrix` M(q) (nv×nv, kg·m², armature included), `gravity` g(q) = ∂U/∂q (nv, N·m),
     `coriolis_matrix` C(q, q̇) (nv×nv, C_ij = Σ_k c_ijk dq_k, so Ṁ = C + Cᵀ),
     `christoffel` c_ijk = ½(∂M_ij/∂q_k + ∂M_ik/∂q_j − ∂M_jk/∂q_i) (nv×nv×nv),
-    `kinetic_energy` T = ½ q̇ᵀ M q̇ and `potential_energy` U (J): each an `Expressions`.
+    `kinetic_energy` T = ½ q̇ᵀ M q̇ and `potential_energy` U (J): each an `Expressions`;
+    `accuracy` (`Accuracy`) and, in the parametric form, `parameters` (`Parameter`s p1 … pr;
+    empty in the numeric form).
     """
 
     joints: tuple[str, ...]
@@ -120,12 +159,15 @@ class Equations:
     kinetic_energy: Expressions
     potential_energy: Expressions
     structure: EquationsStructure
+    accuracy: Accuracy
+    parameters: tuple[Parameter, ...] = ()
 
     @classmethod
     def from_json(cls, body: Mapping[str, Any]) -> Equations:
         coordinates = tuple(body["coordinates"])
         velocities = tuple(body["velocities"])
-        names = coordinates + velocities
+        parameters = tuple(Parameter.from_json(p) for p in body.get("parameters") or ())
+        names = coordinates + velocities + tuple(p.symbol for p in parameters)
 
         def read(key: str) -> Expressions:
             return Expressions.from_json(body[key], names)
@@ -141,6 +183,8 @@ class Equations:
             read("kinetic_energy"),
             read("potential_energy"),
             EquationsStructure.from_json(body["structure"]),
+            Accuracy.from_json(body["accuracy"]),
+            parameters,
         )
 
     def symbols(self) -> tuple[Any, Any]:

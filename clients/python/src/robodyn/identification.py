@@ -77,6 +77,17 @@ class JointFriction:
     offset: float
 
 
+@dataclass(frozen=True)
+class IdentificationWarning:
+    """What the log could not tell: `code` "unexcited_joint" names a `joint` whose motion does
+    not determine its friction (it barely moves, or its speed stays near zero); `detail` says
+    what the log shows of it."""
+
+    code: str
+    joint: str
+    detail: str
+
+
 @dataclass(frozen=True, eq=False)
 class BaseParameters:
     """The identifiable combinations: `expressions` in the full parameters, their `values` and
@@ -98,16 +109,17 @@ class Rmse(NamedTuple):
 @dataclass(frozen=True, eq=False)
 class Identification:
     """The answer of `identify`: the identified `parameters` (10 · bodies,) and `bodies`,
-    `friction` per joint, `base_parameters`, `condition_number` (None when the log leaves a
-    base parameter undetermined), `physically_consistent`, `rmse` (train, validation,
-    validation_before), `filter_hz` (None: the log was used as given), `samples`, the stored
-    variant's `robot` (None without `store`, or when `not_stored` says why nothing was
-    stored), and with a payload frame `payload` (a `Payload` usable in `payloads=` as it
-    is). `validation_series` with `include_series`."""
+    `friction` per joint (None for a joint named in `warnings`: its motion does not determine
+    its friction, which the stored variant leaves out), `warnings`, `base_parameters`,
+    `condition_number` (None when the log leaves a base parameter undetermined),
+    `physically_consistent`, `rmse` (train, validation, validation_before), `filter_hz` (None:
+    the log was used as given), `samples`, the stored variant's `robot` (None without `store`,
+    or when `not_stored` says why nothing was stored), and with a payload frame `payload` (a
+    `Payload` usable in `payloads=` as it is). `validation_series` with `include_series`."""
 
     parameters: np.ndarray
     bodies: tuple[IdentifiedBody, ...]
-    friction: tuple[JointFriction, ...]
+    friction: tuple[JointFriction | None, ...]
     base_parameters: BaseParameters
     condition_number: float | None
     physically_consistent: bool
@@ -118,6 +130,7 @@ class Identification:
     payload: Payload | dict[str, Any] | None
     validation_series: Mapping[str, np.ndarray] | None
     not_stored: str | None = None
+    warnings: tuple[IdentificationWarning, ...] = ()
 
     @property
     def robot_id(self) -> str | None:
@@ -142,7 +155,9 @@ class Identification:
                 for b in body["bodies"]
             ),
             friction=tuple(
-                JointFriction(
+                None
+                if f is None
+                else JointFriction(
                     f["joint"], float(f["coulomb"]), float(f["viscous"]), float(f["offset"])
                 )
                 for f in body["friction"]
@@ -165,4 +180,8 @@ class Identification:
             if series is None
             else {k: _vector(v) for k, v in series.items()},
             not_stored=body.get("not_stored"),
+            warnings=tuple(
+                IdentificationWarning(w["code"], w["joint"], w["detail"])
+                for w in body.get("warnings") or ()
+            ),
         )

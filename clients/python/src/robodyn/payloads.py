@@ -130,14 +130,26 @@ def _masses(value: Any) -> np.ndarray:
     return np.where(np.isnan(out), np.inf, out)
 
 
+def _range(value: Any) -> tuple[float, float] | None:
+    """A mass range [lo, hi] of an answer as (lo, hi) in kg, hi inf where the server says null
+    (no upper end); None for an empty range."""
+    if value is None:
+        return None
+    lo, hi = value
+    return float(lo), float(np.inf if hi is None else hi)
+
+
 @dataclass(frozen=True)
 class CapacityMinimum:
     """The smallest capacity over a batch: `mass` (kg; inf when nothing limits any state), the
-    first `state` (index) that has it, and its `limiting_joint` (None when nothing limits)."""
+    first `state` (index) that has it, its `limiting_joint` (None when nothing limits), and
+    `mass_range`, the masses (lo, hi) in kg that keep every joint within its limit at every
+    state (hi inf: no upper end; None when no mass suits every state)."""
 
     mass: float
     state: int | None
     limiting_joint: str | None
+    mass_range: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,12 +157,17 @@ class PayloadCapacity:
     """The answer of `payload_capacity`: the heaviest point mass the frame can hold with no joint
     over its effort limit, exact (τ(m) = τ₀ + m τ₁ is affine in the mass m).
 
-    `mass` (kg: a float for one state, an array (N,) for a batch; `inf` where no joint limits
-    it, 0 where a joint is over its limit with no payload), `limiting_joint` (the joint that
-    sets it; None where nothing limits; a tuple for a batch), `mass_per_joint` (nv,) or (N, nv)
-    (the largest mass each velocity coordinate alone allows, kg; `inf` where it never limits),
-    `tau` (nv,) or (N, nv) (the torques at that mass, N·m or N) and, for a batch, `minimum`
-    (`CapacityMinimum`: the smallest capacity over the batch and where it occurs; else None).
+    `mass_range`: the masses m ≥ 0 with every joint within its limit form an interval,
+    (lo, hi) in kg for one state (hi inf: no upper end; None: no mass suits every joint), an
+    array (N, 2) for a batch (NaN rows where empty); lo > 0 when the load is what keeps a joint
+    within its limit (a counterweight). `mass` is hi (kg: a float for one state, an array (N,)
+    for a batch; `inf` where no joint limits it, 0 where the range is empty),
+    `limiting_joint` (the joint that sets it; None where nothing limits; a tuple for a batch),
+    `mass_per_joint` (nv,) or (N, nv) (the largest mass each velocity coordinate alone allows,
+    kg; `inf` where it never limits, 0 where no mass suits it), `tau` (nv,) or (N, nv) (the
+    torques at that mass, N·m or N) and, for a batch, `minimum` (`CapacityMinimum`: the
+    smallest capacity over the batch, where it occurs and the masses that suit every state;
+    else None).
     """
 
     mass: float | np.ndarray
@@ -158,6 +175,7 @@ class PayloadCapacity:
     mass_per_joint: np.ndarray
     tau: np.ndarray
     minimum: CapacityMinimum | None = None
+    mass_range: tuple[float, float] | np.ndarray | None = None
 
     @classmethod
     def from_json(cls, body: Mapping[str, Any], batched: bool, rows: int | None) -> PayloadCapacity:
@@ -171,11 +189,15 @@ class PayloadCapacity:
             raise ValueError(f"'mass' has {mass.shape[0]} states; {rows} were sent")
         joint = body.get("limiting_joint")
         if not batched:
-            return cls(float(mass), joint, per, tau)
+            return cls(float(mass), joint, per, tau, mass_range=_range(body.get("mass_range")))
         low = body.get("minimum") or {}
         minimum = CapacityMinimum(
             mass=float(np.inf if low.get("mass") is None else low["mass"]),
             state=None if low.get("state") is None else int(low["state"]),
             limiting_joint=low.get("limiting_joint"),
+            mass_range=_range(low.get("mass_range")),
         )
-        return cls(mass, tuple(joint or ()), per, tau, minimum)
+        ranges = np.array(
+            [_range(x) or (np.nan, np.nan) for x in body.get("mass_range") or ()], dtype=np.float64
+        ).reshape(-1, 2)
+        return cls(mass, tuple(joint or ()), per, tau, minimum, ranges)

@@ -34,10 +34,31 @@ def times(value: ArrayLike) -> np.ndarray:
     return np.ascontiguousarray(t, dtype=np.float64)
 
 
+def acceleration_limits(value: Any) -> list[float | None] | None:
+    """Joint acceleration limits (rad/s² or m/s²) as the request sends them: None, or one
+    entry per joint, a finite number > 0 or None (or NaN) for no limit on that joint."""
+    if value is None:
+        return None
+    entries = list(value) if not isinstance(value, np.ndarray) else value.tolist()
+    out: list[float | None] = []
+    for i, x in enumerate(entries):
+        if x is None or (isinstance(x, numbers.Real) and np.isnan(float(x))):
+            out.append(None)
+            continue
+        out.append(positive(f"acceleration[{i}]", x))
+    return out
+
+
 class JointCheck(NamedTuple):
     """One 1-DoF joint over the checked motion: its limits (after the scales; None where it
-    has none), the peaks of |τ| (N·m or N) and |v| (rad/s or m/s) and the extremes of q over
-    every evaluated point, and the ratios peak ÷ limit (> 1: broken)."""
+    has none), the peaks of |τ| (N·m or N), |v| (rad/s or m/s) and |a| (rad/s² or m/s²) and
+    the extremes of q over every evaluated point, and the ratios peak ÷ limit (> 1:
+    broken; the acceleration limit is the request's, None where it gives none). For sizing
+    its motor and bearings: `rms_effort` √(∫ τ² dt ÷ duration) (N·m or N), `peak_power`
+    max |τ v| (W), and the peaks of the wrench (f, n) the joint transmits to its child body,
+    in the joint frame with s its unit axis: `peak_force` ‖f‖ (N), `peak_moment` ‖n‖ (N·m),
+    `peak_axial_force` |f · s| (N) and `peak_bending_moment` ‖n − (n · s) s‖ (N·m) (None
+    from a server that does not send them)."""
 
     name: str
     effort_limit: float | None
@@ -50,12 +71,26 @@ class JointCheck(NamedTuple):
     upper: float | None
     min_position: float | None
     max_position: float | None
+    acceleration_limit: float | None = None
+    peak_acceleration: float | None = None
+    acceleration_ratio: float | None = None
+    rms_effort: float | None = None
+    peak_power: float | None = None
+    peak_force: float | None = None
+    peak_moment: float | None = None
+    peak_axial_force: float | None = None
+    peak_bending_moment: float | None = None
+
+    @classmethod
+    def from_json(cls, body: Mapping[str, Any]) -> JointCheck:
+        """From the answer's entry (members the client does not know are left out)."""
+        return cls(**{k: body[k] for k in cls._fields if k in body})
 
 
 class Violation(NamedTuple):
-    """A run of evaluated points beyond a limit: the joint, the kind ("effort", "velocity" or
-    "position"), the times of its first and last points (s), the value farthest beyond the
-    limit and that (signed) limit."""
+    """A run of evaluated points beyond a limit: the joint, the kind ("effort", "velocity",
+    "acceleration" or "position"), the times of its first and last points (s), the value
+    farthest beyond the limit and that (signed) limit."""
 
     joint: str
     kind: str
@@ -91,7 +126,7 @@ class TrajectoryCheck(NamedTuple):
             bool(body["feasible"]),
             np.asarray(body["tau"], dtype=np.float64),
             np.asarray(body["v"], dtype=np.float64),
-            [JointCheck(**j) for j in body["joints"]],
+            [JointCheck.from_json(j) for j in body["joints"]],
             [Violation(**x) for x in body["violations"]],
             Work(**body["work"]),
         )

@@ -43,7 +43,7 @@ def test_child_answer_equals_in_process_derivation():
 
 
 def test_derivation_past_its_time_limit_is_unsupported():
-    model = pin.buildModelFromXML(skewed_arm_urdf(5))  # about 3 s of CPU
+    model = pin.buildModelFromXML(skewed_arm_urdf(6))  # seconds of CPU
     with pytest.raises(TooCostly, match=r"time limit of 0\.3 s"):
         unless_starved(lambda: derive_isolated(model, time_limit_s=0.3))
 
@@ -51,7 +51,7 @@ def test_derivation_past_its_time_limit_is_unsupported():
 def test_a_starved_derivation_is_overloaded_not_too_costly():
     """A child stopped for its whole time (SIGSTOP: no CPU at all) says nothing of the
     model's cost."""
-    model = pin.buildModelFromXML(skewed_arm_urdf(5))
+    model = pin.buildModelFromXML(skewed_arm_urdf(6))
     raised = raised_when_its_child(
         lambda: derive_isolated(model, time_limit_s=1.0),
         lambda pid: os.kill(pid, signal.SIGSTOP),
@@ -61,7 +61,7 @@ def test_a_starved_derivation_is_overloaded_not_too_costly():
 
 def test_a_derivation_killed_from_outside_is_overloaded():
     """SIGKILL from outside (the kernel's OOM killer) is the machine's condition."""
-    model = pin.buildModelFromXML(skewed_arm_urdf(5))
+    model = pin.buildModelFromXML(skewed_arm_urdf(6))
     raised = raised_when_its_child(
         lambda: derive_isolated(model, time_limit_s=60.0),
         lambda pid: os.kill(pid, signal.SIGKILL),
@@ -81,10 +81,10 @@ def counted(monkeypatch):
     """Count the derivations the cache starts (the real child process still runs)."""
     calls: list[str] = []
 
-    def counting(model, time_limit_s, memory_mb):
+    def counting(model, time_limit_s, memory_mb, printing=None):
         calls.append(model.name)
         time.sleep(0.2)  # long enough for concurrent callers to find it pending
-        return derive_isolated(model, time_limit_s, memory_mb)
+        return derive_isolated(model, time_limit_s, memory_mb, printing)
 
     monkeypatch.setattr(cache_module, "derive_isolated", counting)
     return calls
@@ -106,14 +106,16 @@ def test_cache_memory_disk_and_single_flight(tmp_path, counted):
     assert len(counted) == 1 and len(set(answers)) == 1 and len(answers) == 3
     assert orjson.loads(answers[0])["mass_matrix"]["expressions"][1][1] == "0.735"
     assert _answer(cache, robot) == answers[0]  # from memory (timed in bench/equations.py)
-    assert (tmp_path / "equations" / "v1" / "u-arm.json").read_bytes() == answers[0]
+    assert (
+        tmp_path / "equations" / "v2" / "u-arm" / "numeric-6-1e-09.json"
+    ).read_bytes() == answers[0]
     # another process (a restart, a replica) sharing the data directory: no derivation
     again = EquationsCache(tmp_path, 30, slots)
     assert _answer(again, robot) == answers[0] and len(counted) == 1
     # catalog robots are kept in memory only
     catalog_robot = _robot(planar_arm_urdf(1.0, 0.7, 2.0, 1.5), "planar", source="catalog")
     _answer(again, catalog_robot)
-    assert not (tmp_path / "equations" / "v1" / "planar.json").exists()
+    assert not (tmp_path / "equations" / "v2" / "planar").exists()
 
 
 def test_cache_refuses_out_of_scope_models_without_a_child(tmp_path, counted):
@@ -138,7 +140,7 @@ def test_a_refusal_for_cost_is_remembered_for_every_robot_with_the_same_numbers(
 ):
     calls: list[str] = []
 
-    def too_costly(model, time_limit_s, memory_mb):
+    def too_costly(model, time_limit_s, memory_mb, printing=None):
         calls.append(model.name)
         raise TooCostly(f"the derivation of the equations did not finish within {time_limit_s}")
 
@@ -163,10 +165,10 @@ def test_a_refusal_for_cost_is_remembered_for_every_robot_with_the_same_numbers(
 def test_a_derivation_the_machine_starved_is_not_remembered(tmp_path, monkeypatch):
     outcomes = [Overloaded("the derivation got only 0.1 s of CPU time in its 30 s")]
 
-    def starved_once(model, time_limit_s, memory_mb):
+    def starved_once(model, time_limit_s, memory_mb, printing=None):
         if outcomes:
             raise outcomes.pop()
-        return derive_isolated(model, time_limit_s, memory_mb)
+        return derive_isolated(model, time_limit_s, memory_mb, printing)
 
     monkeypatch.setattr(cache_module, "derive_isolated", starved_once)
     cache = EquationsCache(tmp_path, 30, BuildSlots(1, 10))

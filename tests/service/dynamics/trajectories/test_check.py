@@ -1,6 +1,7 @@
 """The trajectory check against in-process Pinocchio and closed forms: τ at the samples by
-RNEA, v and a from the not-a-knot spline (exact for a cubic motion), violations found between
-samples, the work against the change of mechanical energy, and the input errors."""
+RNEA, v and a from the spline (exact for a cubic motion; every boundary against scipy's
+CubicSpline of the same bc_type), acceleration peaks, ratios and violations, violations found
+between samples, the work against the change of mechanical energy, and the input errors."""
 
 from __future__ import annotations
 
@@ -289,3 +290,89 @@ def test_non_finite_torques_work_and_ratios_are_422s_naming_the_input(robots: Re
         check_trajectory(robot, [0.0, 1e300, 2e300], q, np.full((3, 6), 1e10), np.zeros((3, 6)))
     with pytest.raises(InvalidInput, match="effort_scale is too small"):
         check_trajectory(robot, t, q, effort_scale=5e-324)
+
+
+def _independent_peaks(t, q, bc_type, k):
+    """With scipy's own CubicSpline of the same bc_type, the peaks of |v| and |a| over the
+    k points per interval the check evaluates: ((N − 1) k + 1 times; v, a there)."""
+    spline = CubicSpline(t, q, bc_type=bc_type)
+    dense = np.concatenate([np.linspace(t[i], t[i + 1], k + 1)[:-1] for i in range(len(t) - 1)])
+    dense = np.append(dense, t[-1])
+    return dense, spline(dense, 1), spline(dense, 2)
+
+
+@pytest.mark.parametrize("boundary", ["not-a-knot", "clamped", "natural"])
+def test_acceleration_figures_and_boundaries_equal_an_independent_spline(robots, boundary):
+    """Peaks of |v| and |a|, the acceleration limits (null entries: none) and their ratios,
+    and τ at the samples, against scipy's CubicSpline with the same bc_type evaluated at the
+    same points; each acceleration violation spans exactly the points beyond the limit."""
+    robot = robots.get("ur5")
+    t, q = _motion(6, n=9, duration=2.0, seed=4)
+    limits = [2.0, None, 0.5, None, 3.0, None]
+    result = check_trajectory(
+        robot, t, q, acceleration=limits, boundary=boundary, samples_per_interval=8
+    )
+    times, v, a = _independent_peaks(t, q, boundary, 8)
+    joints = result.joints
+    for j, joint in enumerate(joints):
+        assert joint["peak_velocity"] == pytest.approx(np.abs(v[:, j]).max(), rel=1e-9)
+        assert joint["peak_acceleration"] == pytest.approx(np.abs(a[:, j]).max(), rel=1e-9)
+        assert joint["acceleration_limit"] == limits[j]
+        if limits[j] is None:
+            assert joint["acceleration_ratio"] is None
+        else:
+            ratio = np.abs(a[:, j]).max() / limits[j]
+            assert joint["acceleration_ratio"] == pytest.approx(ratio, rel=1e-9)
+    spline = CubicSpline(t, q, bc_type=boundary)
+    data = robot.model.createData()
+    tau = [pin.rnea(robot.model, data, q[i], spline(t[i], 1), spline(t[i], 2)) for i in range(9)]
+    np.testing.assert_allclose(result.tau, tau, rtol=1e-10, atol=1e-9)
+    found = [x for x in result.violations if x["kind"] == "acceleration"]
+    for j, limit in enumerate(limits):
+        if limit is None:
+            assert not [x for x in found if x["joint"] == joints[j]["name"]]
+            continue
+        over = np.abs(a[:, j]) > limit * (1 + 1e-9)
+        mine = [x for x in found if x["joint"] == joints[j]["name"]]
+        assert sum(x["t_end"] >= x["t_start"] for x in mine) == len(mine)
+        assert bool(mine) == bool(over.any())
+        for x in mine:
+            inside = (times >= x["t_start"]) & (times <= x["t_end"])
+            assert over[inside].all()
+            assert abs(x["limit"]) == limit
+            assert abs(x["worst"]) == pytest.approx(np.abs(a[inside, j]).max(), rel=1e-9)
+    assert result.feasible == (not result.violations)
+
+
+def test_a_rest_to_rest_motion_through_six_waypoints_in_3_s(robots):
+    """Six samples in 3 s of a minimum-jerk motion from rest to rest, the elbow from its lower
+    limit −π to 0: with the clamped spline the check starts and ends at zero velocity and
+    never leaves the limits, as the motion does (feasible); the not-a-knot spline through the
+    same samples moves backwards at both ends (|v| = 0.103 × π / 3 s) and so below −π."""
+    robot = robots.get("ur5")
+    t = np.linspace(0.0, 3.0, 6)
+    tau = t / 3.0
+    shape = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    q = np.zeros((6, 6))
+    q[:, 1] = -1.0
+    lower = float(robot.model.lowerPositionLimit[2])  # −π to 12 digits
+    q[:, 2] = lower - lower * shape
+    clamped = check_trajectory(robot, t, q, boundary="clamped", samples_per_interval=16)
+    assert np.abs(clamped.v[[0, -1]]).max() < 1e-15
+    assert clamped.feasible
+    assert clamped.joints[2]["min_position"] == lower
+    knot = check_trajectory(robot, t, q, samples_per_interval=16)
+    np.testing.assert_allclose(knot.v[[0, -1], 2], 0.10346667 * lower, rtol=1e-6)
+    below = [x for x in knot.violations if x["kind"] == "position"]
+    assert below and below[0]["t_start"] > 0.0 and below[0]["limit"] == lower
+
+
+def test_bad_acceleration_limits_and_boundary_are_named(robots):
+    robot = robots.get("ur5")
+    t, q = _motion(6)
+    with pytest.raises(DimensionMismatch, match=r"limits\.acceleration has 5 entries"):
+        check_trajectory(robot, t, q, acceleration=[1.0] * 5)
+    with pytest.raises(InvalidInput, match=r"limits\.acceleration must be finite numbers .* 3"):
+        check_trajectory(robot, t, q, acceleration=[1.0, None, 2.0, -1.0, None, 1.0])
+    with pytest.raises(InvalidInput, match="boundary must be one of not-a-knot, clamped"):
+        check_trajectory(robot, t, q, boundary="periodic")

@@ -16,7 +16,7 @@ from service.main import create_app
 from service.registry import Registry
 from service.settings import Settings
 
-CATALOG = "ur5,solo12"
+CATALOG = "ur5,solo12,panda"
 
 
 @pytest.fixture(scope="module")
@@ -91,6 +91,79 @@ def test_retime_answer_equals_the_in_process_retime(api, setup) -> None:
         np.testing.assert_array_equal(answer[key], getattr(expected, key))
     assert answer["check"]["feasible"] and answer["check"]["violations"] == []
     assert len(answer["check"]["tau"]) == len(answer["t"])
+
+
+def test_check_with_the_limits_object_acceleration_and_boundary(api, setup) -> None:
+    """The limits object (scales and acceleration limits with null entries, as JSON nulls)
+    and the boundary give the in-process check's answer; the top-level scales and the limits
+    object at once, an unknown boundary, a wrong count of acceleration limits are 422s
+    naming them."""
+    robot = setup[1].get("ur5")
+    t, q = _motion()
+    acceleration = [3.0, None, 5.0, None, None, 2.0]
+    limits = {"velocity_scale": 0.6, "effort_scale": 0.9, "acceleration": acceleration}
+    body = {"t": t.tolist(), "q": q.tolist(), "limits": limits, "boundary": "clamped"}
+    r = api.post("/v1/robots/ur5/trajectory-check", json=body)
+    assert r.status_code == 200, r.text
+    answer = r.json()
+    expected = check_trajectory(
+        robot,
+        t,
+        q,
+        velocity_scale=0.6,
+        effort_scale=0.9,
+        acceleration=acceleration,
+        boundary="clamped",
+    )
+    np.testing.assert_allclose(answer["tau"], expected.tau, rtol=1e-12, atol=1e-12)
+    assert answer["joints"] == expected.joints and answer["violations"] == expected.violations
+    assert [j["acceleration_limit"] for j in answer["joints"]] == acceleration
+    assert {x["kind"] for x in answer["violations"]} >= {"acceleration"}
+    top = {"t": t.tolist(), "q": q.tolist(), "velocity_scale": 0.6, "effort_scale": 0.9}
+    same = api.post("/v1/robots/ur5/trajectory-check", json={**top, "boundary": "clamped"})
+    assert (
+        same.json()["tau"]
+        == check_trajectory(
+            robot, t, q, velocity_scale=0.6, effort_scale=0.9, boundary="clamped"
+        ).tau.tolist()
+    )
+    for bad, words in (
+        ({**top, "limits": {"velocity_scale": 0.5}}, "at top level and limits"),
+        ({**body, "boundary": "periodic"}, "boundary"),
+        ({**body, "limits": {"acceleration": [1.0] * 5}}, "limits.acceleration has 5 entries"),
+        ({**body, "limits": {"acceleration": [1.0, 0.0] * 3}}, "limits.acceleration"),
+    ):
+        refused = api.post("/v1/robots/ur5/trajectory-check", json=bad)
+        assert refused.status_code == 422, refused.text
+        assert words in refused.json()["detail"]
+
+
+def test_retime_with_fingers_on_their_limits_and_null_acceleration_limits(api) -> None:
+    """The Panda's arm joints keyed by name, its fingers filled from the default pose (one of
+    them at its lower limit 0), acceleration limits only on the arm: timed, within every
+    limit (its own check)."""
+    arm = [f"panda_joint{i}" for i in range(1, 8)]
+    waypoints = [
+        dict(zip(arm, [0.0, -0.5, 0.0, -2.0, 0.0, 1.5, 0.7], strict=True)),
+        dict(zip(arm, [0.5, -0.3, 0.2, -1.8, 0.1, 1.7, 0.9], strict=True)),
+    ]
+    body = {
+        "waypoints": waypoints,
+        "fill": "default",
+        "limits": {"acceleration": [5.0] * 7 + [None, None]},
+    }
+    r = api.post("/v1/robots/panda/retime", json=body)
+    assert r.status_code == 200, r.text
+    check = r.json()["check"]
+    assert check["feasible"]
+    fingers = {j["name"]: j for j in check["joints"] if "finger" in j["name"]}
+    assert (
+        fingers["panda_finger_joint2"]["min_position"]
+        == 0.0
+        == fingers["panda_finger_joint2"]["lower"]
+    )
+    assert fingers["panda_finger_joint1"]["acceleration_limit"] is None
+    assert max(j["acceleration_ratio"] or 0 for j in check["joints"]) <= 1 + 1e-6
 
 
 @pytest.mark.parametrize(

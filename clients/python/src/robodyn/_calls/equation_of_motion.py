@@ -66,6 +66,31 @@ def inverse_dynamics(
     )
 
 
+def _joint_wrenches(body: Any, batched: bool, rows: int | None) -> tuple[np.ndarray, np.ndarray]:
+    return (
+        answer_array(body, "tau", 1, batched, rows),
+        answer_array(body, "joint_wrenches", 2, batched, rows, square=False),
+    )
+
+
+def joint_wrenches(
+    robot_id: str,
+    q: ArrayLike,
+    v: ArrayLike,
+    a: ArrayLike,
+    *,
+    external_forces: Sequence[Mapping[str, Any]] | None = None,
+    payloads: PayloadsLike | None = None,
+    friction: bool = False,
+) -> Call[tuple[np.ndarray, np.ndarray]]:
+    options = {**request_options.external_forces(external_forces), "loads": True}
+    if friction:
+        options["friction"] = True
+    return request(
+        robot_id, "inverse-dynamics", _joint_wrenches, options, payloads=payloads, q=q, v=v, a=a
+    )
+
+
 def forward_dynamics(
     robot_id: str,
     q: ArrayLike,

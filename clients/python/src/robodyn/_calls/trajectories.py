@@ -9,11 +9,19 @@ from dataclasses import replace
 from typing import Any
 
 from robodyn._calls.request import request
-from robodyn.arrays import ArrayLike, joint_array
+from robodyn.arrays import ArrayLike
 from robodyn.core import Call
 from robodyn.errors import InputError
 from robodyn.payloads import PayloadsLike
-from robodyn.trajectories import Retimed, TrajectoryCheck, positive, times
+from robodyn.trajectories import (
+    Retimed,
+    TrajectoryCheck,
+    acceleration_limits,
+    positive,
+    times,
+)
+
+BOUNDARIES = ("not-a-knot", "clamped", "natural")
 
 
 def trajectory_check(
@@ -25,6 +33,8 @@ def trajectory_check(
     a: ArrayLike | None = None,
     effort_scale: float = 1.0,
     velocity_scale: float = 1.0,
+    acceleration: ArrayLike | None = None,
+    boundary: str = "not-a-knot",
     samples_per_interval: int = 4,
     friction: bool = False,
     payloads: PayloadsLike | None = None,
@@ -35,10 +45,12 @@ def trajectory_check(
         or not 1 <= samples_per_interval <= 64
     ):
         raise InputError("samples_per_interval must be an integer from 1 to 64")
+    if boundary not in BOUNDARIES:
+        raise InputError(f"boundary must be one of {', '.join(BOUNDARIES)}, not {boundary!r}")
     sample_times = times(t)
-    options = {
-        "effort_scale": positive("effort_scale", effort_scale),
-        "velocity_scale": positive("velocity_scale", velocity_scale),
+    options: dict[str, Any] = {
+        "limits": _limits(velocity_scale, effort_scale, acceleration),
+        "boundary": boundary,
         "samples_per_interval": samples_per_interval,
     }
     if friction:
@@ -70,12 +82,7 @@ def retime(
     sample_dt: float = 0.01,
     payloads: PayloadsLike | None = None,
 ) -> Call[Retimed]:
-    limits: dict[str, Any] = {
-        "velocity_scale": positive("velocity_scale", velocity_scale),
-        "effort_scale": positive("effort_scale", effort_scale),
-    }
-    if acceleration is not None:
-        limits["acceleration"] = [float(x) for x in joint_array("acceleration", acceleration)]
+    limits = _limits(velocity_scale, effort_scale, acceleration)
     options = {"limits": limits, "sample_dt": positive("sample_dt", sample_dt)}
     return request(
         robot_id,
@@ -86,3 +93,18 @@ def retime(
         independent_rows=False,
         waypoints=waypoints,
     )
+
+
+def _limits(
+    velocity_scale: float, effort_scale: float, acceleration: ArrayLike | None
+) -> dict[str, Any]:
+    """The request's `limits` object: the scales, and the acceleration limits where given
+    (an entry None or NaN: no limit on that joint)."""
+    limits: dict[str, Any] = {
+        "velocity_scale": positive("velocity_scale", velocity_scale),
+        "effort_scale": positive("effort_scale", effort_scale),
+    }
+    accelerations = acceleration_limits(acceleration)
+    if accelerations is not None:
+        limits["acceleration"] = accelerations
+    return limits

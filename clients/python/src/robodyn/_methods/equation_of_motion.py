@@ -91,6 +91,40 @@ class EquationOfMotionMethods(SyncSender):
             )
         )
 
+    def joint_wrenches(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        *,
+        external_forces: Sequence[Mapping[str, Any]] | None = None,
+        payloads: PayloadsLike | None = None,
+        friction: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(τ, wrenches): τ = M(q) a + C(q, v) v + g(q) as `inverse_dynamics` gives it, shape
+        (nv,), and the wrench each moving joint transmits from its parent body to its child
+        body (Pinocchio's RNEA `data.f`), shape (joints, 6); (N, nv) and (N, joints, 6) for a
+        batch. One row per joint of the robot's `joints` in order: force f (N) then moment n
+        (N·m) about the joint frame's origin, in the joint frame's axes. For a revolute joint
+        with unit axis s, τ = s · n and its bearings carry the axial force |s · f| and the
+        bending moment ‖n − (s · n) s‖. `external_forces` as for `inverse_dynamics`;
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this
+        call; `friction`: add the joints' friction of a robot stored by `identify` (along
+        each joint's axis in its wrench).
+        """
+        return self._send(
+            calls.joint_wrenches(
+                robot_id,
+                q,
+                v,
+                a,
+                external_forces=external_forces,
+                payloads=payloads,
+                friction=friction,
+            )
+        )
+
     def forward_dynamics(
         self,
         robot_id: str,
@@ -175,6 +209,40 @@ class AsyncEquationOfMotionMethods(AsyncSender):
         """
         return await self._send(
             calls.inverse_dynamics(
+                robot_id,
+                q,
+                v,
+                a,
+                external_forces=external_forces,
+                payloads=payloads,
+                friction=friction,
+            )
+        )
+
+    async def joint_wrenches(
+        self,
+        robot_id: str,
+        q: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        *,
+        external_forces: Sequence[Mapping[str, Any]] | None = None,
+        payloads: PayloadsLike | None = None,
+        friction: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(τ, wrenches): τ = M(q) a + C(q, v) v + g(q) as `inverse_dynamics` gives it, shape
+        (nv,), and the wrench each moving joint transmits from its parent body to its child
+        body (Pinocchio's RNEA `data.f`), shape (joints, 6); (N, nv) and (N, joints, 6) for a
+        batch. One row per joint of the robot's `joints` in order: force f (N) then moment n
+        (N·m) about the joint frame's origin, in the joint frame's axes. For a revolute joint
+        with unit axis s, τ = s · n and its bearings carry the axial force |s · f| and the
+        bending moment ‖n − (s · n) s‖. `external_forces` as for `inverse_dynamics`;
+        `payloads`: rigid bodies the robot holds (`Payload`s), added to its model for this
+        call; `friction`: add the joints' friction of a robot stored by `identify` (along
+        each joint's axis in its wrench).
+        """
+        return await self._send(
+            calls.joint_wrenches(
                 robot_id,
                 q,
                 v,

@@ -24,6 +24,8 @@ class TrajectoryMethods(SyncSender):
         a: ArrayLike | None = None,
         effort_scale: float = 1.0,
         velocity_scale: float = 1.0,
+        acceleration: ArrayLike | None = None,
+        boundary: str = "not-a-knot",
         samples_per_interval: int = 4,
         friction: bool = False,
         payloads: PayloadsLike | None = None,
@@ -31,12 +33,15 @@ class TrajectoryMethods(SyncSender):
     ) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
-        and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
-        `v` and `a` (N, nv): where absent, the derivatives of the not-a-knot cubic spline
-        through (t, q) (robots with nq = nv), and `samples_per_interval` − 1 points inside
-        every interval are evaluated too, so that a limit broken between samples is found.
-        τ = M(q) a + C(q, v) v + g(q) at every evaluated point. The answer: `feasible`, `tau`
-        and `v` at the samples (N, nv), `joints` (`JointCheck`: limits, peaks, ratios),
+        and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)
+        and the joint `acceleration` limits (nv,) where given (an entry None or NaN: no
+        limit on that joint)? `v` and `a` (N, nv): where absent, the derivatives of the
+        cubic spline through (t, q) with the `boundary` conditions "not-a-knot", "clamped"
+        (zero velocity at both ends: a motion from rest to rest) or "natural" (robots with
+        nq = nv), and `samples_per_interval` − 1 points inside every interval are evaluated
+        too, so that a limit broken between samples is found. τ = M(q) a + C(q, v) v + g(q)
+        at every evaluated point. The answer: `feasible`, `tau` and `v` at the samples
+        (N, nv), `joints` (`JointCheck`: limits, peaks of |τ|, |v|, |a|, ratios),
         `violations` (`Violation`: joint, kind, t_start, t_end, worst, limit) and `work`
         (`Work`: positive and negative, J). Raises `ValidationError` for non-increasing
         times, `DimensionMismatchError` for rows that do not match. `friction=True` adds the
@@ -55,6 +60,8 @@ class TrajectoryMethods(SyncSender):
                 a=a,
                 effort_scale=effort_scale,
                 velocity_scale=velocity_scale,
+                acceleration=acceleration,
+                boundary=boundary,
                 samples_per_interval=samples_per_interval,
                 friction=friction,
                 payloads=payloads,
@@ -78,10 +85,12 @@ class TrajectoryMethods(SyncSender):
         spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
         distance),
         under the velocity limits × `velocity_scale`, the effort limits × `effort_scale` and
-        the joint `acceleration` limits (nv,) where given: `duration` (s), samples every
+        the joint `acceleration` limits (nv,) where given (an entry None or NaN: no limit on
+        that joint): `duration` (s), samples every
         `sample_dt` s and at the end — `t` (M,), `q` (M, nq), `v`, `a`, `tau` (M, nv) — and
         its `check` (a `TrajectoryCheck`). The motion is within every limit everywhere, not
-        only at samples (1e-6 relative; docs/trajectories.md says how). Raises
+        only at samples (1e-6 relative), and at most 1 % slower than the optimum
+        (docs/trajectories.md says how). Raises
         `InfeasiblePathError` for a path no timing can follow (its `body` names the joint,
         the waypoint and the path fraction) and `UnsupportedModelError` for a robot with
         joints other than revolute or prismatic. `payloads`: rigid bodies the robot holds
@@ -116,6 +125,8 @@ class AsyncTrajectoryMethods(AsyncSender):
         a: ArrayLike | None = None,
         effort_scale: float = 1.0,
         velocity_scale: float = 1.0,
+        acceleration: ArrayLike | None = None,
+        boundary: str = "not-a-knot",
         samples_per_interval: int = 4,
         friction: bool = False,
         payloads: PayloadsLike | None = None,
@@ -123,12 +134,15 @@ class AsyncTrajectoryMethods(AsyncSender):
     ) -> TrajectoryCheck:
         """`TrajectoryCheck`: does the motion sampled at times `t` (shape (N,), s, strictly
         increasing) with configurations `q` (shape (N, nq)) stay within the robot's effort, velocity
-        and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)?
-        `v` and `a` (N, nv): where absent, the derivatives of the not-a-knot cubic spline
-        through (t, q) (robots with nq = nv), and `samples_per_interval` − 1 points inside
-        every interval are evaluated too, so that a limit broken between samples is found.
-        τ = M(q) a + C(q, v) v + g(q) at every evaluated point. The answer: `feasible`, `tau`
-        and `v` at the samples (N, nv), `joints` (`JointCheck`: limits, peaks, ratios),
+        and position limits (effort and velocity limits × `effort_scale`, `velocity_scale`)
+        and the joint `acceleration` limits (nv,) where given (an entry None or NaN: no
+        limit on that joint)? `v` and `a` (N, nv): where absent, the derivatives of the
+        cubic spline through (t, q) with the `boundary` conditions "not-a-knot", "clamped"
+        (zero velocity at both ends: a motion from rest to rest) or "natural" (robots with
+        nq = nv), and `samples_per_interval` − 1 points inside every interval are evaluated
+        too, so that a limit broken between samples is found. τ = M(q) a + C(q, v) v + g(q)
+        at every evaluated point. The answer: `feasible`, `tau` and `v` at the samples
+        (N, nv), `joints` (`JointCheck`: limits, peaks of |τ|, |v|, |a|, ratios),
         `violations` (`Violation`: joint, kind, t_start, t_end, worst, limit) and `work`
         (`Work`: positive and negative, J). Raises `ValidationError` for non-increasing
         times, `DimensionMismatchError` for rows that do not match. `friction=True` adds the
@@ -147,6 +161,8 @@ class AsyncTrajectoryMethods(AsyncSender):
                 a=a,
                 effort_scale=effort_scale,
                 velocity_scale=velocity_scale,
+                acceleration=acceleration,
+                boundary=boundary,
                 samples_per_interval=samples_per_interval,
                 friction=friction,
                 payloads=payloads,
@@ -170,10 +186,12 @@ class AsyncTrajectoryMethods(AsyncSender):
         spline through `waypoints` of shape (K, nq) (parameterised by cumulative joint-space
         distance),
         under the velocity limits × `velocity_scale`, the effort limits × `effort_scale` and
-        the joint `acceleration` limits (nv,) where given: `duration` (s), samples every
+        the joint `acceleration` limits (nv,) where given (an entry None or NaN: no limit on
+        that joint): `duration` (s), samples every
         `sample_dt` s and at the end — `t` (M,), `q` (M, nq), `v`, `a`, `tau` (M, nv) — and
         its `check` (a `TrajectoryCheck`). The motion is within every limit everywhere, not
-        only at samples (1e-6 relative; docs/trajectories.md says how). Raises
+        only at samples (1e-6 relative), and at most 1 % slower than the optimum
+        (docs/trajectories.md says how). Raises
         `InfeasiblePathError` for a path no timing can follow (its `body` names the joint,
         the waypoint and the path fraction) and `UnsupportedModelError` for a robot with
         joints other than revolute or prismatic. `payloads`: rigid bodies the robot holds

@@ -182,6 +182,12 @@ def angles_far_outside(robot: Robot, q: np.ndarray) -> str | None:
     names, index, lower, upper = robot.angle_ranges
     if not index.size:
         return None
+    # Each joint's smallest and largest angle over the states first (two passes over q, no
+    # copy): a whole turn outside is rare, and only then is the state looked for.
+    if not np.max(np.maximum(lower - q.min(axis=0)[index], q.max(axis=0)[index] - upper)) >= (
+        2 * np.pi
+    ):
+        return None
     angles = q[:, index]
     beyond = np.maximum(lower - angles, angles - upper)
     state, joint = np.unravel_index(np.argmax(beyond), beyond.shape)

@@ -14,6 +14,7 @@ from typing import Any
 from fastapi import Depends, FastAPI
 
 from service import __version__, heap, processes, unpin_this_thread
+from service.api.activity import Activity
 from service.api.deps import require_api_key_for_all
 from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.encoding.shared_bodies import sweep_periodically
@@ -125,6 +126,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
+    app.state.activity = Activity()  # requests in flight: may a large batch run whole?
     app.state.segments = segments
     app.state.batches_in_flight = 0
     # Each robot's equations in explicit form, derived once in a child process (in slots of
@@ -182,7 +184,10 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         json_limit=settings.max_json_body_bytes,
     )
     app.add_middleware(
-        ObservabilityMiddleware, metrics=app.state.metrics, catalog_ids=lambda: registry.catalog
+        ObservabilityMiddleware,
+        metrics=app.state.metrics,
+        catalog_ids=lambda: registry.catalog,
+        activity=app.state.activity,
     )  # outermost: sees every answer
     return app
 

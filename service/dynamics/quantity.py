@@ -8,8 +8,9 @@ it (`service.api.quantities` adds the request and answer schemas; nothing else n
 
 A quantity's `compute(robot, states, **options)` takes validated joint-space `States` (arrays
 of shape (N, n), see `service.states`) and keyword options (e.g. `frame`), and returns named
-arrays whose first axis is the batch axis N. `parallel`, where given, computes the same arrays
-bit for bit, faster for large N (Pinocchio's OpenMP batch algorithms).
+arrays whose first axis is the batch axis N. `parallel(robot, states, should_stop)`, where given,
+computes the same arrays bit for bit, faster for large N (Pinocchio's OpenMP batch algorithms),
+asking `should_stop` (or nothing, when None) between its native calls.
 """
 
 from __future__ import annotations
@@ -180,16 +181,27 @@ def run(
 
     `should_stop` (optional, `service.dynamics.stopping`) makes the computation stoppable: a
     quantity whose function takes `should_stop` (simulate, the contact quantities) asks it
-    between steps or states; any other batch is computed in chunks of about CHUNK_WORK
+    between steps or states, and so does a `parallel` batch between its native calls
+    (`service.dynamics.parallel`); any other batch is computed in chunks of about CHUNK_WORK
     states × nv, and `should_stop` is asked before each.
 
     `split` (optional) computes a batch of a `state_by_state` quantity without options, its
     states shared between this process and helper processes that write their slices into the
     same answer arrays; it decides itself whether the batch is large enough to pay. Its chunks
     are `split.processes` times larger (every process computes about one chunk's work)."""
+    by_state = quantity.state_by_state
+    split_batch = split is not None and by_state is not None and not options
+    parallel_batch = (
+        quantity.parallel is not None
+        and s.count >= quantity.parallel_from
+        and not options
+        and not split_batch
+    )
     if should_stop is not None:
         if quantity.stoppable:
             options = {**options, "should_stop": should_stop}
+        elif parallel_batch:
+            pass  # asks `should_stop` between its own chunks (`service.dynamics.parallel`)
         elif (
             s.count > _chunk_states(robot, quantity, split)
             and not quantity.whole_batch
@@ -199,13 +211,14 @@ def run(
         elif should_stop():  # computed whole: stopped only before it starts
             raise ComputationStopped(f"{quantity.name}: stopped before computing")
     try:
-        by_state = quantity.state_by_state
-        if split is not None and by_state is not None and not options:
+        if split_batch:
+            assert split is not None and by_state is not None  # (split_batch says so)
             out = by_state.empty(robot, s.count)
             split(robot, quantity, s, out)
             results = finite(by_state.answer, **out)
-        elif quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
-            results = finite(quantity.name, **quantity.parallel(robot, s))
+        elif parallel_batch:
+            assert quantity.parallel is not None  # (parallel_batch says so)
+            results = finite(quantity.name, **quantity.parallel(robot, s, should_stop))
         else:
             results = quantity.compute(robot, s, **options)
     except np.linalg.LinAlgError as exc:

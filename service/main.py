@@ -146,13 +146,13 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
     # Large mass-matrix and Coriolis batches shared with helper processes (started on the
-    # first such batch) when configured; -1: one per CPU left to this serving process (its
-    # share of the CPUs when there are several) but its own.
-    helpers = (
-        settings.batch_helpers
-        if settings.batch_helpers >= 0
-        else max(0, _usable_cpus() // settings.workers - 1)
-    )
+    # first such batch); -1: one per CPU left to this serving process (its share of the CPUs
+    # when there are several) but its own. Unset: -1 for the Unix socket's requests only.
+    app.state.split_over_socket_only = settings.batch_helpers is None
+    wanted = settings.batch_helpers
+    if wanted is None:
+        wanted = -1 if settings.unix_socket is not None else 0
+    helpers = wanted if wanted >= 0 else max(0, _usable_cpus() // settings.workers - 1)
     app.state.batch_split = (
         BatchSplit(helpers, settings.batch_helper_buffer_mb * 1024 * 1024) if helpers else None
     )

@@ -67,16 +67,18 @@ class Settings(BaseSettings):
         description="Large batches computed or queued at once per process; more are "
         "answered 503 overloaded with Retry-After.",
     )
-    batch_helpers: int = Field(
-        0,
+    batch_helpers: int | None = Field(
+        None,
         ge=-1,
         le=64,
         description="Helper processes per server process that compute a share of each large "
         "mass-matrix or Coriolis batch (Pinocchio computes these state by state on one core "
         "and holds the GIL), writing it into shared memory; -1: one per CPU the process may "
-        "use (divided by the server processes, `workers`) but one; 0 (the default): off, "
-        "every batch computed by the serving process alone (on the 2-core bench machine the "
-        "helpers did not make these batches measurably faster end to end: performance.md).",
+        "use (divided by the server processes, `workers`) but one; 0: off, every batch "
+        "computed by the serving process alone. Unset (the default): -1 for requests over "
+        "the Unix socket (`unix_socket`), off for requests over TCP (performance.md: through "
+        "the socket the helpers took 2,000 Talos Coriolis matrices from 0.77 to 1.00–1.11 of a "
+        "Python loop; over TCP the transport, not the computation, bounds these batches).",
     )
     batch_helper_buffer_mb: int = Field(
         64,

@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from fastapi.testclient import TestClient
+from starlette.requests import HTTPConnection
 
 from service import dynamics
 from service.api.workers import batch_split
@@ -200,23 +201,48 @@ def test_over_http_then_nothing_left_after_shutdown(catalog_registry, record_sli
     assert _memfds(os.getpid()) == before
 
 
-def test_helpers_are_off_unless_configured(catalog_registry):
+def test_helpers_by_default_for_the_unix_socket_only(catalog_registry, tmp_path):
+    """Unset, ROBODYN_BATCH_HELPERS is -1 for the requests over the Unix socket and off over
+    TCP; set, it applies to every request (0: off)."""
+    from service.api.routes.dynamics import _batch_split
+
     data_dir = catalog_registry.store.dir.parent
+    cpus = len(os.sched_getaffinity(0))
+    over_tcp = {"type": "http", "server": ("127.0.0.1", 8000)}
+    over_socket = {"type": "http", "server": (str(tmp_path / "r.sock"), None)}
+
+    def split_for(app, scope):
+        return _batch_split(HTTPConnection({**scope, "app": app}))
+
     assert (
-        create_app(Settings(data_dir=data_dir), registry=catalog_registry).state.batch_split is None
+        create_app(Settings(data_dir=data_dir), registry=catalog_registry).state.batch_split
+        is None  # no Unix socket: no helpers
     )
+    socket_app = create_app(
+        Settings(data_dir=data_dir, unix_socket=tmp_path / "r.sock"), registry=catalog_registry
+    )
+    split = socket_app.state.batch_split
+    if cpus > 1:
+        assert split.processes == cpus
+        assert split_for(socket_app, over_socket) is split
+        assert split_for(socket_app, over_tcp) is None
+        split.close()
+    else:
+        assert split is None
     assert (
         create_app(
-            Settings(data_dir=data_dir, batch_helpers=0), registry=catalog_registry
+            Settings(data_dir=data_dir, unix_socket=tmp_path / "r.sock", batch_helpers=0),
+            registry=catalog_registry,
         ).state.batch_split
         is None
     )
-    # -1: one helper per CPU of the process but its own (its share with several workers)
-    cpus = len(os.sched_getaffinity(0))
+    # -1: one helper per CPU of the process but its own (its share with several workers),
+    # for every request
     app = create_app(Settings(data_dir=data_dir, batch_helpers=-1), registry=catalog_registry)
     split = app.state.batch_split
     if cpus > 1:
         assert split.processes == cpus
+        assert split_for(app, over_tcp) is split
         split.close()
     else:
         assert split is None

@@ -91,8 +91,20 @@ def as_array(name: str, value: Any, what: str = "(one state) or 2-D (a batch)") 
     if arr.ndim not in (1, 2):
         raise InvalidInput(f"{name} must be 1-D {what}, not {arr.ndim}-D")
     if not all_finite(arr):
-        raise InvalidInput(f"{name} contains a non-finite number (NaN or infinity)")
+        raise InvalidInput(
+            f"{name} contains a non-finite number (NaN or infinity): {_first_non_finite(arr)}"
+        )
     return arr
+
+
+def _first_non_finite(arr: np.ndarray) -> str:
+    """Where the first non-finite entry of a 1-D or 2-D array is, and what it is (looked
+    for only once the array is known to hold one)."""
+    index = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+    value = arr[index]
+    if arr.ndim == 2:
+        return f"state {index[0]}, entry {index[1]} is {value}"
+    return f"entry {index[0]} is {value}"
 
 
 def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:

@@ -76,9 +76,10 @@ class Settings(BaseSettings):
         "and holds the GIL), writing it into shared memory; -1: one per CPU the process may "
         "use (divided by the server processes, `workers`) but one; 0: off, every batch "
         "computed by the serving process alone. Unset (the default): -1 for requests over "
-        "the Unix socket (`unix_socket`), off for requests over TCP (performance.md: through "
-        "the socket the helpers took 2,000 Talos Coriolis matrices from 0.77 to 1.00–1.11 of a "
-        "Python loop; over TCP the transport, not the computation, bounds these batches).",
+        "the Unix socket (`unix_socket`), off for requests over TCP (performance.md: on the "
+        "quiet 2-core machine, through the socket, they took 2,000 Talos Coriolis matrices "
+        "from 0.77 to 1.00–1.11 of a Python loop; with other work holding both cores they "
+        "cost a little, and 0 turns them off; over TCP the transport bounds these batches).",
     )
     batch_helper_buffer_mb: int = Field(
         64,

@@ -14,6 +14,11 @@ states (`service.dynamics.run`). It stops the computation when
 
 `STOPPED` counts the stops by reason, exported as `robodyn_computations_stopped_total`.
 
+`may_hold(seconds)` tells a batch of Pinocchio's OpenMP algorithms whether it may compute for
+`seconds` without asking again (`service.dynamics.parallel`): only when the serving process
+has nothing else to serve (`service.api.activity`), the client is there, and the deadline is at
+least twice that far (and never past `MAX_HOLD_S`).
+
 A request answered with progress (`service.api.progress`) has a progress channel in its scope;
 its `Cancellation` forwards what the computation reports (`report`) to it.
 """

@@ -36,9 +36,10 @@ from service.api.progress import progress_channel
 from service.errors import ComputationStopped, DeadlineExceeded
 
 STOPPED: dict[str, int] = {"deadline": 0, "disconnect": 0}
-MAX_HOLD_S = 1.0
+MAX_HOLD_S = 0.25
 """The longest a computation may go on without asking (`Cancellation.may_hold`), in seconds:
-a client that goes away is noticed within about this."""
+a client that goes away is noticed within about this, and a request that comes in while it
+runs (a health probe after a quiet spell) waits at most about this."""
 
 
 class Cancellation:

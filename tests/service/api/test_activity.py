@@ -55,11 +55,11 @@ def test_quiet_after_the_pause(monkeypatch):
 def test_may_hold_asks_activity_deadline_and_client():
     activity = _long_ago(Activity())
     activity.started()
-    cancellation = Cancellation("inverse-dynamics", 0.5, activity=activity)
+    cancellation = Cancellation("inverse-dynamics", 0.1, activity=activity)
     assert cancellation() is False  # the computation starts: its deadline is set
     assert cancellation.may_hold(0.01)
-    assert not cancellation.may_hold(0.3)  # 2 × 0.3 s would pass the 0.5 s deadline
-    assert not cancellation.may_hold(MAX_HOLD_S * 2)
+    assert not cancellation.may_hold(0.06)  # 2 × 0.06 s would pass the 0.1 s deadline
+    assert not Cancellation("x", 60.0, activity=activity).may_hold(MAX_HOLD_S * 1.5)
     activity.started()
     assert not cancellation.may_hold(0.01)  # another request is in flight
     activity.ended(large=True)

@@ -9,7 +9,10 @@ the rows are medians over the rounds:
   `ModelPool`, the inputs already column-major as it takes them);
 - 2,000 Talos mass matrices and 2,000 Coriolis matrices against a Python loop over `pin.crba` /
   `pin.computeCoriolisMatrix` with one Data, each answer copied out and stacked (the service's
-  answer is one array too).
+  answer is one array too). `WARM_S` seconds of such batches come first: the first of them
+  through the socket start the server's batch helpers (ROBODYN_BATCH_HELPERS: unset, one per
+  CPU but one for the socket's requests; 0: off), which share these batches with the serving
+  process.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from collections.abc import Callable
 import numpy as np
 
 Row = Callable[[str, float, float, str, str], None]
+WARM_S = 10.0
 
 
 def colocated(
@@ -63,6 +67,13 @@ def colocated(
                 strict=True,
             ):
                 assert np.array_equal(a, b), f"{name}: socket and TCP answers differ"
+        # The first large M and C batches through the socket start the server's batch
+        # helpers, which import Pinocchio before they serve (seconds on a loaded machine):
+        # warmed before timing.
+        warm_until = time.monotonic() + WARM_S
+        while time.monotonic() < warm_until:
+            local.mass_matrix("talos", q)
+            local.coriolis("talos", q, v)
         cases = [
             (
                 "inverse dynamics, 10,000 Talos states",

@@ -14,6 +14,7 @@ from typing import Any
 from fastapi import Depends, FastAPI
 
 from service import __version__, heap, processes, unpin_this_thread
+from service.api.activity import Activity
 from service.api.deps import require_api_key_for_all
 from service.api.encoding.in_flight import AnswerBytesInFlight
 from service.api.encoding.shared_bodies import sweep_periodically
@@ -35,6 +36,7 @@ from service.api.routes import (
     stream,
     visuals,
 )
+from service.api.workers.batch_split import BatchSplit
 from service.api.workers.equations_cache import EquationsCache
 from service.logs import capture_native_stderr, configure_logging
 from service.registry import Registry, data_pool
@@ -90,6 +92,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
             sweeper.cancel()
         if segments is not None:  # this process's answer files (the directory: __main__'s)
             segments.answers.close()
+        if app.state.batch_split is not None:  # its helpers and their shared files
+            app.state.batch_split.close()
         worker = getattr(app.state, "identification", None)
         if worker is not None:  # the identification worker process, if one was started
             worker.close()
@@ -122,6 +126,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     app.state.registry = registry
     app.state.api_keys = [k.encode() for k in settings.api_key_list()]
     app.state.metrics = Metrics()
+    app.state.activity = Activity()  # requests in flight: may a large batch run whole?
     app.state.segments = segments
     app.state.batches_in_flight = 0
     # Each robot's equations in explicit form, derived once in a child process (in slots of
@@ -140,6 +145,17 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     )
     app.state.off_loop_slots = asyncio.Semaphore(_usable_cpus())
     app.state.answers_in_flight = AnswerBytesInFlight(settings.max_answer_bytes_in_flight)
+    # Large mass-matrix and Coriolis batches shared with helper processes (started on the
+    # first such batch); -1: one per CPU left to this serving process (its share of the CPUs
+    # when there are several) but its own. Unset: -1 for the Unix socket's requests only.
+    app.state.split_over_socket_only = settings.batch_helpers is None
+    wanted = settings.batch_helpers
+    if wanted is None:
+        wanted = -1 if settings.unix_socket is not None else 0
+    helpers = wanted if wanted >= 0 else max(0, _usable_cpus() // settings.workers - 1)
+    app.state.batch_split = (
+        BatchSplit(helpers, settings.batch_helper_buffer_mb * 1024 * 1024) if helpers else None
+    )
     install_problem_handlers(app)
     described = dynamics_routes.openapi_routes().routes  # schema-only twins of the lean routes
     # Twins of other lean routes: identify (JSON or the binary form in, JSON out), and the
@@ -168,7 +184,10 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         json_limit=settings.max_json_body_bytes,
     )
     app.add_middleware(
-        ObservabilityMiddleware, metrics=app.state.metrics, catalog_ids=lambda: registry.catalog
+        ObservabilityMiddleware,
+        metrics=app.state.metrics,
+        catalog_ids=lambda: registry.catalog,
+        activity=app.state.activity,
     )  # outermost: sees every answer
     return app
 

@@ -67,6 +67,28 @@ class Settings(BaseSettings):
         description="Large batches computed or queued at once per process; more are "
         "answered 503 overloaded with Retry-After.",
     )
+    batch_helpers: int | None = Field(
+        None,
+        ge=-1,
+        le=64,
+        description="Helper processes per server process that compute a share of each large "
+        "mass-matrix or Coriolis batch (Pinocchio computes these state by state on one core "
+        "and holds the GIL), writing it into shared memory; -1: one per CPU the process may "
+        "use (divided by the server processes, `workers`) but one; 0: off, every batch "
+        "computed by the serving process alone. Unset (the default): -1 for requests over "
+        "the Unix socket (`unix_socket`), off for requests over TCP (performance.md: on the "
+        "quiet 2-core machine, through the socket, they took 2,000 Talos Coriolis matrices "
+        "from 0.77 to 1.00–1.11 of a Python loop; with other work holding both cores they "
+        "cost a little, and 0 turns them off; over TCP the transport bounds these batches).",
+    )
+    batch_helper_buffer_mb: int = Field(
+        64,
+        ge=1,
+        le=4096,
+        description="Shared memory of each batch helper for its share of a batch's inputs "
+        "and answers, in MB, kept mapped between requests; a helper's share of a larger batch "
+        "is cut to fit.",
+    )
     max_simulation_steps: int = Field(
         100_000,
         ge=1,

@@ -91,8 +91,20 @@ def as_array(name: str, value: Any, what: str = "(one state) or 2-D (a batch)") 
     if arr.ndim not in (1, 2):
         raise InvalidInput(f"{name} must be 1-D {what}, not {arr.ndim}-D")
     if not all_finite(arr):
-        raise InvalidInput(f"{name} contains a non-finite number (NaN or infinity)")
+        raise InvalidInput(
+            f"{name} contains a non-finite number (NaN or infinity): {_first_non_finite(arr)}"
+        )
     return arr
+
+
+def _first_non_finite(arr: np.ndarray) -> str:
+    """Where the first non-finite entry of a 1-D or 2-D array is, and what it is (looked
+    for only once the array is known to hold one)."""
+    index = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+    value = arr[index]
+    if arr.ndim == 2:
+        return f"state {index[0]}, entry {index[1]} is {value}"
+    return f"entry {index[0]} is {value}"
 
 
 def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
@@ -182,6 +194,11 @@ def angles_far_outside(robot: Robot, q: np.ndarray) -> str | None:
     names, index, lower, upper = robot.angle_ranges
     if not index.size:
         return None
+    # Each joint's smallest and largest angle over the states first (no copy of q): a whole
+    # turn outside is rare, and only then is the state looked for.
+    smallest, largest = column_extremes(q)
+    if not np.max(np.maximum(lower - smallest[index], largest[index] - upper)) >= 2 * np.pi:
+        return None
     angles = q[:, index]
     beyond = np.maximum(lower - angles, angles - upper)
     state, joint = np.unravel_index(np.argmax(beyond), beyond.shape)
@@ -197,12 +214,38 @@ def angles_far_outside(robot: Robot, q: np.ndarray) -> str | None:
     )
 
 
+_ROWS_AT_ONCE = 64
+
+
+def column_extremes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The smallest and the largest entry of each column of a C-contiguous (N, n) array (NaN
+    where the column holds one). Reduced over blocks of `_ROWS_AT_ONCE` rows seen as one
+    long row, then over the blocks' n-wide results: numpy's reduction along axis 0 of a
+    narrow array pays a step per row (0.4 ms for (10,000, 39)), over wide rows it runs at
+    memory speed."""
+    n, width = x.shape
+    whole = n - n % _ROWS_AT_ONCE
+    if whole == 0 or not x.flags.c_contiguous:
+        return x.min(axis=0), x.max(axis=0)
+    blocks = x[:whole].reshape(whole // _ROWS_AT_ONCE, _ROWS_AT_ONCE * width)
+    smallest = blocks.min(axis=0).reshape(_ROWS_AT_ONCE, width).min(axis=0)
+    largest = blocks.max(axis=0).reshape(_ROWS_AT_ONCE, width).max(axis=0)
+    if whole < n:
+        rest = x[whole:]
+        smallest = np.minimum(smallest, rest.min(axis=0))
+        largest = np.maximum(largest, rest.max(axis=0))
+    return smallest, largest
+
+
 def check_configuration(robot: Robot, q: np.ndarray) -> None:
     """Quaternions and (cos, sin) pairs in q (the API's order) must have unit norm (within
     UNIT_NORM_TOL)."""
     for joint, start, end in robot.unit_joints:
+        unit = q[:, start:end]
         with np.errstate(over="ignore"):  # a norm past 1e154 overflows to inf: refused below
-            norms = np.linalg.norm(q[:, start:end], axis=1)
+            # √(Σ x²) by einsum: no temporary of the squares (0.1 ms for 10,000 quaternions,
+            # np.linalg.norm 0.3 ms)
+            norms = np.sqrt(np.einsum("ij,ij->i", unit, unit))
         bad = np.flatnonzero(np.abs(norms - 1.0) > UNIT_NORM_TOL)
         if bad.size:
             i = int(bad[0])

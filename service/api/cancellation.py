@@ -14,6 +14,11 @@ states (`service.dynamics.run`). It stops the computation when
 
 `STOPPED` counts the stops by reason, exported as `robodyn_computations_stopped_total`.
 
+`may_hold(seconds)` tells a batch of Pinocchio's OpenMP algorithms whether it may compute for
+`seconds` without asking again (`service.dynamics.parallel`): only when the serving process
+has nothing else to serve (`service.api.activity`), the client is there, and the deadline is at
+least twice that far (and never past `MAX_HOLD_S`).
+
 A request answered with progress (`service.api.progress`) has a progress channel in its scope;
 its `Cancellation` forwards what the computation reports (`report`) to it.
 """
@@ -26,22 +31,46 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
+from service.api.activity import Activity
 from service.api.progress import progress_channel
 from service.errors import ComputationStopped, DeadlineExceeded
 
 STOPPED: dict[str, int] = {"deadline": 0, "disconnect": 0}
+MAX_HOLD_S = 0.25
+"""The longest a computation may go on without asking (`Cancellation.may_hold`), in seconds:
+a client that goes away is noticed within about this, and a request that comes in while it
+runs (a health probe after a quiet spell) waits at most about this."""
 
 
 class Cancellation:
     """`should_stop` of one request: raises `ComputationStopped` naming why, else False."""
 
-    __slots__ = ("deadline", "deadline_s", "disconnected", "progress", "quantity")
+    __slots__ = ("activity", "deadline", "deadline_s", "disconnected", "progress", "quantity")
 
-    def __init__(self, quantity: str, deadline_s: float, progress: Any = None) -> None:
+    def __init__(
+        self,
+        quantity: str,
+        deadline_s: float,
+        progress: Any = None,
+        activity: Activity | None = None,
+    ) -> None:
         self.quantity, self.deadline_s = quantity, deadline_s
         self.deadline = 0.0  # from the first question: when the computation started
         self.disconnected = False  # set on the event loop, read by the worker thread
         self.progress = progress  # the request's `ProgressChannel`, or None
+        self.activity = activity  # the serving process's requests in flight, or None
+
+    def may_hold(self, seconds: float) -> bool:
+        """Whether the computation may go on for `seconds` without asking again: the
+        process is quiet (`service.api.activity`; never when unknown), the client has not
+        gone, and at least twice `seconds` are left before the deadline."""
+        return (
+            self.activity is not None
+            and not self.disconnected
+            and seconds <= MAX_HOLD_S
+            and self.activity.quiet()
+            and (not self.deadline or time.monotonic() + 2 * seconds < self.deadline)
+        )
 
     def report(self, done: int, total: int, unit: str, stage: str | None = None) -> None:
         """How far the computation got (`service.dynamics.stopping.report_progress`)."""
@@ -84,6 +113,7 @@ async def cancellable(connection: Any, quantity: str) -> AsyncIterator[Cancellat
         quantity,
         connection.app.state.settings.request_deadline_s,
         progress_channel(connection.scope),
+        getattr(connection.app.state, "activity", None),
     )
     receive = getattr(connection, "_receive", None)
     watcher = None

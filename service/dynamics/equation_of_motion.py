@@ -23,6 +23,7 @@ from service.dynamics.joint_loads import add_friction, moving_joints, rnea_with_
 from service.dynamics.quantity import (
     Quantity,
     Results,
+    StateByState,
     finite,
     matrix,
     nv_numbers,
@@ -33,18 +34,27 @@ from service.registry.robot import Robot
 from service.states import States
 
 
-def mass_matrix(robot: Robot, s: States) -> Results:
-    """M(q), the joint-space inertia matrix (CRBA), shape (N, nv, nv), symmetric positive
-    definite; the kinetic energy is T = ½ vᵀ M v. Includes the armature on its diagonal."""
-    q = s["q"]
-    out = np.empty((q.shape[0], robot.nv, robot.nv))
+def mass_matrices_into(robot: Robot, s: States, out: Results) -> None:
+    """M(q) of each state of `s` (CRBA) written into out["mass_matrix"][i], (nv, nv) in kg·m²
+    (or kg). Includes the armature on its diagonal."""
+    q, M = s["q"], out["mass_matrix"]
     with robot.data() as data:
         for i in range(q.shape[0]):
-            out[i] = matrix(pin.crba(robot.model, data, q[i]), robot.nv, robot.nv)
+            M[i] = matrix(pin.crba(robot.model, data, q[i]), robot.nv, robot.nv)
     # The CRBA algorithm fills only the upper triangle (the C++ trap), but Pinocchio's Python
     # `crba` copies it down before returning (its binding's make_symmetric): M comes back
     # exactly symmetric, so no second pass over N·nv² numbers here (tested, batch and single).
-    return finite("mass-matrix", mass_matrix=out)
+
+
+MASS_MATRIX = StateByState(
+    lambda robot: {"mass_matrix": (robot.nv, robot.nv)}, mass_matrices_into, "mass-matrix"
+)
+
+
+def mass_matrix(robot: Robot, s: States) -> Results:
+    """M(q), the joint-space inertia matrix (CRBA), shape (N, nv, nv), symmetric positive
+    definite; the kinetic energy is T = ½ vᵀ M v. Includes the armature on its diagonal."""
+    return MASS_MATRIX.compute(robot, s)
 
 
 def gravity(robot: Robot, s: States) -> Results:
@@ -57,19 +67,30 @@ def gravity(robot: Robot, s: States) -> Results:
     return finite("gravity", gravity=out)
 
 
-def coriolis(robot: Robot, s: States) -> Results:
-    """C(q, v), the Coriolis/centrifugal matrix with Ṁ = C + Cᵀ, (N, nv, nv), and the forces
-    C(q, v) v, (N, nv)."""
+def coriolis_into(robot: Robot, s: States, out: Results) -> None:
+    """C(q, v) of each state of `s` written into out["coriolis_matrix"][i], (nv, nv), with
+    Ṁ = C + Cᵀ, and the forces C(q, v) v into out["coriolis_forces"][i], (nv,)."""
     q, v = s["q"], s["v"]
-    n = q.shape[0]
-    C = np.empty((n, robot.nv, robot.nv))
+    C, Cv = out["coriolis_matrix"], out["coriolis_forces"]
     with robot.data() as data:
-        for i in range(n):
+        for i in range(q.shape[0]):
             C[i] = matrix(
                 pin.computeCoriolisMatrix(robot.model, data, q[i], v[i]), robot.nv, robot.nv
             )
-    Cv = np.einsum("nij,nj->ni", C, v)
-    return finite("coriolis", coriolis_matrix=C, coriolis_forces=Cv)
+    np.einsum("nij,nj->ni", C, v, out=Cv)
+
+
+CORIOLIS = StateByState(
+    lambda robot: {"coriolis_matrix": (robot.nv, robot.nv), "coriolis_forces": (robot.nv,)},
+    coriolis_into,
+    "coriolis",
+)
+
+
+def coriolis(robot: Robot, s: States) -> Results:
+    """C(q, v), the Coriolis/centrifugal matrix with Ṁ = C + Cᵀ, (N, nv, nv), and the forces
+    C(q, v) v, (N, nv)."""
+    return CORIOLIS.compute(robot, s)
 
 
 def nonlinear_effects(robot: Robot, s: States) -> Results:
@@ -175,7 +196,12 @@ def forward_dynamics(
 
 EQUATION_OF_MOTION = (
     Quantity(
-        "mass-matrix", ("q",), mass_matrix, "Mass matrix M(q)", answer_size=nv_squared_numbers
+        "mass-matrix",
+        ("q",),
+        mass_matrix,
+        "Mass matrix M(q)",
+        answer_size=nv_squared_numbers,
+        state_by_state=MASS_MATRIX,
     ),
     Quantity(
         "gravity",
@@ -193,6 +219,7 @@ EQUATION_OF_MOTION = (
         "Coriolis matrix C(q, v) and forces C v",
         joint_answers=("coriolis_forces",),
         answer_size=lambda r, o, v: r.nv * r.nv + r.nv,
+        state_by_state=CORIOLIS,
     ),
     Quantity(
         "nonlinear-effects",

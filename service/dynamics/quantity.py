@@ -8,8 +8,9 @@ it (`service.api.quantities` adds the request and answer schemas; nothing else n
 
 A quantity's `compute(robot, states, **options)` takes validated joint-space `States` (arrays
 of shape (N, n), see `service.states`) and keyword options (e.g. `frame`), and returns named
-arrays whose first axis is the batch axis N. `parallel`, where given, computes the same arrays
-bit for bit, faster for large N (Pinocchio's OpenMP batch algorithms).
+arrays whose first axis is the batch axis N. `parallel(robot, states, should_stop)`, where given,
+computes the same arrays bit for bit, faster for large N (Pinocchio's OpenMP batch algorithms),
+asking `should_stop` (or nothing, when None) between its native calls.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import functools
 import inspect
 from collections.abc import Callable
 from dataclasses import KW_ONLY, dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -34,6 +35,43 @@ AnswerSize = Callable[[Robot, dict[str, Any], bool], int]
 """(robot, options, v given) -> how many numbers the answer of one state holds."""
 SmallerRequest = Callable[[Robot, int], str]
 """(robot, numbers that fit) -> what to ask for when even one state's answer is too large."""
+Fill = Callable[[Robot, States, Results], None]
+"""(robot, states, out) -> None: each state's answer written into row i of each array of out."""
+
+
+class Split(Protocol):
+    """`split(robot, quantity, states, out)` fills `out` as `quantity.state_by_state.fill`
+    would, its states shared between `processes` processes (this one and helpers that write
+    their slices into `out`'s memory: `service.api.workers.batch_split`); given to `run`."""
+
+    processes: int
+
+    def __call__(self, robot: Robot, quantity: Quantity, s: States, out: Results) -> None: ...
+
+
+@dataclass(frozen=True)
+class StateByState:
+    """A quantity computed state by state into given arrays, so that a batch may be split
+    between processes that each write their slice of the answer.
+
+    `shapes(robot)` gives each answer's shape for one state; `fill(robot, s, out)` writes the
+    answer of state i of `s` into `out[name][i]` (arrays of shape (N, *shapes[name])); the same
+    algorithm per state whoever runs it, so a split batch is bit for bit the serial one.
+    `answer` names the quantity in the finiteness check."""
+
+    shapes: Callable[[Robot], dict[str, tuple[int, ...]]]
+    fill: Fill
+    answer: str
+
+    def empty(self, robot: Robot, n: int) -> Results:
+        """Uninitialised answer arrays for n states."""
+        return {name: np.empty((n, *shape)) for name, shape in self.shapes(robot).items()}
+
+    def compute(self, robot: Robot, s: States) -> Results:
+        """The serial batch: every state filled in this process, checked finite."""
+        out = self.empty(robot, s.count)
+        self.fill(robot, s, out)
+        return finite(self.answer, **out)
 
 
 @dataclass(frozen=True)
@@ -79,6 +117,9 @@ class Quantity:
     tensor_options: tuple[str, ...] = ()
     """Options of one number per sample (e.g. trajectory-check's `t`) that the binary form may
     carry as 1-D tensors rather than in its JSON header."""
+    state_by_state: StateByState | None = None
+    """Given when `compute` (without options) is `state_by_state.compute`: a batch that `run`
+    may split between processes (its `split`)."""
 
     @functools.cached_property
     def stoppable(self) -> bool:
@@ -130,6 +171,7 @@ def run(
     s: States,
     options: dict[str, Any],
     should_stop: ShouldStop | None = None,
+    split: Split | None = None,
 ) -> dict[str, Any]:
     """Compute one quantity and drop the batch axis again for a single-state request.
 
@@ -139,22 +181,44 @@ def run(
 
     `should_stop` (optional, `service.dynamics.stopping`) makes the computation stoppable: a
     quantity whose function takes `should_stop` (simulate, the contact quantities) asks it
-    between steps or states; any other batch is computed in chunks of about CHUNK_WORK
-    states × nv, and `should_stop` is asked before each."""
+    between steps or states, and so does a `parallel` batch between its native calls
+    (`service.dynamics.parallel`); any other batch is computed in chunks of about CHUNK_WORK
+    states × nv, and `should_stop` is asked before each.
+
+    `split` (optional) computes a batch of a `state_by_state` quantity without options, its
+    states shared between this process and helper processes that write their slices into the
+    same answer arrays; it decides itself whether the batch is large enough to pay. Its chunks
+    are `split.processes` times larger (every process computes about one chunk's work)."""
+    by_state = quantity.state_by_state
+    split_batch = split is not None and by_state is not None and not options
+    parallel_batch = (
+        quantity.parallel is not None
+        and s.count >= quantity.parallel_from
+        and not options
+        and not split_batch
+    )
     if should_stop is not None:
         if quantity.stoppable:
             options = {**options, "should_stop": should_stop}
+        elif parallel_batch:
+            pass  # asks `should_stop` between its own chunks (`service.dynamics.parallel`)
         elif (
-            s.count > _chunk_states(robot, quantity)
+            s.count > _chunk_states(robot, quantity, split)
             and not quantity.whole_batch
             and not _per_state_options(options)
         ):
-            return _run_in_chunks(robot, quantity, s, options, should_stop)
+            return _run_in_chunks(robot, quantity, s, options, should_stop, split)
         elif should_stop():  # computed whole: stopped only before it starts
             raise ComputationStopped(f"{quantity.name}: stopped before computing")
     try:
-        if quantity.parallel is not None and s.count >= quantity.parallel_from and not options:
-            results = finite(quantity.name, **quantity.parallel(robot, s))
+        if split_batch:
+            assert split is not None and by_state is not None  # (split_batch says so)
+            out = by_state.empty(robot, s.count)
+            split(robot, quantity, s, out)
+            results = finite(by_state.answer, **out)
+        elif parallel_batch:
+            assert quantity.parallel is not None  # (parallel_batch says so)
+            results = finite(quantity.name, **quantity.parallel(robot, s, should_stop))
         else:
             results = quantity.compute(robot, s, **options)
     except np.linalg.LinAlgError as exc:
@@ -178,17 +242,25 @@ def _per_state_options(options: dict[str, Any]) -> bool:
     return any(np.ndim(force.get("wrench")) == 2 for force in options.get("external_forces") or ())
 
 
-def _chunk_states(robot: Robot, quantity: Quantity) -> int:
-    return max(quantity.parallel_from, CHUNK_WORK // max(robot.nv, 1))
+def _chunk_states(robot: Robot, quantity: Quantity, split: Split | None = None) -> int:
+    size = max(quantity.parallel_from, CHUNK_WORK // max(robot.nv, 1))
+    if split is not None and quantity.state_by_state is not None:
+        size *= max(1, split.processes)  # each process computes about one chunk's work
+    return size
 
 
 def _run_in_chunks(
-    robot: Robot, quantity: Quantity, s: States, options: dict[str, Any], should_stop: ShouldStop
+    robot: Robot,
+    quantity: Quantity,
+    s: States,
+    options: dict[str, Any],
+    should_stop: ShouldStop,
+    split: Split | None = None,
 ) -> dict[str, Any]:
     """`run` over consecutive chunks of the batch, asking `should_stop` before each; the
     answers are written into arrays of the whole batch (non-array answers, e.g. frame names,
     come from the first chunk). A true `should_stop` raises `ComputationStopped`."""
-    n, size = s.count, _chunk_states(robot, quantity)
+    n, size = s.count, _chunk_states(robot, quantity, split)
     out: dict[str, Any] = {}
     for start in range(0, n, size):
         hand_over()
@@ -202,7 +274,7 @@ def _run_in_chunks(
         part = States(
             {name: a[start : start + size] for name, a in s.arrays.items()}, True, first=start
         )
-        for name, value in run(robot, quantity, part, options).items():
+        for name, value in run(robot, quantity, part, options, split=split).items():
             if not isinstance(value, np.ndarray):
                 out.setdefault(name, value)
                 continue

@@ -14,6 +14,9 @@ the GIL and takes it back hundreds of times a millisecond, and CPython's GIL the
 waiting thread — the event loop — for as long as the loop runs (the convoy effect: /health/live
 waited 0.7 s beside a 20,000-state contact batch). `time.sleep(0)` every POLL_S lets it in.
 
+A batch of Pinocchio's OpenMP algorithms, which holds the GIL for each whole native call, asks
+`may_hold` whether it may compute the rest of the batch in one call (`service.dynamics.parallel`).
+
 Progress: a `should_stop` that also has a `report(done, total, unit, stage)` method (the API's
 `Cancellation`, which forwards to a request's progress stream) hears how far the computation
 got, at the same moments it is asked, when the stopper knows the `total`; `report_progress`
@@ -36,6 +39,15 @@ ShouldStop = Callable[[], bool]
 def hand_over() -> None:
     """Let a thread waiting for the GIL (the event loop) take it (see the module docstring)."""
     time.sleep(0)
+
+
+def may_hold(should_stop: Any, seconds: float) -> bool:
+    """Whether a computation may go on for about `seconds` without asking `should_stop` or
+    handing the GIL over: when `should_stop` has a `may_hold(seconds)` method (the API's
+    `Cancellation`: the serving process has nothing else to do and the deadline is far) and
+    it says so; never without one."""
+    ask = getattr(should_stop, "may_hold", None)
+    return bool(ask is not None and ask(seconds))
 
 
 def report_progress(

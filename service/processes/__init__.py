@@ -24,6 +24,10 @@ registry and the API layer both use it.
                 not of its own limits, e.g. the OOM killer), killed_detail
     pools       HelperPool: long-lived spawned helpers behind a ProcessPoolExecutor, each
                 call answered in time or the pool killed and replaced (HelperTimedOut)
+    resident    ResidentHelper: one long-lived spawned helper answering messages on its pipe,
+                each within a bounded wait, killed and restarted when it does not
+    shared_files  SharedFile: an anonymous shared-memory file (memfd) handed to a helper,
+                grown up to a bound and kept mapped, for answers too large for a pipe
     tracking    every live child and pool; shutdown(): stop them all (the app's lifespan,
                 the test fixtures)
 """
@@ -39,6 +43,8 @@ from service.processes.children import (
 from service.processes.cpu import STARVED_CPU_FRACTION, cpu_seconds, starved
 from service.processes.limits import CHILD_NICENESS, ResourceLimits, forbid_file_writes
 from service.processes.pools import HelperPool, HelperTimedOut
+from service.processes.resident import ResidentHelper
+from service.processes.shared_files import SharedFile
 from service.processes.tracking import disown, end, live_children, own, shutdown
 from service.processes.watchdog import die_with_supervisor
 
@@ -50,7 +56,9 @@ __all__ = [
     "ChildTimedOut",
     "HelperPool",
     "HelperTimedOut",
+    "ResidentHelper",
     "ResourceLimits",
+    "SharedFile",
     "cpu_seconds",
     "die_with_supervisor",
     "disown",

@@ -40,12 +40,15 @@ class AnswerFile:
     busy: bool = False
 
     def write(self, views: Sequence[memoryview]) -> None:
-        """Write `views` one after the other from the file's start (grown as needed)."""
+        """Write `views` one after the other from the file's start (grown as needed, its
+        memory allocated first: a full file system is an OSError here, never a SIGBUS on
+        writing to the mapping)."""
         needed = sum(len(v) for v in views)
         if needed > self.size:
             if self.mapping is not None:
                 self.mapping.close()
-            os.ftruncate(self.fd, needed)
+                self.mapping, self.size = None, 0
+            os.posix_fallocate(self.fd, 0, needed)
             self.mapping = mmap.mmap(self.fd, needed, flags=mmap.MAP_SHARED | _POPULATE)
             self.size = needed
         assert self.mapping is not None or needed == 0

@@ -8,7 +8,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from service.states import all_finite
+from service.errors import InvalidInput
+from service.states import all_finite, as_array
 
 ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True, width=64)
 
@@ -34,3 +35,24 @@ def test_one_bad_entry_anywhere_is_found(size: int, bad: float | None, data) -> 
         values[data.draw(st.integers(0, size - 1))] = bad
     assert all_finite(values) == (bad is None)
     assert all_finite(values[::3]) == bool(np.isfinite(values[::3]).all())  # not contiguous
+
+
+def test_a_non_finite_input_is_named_with_its_state_and_entry() -> None:
+    """The 422 of a non-finite input names the field, the state and the entry (the first
+    one), for a batch and for a single state."""
+    batch = np.zeros((10_000, 7))
+    batch[6_543, 2] = -np.inf
+    batch[9_000, 0] = np.nan
+    try:
+        as_array("v", batch)
+    except InvalidInput as exc:
+        assert str(exc).startswith("v contains a non-finite number")
+        assert "state 6543, entry 2 is -inf" in str(exc)
+    else:
+        raise AssertionError("a batch with -inf was accepted")
+    try:
+        as_array("q", [0.0, float("nan"), 1.0])
+    except InvalidInput as exc:
+        assert "entry 1 is nan" in str(exc) and "state" not in str(exc)
+    else:
+        raise AssertionError("a state with NaN was accepted")

@@ -29,6 +29,7 @@ from prometheus_client.core import CounterMetricFamily
 from prometheus_client.registry import Collector
 from starlette.requests import ClientDisconnect
 
+from service.api.activity import Activity
 from service.api.cancellation import STOPPED
 from service.api.problems.handlers import problem
 from service.logs import REQUEST_ID, sole_json_handler
@@ -202,8 +203,11 @@ def _request_id(scope: Scope) -> str:
 class ObservabilityMiddleware:
     """Metrics, the access log line, `X-Request-ID` and `Server-Timing` for every HTTP request."""
 
-    def __init__(self, app: Any, metrics: Metrics, catalog_ids: Any) -> None:
+    def __init__(
+        self, app: Any, metrics: Metrics, catalog_ids: Any, activity: Activity | None = None
+    ) -> None:
         self.app, self.metrics, self.catalog_ids = app, metrics, catalog_ids
+        self.activity = activity or Activity()  # (requests in flight: `service.api.activity`)
 
     async def __call__(self, scope: Scope, receive: Any, send: Any) -> None:
         if scope["type"] != "http":
@@ -233,6 +237,7 @@ class ObservabilityMiddleware:
                 }
             await send(message)
 
+        self.activity.started()
         try:
             await self.app(scope, receive, send_with_headers)
         except ClientDisconnect:
@@ -260,6 +265,8 @@ class ObservabilityMiddleware:
                 await answer(scope, receive, send_with_headers)
             status = status or 500
         finally:
+            info = scope.get("robodyn")
+            self.activity.ended(info is not None and info["large"])
             self._record(scope, status or 500, time.perf_counter() - started, request_id)
 
     def _record(self, scope: Scope, status: int, seconds: float, request_id: str) -> None:

@@ -30,6 +30,7 @@ from service.api.encoding.accept import prefers
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
+from service.api.encoding.shared_bodies import over_unix_socket
 from service.api.json_bodies import ISOLATED_JSON_BYTES, compact, parse_isolated
 from service.api.problems.validation_errors import json_prefix, prefix_errors, pydantic_errors
 from service.api.progress import Produce, ProgressAnswer, wants_progress
@@ -78,6 +79,18 @@ async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) ->
             return await run_in_threadpool(fn, *args)
     finally:
         state.batches_in_flight -= 1
+
+
+def _batch_split(connection: HTTPConnection) -> Any:
+    """The process's `BatchSplit` for this request's large mass-matrix and Coriolis batches
+    (`service.api.workers.batch_split`), or None: with ROBODYN_BATCH_HELPERS unset, only
+    requests over the Unix socket share their batches with the helpers."""
+    state = connection.app.state
+    if state.batch_split is None or (
+        state.split_over_socket_only and not over_unix_socket(connection.scope)
+    ):
+        return None
+    return state.batch_split
 
 
 class _Sizing(NamedTuple):
@@ -269,6 +282,7 @@ class Endpoint:
                     sizing,
                     fill,
                     stop,
+                    _batch_split(request),
                 )
         else:
             states = inputs.prepare_states(robot, arrays, settings.max_batch, fill)
@@ -281,7 +295,14 @@ class Endpoint:
             if large:
                 async with cancellable(request, self.quantity.name) as stop:
                     result = await off_loop(
-                        request, dynamics.run, robot, self.quantity, states, options, stop
+                        request,
+                        dynamics.run,
+                        robot,
+                        self.quantity,
+                        states,
+                        options,
+                        stop,
+                        _batch_split(request),
                     )
             else:
                 result = dynamics.run(robot, self.quantity, states, options)
@@ -307,10 +328,11 @@ class Endpoint:
         sizing: "_Sizing",
         fill: str | None = None,
         should_stop: Any = None,
+        split: Any = None,
     ) -> tuple[Any, dict[str, Any]]:
         states = inputs.prepare_states(robot, arrays, max_batch, fill)
         self._check_size(robot, states, options, sizing)
-        return states, dynamics.run(robot, self.quantity, states, options, should_stop)
+        return states, dynamics.run(robot, self.quantity, states, options, should_stop, split)
 
     def _check_size(
         self, robot: Any, states: Any, options: dict[str, Any], sizing: "_Sizing"

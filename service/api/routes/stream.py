@@ -99,6 +99,7 @@ async def stream(websocket: WebSocket) -> None:
         await websocket.close(CLOSE_ROBOT_NOT_FOUND)
         return
     await websocket.accept()
+    activity = websocket.app.state.activity
     while True:
         message = await websocket.receive()
         if message["type"] == "websocket.disconnect":
@@ -107,7 +108,12 @@ async def stream(websocket: WebSocket) -> None:
             # Each message computes with the robot as it is now: one deleted under the stream
             # is a 404 robot_not_found (a stat of its record; catalog robots stay).
             robot = websocket.app.state.registry.get(robot.id)
-            await _answer(websocket, robot, message)
+            websocket.scope.pop("robodyn", None)  # (the previous message's)
+            activity.started()
+            try:
+                await _answer(websocket, robot, message)
+            finally:
+                activity.ended(websocket.scope.get("robodyn", {}).get("large", False))
         except RobodynError as exc:
             problem = problem_body(exc.code, exc.title, exc.detail, **exc.extra)
         except RequestValidationError as exc:

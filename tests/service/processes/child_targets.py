@@ -62,3 +62,27 @@ def ready_then_sleep(conn: Any, seconds: float) -> None:
     """Say "ready" (the watchdog is set by then), then sleep."""
     conn.send("ready")
     time.sleep(seconds)
+
+
+def serve_shared_file(conn: Any) -> None:
+    """A resident helper: receive a shared file's descriptor, say ready, then for each
+    (size, offset, data) write `data` at `offset` of the file mapped at `size` and answer its
+    length; ("sleep", s) sleeps s seconds first."""
+    import mmap
+    from multiprocessing.reduction import recv_handle
+
+    fd = recv_handle(conn)
+    conn.send("ready")
+    while True:
+        try:
+            message = conn.recv()
+        except EOFError:
+            return
+        if message[0] == "sleep":
+            time.sleep(message[1])
+            conn.send("slept")
+            continue
+        size, offset, data = message
+        with mmap.mmap(fd, size) as mapping:
+            mapping[offset : offset + len(data)] = data
+        conn.send(len(data))

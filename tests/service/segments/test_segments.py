@@ -88,12 +88,50 @@ def test_a_body_round_trip_and_who_removes_it(directory: SegmentDirectory):
     assert [n[:2] for n in os.listdir(directory.path)] == ["s-"]  # the service's, kept
 
 
+def test_bodies_of_every_size_in_one_reused_file(directory: SegmentDirectory):
+    """The body file keeps its mapping from request to request, growing for a larger body: a
+    smaller body after a larger one, and a larger after a smaller, arrive as sent (answers
+    alike, in the service's reused answer file)."""
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    rng = np.random.default_rng(1)
+    for rows in (10, 2000, 3, 5000, 1):
+        q = rng.normal(size=(rows, 7))
+        parts = binary.encode_parts({"q": q})
+        segment = client.segment(parts)
+        assert segment is not None and segment.length == sum(len(p) for p in parts)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        assert np.array_equal(binary.decode(served.body)[1]["q"], q)
+        header = served.write_answer(binary.encode_parts({"tau": -q}))
+        served.end()
+        assert np.array_equal(binary.decode(segment.answer(header, 200))[1]["tau"], -q)
+        segment.release()
+    assert len([n for n in os.listdir(directory.path) if n.startswith("c-")]) == 1
+    client.close()
+
+
+def test_a_full_file_system_sends_the_body_through_the_socket(
+    directory: SegmentDirectory, monkeypatch
+):
+    """When the body file cannot grow (ENOSPC), the client gets no segment (the body goes
+    through the socket itself) and keeps no file: an error, never a SIGBUS on a mapping."""
+
+    def full(fd: int, offset: int, length: int) -> None:
+        raise OSError(28, "No space left on device")
+
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    monkeypatch.setattr(shared_memory.os, "posix_fallocate", full)
+    assert client.segment([b"x" * 100_000]) is None
+    assert [n for n in os.listdir(directory.path) if n.startswith(("c-", "r-"))] == []
+    client.close()
+
+
 def test_the_service_removes_the_names_of_a_client_gone(directory: SegmentDirectory):
     client = shared_memory.SharedMemory(_socket_of(directory))
     segment = client.segment([b"x" * 100])
     assert segment is not None
     served = RequestSegment(directory, segment.name, 100, 1 << 20)
-    client.close()  # (as the client's process ending: its lock goes with its descriptor)
+    client.close()  # (as the client's process ending: its lock goes with its descriptors,
+    segment._file.mapping.close()  # the mapping's duplicate of it too)
     os.close(segment._file.fd)
     served.write_answer([b"y" * 64])
     served.end()  # the request's names: removed at once

@@ -82,6 +82,8 @@ def joint_array(name: str, value: ArrayLike) -> np.ndarray:
         raise InputError(f"{name} is empty; it needs the robot's nq (for q) or nv entries")
     if arr.ndim == 2 and arr.shape[0] == 0:
         raise InputError(f"{name} is an empty batch; send at least one state")
+    if np.isfinite(arr).all():  # one pass; the first bad entry is looked for only on failure
+        return arr
     bad = np.argwhere(~np.isfinite(arr))
     if bad.size:
         where = f"[{', '.join(str(int(i)) for i in bad[0])}]"

@@ -39,7 +39,6 @@ cost more in file operations than they save in copies)."""
 KEPT_FILES = 4  # idle body files a client keeps for its next requests
 KEPT_ANSWER_FILES = 4  # mappings of the server's answer files a client keeps
 _POPULATE = getattr(mmap, "MAP_POPULATE", 0)  # pages mapped at once, not one fault each
-IOV_MAX = 512  # buffers per writev call (Linux allows 1024)
 
 
 def directory_of(socket_path: str) -> str:
@@ -63,10 +62,34 @@ def _private_directory(path: str) -> int | None:
 
 
 class BodyFile:
-    """A client's body file (`c-<32 hex>`), locked while it exists; `create` makes one."""
+    """A client's body file (`c-<32 hex>`), locked while it exists; `create` makes one. Its
+    pages stay mapped from body to body (`write`)."""
 
     def __init__(self, directory: int, fd: int, name: str) -> None:
         self.directory, self.fd, self.name = directory, fd, name
+        self.size = 0  # bytes allocated and mapped
+        self.mapping: mmap.mmap | None = None
+
+    def write(self, parts: Sequence[bytes | memoryview]) -> int:
+        """Copy `parts` one after the other into the file from its start; the number of
+        bytes. The file grows as needed, its memory allocated first (`posix_fallocate`: a
+        full file system is an OSError here, never a SIGBUS on writing to the mapping), and
+        stays mapped: copying 9.2 MB into mapped pages takes about 0.4 ms, writing them with
+        `pwritev` 1.7 ms."""
+        views = [memoryview(p).cast("B") for p in parts if len(p)]
+        needed = sum(len(v) for v in views)
+        if needed > self.size:
+            if self.mapping is not None:
+                _close_quietly(self.mapping)
+                self.mapping, self.size = None, 0
+            os.posix_fallocate(self.fd, 0, needed)
+            self.mapping = mmap.mmap(self.fd, needed, flags=mmap.MAP_SHARED | _POPULATE)
+            self.size = needed
+        mapping, offset = self.mapping, 0
+        for view in views:
+            mapping[offset : offset + len(view)] = view  # type: ignore[index]
+            offset += len(view)
+        return needed
 
     @classmethod
     def create(cls, directory: str) -> BodyFile | None:
@@ -95,6 +118,9 @@ class BodyFile:
         return cls(dir_fd, fd, name)
 
     def close(self) -> None:
+        if self.mapping is not None:
+            _close_quietly(self.mapping)
+            self.mapping = None
         with contextlib.suppress(OSError):
             os.unlink(self.name, dir_fd=self.directory)
         os.close(self.fd)
@@ -180,7 +206,7 @@ class SharedMemory:
                 return None
         name = "r-" + secrets.token_hex(16)
         try:
-            length = _write_all(file.fd, parts)
+            length = file.write(parts)
             os.link(file.name, name, src_dir_fd=file.directory, dst_dir_fd=file.directory)
         except OSError:
             file.close()  # (gone from under us, or no room: not kept)
@@ -233,23 +259,11 @@ class SharedMemory:
 
 
 def _close_mapping(fd: int, mapping: mmap.mmap) -> None:
-    with contextlib.suppress(BufferError):
-        mapping.close()
+    _close_quietly(mapping)
     os.close(fd)
 
 
-def _write_all(fd: int, parts: Sequence[bytes | memoryview]) -> int:
-    """Write `parts` one after the other into `fd` from its start (pwritev, whatever it
-    writes at a time); the number of bytes."""
-    pending = [memoryview(p).cast("B") for p in parts if len(p)]
-    total, offset = sum(len(p) for p in pending), 0
-    while pending:
-        written = os.pwritev(fd, pending[:IOV_MAX], offset)
-        offset += written
-        while written:
-            if written >= len(pending[0]):
-                written -= len(pending.pop(0))
-            else:
-                pending[0] = pending[0][written:]
-                written = 0
-    return total
+def _close_quietly(mapping: mmap.mmap) -> None:
+    """Unmap, unless arrays still view the mapping (it is unmapped once they are collected)."""
+    with contextlib.suppress(BufferError):
+        mapping.close()

@@ -1,9 +1,11 @@
 """The parametric form: the equations linear in the robot's base inertial parameters p1 … pr.
 
-M(q) and U(q) are linear in the standard inertial parameters π (identification's: 10 per body,
-`<joint>.m`, `<joint>.m_cx`, … about the joint origin, in joint order; and `<joint>.armature`
-for each joint whose armature is not 0): M = Σₖ πₖ Φₖ(q). Torques see only the regressor's
-column space, r = its rank combinations of π (`identification.base_parameters`: the columns
+M(q) and U(q) are linear in the standard inertial parameters π (identification's 10 per body,
+about the joint origin, in joint order, named as the contract names them: `<joint>.m`,
+`<joint>.mx`, `<joint>.my`, `<joint>.mz` (the first moment m·c, identification's `m_cx` …),
+`<joint>.Ixx`, `<joint>.Ixy`, `<joint>.Iyy`, `<joint>.Ixz`, `<joint>.Iyz`, `<joint>.Izz`; and
+`<joint>.armature` for each joint whose armature is not 0): M = Σₖ πₖ Φₖ(q). Torques see
+only the regressor's column space, r = its rank combinations of π (`identification.base_parameters`: the columns
 stacked over random states, Gram-Schmidt in the parameters' order, β = P π with the heads'
 Φ spanning every Φ). So:
 
@@ -42,7 +44,7 @@ from service.dynamics.identification.base_parameters import (
     base_parameters,
     random_states_count,
 )
-from service.dynamics.identification.parameters import inertial_parameters, parameter_names
+from service.dynamics.identification.parameters import body_names, inertial_parameters
 from service.dynamics.identification.regressor import joint_torque_regressor
 
 SIGNIFICANT = 1e-6  # a functional this small relative to its quantity's largest is a residue
@@ -51,6 +53,9 @@ HEAD = 1e-9  # a standard parameter's coefficient this small relative to the lar
 NOISE = 1e-11  # coefficients over p this small relative to their term's largest are 0
 ZERO_VALUE = 1e-12  # a value this small relative to the largest is the fit's rounding: 0
 PRISMATIC_REACH = 1.0  # m: a prismatic joint's sampled range without finite limits
+# the names of a body's 10 standard parameters in the expressions, in identification's order
+# (its `LAYOUT`: m, m_cx, m_cy, m_cz, Ixx, …): the first moment m·c is `mx`, `my`, `mz`
+LAYOUT = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 
 
 @dataclass(frozen=True)
@@ -67,8 +72,9 @@ class BaseParameter:
 
 
 def standard_parameters(model: Any, joints: list[Joint]) -> tuple[list[str], np.ndarray]:
-    """(names, values) of π: identification's 10 per body, then each non-zero armature."""
-    names = parameter_names(model)
+    """(names, values) of π: identification's 10 per body (`<joint>.m`, `<joint>.mx`, …,
+    `LAYOUT`), then each non-zero armature."""
+    names = [f"{body}.{name}" for body in body_names(model) for name in LAYOUT]
     values = [inertial_parameters(model)]
     for j in joints:
         if j.armature != 0:

@@ -159,10 +159,12 @@ def test_parametric_form_is_linear_in_the_base_parameters_and_gives_back_the_num
 
 
 def test_parameters_are_expressions_in_identifications_standard_parameters(models):
+    """Each expression is in the contract's names (`<joint>.m`, `<joint>.mx` = m·cx, …,
+    `<joint>.Izz`) and gives the parameter's value from Pinocchio's own parameters."""
     model = models["ur5"]
     answer = equations_answer(derive_equations(model, form="parametric"))
     pi = np.concatenate([model.inertias[j].toDynamicParameters() for j in range(1, model.njoints)])
-    layout = ("m", "m_cx", "m_cy", "m_cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+    layout = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
     standard = {
         f"{model.names[j]}.{k}": float(pi[10 * (j - 1) + i])
         for j in range(1, model.njoints)

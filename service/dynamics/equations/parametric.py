@@ -5,9 +5,9 @@ about the joint origin, in joint order, named as the contract names them: `<join
 `<joint>.mx`, `<joint>.my`, `<joint>.mz` (the first moment m·c, identification's `m_cx` …),
 `<joint>.Ixx`, `<joint>.Ixy`, `<joint>.Iyy`, `<joint>.Ixz`, `<joint>.Iyz`, `<joint>.Izz`; and
 `<joint>.armature` for each joint whose armature is not 0): M = Σₖ πₖ Φₖ(q). Torques see
-only the regressor's column space, r = its rank combinations of π (`identification.base_parameters`: the columns
-stacked over random states, Gram-Schmidt in the parameters' order, β = P π with the heads'
-Φ spanning every Φ). So:
+only the regressor's column space, r = its rank combinations of π
+(`identification.base_parameters`: the columns stacked over random states, Gram-Schmidt in
+the parameters' order, β = P π with the heads' Φ spanning every Φ). So:
 
 1. M and U are written with a symbol x_h for each head parameter h (the others 0), from
    Pinocchio's numbers on a grid of joint positions (`sampled`): M = Σ_h x_h Φ_h, and

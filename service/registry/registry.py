@@ -479,7 +479,7 @@ class Registry:
             record["payloads"] = changes["payloads"]
         if repairs:
             record["inertia_repairs"] = repairs
-        record.update(fitted.as_dict())
+        record.update(fitted.record())
         self.store.write(record)
         with self._lock:
             self.uploads[model_id] = robot

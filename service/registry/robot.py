@@ -11,7 +11,7 @@ import functools
 import math
 import threading
 import weakref
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -120,6 +120,9 @@ class Robot:
     # identified joint friction (a robot made by identification): "coulomb", "viscous",
     # "offset", each (nv,) in N·m or N (N·m·s/rad or N·s/m for viscous); None: no model
     friction: dict[str, np.ndarray] | None = None
+    # a robot stored by identification: the covariance of its base parameters' estimates
+    # (`service.registry.variants.Fitted.uncertainty`); None: not identified
+    identified_uncertainty: Mapping[str, Any] | None = None
     _model_pool_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -37,6 +37,7 @@ from service.registry.robot import Robot
 from service.registry.store import reduced_id
 
 FRICTION_TERMS = ("coulomb", "viscous", "offset")
+UNCERTAINTY_KEY = "identified_uncertainty"  # the record's member of `Fitted.uncertainty`
 FrictionRow = tuple[str, float, float, float]  # (joint, coulomb, viscous, offset)
 
 
@@ -45,10 +46,13 @@ class Fitted:
     """Identified values a variant carries: `inertial_parameters`, 10 per body of the parent in
     joint order ([m, m cx, m cy, m cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz], joint frame, inertia about
     the joint origin), and `friction`, (joint, coulomb, viscous, offset) per joint; either may
-    be None."""
+    be None. `uncertainty` (identification's, `identification.pipeline.uncertainty`: the
+    covariance of the base parameters' estimates and the map P from the parameters to them)
+    is kept in the variant's record beside them, not in its id nor in its `modifications`."""
 
     inertial_parameters: tuple[float, ...] | None = None
     friction: tuple[FrictionRow, ...] | None = None
+    uncertainty: Mapping[str, Any] | None = field(default=None, compare=False)
 
     def __bool__(self) -> bool:
         return self.inertial_parameters is not None or self.friction is not None
@@ -67,7 +71,8 @@ class Fitted:
 
     @classmethod
     def from_dict(cls, value: Mapping[str, Any]) -> Fitted:
-        """The inverse of `as_dict` (a record's, or identification's answer)."""
+        """The inverse of `as_dict` (a record's, or identification's answer), with the
+        record's `identified_uncertainty`, if any."""
         pi, friction = value.get("inertial_parameters"), value.get("friction")
         return cls(
             None if pi is None else tuple(float(x) for x in pi),
@@ -77,7 +82,15 @@ class Fitted:
                 (str(f["joint"]), float(f["coulomb"]), float(f["viscous"]), float(f["offset"]))
                 for f in friction
             ),
+            value.get(UNCERTAINTY_KEY),
         )
+
+    def record(self) -> dict[str, Any]:
+        """The members a variant's record stores: `as_dict` and the uncertainty, if any."""
+        out = self.as_dict()
+        if self.uncertainty is not None:
+            out[UNCERTAINTY_KEY] = dict(self.uncertainty)
+        return out
 
 
 NOTHING_FITTED = Fitted()
@@ -219,6 +232,8 @@ def variant_robot(
         )
     if friction is not None:
         robot.friction = friction_arrays(robot.model, friction)
+    if fitted.uncertainty is not None and not payloads and not locked_q:
+        robot.identified_uncertainty = fitted.uncertainty
     robot.warnings = repaired_warnings(robot.warnings, inertia_repairs)
     return robot
 

@@ -151,8 +151,11 @@ export class EquationsView {
     if (answer.parameters) legend.after(this.parameterTable(katex, answer.parameters));
   }
 
-  /** The base parameters p1 … pr: symbol, expression in the standard ones, value. */
+  /** The base parameters p1 … pr: symbol, expression in the standard ones, value and, on a
+   * robot made by identification, the standard deviation of each value ("—" where the log did
+   * not determine it). */
   parameterTable(katex, parameters) {
+    const identified = parameters.some((p) => p.standard_deviation != null);
     const fig = document.createElement("figure");
     fig.className = "eq-block";
     fig.dataset.quantity = "parameters";
@@ -162,7 +165,7 @@ export class EquationsView {
     const table = document.createElement("table");
     table.className = "eq-parameters";
     const head = document.createElement("tr");
-    for (const h of ["", "expression", "value"]) {
+    for (const h of ["", "expression", "value", ...(identified ? ["std. dev."] : [])]) {
       const th = document.createElement("th");
       th.textContent = h;
       head.append(th);
@@ -181,6 +184,12 @@ export class EquationsView {
       value.className = "number";
       value.textContent = this.ctx.fmt(p.value, 6);
       tr.append(sym, expr, value);
+      if (identified) {
+        const std = document.createElement("td");
+        std.className = "number eq-std";
+        std.textContent = p.standard_deviation == null ? "—" : this.ctx.fmt(p.standard_deviation, 3);
+        tr.append(std);
+      }
       table.append(tr);
     }
     const scroll = document.createElement("div");

@@ -189,3 +189,28 @@ def test_katex_is_served_from_the_package_at_its_pinned_version(api) -> None:
     css = (WEB_DIR / "vendor/katex/katex.min.css").read_text()
     for font in set(re.findall(r"url\((fonts/[^)]+\.woff2)\)", css)):
         assert f"vendor/katex/{font}" in KATEX_FILES, font
+
+
+def test_an_identified_robot_shows_its_parameters_standard_deviations(page, server, api) -> None:
+    """A robot made by identification: the parametric form's table has a "std. dev." column
+    with the API's standard deviations (3 significant digits; "—" where null)."""
+    from service.registry.catalog import load_catalog
+    from tests.service.dynamics.identification_logs import synthetic_log
+
+    model = load_catalog(["planar_arm"])[0]["planar_arm"].model
+    log = synthetic_log(model, seed=4, duration=10.0, rate=100.0, noise=0.05)
+    body = {"t": log.t.tolist(), "q": log.q.tolist(), "tau": log.tau.tolist()}
+    variant = api.post("/v1/robots/planar_arm/identify", json=body, timeout=120).json()["robot"]
+    open_equations(page, server, variant["id"])
+    _switch(page, "parametric")
+    answer = api.get(f"/v1/robots/{variant['id']}/equations?form=parametric").json()
+    rows = page.eval_on_selector_all(
+        ".eq-parameter",
+        "trs => trs.map(tr => [...tr.querySelectorAll('td')].map(td => td.innerText))",
+    )
+    assert len(rows) == len(answer["parameters"])
+    for row, parameter in zip(rows, answer["parameters"], strict=True):
+        std = parameter["standard_deviation"]
+        assert row[3] == "—" if std is None else float(row[3]) == float(f"{std:.3g}"), row
+    assert any(p["standard_deviation"] is not None for p in answer["parameters"])
+    assert page.log.console_errors == [] and page.log.page_errors == []

@@ -280,7 +280,7 @@ def _store(
                 "consistent (a pseudo-inertia has a negative eigenvalue); method "
                 "'physically-consistent' gives parameters that can be stored"
             )
-        fitted = Fitted(tuple(float(x) for x in result.parameters), friction)
+        fitted = Fitted(tuple(float(x) for x in result.parameters), friction, result.uncertainty)
         stored, _ = registry.variant(robot.id, fitted=fitted, name=f"{robot.name} (identified)")
         return stored.info(), None
     try:

@@ -77,12 +77,20 @@ class Parameter(BaseModel):
     symbol: str = Field(description="p1 … pr, as the expressions name it.")
     expression: str = Field(
         description="The base parameter in the standard inertial parameters, named "
-        "`<joint>.m`, `<joint>.m_cx`, `<joint>.m_cy`, `<joint>.m_cz`, `<joint>.Ixx`, "
-        "`<joint>.Ixy`, `<joint>.Iyy`, `<joint>.Ixz`, `<joint>.Iyz`, `<joint>.Izz` "
-        "(identification's layout: joint frame, inertia about the joint origin) and "
-        "`<joint>.armature`; coefficients to 6 significant digits."
+        "`<joint>.m`, `<joint>.mx`, `<joint>.my`, `<joint>.mz` (the first moment m·c: "
+        "identification's `m_cx`, `m_cy`, `m_cz`), `<joint>.Ixx`, `<joint>.Ixy`, "
+        "`<joint>.Iyy`, `<joint>.Ixz`, `<joint>.Iyz`, `<joint>.Izz` (identification's "
+        "layout: joint frame, inertia about the joint origin) and `<joint>.armature`; "
+        "coefficients to 6 significant digits."
     )
     value: float = Field(description="Its value for this robot (kg, kg·m or kg·m²).")
+    standard_deviation: float | None = Field(
+        default=None,
+        description="On a variant stored by identification: the standard deviation of the "
+        "value from the identification's covariance of its base parameters (same units); "
+        "null where unknown: a robot not identified, or a parameter the log did not "
+        "determine.",
+    )
 
 
 class Equations(BaseModel):

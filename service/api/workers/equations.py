@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 import math
 import signal
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -76,7 +77,13 @@ class Printing:
         return f"{self.form}-{self.digits}-{self.tolerance!r}"
 
 
-def _child_derive(conn: Any, raw_model: bytes, memory_mb: int, printing: Printing) -> None:
+def _child_derive(
+    conn: Any,
+    raw_model: bytes,
+    memory_mb: int,
+    printing: Printing,
+    uncertainty: Mapping[str, Any] | None = None,
+) -> None:
     """The child (its limits already set): answers ("ok", JSON bytes), ("unsupported",
     detail) or ("too costly", detail). Its time is the parent's to judge (see the module
     docstring)."""
@@ -84,7 +91,7 @@ def _child_derive(conn: Any, raw_model: bytes, memory_mb: int, printing: Printin
 
     try:
         model = model_from_binary(raw_model)
-        eq = derive_equations(model, form=printing.form)
+        eq = derive_equations(model, form=printing.form, uncertainty=uncertainty)
         answer = equations_answer(eq, printing.digits, printing.tolerance)
         conn.send(("ok", orjson.dumps(answer)))
     except UnsupportedModel as exc:
@@ -129,16 +136,18 @@ def derive_isolated(
     time_limit_s: float,
     memory_mb: int = MEMORY_MB,
     printing: Printing | None = None,
+    uncertainty: Mapping[str, Any] | None = None,
 ) -> bytes:
     """The JSON answer of `equations_answer` for `model` as `printing` asks, derived in a
-    child process within `time_limit_s` seconds of wall clock (see the module docstring).
-    Blocking: call it off the event loop."""
+    child process within `time_limit_s` seconds of wall clock (see the module docstring);
+    `uncertainty`: identification's, of a robot it made (the parametric form's standard
+    deviations). Blocking: call it off the event loop."""
     cpu_limit_s = math.ceil(time_limit_s)
     printing = printing or Printing()
     try:
         answer = run_child(
             _child_derive,
-            (model_to_binary(model), memory_mb, printing),
+            (model_to_binary(model), memory_mb, printing, uncertainty),
             timeout_s=time_limit_s + GRACE_S,
             limits=ResourceLimits(memory_mb=memory_mb, cpu_s=cpu_limit_s, niceness=NICENESS),
             preload=PRELOAD,

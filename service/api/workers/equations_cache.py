@@ -7,7 +7,7 @@ printing of each robot kept on its own:
 - from memory (a dict of JSON bytes, least recently used dropped beyond `max_bytes`);
 - else, for a stored upload or reduced model (content-derived ids: the same id is the same
   model on every replica and after a restart) printed readable (the defaults) or exact
-  (`digits=17&tolerance=0`), from `<data_dir>/equations/v2/<id>/<form>-<digits>-<tolerance>.json`
+  (`digits=17&tolerance=0`), from `<data_dir>/equations/v3/<id>/<form>-<digits>-<tolerance>.json`
   (other printings are kept in memory only: a client varying `tolerance` cannot fill the
   disk);
 - else derived in a child process (`derive_isolated`, `service.api.workers.equations`) within
@@ -60,9 +60,17 @@ from service.registry.store import write_atomically
 
 log = logging.getLogger("robodyn.equations")
 
-FORMAT_VERSION = "v2"  # the directory of the files on disk; a new answer format gets a new one
+FORMAT_VERSION = "v3"  # the directory of the files on disk; a new answer format gets a new one
 MAX_REMEMBERED_REFUSALS = 10_000  # refusals for cost kept (least recently used dropped)
 Key = tuple[str, Printing]  # (robot id, printing): one answer
+
+
+def _identified(robot: Robot) -> dict[str, Any]:
+    """`derive_isolated`'s keyword for a robot made by identification: its uncertainty (the
+    parametric form's standard deviations); none otherwise."""
+    if robot.identified_uncertainty is None:
+        return {}
+    return {"uncertainty": robot.identified_uncertainty}
 
 
 def _kept_on_disk(printing: Printing) -> bool:
@@ -214,7 +222,9 @@ class EquationsCache:
                 return body
         with self.slots.slot():
             try:
-                body = derive_isolated(robot.model, self.time_limit_s, self.memory_mb, printing)
+                body = derive_isolated(
+                    robot.model, self.time_limit_s, self.memory_mb, printing, **_identified(robot)
+                )
             except TooCostly as exc:  # the model's own cost: remembered by content and form
                 with self._lock:
                     self._too_costly[content] = exc

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from decimal import Decimal, localcontext
 from typing import Any
@@ -94,13 +95,17 @@ def reach(model: Any, joints: list[Joint]) -> list[float]:
 
 
 def derive_equations(
-    model: Any, time_limit_s: float | None = None, form: str = "numeric"
+    model: Any,
+    time_limit_s: float | None = None,
+    form: str = "numeric",
+    uncertainty: Mapping[str, Any] | None = None,
 ) -> ExplicitEquations:
     """The equations of motion of a Pinocchio `model` in explicit form (see the module
     docstring), with the model's numbers (`form` "numeric") or linear in its base inertial
-    parameters ("parametric", `parametric`). Raises `UnsupportedModel` for a model out of
-    scope, or when the derivation takes longer than `time_limit_s` seconds (checked between
-    steps)."""
+    parameters ("parametric", `parametric`; with identification's `uncertainty` of a robot
+    it made, each parameter's standard deviation). Raises `UnsupportedModel` for a model out
+    of scope, or when the derivation takes longer than `time_limit_s` seconds (checked
+    between steps)."""
     if form not in FORMS:
         raise InvalidInput(f"form must be one of {', '.join(repr(f) for f in FORMS)}")
     start = time.monotonic()
@@ -111,19 +116,24 @@ def derive_equations(
     with localcontext(prec=PRECISION):
         if form == "parametric":
             sym = parametric.symbols(model, joints)
-            M, U, heads = sampled.mass_matrix_and_potential(
+            M, U, heads, sampled_lost = sampled.mass_matrix_and_potential(
                 model, joints, sym.base.independent, sym.armature(joints)
             )
         else:
             M, U = mass_matrix_and_potential(joints, gravity(model), check)
         lost_m = lost_u = 0.0
-        if form == "numeric":  # (the parametric form's are cut where they are sampled)
+        if form == "numeric":  # (the parametric form's: where they are sampled and rewritten)
             flat, lost_m = _without_noise([M[i][j] for i in range(n) for j in range(n)])
             M = [flat[i * n : (i + 1) * n] for i in range(n)]
             (U,), lost_u = _without_noise([U])
         if form == "parametric":
             check()
-            M, U, parameters = parametric.in_base_parameters(sym, M, U, heads)
+            M, U, parameters, rewritten_lost = parametric.in_base_parameters(
+                sym, M, U, heads, uncertainty
+            )
+            # what the sampling's and the rewriting's cuts and the values as shown change
+            lost_m = sampled_lost[0] + rewritten_lost[0]
+            lost_u = sampled_lost[1] + rewritten_lost[1]
         g = [U.derivative(i) for i in range(n)]
         check()
         # dM[k][i][j] = ∂M_ij/∂q_k, from the upper triangle

@@ -1,11 +1,13 @@
 """The parametric form: the equations linear in the robot's base inertial parameters p1 … pr.
 
-M(q) and U(q) are linear in the standard inertial parameters π (identification's: 10 per body,
-`<joint>.m`, `<joint>.m_cx`, … about the joint origin, in joint order; and `<joint>.armature`
-for each joint whose armature is not 0): M = Σₖ πₖ Φₖ(q). Torques see only the regressor's
-column space, r = its rank combinations of π (`identification.base_parameters`: the columns
-stacked over random states, Gram-Schmidt in the parameters' order, β = P π with the heads'
-Φ spanning every Φ). So:
+M(q) and U(q) are linear in the standard inertial parameters π (identification's 10 per body,
+about the joint origin, in joint order, named as the contract names them: `<joint>.m`,
+`<joint>.mx`, `<joint>.my`, `<joint>.mz` (the first moment m·c, identification's `m_cx` …),
+`<joint>.Ixx`, `<joint>.Ixy`, `<joint>.Iyy`, `<joint>.Ixz`, `<joint>.Iyz`, `<joint>.Izz`; and
+`<joint>.armature` for each joint whose armature is not 0): M = Σₖ πₖ Φₖ(q). Torques see
+only the regressor's column space, r = its rank combinations of π
+(`identification.base_parameters`: the columns stacked over random states, Gram-Schmidt in
+the parameters' order, β = P π with the heads' Φ spanning every Φ). So:
 
 1. M and U are written with a symbol x_h for each head parameter h (the others 0), from
    Pinocchio's numbers on a grid of joint positions (`sampled`): M = Σ_h x_h Φ_h, and
@@ -29,12 +31,14 @@ constant.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from decimal import Decimal
 from typing import Any
 
 import numpy as np
 
+from service.dynamics.equations.deviations import standard_deviations
 from service.dynamics.equations.model_numbers import Joint
 from service.dynamics.equations.series import BASE, Series, unpack
 from service.dynamics.identification.base_parameters import (
@@ -42,33 +46,52 @@ from service.dynamics.identification.base_parameters import (
     base_parameters,
     random_states_count,
 )
-from service.dynamics.identification.parameters import inertial_parameters, parameter_names
+from service.dynamics.identification.parameters import (
+    PER_BODY,
+    body_names,
+    inertial_parameters,
+)
 from service.dynamics.identification.regressor import joint_torque_regressor
 
 SIGNIFICANT = 1e-6  # a functional this small relative to its quantity's largest is a residue
 INDEPENDENT = 1e-6  # the remainder of a unit functional that still counts as independent
 HEAD = 1e-9  # a standard parameter's coefficient this small relative to the largest is 0
-NOISE = 1e-11  # coefficients over p this small relative to their term's largest are 0
-ZERO_VALUE = 1e-12  # a value this small relative to the largest is the fit's rounding: 0
+# coefficients over p this small relative to their term's largest are 0: the change of
+# basis' rounding (a few ulps); a model's own small terms (the UR5's 4.9e-12 rad tilts) stay
+NOISE = 1e-14
+# a value this small relative to the largest is the fit's rounding: 0 (the planar arm's p3)
+ZERO_VALUE = 1e-14
+EPSILON = float(np.finfo(float).eps)
 PRISMATIC_REACH = 1.0  # m: a prismatic joint's sampled range without finite limits
+# the names of a body's 10 standard parameters in the expressions, in identification's order
+# (its `LAYOUT`: m, m_cx, m_cy, m_cz, Ixx, …): the first moment m·c is `mx`, `my`, `mz`
+LAYOUT = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 
 
 @dataclass(frozen=True)
 class BaseParameter:
-    """One symbol of the parametric form: its expression in the standard parameters and its
-    value (in the expression's units: kg, kg·m or kg·m²)."""
+    """One symbol of the parametric form: its expression in the standard parameters, its
+    value and, on a robot made by identification, its standard deviation (`deviations`; None:
+    unknown), in the expression's units: kg, kg·m or kg·m²."""
 
     symbol: str
     expression: str
     value: float
+    standard_deviation: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        return {"symbol": self.symbol, "expression": self.expression, "value": self.value}
+        return {
+            "symbol": self.symbol,
+            "expression": self.expression,
+            "value": self.value,
+            "standard_deviation": self.standard_deviation,
+        }
 
 
 def standard_parameters(model: Any, joints: list[Joint]) -> tuple[list[str], np.ndarray]:
-    """(names, values) of π: identification's 10 per body, then each non-zero armature."""
-    names = parameter_names(model)
+    """(names, values) of π: identification's 10 per body (`<joint>.m`, `<joint>.mx`, …,
+    `LAYOUT`), then each non-zero armature."""
+    names = [f"{body}.{name}" for body in body_names(model) for name in LAYOUT]
     values = [inertial_parameters(model)]
     for j in joints:
         if j.armature != 0:
@@ -209,27 +232,51 @@ def _expression(row: np.ndarray, names: list[str]) -> str:
 
 
 def _rewritten(
-    grouped: tuple[list[tuple[int, int, int]], np.ndarray], inverse: np.ndarray, n: int
-) -> Series:
-    """A series over x (its `_grouped` terms) rewritten over p (x = F⁻¹ p)."""
+    grouped: tuple[list[tuple[int, int, int]], np.ndarray],
+    inverse: np.ndarray,
+    n: int,
+    values: np.ndarray,
+    shown: np.ndarray,
+    heads: np.ndarray,
+    states: int,
+) -> tuple[Series, float]:
+    """A series over x (its `_grouped` terms) rewritten over p (x = F⁻¹ p), and what the
+    rewriting changes of it at most at the values, each term's factor at most 1: the `NOISE`
+    cut and the values as shown (`shown`, the true ones `values`), Σ |dropped coefficient|
+    |value| + Σ |kept coefficient| |value − shown|, and the change of basis' rounding,
+    Σ |(coefficients over p) · values − (coefficients over x) · x| per term (x = `heads`); and
+    an allowance for the float transform and fit the coefficients come from, `states` (the
+    grid's size) × ε × Σ |coefficient| |value| (measured within it: tests at random states)."""
     scale = BASE ** (2 * n)
     keys, matrix = grouped
     if not keys:
-        return Series(n)
+        return Series(n), 0.0
     over_p = matrix @ inverse
     cut = NOISE * np.abs(over_p).max(axis=1, keepdims=True)
+    kept = np.abs(over_p) > cut
+    size = np.abs(over_p)
+    lost = float(((size * ~kept) @ np.abs(values) + (size * kept) @ np.abs(values - shown)).sum())
+    lost += float(np.abs(over_p @ values - matrix @ heads).sum())
+    lost += states * EPSILON * float(((size * kept) @ np.abs(values)).sum())
     terms = {}
-    for g, col in zip(*np.nonzero(np.abs(over_p) > cut), strict=True):
+    for g, col in zip(*np.nonzero(kept), strict=True):
         k, low, kind = keys[g]
         terms[(k, low + (int(col) + 1) * scale, kind)] = Decimal(repr(float(over_p[g, col])))
-    return Series(n, terms)
+    return Series(n, terms), lost
 
 
 def in_base_parameters(
-    sym: Symbols, mass_matrix: list[list[Series]], potential: Series, heads: np.ndarray
-) -> tuple[list[list[Series]], Series, list[BaseParameter]]:
-    """(M, U without its constant term, the parameters) over p1 … pr (module docstring);
-    `heads` are the values of x1 … xr, each p's value is F x."""
+    sym: Symbols,
+    mass_matrix: list[list[Series]],
+    potential: Series,
+    heads: np.ndarray,
+    uncertainty: Mapping[str, Any] | None = None,
+) -> tuple[list[list[Series]], Series, list[BaseParameter], tuple[float, float]]:
+    """(M, U without its constant term, the parameters, lost) over p1 … pr (module
+    docstring); `heads` are the values of x1 … xr, each p's value is F x; lost = (M's, U's)
+    largest bound over an entry of what the cuts change (`_rewritten`); with
+    identification's `uncertainty` (a robot it made), each p's standard deviation
+    (`deviations`)."""
     n, r = sym.n, sym.base.count
     pairs = [(i, j) for i in range(n) for j in range(i, n)]
     groups = [_grouped(mass_matrix[i][j], n, r) for i, j in pairs] + [_grouped(potential, n, r)]
@@ -242,16 +289,25 @@ def in_base_parameters(
         standard[k] /= head
         chosen[k] /= head
     inverse = np.linalg.inv(chosen)
-    M = [[Series(n)] * n for _ in range(n)]
-    for (i, j), grouped in zip(pairs, groups, strict=False):
-        M[i][j] = M[j][i] = _rewritten(grouped, inverse, n)
-    U = _rewritten(groups[-1], inverse, n)
-    U = Series(n, {key: c for key, c in U.terms.items() if key[0] or key[1] % BASE ** (2 * n)})
-    values = chosen @ heads
+    exact = chosen @ heads
+    values = exact.copy()
     # a value at the fit's rounding is 0 (a centre of mass on a link's line)
     values[np.abs(values) <= ZERO_VALUE * float(np.abs(values).max(initial=0.0))] = 0.0
+    M = [[Series(n)] * n for _ in range(n)]
+    lost_m = 0.0
+    for (i, j), grouped in zip(pairs, groups, strict=False):
+        M[i][j], lost = _rewritten(grouped, inverse, n, exact, values, heads, 5 ** (n - 1))
+        M[j][i] = M[i][j]
+        lost_m = max(lost_m, lost)
+    U, lost_u = _rewritten(groups[-1], inverse, n, exact, values, heads, 3**n)
+    U = Series(n, {key: c for key, c in U.terms.items() if key[0] or key[1] % BASE ** (2 * n)})
+    deviations: list[float | None] = [None] * r
+    if uncertainty is not None:
+        deviations = standard_deviations(standard, PER_BODY * sym.n, uncertainty)
     parameters = [
-        BaseParameter(f"p{k + 1}", _expression(standard[k], sym.names), float(values[k]))
+        BaseParameter(
+            f"p{k + 1}", _expression(standard[k], sym.names), float(values[k]), deviations[k]
+        )
         for k in range(r)
     ]
-    return M, U, parameters
+    return M, U, parameters, (lost_m, lost_u)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from decimal import Decimal
 
 from service.dynamics.equations.series import BASE, COS, Series, unpack
 
@@ -95,6 +96,9 @@ class Printer:
         self._scale = BASE ** (2 * n)
         self._trig: dict[tuple[int, int], tuple[tuple[int, ...], str, str, int]] = {}
         self._factor: dict[int, tuple[tuple[int, ...], str, str, float, int]] = {}
+        # coefficient → (x, |x|, its text, the bound of its rounding): C's coefficients are
+        # the Christoffel symbols', T's M's, so each is rounded once
+        self._coefficient: dict[Decimal, tuple[float, float, str, float]] = {}
 
     # -- memoized pieces ---------------------------------------------------------------------
     def _trig_of(self, k: int, kind: int) -> tuple[tuple[int, ...], str, str, int]:
@@ -163,6 +167,24 @@ class Printer:
         self._factor[e] = found
         return found
 
+    def _rounded(self, c: Decimal) -> tuple[float, float, str, float]:
+        """(x, |x|, |x| as printed, the bound of |x − printed| and of the double's rounding)
+        of a coefficient c (x its double)."""
+        x = float(c)
+        ax = x if x >= 0 else -x
+        if self.digits >= EXACT_DIGITS:
+            shown = repr(ax)
+            if shown[-2:] == ".0":
+                shown = shown[:-2]
+        else:
+            shown = self._format % ax
+        if "e" in shown:
+            shown = number(ax, self.digits)
+        change = ax - float(shown)
+        found = (x, ax, shown, (change if change >= 0 else -change) * _ROUNDED + ax * _ULP)
+        self._coefficient[c] = found
+        return found
+
     # -- one entry ---------------------------------------------------------------------------
     def entry(self, series: Series, cut: float) -> Printed:
         """The series printed (terms with |coefficient| < `cut` left out), with its bound."""
@@ -170,26 +192,19 @@ class Printer:
         error = 0.0
         mask = 0
         factor_of, trig_of = self._factor.get, self._trig.get
-        exact, fmt, digits = self.digits >= EXACT_DIGITS, self._format, self.digits
+        coefficient_of = self._coefficient.get
         for (k, e, kind), c in series.terms.items():
-            x = float(c)
-            ax = x if x >= 0 else -x
+            rounded = coefficient_of(c)
+            if rounded is None:
+                rounded = self._rounded(c)
+            x, ax, shown, rounding = rounded
             factor = factor_of(e)
             if factor is None:
                 factor = self._factor_of(e)
             if ax < cut:
                 error += ax * _DROPPED * factor[3]
                 continue
-            if exact:
-                shown = repr(ax)
-                if shown[-2:] == ".0":
-                    shown = shown[:-2]
-            else:
-                shown = fmt % ax
-            if "e" in shown:
-                shown = number(ax, digits)
-            change = ax - float(shown)
-            error += ((change if change >= 0 else -change) * _ROUNDED + ax * _ULP) * factor[3]
+            error += rounding * factor[3]
             trig = trig_of((k, kind))
             if trig is None:
                 trig = self._trig_of(k, kind)

@@ -130,17 +130,20 @@ def _terms(joints: list[Joint], angles: list[int]) -> list[tuple[tuple[int, ...]
 
 def series_of(
     values: np.ndarray, joints: list[Joint], angles: list[int], symbols: list[int]
-) -> list[Series]:
+) -> tuple[list[Series], np.ndarray]:
     """Per group of len(symbols) columns of `values` (states, entries × len(symbols), the
     symbol varying fastest), sampled on `_grid(joints, angles)`: the entry's parametric series
-    Σ_h x_h f_h(q), symbol indices `symbols`."""
+    Σ_h x_h f_h(q), symbol indices `symbols`; and the sum of the |coefficients| the `NOISE`
+    cut left out, (entries, len(symbols)): what the cut can change of the entry, per unit of
+    each symbol's value (a prismatic factor counted at 1 m)."""
     n = len(joints)
     cut = NOISE * float(np.abs(values).max(initial=0.0))
-    live = np.flatnonzero(np.abs(values).max(axis=0, initial=0.0) > cut)
+    live = np.flatnonzero(np.abs(values).max(axis=0, initial=0.0) > 0.0)
     coefficients = _coefficients(values[:, live], joints, angles)
     flat = coefficients.reshape(-1, live.size)
     entries = values.shape[-1] // max(len(symbols), 1)
     terms: list[dict[tuple[int, int, int], Decimal]] = [{} for _ in range(entries)]
+    lost = np.zeros(values.shape[-1])
     shape = coefficients.shape[:-1]
     scale = BASE ** (2 * n)
     for index, k, e, constant in _terms(joints, angles):
@@ -150,11 +153,13 @@ def series_of(
         for kind, part in ((COS, cosine), (SIN, sine)):
             if part is None:
                 continue
-            for col in np.flatnonzero(np.abs(part) > cut):
+            small = np.abs(part) <= cut
+            lost[live[small]] += np.abs(part[small])
+            for col in np.flatnonzero(~small):
                 entry, h = divmod(int(live[col]), len(symbols))
                 key = (k, e + symbols[h] * scale, kind)
                 terms[entry][key] = Decimal(repr(float(part[col])))
-    return [Series(n, t) for t in terms]
+    return [Series(n, t) for t in terms], lost.reshape(entries, max(len(symbols), 1))
 
 
 def head_values(
@@ -191,10 +196,12 @@ def head_values(
 
 def mass_matrix_and_potential(
     model: Any, joints: list[Joint], heads: np.ndarray, armature: dict[int, int]
-) -> tuple[list[list[Series]], Series, np.ndarray]:
-    """(M, U, x) over the symbols x1 … xr of the head parameters, x their values
-    (`head_values`): `heads` are their columns in π (inertial ones below 10 · bodies), symbol
-    h + 1 for heads[h]; `armature` maps a joint index to the symbol of its armature parameter.
+) -> tuple[list[list[Series]], Series, np.ndarray, tuple[float, float]]:
+    """(M, U, x, lost) over the symbols x1 … xr of the head parameters, x their values
+    (`head_values`), lost = (M's, U's) largest bound over an entry of what the `NOISE` cut
+    left out at those values: `heads` are their columns in π (inertial ones below
+    10 · bodies), symbol h + 1 for heads[h]; `armature` maps a joint index to the symbol of
+    its armature parameter.
     M does not depend on q1 (turning or moving the whole arm about the first joint changes no
     kinetic energy): its grid has one q1."""
     n = len(joints)
@@ -205,7 +212,7 @@ def mass_matrix_and_potential(
     mass = _mass_values(model, q, inertial)
     upper = [(i, j) for i in range(n) for j in range(i, n)]
     stacked = np.stack([mass[:, i, j, :] for i, j in upper], axis=1).reshape(q.shape[0], -1)
-    entries = series_of(stacked, joints, angles, symbols)
+    entries, lost_m = series_of(stacked, joints, angles, symbols)
     M = [[Series(n)] * n for _ in range(n)]
     for (i, j), s in zip(upper, entries, strict=True):
         if i == j and i in armature:
@@ -215,7 +222,7 @@ def mass_matrix_and_potential(
     angles = [3] * n  # frequencies −1 … 1
     q = _grid(joints, angles)
     potential = _potential_values(model, q, inertial)
-    U = series_of(potential, joints, angles, symbols)[0]
+    (U,), lost_u = series_of(potential, joints, angles, symbols)
     # every symbol's Φ and Ψ on the grids (armature: e_j e_jᵀ and 0), for their values
     r = len(heads)
     phi = np.zeros((*mass.shape[:3], r))
@@ -225,4 +232,7 @@ def mass_matrix_and_potential(
         psi[:, symbol - 1] = potential[:, col]
     for joint, symbol in armature.items():
         phi[:, joint, joint, symbol - 1] = 1.0
-    return M, U, head_values(model, q_mass, phi, q, psi)
+    x = head_values(model, q_mass, phi, q, psi)
+    sizes = np.abs(x[np.array(symbols, dtype=int) - 1]) if symbols else np.zeros(0)
+    lost = (float((lost_m @ sizes).max(initial=0.0)), float((lost_u @ sizes).max(initial=0.0)))
+    return M, U, x, lost

@@ -58,6 +58,11 @@ class Fit:
     beta_std: np.ndarray  # their standard deviations (r,), from weighted least squares
     condition_number: float  # inf when the log leaves a base parameter undetermined
     joint_noise: np.ndarray  # σ_j (nv,), N·m or N: the ordinary fit's residual per joint
+    # the covariance of β (r, r) whose diagonal is beta_std²: the data's, or the posterior's
+    beta_covariance: np.ndarray
+    # (r, k): columns spanning the functionals c of β (c·β) the log determines, the row space
+    # of the weighted regressor (`determined_directions`)
+    determined: np.ndarray
 
 
 def prior_scale(pi0: np.ndarray, friction_count: int) -> np.ndarray:
@@ -122,37 +127,53 @@ def fit(
     beta_wls = covariance_root @ target
     rows = weighted_b.size
     sigma2 = float(np.sum((weighted_b - weighted_a @ beta_wls) ** 2)) / max(rows - r, 1)
-    std = np.sqrt(sigma2 * np.sum(covariance_root**2, axis=1))
+    covariance = sigma2 * covariance_root @ covariance_root.T
     projection = base.projection()
     if consistent:
         # the posterior's: data and prior (where the log says little, the prior's spread)
         prior = projection @ ((scale**2)[:, np.newaxis] * projection.T)
-        std = _posterior_std(rr, sigma2, prior)
+        covariance = _posterior_covariance(rr, sigma2, prior)
         theta = _consistent(rr @ projection, target, theta0, scale, bodies)
     else:
         theta = _closest(projection, beta_wls, theta0, scale)
     return Fit(
         theta=theta,
         beta=projection @ theta,
-        beta_std=std,
+        beta_std=np.sqrt(np.clip(np.diag(covariance), 0.0, None)),
         condition_number=condition,
         joint_noise=noise,
+        beta_covariance=covariance,
+        determined=determined_directions(rr),
     )
 
 
-def _posterior_std(rr: np.ndarray, sigma2: float, prior: np.ndarray) -> np.ndarray:
-    """The square roots of the diagonal of C = (RᵀR / s² + Π⁻¹)⁻¹ (Π the prior's covariance
-    of β), computed without inverting the information matrix, which loses all precision (or
-    is singular) when the residual s² is tiny and some directions are not excited: with
-    Π = L Lᵀ and R L = U Σ Vᵀ, C = L V diag(s² / (s² + σ_k²)) Vᵀ Lᵀ, each weight in [0, 1]
-    (1: a direction the log does not see keeps the prior's spread; 0: a noiseless one)."""
+def determined_directions(rr: np.ndarray) -> np.ndarray:
+    """(r, k) columns spanning the functionals c of β that the rows R β = Qᵀ b determine: the
+    row space of R, c = D V_k y with D the columns' norms and V_k the right singular vectors
+    of R D⁻¹ (unit columns, as the condition number) whose singular values are above the
+    largest / POORLY_EXCITED (a direction below is one the log does not excite)."""
+    norms = np.linalg.norm(rr, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    _, singular, vt = np.linalg.svd(rr / norms)
+    top = float(singular[0]) if singular.size else 0.0
+    keep = vt[: singular.size][singular > top / POORLY_EXCITED] if top > 0 else vt[:0]
+    return np.asarray(norms[:, np.newaxis] * keep.T)
+
+
+def _posterior_covariance(rr: np.ndarray, sigma2: float, prior: np.ndarray) -> np.ndarray:
+    """C = (RᵀR / s² + Π⁻¹)⁻¹ (Π the prior's covariance of β), computed without inverting the
+    information matrix, which loses all precision (or is singular) when the residual s² is
+    tiny and some directions are not excited: with Π = L Lᵀ and R L = U Σ Vᵀ,
+    C = L V diag(s² / (s² + σ_k²)) Vᵀ Lᵀ, each weight in [0, 1] (1: a direction the log does
+    not see keeps the prior's spread; 0: a noiseless one)."""
     eigenvalues, vectors = np.linalg.eigh(prior)
     root = vectors * np.sqrt(np.clip(eigenvalues, 0.0, None))
     _, singular, vt = np.linalg.svd(rr @ root)
     singular = np.concatenate([singular, np.zeros(vt.shape[0] - singular.size)])
     total = sigma2 + singular**2
     weights = np.divide(sigma2, total, out=np.ones_like(total), where=total > 0)
-    return np.asarray(np.sqrt(((root @ vt.T) ** 2) @ weights))
+    spread = root @ vt.T
+    return np.asarray((spread * weights) @ spread.T)
 
 
 def _closest(

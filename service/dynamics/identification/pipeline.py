@@ -83,6 +83,8 @@ class Identification:
     filter_hz: float | None  # the cut-off used; None when the log was used as given
     samples: dict[str, int]  # "train" and "validation" kept, "fit" (after decimation)
     warnings: list[dict[str, str]]  # {"code": "unexcited_joint", "joint", "detail"}
+    # what the base parameters' estimates are worth, for a variant to keep (`uncertainty`)
+    uncertainty: dict[str, Any] | None = None
 
 
 def random_rows(robot: Robot, columns: Columns) -> Any:
@@ -371,4 +373,19 @@ def _answer(
             {"code": "unexcited_joint", "joint": joint, "detail": detail}
             for joint, detail in unexcited.items()
         ],
+        uncertainty=None if columns.payload_frame is not None else uncertainty(base, result),
     )
+
+
+def uncertainty(base: BaseParameters, result: Fit) -> dict[str, Any]:
+    """What a variant keeps of a robot's identification to give the standard deviation of
+    any combination c·θ of its parameters: `names` (θ's, friction last), `projection` P
+    (r × len(θ), β = P θ), `covariance` of β (r × r; its diagonal the base parameters'
+    `standard_deviation` squared) and `determined` (r × k, columns spanning the functionals
+    of β the log determines: `fit.determined_directions`). Plain lists (JSON)."""
+    return {
+        "names": list(base.names),
+        "projection": base.projection().tolist(),
+        "covariance": np.asarray(result.beta_covariance).tolist(),
+        "determined": np.asarray(result.determined).tolist(),
+    }

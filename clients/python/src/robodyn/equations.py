@@ -125,16 +125,26 @@ class Accuracy:
 @dataclass(frozen=True)
 class Parameter:
     """A base inertial parameter of the parametric form: its `symbol` (p1 …), its
-    `expression` in the standard parameters (`<joint>.m`, `<joint>.m_cx`, …, `<joint>.Izz`,
-    identification's layout, and `<joint>.armature`) and its `value`."""
+    `expression` in the standard parameters (`<joint>.m`, `<joint>.mx`, `<joint>.my`,
+    `<joint>.mz` — the first moment m·c, identification's `m_cx` … —, `<joint>.Ixx`, …,
+    `<joint>.Izz`, identification's layout, and `<joint>.armature`), its `value` and, on a
+    variant stored by identification, its `standard_deviation` from the identification (None
+    where unknown: not identified, or not determined by the log)."""
 
     symbol: str
     expression: str
     value: float
+    standard_deviation: float | None = None
 
     @classmethod
     def from_json(cls, body: Mapping[str, Any]) -> Parameter:
-        return cls(str(body["symbol"]), str(body["expression"]), float(body["value"]))
+        std = body.get("standard_deviation")
+        return cls(
+            str(body["symbol"]),
+            str(body["expression"]),
+            float(body["value"]),
+            None if std is None else float(std),
+        )
 
 
 @dataclass(frozen=True)

@@ -139,7 +139,7 @@ def test_an_upload_is_derived_once_and_kept_on_disk(tmp_path, monkeypatch):
         answer = c.get(f"/v1/robots/{robot_id}/equations")
         assert answer.status_code == 200, answer.text
         assert answer.json() == _in_process(c, robot_id)
-    stored = tmp_path / "equations" / "v2" / robot_id / "numeric-6-1e-09.json"
+    stored = tmp_path / "equations" / "v3" / robot_id / "numeric-6-1e-09.json"
     assert stored.read_bytes() == answer.content
 
     def no_derivation(*args):
@@ -342,3 +342,33 @@ def test_derivations_have_slots_of_their_own(tmp_path, monkeypatch):
             release.set()
             holder.join(120)
         assert out["held"].status_code == 200
+
+
+def test_an_identified_variant_gives_its_parameters_standard_deviations(tmp_path):
+    """`POST …/identify` stores a variant; its parametric answer gives each parameter that is
+    one of identification's base parameters that one's standard deviation, also after a
+    restart (the record keeps the covariance); a robot not identified gives null."""
+    from tests.service.dynamics.identification_logs import synthetic_log
+
+    with _client(tmp_path) as c:
+        model = c.app.state.registry.get("planar_arm").model  # type: ignore[attr-defined]
+        log = synthetic_log(model, seed=4, duration=10.0, rate=100.0, noise=0.05)
+        body = {"t": log.t.tolist(), "q": log.q.tolist(), "tau": log.tau.tolist()}
+        identified = c.post("/v1/robots/planar_arm/identify", json=body).json()
+        variant = identified["robot"]["id"]
+        base = identified["base_parameters"]
+        named = {
+            e.replace(".m_cx", ".mx").replace(".m_cz", ".mz"): s
+            for e, s in zip(base["expressions"], base["standard_deviation"], strict=True)
+        }
+        answer = c.get(f"/v1/robots/{variant}/equations?form=parametric").json()
+        plain = c.get("/v1/robots/planar_arm/equations?form=parametric").json()
+    assert [p["standard_deviation"] for p in plain["parameters"]] == [None] * 6
+    matched = [p for p in answer["parameters"] if p["expression"] in named]
+    assert len(matched) >= 2, answer["parameters"]
+    for p in matched:
+        assert p["standard_deviation"] == pytest.approx(named[p["expression"]], rel=1e-6)
+    assert all(p["standard_deviation"] > 0 for p in answer["parameters"])
+    registry = Registry(tmp_path, ["planar_arm"])
+    registry.load()
+    assert registry.get(variant).identified_uncertainty is not None

@@ -107,7 +107,7 @@ def test_cache_memory_disk_and_single_flight(tmp_path, counted):
     assert orjson.loads(answers[0])["mass_matrix"]["expressions"][1][1] == "0.735"
     assert _answer(cache, robot) == answers[0]  # from memory (timed in bench/equations.py)
     assert (
-        tmp_path / "equations" / "v2" / "u-arm" / "numeric-6-1e-09.json"
+        tmp_path / "equations" / "v3" / "u-arm" / "numeric-6-1e-09.json"
     ).read_bytes() == answers[0]
     # another process (a restart, a replica) sharing the data directory: no derivation
     again = EquationsCache(tmp_path, 30, slots)
@@ -115,7 +115,7 @@ def test_cache_memory_disk_and_single_flight(tmp_path, counted):
     # catalog robots are kept in memory only
     catalog_robot = _robot(planar_arm_urdf(1.0, 0.7, 2.0, 1.5), "planar", source="catalog")
     _answer(again, catalog_robot)
-    assert not (tmp_path / "equations" / "v2" / "planar").exists()
+    assert not (tmp_path / "equations" / "v3" / "planar").exists()
 
 
 def test_cache_refuses_out_of_scope_models_without_a_child(tmp_path, counted):

@@ -58,12 +58,22 @@ def inverse_dynamics(
     payloads: PayloadsLike | None = None,
     friction: bool = False,
 ) -> Call[np.ndarray]:
-    options = request_options.external_forces(external_forces)
-    if friction:
-        options = {**options, "friction": True}
+    options = _inverse_dynamics_options(external_forces, friction, loads=False)
     return request(
         robot_id, "inverse-dynamics", array("tau", 1), options, payloads=payloads, q=q, v=v, a=a
     )
+
+
+def _inverse_dynamics_options(
+    external_forces: Sequence[Mapping[str, Any]] | None, friction: bool, *, loads: bool
+) -> dict[str, Any]:
+    """The options of an inverse-dynamics request: external forces, friction, joint loads."""
+    options: dict[str, Any] = dict(request_options.external_forces(external_forces))
+    if friction:
+        options["friction"] = True
+    if loads:
+        options["loads"] = True
+    return options
 
 
 def _joint_wrenches(body: Any, batched: bool, rows: int | None) -> tuple[np.ndarray, np.ndarray]:
@@ -83,9 +93,7 @@ def joint_wrenches(
     payloads: PayloadsLike | None = None,
     friction: bool = False,
 ) -> Call[tuple[np.ndarray, np.ndarray]]:
-    options = {**request_options.external_forces(external_forces), "loads": True}
-    if friction:
-        options["friction"] = True
+    options = _inverse_dynamics_options(external_forces, friction, loads=True)
     return request(
         robot_id, "inverse-dynamics", _joint_wrenches, options, payloads=payloads, q=q, v=v, a=a
     )

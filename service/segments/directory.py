@@ -165,26 +165,33 @@ class SegmentDirectory:
             return 0
         removed = 0
         for name in names:
-            path = self.path / name
-            if NAME.fullmatch(name):
-                if everything or not held(path):
-                    removed += self.remove(name)  # with its answer
-                continue
-            if name.endswith(ANSWER_SUFFIX) and NAME.fullmatch(name[: -len(ANSWER_SUFFIX)]):
-                gone = everything or not os.path.lexists(self.path / name[: -len(ANSWER_SUFFIX)])
-            elif HELD_FILE.fullmatch(name):
-                gone = everything or not held(path)
-            elif TEMPORARY.fullmatch(name):
-                gone = everything or (not held(path) and _age_s(path) > TEMPORARY_GRACE_S)
-            else:
-                continue
-            if gone:
-                try:
-                    os.unlink(path)
-                    removed += 1
-                except FileNotFoundError:
-                    pass
+            try:
+                removed += self._sweep_one(name, everything)
+            except OSError:  # (a directory or a file of another user under a segment's name:
+                continue  # not removable, not the service's; the others are swept)
         return removed
+
+    def _sweep_one(self, name: str, everything: bool) -> int:
+        """Remove the entry `name` if it is a segment whose client is gone (or `everything`);
+        how many files that removed (a request segment goes with its answer)."""
+        path = self.path / name
+        if NAME.fullmatch(name):
+            return self.remove(name) if everything or not held(path) else 0  # + answer
+        if name.endswith(ANSWER_SUFFIX) and NAME.fullmatch(name[: -len(ANSWER_SUFFIX)]):
+            gone = everything or not os.path.lexists(self.path / name[: -len(ANSWER_SUFFIX)])
+        elif HELD_FILE.fullmatch(name):
+            gone = everything or not held(path)
+        elif TEMPORARY.fullmatch(name):
+            gone = everything or (not held(path) and _age_s(path) > TEMPORARY_GRACE_S)
+        else:
+            return 0
+        if not gone:
+            return 0
+        try:
+            os.unlink(path)
+        except FileNotFoundError:
+            return 0
+        return 1
 
     def delete(self) -> None:
         """Remove every segment and the directory itself (the server is shutting down)."""

@@ -140,6 +140,19 @@ def test_the_service_removes_the_names_of_a_client_gone(directory: SegmentDirect
     assert [n[:2] for n in os.listdir(directory.path)] == ["s-"]
 
 
+def test_an_entry_the_sweeper_cannot_remove_leaves_it_sweeping_the_others(
+    directory: SegmentDirectory,
+):
+    """A directory under a request's name (another process of the service's user made it) is
+    not removable: it stays, and an unheld request segment beside it is still removed."""
+    blocker = directory.path / ("r-" + "e" * 32)
+    blocker.mkdir()
+    dead = directory.path / ("r-" + "f" * 32)
+    dead.write_bytes(b"z")
+    assert directory.sweep() == 1
+    assert os.listdir(directory.path) == [blocker.name]
+
+
 def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: SegmentDirectory):
     env = {**os.environ, "PYTHONPATH": str(ROOT / "clients/python/src")}
     holder = subprocess.Popen(

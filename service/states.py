@@ -7,8 +7,6 @@ what was expected ("q has 5 entries; robot 'ur5' has nq = 6").
 
 from __future__ import annotations
 
-import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -17,6 +15,13 @@ import numpy as np
 
 from service.errors import DimensionMismatch, InvalidConfiguration, InvalidInput
 from service.registry.robot import Robot
+from service.state_numbers import (
+    all_finite,
+    batch_numbers,
+    column_extremes,
+    first_non_finite,
+    unit_norms,
+)
 
 UNIT_NORM_TOL = 1e-6  # |‖quaternion‖ − 1| and |‖(cos, sin)‖ − 1| allowed in q
 
@@ -57,27 +62,6 @@ class States:
         return value if self.batched else value[0]
 
 
-_SMALL = 4096
-# A NaN from all_finite's dot product is its answer, not a mishap worth a warning.
-warnings.filterwarnings(
-    "ignore", "invalid value encountered in dot", RuntimeWarning, module=__name__
-)
-_ZEROS = np.zeros(_SMALL)
-_ZEROS.flags.writeable = False
-
-
-def all_finite(values: np.ndarray) -> bool:
-    """Whether every entry of a float64 array is finite (no NaN, no ±inf).
-
-    Small arrays (single states, one matrix) take the dot product with zeros, which is NaN
-    exactly when an entry is NaN or infinite (x·0 = 0 for every finite x, so no overflow):
-    one call of about 0.5 µs instead of `np.isfinite(values).all()`'s 1.8 µs."""
-    if values.size <= _SMALL:
-        flat = values.reshape(-1)
-        return math.isfinite(flat.dot(_ZEROS[: flat.size]))
-    return bool(np.isfinite(values).all())
-
-
 def as_array(name: str, value: Any, what: str = "(one state) or 2-D (a batch)") -> np.ndarray:
     """`value` as a finite float64 array of 1 or 2 dimensions (`what` says what each means),
     or `InvalidInput` naming `name`: ragged lists, non-numbers, other ranks and NaN/inf are
@@ -91,25 +75,29 @@ def as_array(name: str, value: Any, what: str = "(one state) or 2-D (a batch)") 
     if arr.ndim not in (1, 2):
         raise InvalidInput(f"{name} must be 1-D {what}, not {arr.ndim}-D")
     if not all_finite(arr):
-        raise InvalidInput(
-            f"{name} contains a non-finite number (NaN or infinity): {_first_non_finite(arr)}"
-        )
+        raise _non_finite(name, arr)
     return arr
 
 
-def _first_non_finite(arr: np.ndarray) -> str:
-    """Where the first non-finite entry of a 1-D or 2-D array is, and what it is (looked
-    for only once the array is known to hold one)."""
-    index = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
-    value = arr[index]
-    if arr.ndim == 2:
-        return f"state {index[0]}, entry {index[1]} is {value}"
-    return f"entry {index[0]} is {value}"
+def _non_finite(name: str, arr: np.ndarray) -> InvalidInput:
+    return InvalidInput(
+        f"{name} contains a non-finite number (NaN or infinity): {first_non_finite(arr)}"
+    )
 
 
 def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
-    """Check and convert the joint-space inputs named in `inputs` (keys of SPACES)."""
-    arrays = {name: as_array(name, value) for name, value in inputs.items()}
+    """Check and convert the joint-space inputs named in `inputs` (keys of SPACES). A large
+    batch's numbers are read on two threads at once (`state_numbers.batch_numbers`); the
+    errors are the same, in the same order."""
+    unit_entries = [(start, end) for _, start, end in robot.unit_joints]
+    numbers = batch_numbers(inputs, robot.nq, unit_entries)
+    if numbers is None:
+        arrays = {name: as_array(name, value) for name, value in inputs.items()}
+    else:
+        arrays = dict(inputs)  # (float64 (N, n) arrays: as_array would return them as they are)
+        for name, arr in arrays.items():
+            if numbers.non_finite[name]:
+                raise _non_finite(name, arr)
     ndims = {arr.ndim for arr in arrays.values()}
     if len(ndims) > 1:
         shapes = ", ".join(f"{n} is {a.ndim}-D" for n, a in arrays.items())
@@ -145,9 +133,10 @@ def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
             )
     warnings: tuple[str, ...] = ()
     if "q" in arrays:
-        far = angles_far_outside(robot, arrays["q"])
+        extremes = None if numbers is None else numbers.q_extremes
+        far = angles_far_outside(robot, arrays["q"], extremes)
         warnings = (far,) if far else ()
-        arrays["q"] = configurations(robot, arrays["q"])
+        arrays["q"] = configurations(robot, arrays["q"], None if numbers is None else numbers.norms)
     return States(arrays=arrays, batched=batched, warnings=warnings)
 
 
@@ -177,26 +166,32 @@ def _left_out(robot: Robot, dim_name: str, given: int) -> str:
     )
 
 
-def configurations(robot: Robot, q: np.ndarray) -> np.ndarray:
+def configurations(
+    robot: Robot, q: np.ndarray, norms: Mapping[int, np.ndarray] | None = None
+) -> np.ndarray:
     """Checked configurations (N, nq) as the API gives them, in Pinocchio's order: unit norms
-    checked (`check_configuration`), then each quaternion of a MuJoCo-qpos robot (MJCF) turned
-    from (w, x, y, z) into (x, y, z, w) (`Robot.pinocchio_q`). Every q of a request (the
-    states, a PD target) passes here; other robots' q is returned as it is."""
-    check_configuration(robot, q)
+    checked (`check_configuration`; `norms`: those already computed, by q start), then each
+    quaternion of a MuJoCo-qpos robot (MJCF) turned from (w, x, y, z) into (x, y, z, w)
+    (`Robot.pinocchio_q`). Every q of a request (the states, a PD target) passes here; other
+    robots' q is returned as it is."""
+    check_configuration(robot, q, norms)
     return q if robot.q_from_api is None else robot.pinocchio_q(q)
 
 
-def angles_far_outside(robot: Robot, q: np.ndarray) -> str | None:
+def angles_far_outside(
+    robot: Robot, q: np.ndarray, extremes: tuple[np.ndarray, np.ndarray] | None = None
+) -> str | None:
     """A warning when the angle of a revolute joint with a finite range lies a whole turn
     (2π rad) or more outside it in some state of q (the API's order), else None: most often
     an angle given in degrees. It may also be a state a simulation reached (limits are not
-    enforced there), so it is computed as given, with the warning."""
+    enforced there), so it is computed as given, with the warning. `extremes`: q's columns'
+    smallest and largest entries, when already computed."""
     names, index, lower, upper = robot.angle_ranges
     if not index.size:
         return None
     # Each joint's smallest and largest angle over the states first (no copy of q): a whole
     # turn outside is rare, and only then is the state looked for.
-    smallest, largest = column_extremes(q)
+    smallest, largest = column_extremes(q) if extremes is None else extremes
     if not np.max(np.maximum(lower - smallest[index], largest[index] - upper)) >= 2 * np.pi:
         return None
     angles = q[:, index]
@@ -214,38 +209,15 @@ def angles_far_outside(robot: Robot, q: np.ndarray) -> str | None:
     )
 
 
-_ROWS_AT_ONCE = 64
-
-
-def column_extremes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The smallest and the largest entry of each column of a C-contiguous (N, n) array (NaN
-    where the column holds one). Reduced over blocks of `_ROWS_AT_ONCE` rows seen as one
-    long row, then over the blocks' n-wide results: numpy's reduction along axis 0 of a
-    narrow array pays a step per row (0.4 ms for (10,000, 39)), over wide rows it runs at
-    memory speed."""
-    n, width = x.shape
-    whole = n - n % _ROWS_AT_ONCE
-    if whole == 0 or not x.flags.c_contiguous:
-        return x.min(axis=0), x.max(axis=0)
-    blocks = x[:whole].reshape(whole // _ROWS_AT_ONCE, _ROWS_AT_ONCE * width)
-    smallest = blocks.min(axis=0).reshape(_ROWS_AT_ONCE, width).min(axis=0)
-    largest = blocks.max(axis=0).reshape(_ROWS_AT_ONCE, width).max(axis=0)
-    if whole < n:
-        rest = x[whole:]
-        smallest = np.minimum(smallest, rest.min(axis=0))
-        largest = np.maximum(largest, rest.max(axis=0))
-    return smallest, largest
-
-
-def check_configuration(robot: Robot, q: np.ndarray) -> None:
+def check_configuration(
+    robot: Robot, q: np.ndarray, computed: Mapping[int, np.ndarray] | None = None
+) -> None:
     """Quaternions and (cos, sin) pairs in q (the API's order) must have unit norm (within
-    UNIT_NORM_TOL)."""
+    UNIT_NORM_TOL; `computed`: norms already computed, by q start)."""
     for joint, start, end in robot.unit_joints:
-        unit = q[:, start:end]
-        with np.errstate(over="ignore"):  # a norm past 1e154 overflows to inf: refused below
-            # √(Σ x²) by einsum: no temporary of the squares (0.1 ms for 10,000 quaternions,
-            # np.linalg.norm 0.3 ms)
-            norms = np.sqrt(np.einsum("ij,ij->i", unit, unit))
+        norms = computed.get(start) if computed else None
+        if norms is None:
+            norms = unit_norms(q, start, end)
         bad = np.flatnonzero(np.abs(norms - 1.0) > UNIT_NORM_TOL)
         if bad.size:
             i = int(bad[0])

@@ -26,7 +26,8 @@ import numpy as np
 from service.dynamics.stopping import ShouldStop, hand_over, report_progress
 from service.errors import ComputationStopped, NonFiniteResult, SingularConfiguration
 from service.registry.robot import Robot
-from service.states import States, all_finite
+from service.state_numbers import all_finite
+from service.states import States
 
 Results = dict[str, np.ndarray]
 Compute = Callable[..., Results]

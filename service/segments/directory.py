@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 from service.segments.answer_pool import AnswerPool
+from service.segments.body_mappings import BodyMappings
 
 log = logging.getLogger("robodyn")
 
@@ -99,6 +100,7 @@ class SegmentDirectory:
         self.link = Path(link)
         self.path = self.link
         self.answers = AnswerPool(self.path)
+        self.bodies = BodyMappings()  # the clients' body files, mapped (body_mappings.py)
 
     def create(self) -> None:
         """Make the directory (mode 0700), or take over an existing one of this user (left by
@@ -158,7 +160,8 @@ class SegmentDirectory:
 
     def sweep(self, everything: bool = False) -> int:
         """Remove the segments whose client is gone (see the module docstring), or with
-        `everything` all of them (at shutdown); the number of files removed."""
+        `everything` all of them (at shutdown); the number of files removed. Mappings of
+        body files that have no name left are let go."""
         try:
             names = os.listdir(self.path)
         except FileNotFoundError:
@@ -169,6 +172,7 @@ class SegmentDirectory:
                 removed += self._sweep_one(name, everything)
             except OSError:  # (a directory or a file of another user under a segment's name:
                 continue  # not removable, not the service's; the others are swept)
+        self.bodies.sweep()
         return removed
 
     def _sweep_one(self, name: str, everything: bool) -> int:
@@ -196,6 +200,7 @@ class SegmentDirectory:
     def delete(self) -> None:
         """Remove every segment and the directory itself (the server is shutting down)."""
         self.answers.close()
+        self.bodies.close()
         self.sweep(everything=True)
         with contextlib.suppress(OSError):  # (files of other names: not the service's)
             os.rmdir(self.path)

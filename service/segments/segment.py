@@ -1,7 +1,7 @@
 """One request's shared-memory segments on the service's side (see `service.segments`).
 
     segment = RequestSegment(directory, name, length, max_bytes)  # the client's body, mapped
-    ... decode and compute from segment.body (a read-only mmap of `length` bytes) ...
+    ... decode and compute from segment.body (a read-only view of `length` bytes) ...
     segment.write_answer(parts)   # into an answer file, linked as <name>.answer
     segment.end()                 # always, when the request ends
 
@@ -15,8 +15,6 @@ no one else, holding at least `length` bytes, `length` at most `max_bytes`.
 
 from __future__ import annotations
 
-import contextlib
-import mmap
 import os
 import stat
 from collections.abc import Sequence
@@ -24,7 +22,6 @@ from collections.abc import Sequence
 from service.segments.directory import ANSWER_SUFFIX, NAME, SegmentDirectory, held
 
 IOV_MAX = 512  # buffers per writev call (Linux allows 1024)
-_POPULATE = getattr(mmap, "MAP_POPULATE", 0)
 
 
 class SegmentError(Exception):
@@ -41,7 +38,7 @@ class SegmentTooLarge(SegmentError):
 
 class RequestSegment:
     """The first `length` bytes of the segment `name` of `directory`, as a client wrote them:
-    `body` (a read-only mmap, or b"" when empty)."""
+    `body` (a read-only view of a mapping of the file, or b"" when empty)."""
 
     def __init__(self, directory: SegmentDirectory, name: str, length: int, max_bytes: int) -> None:
         if not NAME.fullmatch(name):
@@ -52,7 +49,7 @@ class RequestSegment:
             raise SegmentTooLarge(length, max_bytes)
         self.directory, self.name, self.length = directory, name, length
         self.answer: str | None = None  # the value of Robodyn-Shared-Answer, once written
-        self.body: mmap.mmap | bytes = b""
+        self.body: memoryview | bytes = b""
         flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK
         try:
             self._fd = os.open(directory.path / name, flags)
@@ -81,10 +78,8 @@ class RequestSegment:
                     f"the shared-memory segment holds {info.st_size} bytes, fewer than the "
                     f"{length} the request names"
                 )
-            if length:  # (its pages mapped at once: 2 ms for 9.2 MB, not 6 fault by fault)
-                self.body = mmap.mmap(
-                    self._fd, length, flags=mmap.MAP_SHARED | _POPULATE, prot=mmap.PROT_READ
-                )
+            if length:  # (kept mapped for the client's next request: body_mappings.py)
+                self.body = memoryview(directory.bodies.map(self._fd, info, length))[:length]
         except BaseException:
             os.close(self._fd)
             raise
@@ -119,19 +114,16 @@ class RequestSegment:
         return self.answer
 
     def end(self) -> None:
-        """The request is over, however it ended: unmap the body, and remove the request's
-        names when their client no longer holds its lock (it is gone)."""
-        body, self.body = self.body, b""
-        if isinstance(body, mmap.mmap):
-            # (arrays still viewing it: it is unmapped once they are collected)
-            with contextlib.suppress(BufferError):
-                body.close()
+        """The request is over, however it ended: let go of the body (its mapping is kept by
+        the directory's `bodies`), and remove the request's names when their client no
+        longer holds its lock (it is gone)."""
+        self.body = b""
         if self._fd < 0:
             return
         os.close(self._fd)
         self._fd = -1
-        # Tested on a description of its own: the mapping's (a duplicate of `_fd`) may outlive
-        # this request, and a lock taken through it would last as long.
+        # Tested on a description of its own: a lock taken through `_fd` would last as long
+        # as the kept mapping's duplicate of it.
         if not held(self.directory.path / self.name):
             self.directory.remove(self.name)  # (a client still there removes them itself)
 

@@ -12,6 +12,7 @@ import httpx
 import numpy as np
 import pytest
 from robodyn import AsyncClient, Client, ResponseFormatError, binary
+from robodyn.answer_memory import AnswerMemory
 
 MASS = np.arange(2 * 3 * 3, dtype=float).reshape(2, 3, 3) / 7.0  # any float64 bits
 
@@ -86,7 +87,7 @@ def test_an_answer_shorter_than_its_content_length_is_a_format_error(call) -> No
 def test_the_receiver_refuses_more_bytes_than_announced() -> None:
     from robodyn import core
 
-    receiver = core.Receiver(httpx.Response(200), 4)
+    receiver = core.Receiver(httpx.Response(200), 4, AnswerMemory())
     receiver.add(b"ab")
     with pytest.raises(ResponseFormatError, match="longer than its Content-Length 4"):
         receiver.add(b"cde")

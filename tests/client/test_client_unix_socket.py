@@ -129,6 +129,29 @@ def test_batches_through_shared_memory_equal_in_process_pinocchio_and_tcp(
     assert leftovers(sock) == []
 
 
+def test_answers_kept_by_the_caller_stay_as_they_were(sockets, reference: Reference):
+    """Each answer's memory is the caller's until its arrays are gone: later answers of the
+    same size (through shared memory and over TCP) never write into one still held."""
+    url, sock = sockets
+    s = reference.states("talos", 600, seed=5)
+    q, v, a = s["q"], s["v"], s["a"]
+    with (
+        Client(f"unix://{sock}", api_key=KEY, timeout=120) as local,
+        Client(url, api_key=KEY, timeout=120, binary=True) as remote,
+    ):
+        for client in (local, remote):
+            kept = [client.inverse_dynamics("talos", q, v, a * k) for k in range(4)]
+            view = kept[1][5:9]
+            for _ in range(3):  # answers dropped at once: their memory is reused
+                client.inverse_dynamics("talos", q, v, -a)
+            for k, tau in enumerate(kept):
+                expected = reference.inverse_dynamics("talos", q, v, a * k)
+                np.testing.assert_allclose(tau, expected, rtol=RTOL, atol=1e-9)
+            del kept
+            expected = reference.inverse_dynamics("talos", q, v, a)[5:9]
+            np.testing.assert_allclose(view, expected, rtol=RTOL, atol=1e-9)
+
+
 def test_async_client_and_stream_over_the_socket(sockets, reference: Reference, shared_answers):
     _, sock = sockets
     s = reference.states("talos", 400, seed=4)

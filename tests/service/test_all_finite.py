@@ -1,4 +1,4 @@
-"""`service.states.all_finite` agrees with `np.isfinite(x).all()` on every float64 array, small
+"""`service.state_numbers.all_finite` agrees with `np.isfinite(x).all()` on every float64 array, small
 (the dot-with-zeros form) and large, huge finite values included (no overflow)."""
 
 from __future__ import annotations
@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from service.errors import InvalidInput
-from service.states import all_finite, as_array
+from service.state_numbers import all_finite
+from service.states import as_array
 
 ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True, width=64)
 

@@ -1,4 +1,4 @@
-"""`service.states.column_extremes` gives each column's smallest and largest entry exactly as
+"""`service.state_numbers.column_extremes` gives each column's smallest and largest entry exactly as
 numpy's reductions along axis 0, whatever the number of rows (blocks of rows and a rest), NaN
 and infinities included; the angle warning that uses it finds a turn outside in any state."""
 
@@ -9,7 +9,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from service.states import angles_far_outside, column_extremes
+from service.state_numbers import column_extremes
+from service.states import angles_far_outside
 
 ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True, width=64)
 

@@ -17,6 +17,7 @@ from robodyn import shared_memory
 
 from service.api.encoding import binary
 from service.segments import RequestSegment, SegmentDirectory, SegmentError
+from service.segments.body_mappings import MAX_KEPT
 from service.segments.directory import TEMPORARY_GRACE_S, SegmentDirectoryError
 from service.segments.segment import SegmentTooLarge
 
@@ -107,6 +108,45 @@ def test_bodies_of_every_size_in_one_reused_file(directory: SegmentDirectory):
         segment.release()
     assert len([n for n in os.listdir(directory.path) if n.startswith("c-")]) == 1
     client.close()
+
+
+def test_the_service_keeps_body_files_mapped_while_their_clients_keep_them(
+    directory: SegmentDirectory,
+):
+    """A client's body file is mapped once for all its requests; the mapping is let go when
+    the file has no name left (the sweep after the client closed), and arrays still read
+    from it stay valid; more clients than `MAX_KEPT` keep no more mappings than that."""
+    q = np.random.default_rng(2).normal(size=(4000, 7))
+    parts = binary.encode_parts({"q": q})
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    mappings = set()
+    for _ in range(3):
+        segment = client.segment(parts)
+        assert segment is not None
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        assert isinstance(served.body, memoryview) and len(served.body) == segment.length
+        mappings.add(id(served.body.obj))
+        kept = binary.decode(served.body)[1]["q"]  # (a request's arrays, read later)
+        served.end()
+        segment.release()
+    assert len(mappings) == 1 and len(directory.bodies) == 1
+    directory.sweep()
+    assert len(directory.bodies) == 1  # its client still keeps the file
+    client.close()
+    directory.sweep()
+    assert len(directory.bodies) == 0
+    assert np.array_equal(kept, q)  # the mapping ends with the last array reading it
+    clients = [shared_memory.SharedMemory(_socket_of(directory)) for _ in range(MAX_KEPT + 3)]
+    for each in clients:
+        segment = each.segment(parts)
+        assert segment is not None
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        assert np.array_equal(binary.decode(served.body)[1]["q"], q)
+        served.end()
+        segment.release()
+    assert len(directory.bodies) == MAX_KEPT
+    for each in clients:
+        each.close()
 
 
 def test_a_full_file_system_sends_the_body_through_the_socket(

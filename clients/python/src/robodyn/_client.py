@@ -18,6 +18,7 @@ import httpx
 
 from robodyn import core, outputs, shared_memory, transport
 from robodyn import progress as _progress
+from robodyn.answer_memory import AnswerMemory
 from robodyn.core import Call
 from robodyn.request_options import Fill
 
@@ -49,7 +50,12 @@ class BaseClient:
         self._progress = _progress.check(progress)
         self._owns_http = http_client is None
         unix_socket = self._settings.unix_socket
-        self._shared = None if unix_socket is None else shared_memory.SharedMemory(unix_socket)
+        self._answer_memory = AnswerMemory()  # large answers' memory, reused (answer_memory.py)
+        self._shared = (
+            None
+            if unix_socket is None
+            else shared_memory.SharedMemory(unix_socket, self._answer_memory)
+        )
 
     @property
     def base_url(self) -> str:
@@ -139,7 +145,7 @@ class SyncSender(BaseClient):
                     response.read()
                     received = transport.shared_answer(segment, response)
                 else:  # a large binary answer: straight into one buffer
-                    receiver = core.Receiver(response, length)
+                    receiver = core.Receiver(response, length, self._answer_memory)
                     for chunk in response.iter_raw():
                         receiver.add(chunk)
                     received = receiver.finish()
@@ -153,6 +159,7 @@ class SyncSender(BaseClient):
         client's shared-memory files."""
         if self._shared is not None:
             self._shared.close()
+        self._answer_memory.clear()
         if self._owns_http:
             self._http.close()
 
@@ -221,7 +228,7 @@ class AsyncSender(BaseClient):
                         await response.aread()
                         received = transport.shared_answer(segment, response)
                     else:  # a large binary answer: straight into one buffer
-                        receiver = core.Receiver(response, length)
+                        receiver = core.Receiver(response, length, self._answer_memory)
                         async for chunk in response.aiter_raw():
                             receiver.add(chunk)
                         received = receiver.finish()
@@ -235,5 +242,6 @@ class AsyncSender(BaseClient):
         client's shared-memory files."""
         if self._shared is not None:
             self._shared.close()
+        self._answer_memory.clear()
         if self._owns_http:
             await self._http.aclose()

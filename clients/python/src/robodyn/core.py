@@ -17,6 +17,7 @@ import httpx
 import numpy as np
 
 from robodyn import binary
+from robodyn.answer_memory import AnswerMemory
 from robodyn.arrays import to_json
 from robodyn.errors import APIError, ResponseFormatError, RobodynWarning, error_class
 from robodyn.progress import Chunks
@@ -115,36 +116,35 @@ def binary_length(response: httpx.Response) -> int | None:
 
 
 class Receiver:
-    """Collects a body of known length, chunk by chunk, into one preallocated bytearray.
+    """Collects a body of known length, chunk by chunk, into one preallocated buffer.
 
     A large answer (23 MB for 2,000 Talos mass matrices) read by httpx as a list of 64 kB
-    chunks and then joined was copied twice more; written straight into its final buffer it is
-    copied once, and `binary.decode` makes its arrays views of that buffer."""
+    chunks and then joined was copied twice more; written straight into its final buffer (from
+    `memory`: reused once the arrays of an earlier answer are gone) it is copied once, and
+    `binary.decode` makes its arrays views of that buffer."""
 
-    def __init__(self, response: httpx.Response, length: int) -> None:
+    def __init__(self, response: httpx.Response, length: int, memory: AnswerMemory) -> None:
         self._status = response.status_code
-        self.content = bytearray(length)
-        self._view = memoryview(self.content)
+        self._view = memory.take(length)
         self._filled = 0
 
     def add(self, chunk: bytes) -> None:
         end = self._filled + len(chunk)
-        if end > len(self.content):
+        if end > len(self._view):
             raise ResponseFormatError(
-                f"the answer is longer than its Content-Length {len(self.content)}",
+                f"the answer is longer than its Content-Length {len(self._view)}",
                 status=self._status,
             )
         self._view[self._filled : end] = chunk
         self._filled = end
 
-    def finish(self) -> bytearray:
-        if self._filled != len(self.content):
+    def finish(self) -> memoryview:
+        if self._filled != len(self._view):
             raise ResponseFormatError(
-                f"the answer ended after {self._filled} of its {len(self.content)} bytes",
+                f"the answer ended after {self._filled} of its {len(self._view)} bytes",
                 status=self._status,
             )
-        self._view.release()
-        return self.content
+        return self._view
 
 
 WARNING_HEADER = "robodyn-warning"  # what the server computed as given but finds doubtful

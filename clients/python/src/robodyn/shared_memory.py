@@ -28,6 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from robodyn.answer_memory import AnswerMemory
 from robodyn.errors import ResponseFormatError
 
 BODY_HEADER = "Robodyn-Shared-Body"
@@ -189,8 +190,9 @@ class SharedMemory:
     """The body files of one client of the Unix socket `socket_path` (one per request in
     flight, `KEPT_FILES` kept idle); `close` removes them."""
 
-    def __init__(self, socket_path: str) -> None:
+    def __init__(self, socket_path: str, memory: AnswerMemory | None = None) -> None:
         self.directory = directory_of(socket_path)
+        self._memory = AnswerMemory() if memory is None else memory
         self._idle: list[BodyFile] = []
         self._answers: dict[tuple[int, int], tuple[int, mmap.mmap]] = {}  # oldest first
         self._lock = threading.Lock()
@@ -215,7 +217,8 @@ class SharedMemory:
 
     def copy_out(self, fd: int, info: os.stat_result, size: int) -> memoryview:
         """The first `size` bytes of the answer file open as `fd` (described by `info`),
-        copied into new memory. The file's mapping is kept for the next answer in the same
+        copied into memory of the caller's (`AnswerMemory`: reused once the arrays of an
+        earlier answer are gone). The file's mapping is kept for the next answer in the same
         file (the server reuses a few, and mapping 23 MB anew costs page faults); so is its
         descriptor, which keeps the inode, and so the identity of the mapping, alive."""
         key = (info.st_dev, info.st_ino)
@@ -237,9 +240,11 @@ class SharedMemory:
             self._answers[key] = (fd, mapping)
             while len(self._answers) > KEPT_ANSWER_FILES:
                 _close_mapping(*self._answers.pop(next(iter(self._answers))))
-            content = np.empty(size, dtype=np.uint8)  # (not zeroed first)
-            content[:] = np.frombuffer(mapping, dtype=np.uint8, count=size)
-        return content.data
+            content = self._memory.take(size)
+            np.frombuffer(content, dtype=np.uint8)[:] = np.frombuffer(
+                mapping, dtype=np.uint8, count=size
+            )
+        return content
 
     def give(self, file: BodyFile) -> None:
         with self._lock:

@@ -1,5 +1,5 @@
-"""`service.state_numbers.all_finite` agrees with `np.isfinite(x).all()` on every float64 array, small
-(the dot-with-zeros form) and large, huge finite values included (no overflow)."""
+"""`service.state_numbers.all_finite` agrees with `np.isfinite(x).all()` on every float64
+array, small (the dot-with-zeros form) and large, huge finite values included (no overflow)."""
 
 from __future__ import annotations
 

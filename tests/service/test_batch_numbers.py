@@ -71,9 +71,7 @@ def test_the_first_input_in_order_is_named_and_configurations_are_checked(
     assert f"state {N - 1}: q[3:7]" in threads[1]
 
 
-def test_warnings_and_arrays_are_those_of_one_input_after_the_other(
-    catalog_registry, monkeypatch
-):
+def test_warnings_and_arrays_are_those_of_one_input_after_the_other(catalog_registry, monkeypatch):
     robot = catalog_registry.get("talos")
     inputs = _talos_batch(robot)
     assert _both_ways(robot, inputs, monkeypatch) == [(), ()]

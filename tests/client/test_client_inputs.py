@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import robodyn
 from robodyn import Client
+from robodyn.arrays import FINITE_WHEN_SENT_FROM
 
 from tests.client.helpers import two_link_urdf
 
@@ -58,6 +59,22 @@ def test_bad_inputs_raise_input_error_and_send_nothing(q: Any, match: str) -> No
     with mock.client() as client, pytest.raises(robodyn.InputError, match=match) as raised:
         client.gravity("ur5", q)
     assert isinstance(raised.value, ValueError) and mock.requests == []
+
+
+def test_a_large_batch_is_checked_finite_when_sent_and_nothing_is_sent() -> None:
+    """A batch of `FINITE_WHEN_SENT_FROM` numbers or more is checked when it is sent (not
+    through shared memory here: before anything goes out), in either form."""
+    q = np.zeros((2000, 6))
+    assert q.size >= FINITE_WHEN_SENT_FROM
+    q[1500, 2] = -np.inf
+    for binary in (True, False):
+        mock = Recorder()
+        with (
+            mock.client(binary=binary) as client,
+            pytest.raises(robodyn.InputError, match=r"q\[1500, 2\] is -inf; every entry"),
+        ):
+            client.gravity("ur5", q)
+        assert mock.requests == []
 
 
 def test_inputs_must_be_equally_batched() -> None:

@@ -21,6 +21,7 @@ from typing import Any
 import httpx
 import numpy as np
 import pytest
+import robodyn
 from robodyn import AsyncClient, Client, PayloadTooLargeError, UnauthorizedError, shared_memory
 from robodyn.errors import DimensionMismatchError, RobotNotFoundError
 
@@ -150,6 +151,30 @@ def test_answers_kept_by_the_caller_stay_as_they_were(sockets, reference: Refere
             del kept
             expected = reference.inverse_dynamics("talos", q, v, a)[5:9]
             np.testing.assert_allclose(view, expected, rtol=RTOL, atol=1e-9)
+
+
+def test_a_non_finite_input_is_the_same_input_error_as_over_tcp(
+    sockets, reference: Reference, shared_answers: list[str]
+):
+    """A large batch through shared memory is checked by the server; when it refuses it, the
+    client raises its own InputError, word for word the one a TCP client raises before
+    sending."""
+    url, sock = sockets
+    s = reference.states("talos", 600, seed=6)
+    v = s["v"].copy()
+    v[417, 3] = np.nan
+    messages = []
+    with (
+        Client(f"unix://{sock}", api_key=KEY, timeout=120) as local,
+        Client(url, api_key=KEY, timeout=120) as remote,
+    ):
+        for client in (local, remote):
+            with pytest.raises(robodyn.InputError) as raised:
+                client.inverse_dynamics("talos", s["q"], v, s["a"])
+            messages.append(str(raised.value))
+    assert messages[0] == messages[1] and "v[417, 3] is nan" in messages[0]
+    assert shared_answers == []  # (refused: no answer in shared memory)
+    assert leftovers(sock) == []
 
 
 def test_async_client_and_stream_over_the_socket(sockets, reference: Reference, shared_answers):

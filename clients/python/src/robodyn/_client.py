@@ -149,6 +149,7 @@ class SyncSender(BaseClient):
                     for chunk in response.iter_raw():
                         receiver.add(chunk)
                     received = receiver.finish()
+            transport.refused_shared_body(call, segment, response.status_code)
             return core.read_response(call, response, received)
         finally:
             if segment is not None:  # its files removed, whatever happened
@@ -232,6 +233,7 @@ class AsyncSender(BaseClient):
                         async for chunk in response.aiter_raw():
                             receiver.add(chunk)
                         received = receiver.finish()
+            transport.refused_shared_body(call, segment, response.status_code)
             return core.read_response(call, response, received)
         finally:
             if segment is not None:  # its files removed, whatever happened

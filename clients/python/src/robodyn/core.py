@@ -18,7 +18,7 @@ import numpy as np
 
 from robodyn import binary
 from robodyn.answer_memory import AnswerMemory
-from robodyn.arrays import to_json
+from robodyn.arrays import check_finite, to_json
 from robodyn.errors import APIError, ResponseFormatError, RobodynWarning, error_class
 from robodyn.progress import Chunks
 
@@ -49,6 +49,7 @@ class Call(Generic[T]):
     json: Any = None
     accept: frozenset[int] = frozenset()  # statuses handed to `read` (body None), not raised
     arrays: Mapping[str, Any] | None = None  # joint-space inputs (JSON or binary form)
+    unchecked: tuple[str, ...] = ()  # arrays checked finite when sent (`check_finite`)
     idempotent: bool = True  # may be sent again after a failure that may follow its sending
     binary_form: bool = True  # False: always JSON (e.g. simulate: its torque schedule is a field)
     chunks: Chunks[T] | None = None  # the same work as consecutive calls (with progress)
@@ -59,6 +60,14 @@ class Call(Generic[T]):
     def quantity(self) -> str:
         """The last segment of the route: the quantity a stream message names."""
         return self.route.rsplit("/", 1)[-1]
+
+    def check_finite(self) -> None:
+        """The finiteness check of a large batch's arrays (`unchecked`), made when the call is
+        sent: `InputError` naming the first non-finite entry. A body through shared memory is
+        checked by the server instead, and by this only when the server refuses it."""
+        for name in self.unchecked:
+            assert self.arrays is not None  # (`unchecked` names arrays)
+            check_finite(name, self.arrays[name])
 
     def binary(self, use_binary: bool | None) -> bool:
         """Whether the joint-space inputs go in the binary form (see `body`)."""
@@ -91,8 +100,9 @@ class Call(Generic[T]):
         True, or when it is None and they hold `BINARY_FROM` numbers or more. `fill`: sent
         with inputs keyed by joint name (how the server fills the joints they leave out)."""
         if self.arrays is not None:
-            if self.binary(use_binary):
+            if self.binary(use_binary):  # (checked finite when it is known how it is sent)
                 return binary.encode_parts(self.arrays, self.json), binary.MEDIA_TYPE
+            self.check_finite()
             return encode(self.json_body(fill)), "application/json"
         if self.json is not None:
             return encode(self.json), "application/json"

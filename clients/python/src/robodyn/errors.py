@@ -59,7 +59,9 @@ class RobodynWarning(UserWarning):
 
 
 class InputError(RobodynError, ValueError):
-    """An argument was rejected before anything was sent (not numeric, not finite, bad shape)."""
+    """An argument was rejected by the client (not numeric, not finite, bad shape), before
+    anything was sent; a large batch through shared memory is checked finite by the server
+    first, and this is raised when the server refuses it."""
 
 
 class TransportError(RobodynError):

@@ -45,6 +45,7 @@ def stream_url(base_url: str, robot_id: str) -> str:
 
 def message(call: core.Call[Any], use_binary: bool | None) -> str | bytes:
     """The stream message of a client call: JSON text, or the binary form for large inputs."""
+    call.check_finite()
     if call.binary(use_binary):
         return binary.encode(call.arrays or {}, {**(call.json or {}), "quantity": call.quantity})
     return core.encode({"quantity": call.quantity, **call.json_body()}).decode()

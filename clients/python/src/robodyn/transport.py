@@ -202,7 +202,7 @@ def shared_body(
     """Over a Unix socket (`shared` is the client's `SharedMemory`), a binary body of
     `shared_memory.SHARED_FROM` bytes or more written into shared memory, and the request's
     headers naming it: (the segment, an empty body). Otherwise, or when no segment can be
-    made: (None, `body`)."""
+    made: (None, `body`), its arrays checked finite (`Call.check_finite`)."""
     if (
         shared is None
         or not call.shared_memory
@@ -210,13 +210,25 @@ def shared_body(
         or headers.get("Content-Type") != binary.MEDIA_TYPE
         or sum(len(part) for part in body) < shared_memory.SHARED_FROM
     ):
-        return None, body
-    segment = shared.segment(body)
+        segment = None
+    else:
+        segment = shared.segment(body)
     if segment is None:
+        if isinstance(body, list):
+            call.check_finite()  # (sent as it is: checked here, before sending)
         return None, body
     headers["Content-Length"] = "0"
     headers[shared_memory.BODY_HEADER] = segment.header
     return segment, b""
+
+
+def refused_shared_body(
+    call: Call[Any], segment: shared_memory.Segment | None, status: int
+) -> None:
+    """A body sent through shared memory unchecked that the server refused (422): the
+    client's own `InputError` when it holds a non-finite number, as over TCP."""
+    if segment is not None and status == 422:
+        call.check_finite()
 
 
 def shared_answer(

@@ -17,7 +17,7 @@ from urllib.parse import quote
 import numpy as np
 
 from robodyn import outputs, progress
-from robodyn.arrays import ArrayLike, answer_array, batch_rows, joint_states
+from robodyn.arrays import ArrayLike, answer_array, batch_rows, large_joint_states
 from robodyn.core import Call
 from robodyn.errors import InputError
 from robodyn.payloads import PayloadsLike, payloads_body
@@ -89,7 +89,7 @@ def _request(
     independent_rows: bool,
     inputs: Mapping[str, Any],
 ) -> Call[T]:
-    arrays, batched = joint_states(**inputs)
+    arrays, batched, unchecked = large_joint_states(inputs)
     rows = batch_rows(arrays, batched)
     call = route_call(
         "POST",
@@ -100,7 +100,11 @@ def _request(
     )
     # one motion, path or log: one computation, whose progress the server streams
     call = replace(
-        call, arrays=arrays, binary_form=binary_form, progress_stream=not independent_rows
+        call,
+        arrays=arrays,
+        unchecked=unchecked,
+        binary_form=binary_form,
+        progress_stream=not independent_rows,
     )
     if rows is not None and independent_rows and _splittable(arrays, fields):
 

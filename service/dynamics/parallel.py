@@ -27,6 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pinocchio as pin
 
+from service.dynamics import answer_arrays
 from service.dynamics.quantity import Results
 from service.dynamics.stopping import ShouldStop, may_hold, report_progress
 from service.errors import ComputationStopped
@@ -51,8 +52,10 @@ def _in_chunks(
     should_stop: ShouldStop | None = None,
 ) -> np.ndarray:
     """Run `algorithm(threads, pool, q, x, y, out)` over the batch in GIL-friendly chunks, in
-    the process's OpenMP master thread, asking `should_stop` before each chunk."""
-    return _MASTER.submit(_run_chunks, robot, algorithm, q, x, y, should_stop).result()
+    the process's OpenMP master thread, asking `should_stop` before each chunk; the answer
+    (N, nv) is made here, in the request's context (`answer_arrays`)."""
+    out = answer_arrays.empty({"out": (q.shape[0], robot.nv)})["out"]
+    return _MASTER.submit(_run_chunks, robot, algorithm, q, x, y, out, should_stop).result()
 
 
 def _run_chunks(
@@ -61,14 +64,14 @@ def _run_chunks(
     q: np.ndarray,
     x: np.ndarray,
     y: np.ndarray,
+    out: np.ndarray,
     should_stop: ShouldStop | None,
 ) -> np.ndarray:
-    """The answer (N, nv), written chunk by chunk. Chunks are `CHUNK_WORK` states × nv; after
+    """The answer `out` (N, nv), written chunk by chunk. Chunks are `CHUNK_WORK` states × nv; after
     each, when `should_stop` allows holding the interpreter for the rest at the rate of the
     last chunk (`stopping.may_hold`: nothing else to serve, the deadline far), the rest is
     one call."""
     n = q.shape[0]
-    out = np.empty((n, robot.nv))
     size = max(256, CHUNK_WORK // robot.nv)
     seconds_per_state = 0.0
     with robot.model_pool() as (pool, threads):

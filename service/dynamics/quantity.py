@@ -23,6 +23,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from service.dynamics import answer_arrays
 from service.dynamics.stopping import ShouldStop, hand_over, report_progress
 from service.errors import ComputationStopped, NonFiniteResult, SingularConfiguration
 from service.registry.robot import Robot
@@ -65,8 +66,11 @@ class StateByState:
     answer: str
 
     def empty(self, robot: Robot, n: int) -> Results:
-        """Uninitialised answer arrays for n states."""
-        return {name: np.empty((n, *shape)) for name, shape in self.shapes(robot).items()}
+        """Uninitialised answer arrays for n states (`answer_arrays.empty`: new memory, or the
+        request's)."""
+        return answer_arrays.empty(
+            {name: (n, *shape) for name, shape in self.shapes(robot).items()}
+        )
 
     def compute(self, robot: Robot, s: States) -> Results:
         """The serial batch: every state filled in this process, checked finite."""

@@ -43,19 +43,24 @@ class AnswerFile:
         """Write `views` one after the other from the file's start (grown as needed, its
         memory allocated first: a full file system is an OSError here, never a SIGBUS on
         writing to the mapping)."""
-        needed = sum(len(v) for v in views)
-        if needed > self.size:
-            if self.mapping is not None:
-                self.mapping.close()
-                self.mapping, self.size = None, 0
-            os.posix_fallocate(self.fd, 0, needed)
-            self.mapping = mmap.mmap(self.fd, needed, flags=mmap.MAP_SHARED | _POPULATE)
-            self.size = needed
-        assert self.mapping is not None or needed == 0
+        mapping = self.reserve(sum(len(v) for v in views))
         offset = 0
         for view in views:
-            self.mapping[offset : offset + len(view)] = view  # type: ignore[index]
+            mapping[offset : offset + len(view)] = view
             offset += len(view)
+
+    def reserve(self, needed: int) -> mmap.mmap:
+        """The file's mapping, grown to at least `needed` bytes (see `write`). A mapping
+        replaced while arrays still view it is unmapped once they are collected."""
+        if needed > self.size or self.mapping is None:
+            if self.mapping is not None:
+                with contextlib.suppress(BufferError):
+                    self.mapping.close()
+                self.mapping, self.size = None, 0
+            os.posix_fallocate(self.fd, 0, max(needed, 1))
+            self.mapping = mmap.mmap(self.fd, max(needed, 1), flags=mmap.MAP_SHARED | _POPULATE)
+            self.size = max(needed, 1)
+        return self.mapping
 
 
 class AnswerPool:
@@ -104,6 +109,7 @@ class AnswerPool:
                 with contextlib.suppress(OSError):
                     os.unlink(self.path / file.name)
                 if file.mapping is not None:
-                    file.mapping.close()
+                    with contextlib.suppress(BufferError):  # (unmapped when collected)
+                        file.mapping.close()
                 os.close(file.fd)
             self._files.clear()

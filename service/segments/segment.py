@@ -2,6 +2,7 @@
 
     segment = RequestSegment(directory, name, length, max_bytes)  # the client's body, mapped
     ... decode and compute from segment.body (a read-only view of `length` bytes) ...
+    segment.answer_arrays(shapes) # optional: the answer's arrays, in an answer file
     segment.write_answer(parts)   # into an answer file, linked as <name>.answer
     segment.end()                 # always, when the request ends
 
@@ -15,13 +16,19 @@ no one else, holding at least `length` bytes, `length` at most `max_bytes`.
 
 from __future__ import annotations
 
+import math
 import os
 import stat
-from collections.abc import Sequence
+import struct
+from collections.abc import Mapping, Sequence
 
+import numpy as np
+
+from service.segments.answer_pool import AnswerFile
 from service.segments.directory import ANSWER_SUFFIX, NAME, SegmentDirectory, held
 
 IOV_MAX = 512  # buffers per writev call (Linux allows 1024)
+HEADER_ROOM = 4096  # bytes before an answer computed in place (`answer_arrays`): its header
 
 
 class SegmentError(Exception):
@@ -49,6 +56,7 @@ class RequestSegment:
             raise SegmentTooLarge(length, max_bytes)
         self.directory, self.name, self.length = directory, name, length
         self.answer: str | None = None  # the value of Robodyn-Shared-Answer, once written
+        self._reserved: tuple[AnswerFile, list[np.ndarray]] | None = None  # answer_arrays
         self.body: memoryview | bytes = b""
         flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK
         try:
@@ -84,17 +92,56 @@ class RequestSegment:
             os.close(self._fd)
             raise
 
+    def answer_arrays(self, shapes: Mapping[str, tuple[int, ...]]) -> dict[str, np.ndarray] | None:
+        """Float64 arrays of `shapes` (C order, one after the other) in a free answer file of
+        this process, after `HEADER_ROOM` bytes left for the header: an answer computed into
+        them is written with its header only (`write_answer`). Once per request; None when
+        the pool has no file to spare (the answer is then made in new memory and copied)."""
+        if self._reserved is not None:
+            return None
+        sizes = [8 * math.prod(shape) for shape in shapes.values()]
+        file = self.directory.answers.take(HEADER_ROOM + sum(sizes))
+        if file is None:
+            return None
+        try:
+            mapping = file.reserve(HEADER_ROOM + sum(sizes))
+        except BaseException:
+            self.directory.answers.give(file)
+            raise
+        arrays, offset = {}, HEADER_ROOM
+        for (name, shape), size in zip(shapes.items(), sizes, strict=True):
+            count = size // 8
+            arrays[name] = np.frombuffer(mapping, np.float64, count, offset).reshape(shape)
+            offset += size
+        self._reserved = (file, list(arrays.values()))
+        return arrays
+
     def write_answer(self, parts: Sequence[bytes | memoryview]) -> str:
-        """Write an answer (its parts one after the other) into a free answer file of this
-        process (or a new file of its own) linked as `<name>.answer`; the value of the
-        answer's `Robodyn-Shared-Answer`: that name and the answer's length in bytes."""
-        views = [memoryview(p).cast("B") for p in parts if len(p)]
-        size = sum(len(v) for v in views)
+        """Write an answer (its parts one after the other: the header, then each array's
+        bytes) into a free answer file of this process (or a new file of its own) linked as
+        `<name>.answer`; the value of the answer's `Robodyn-Shared-Answer`: that name and the
+        answer's length in bytes. Arrays already in the file (`answer_arrays`), in order and
+        whole, are not copied: the header is written before them, padded to `HEADER_ROOM`."""
         name = self.name + ANSWER_SUFFIX
         path = self.directory.path
         pool = self.directory.answers
-        file = pool.take(size)
-        if file is None:
+        if self._reserved is not None:
+            file, arrays = self._reserved
+            self._reserved = None
+            try:
+                head = _in_place(parts, arrays)
+                if head is not None:
+                    assert file.mapping is not None  # (reserved: mapped)
+                    file.mapping[:HEADER_ROOM] = head
+                    os.link(path / file.name, path / name)
+                    self.answer = f"{name} {HEADER_ROOM + sum(a.nbytes for a in arrays)}"
+                    return self.answer
+            finally:
+                pool.give(file)
+        views = [memoryview(p).cast("B") for p in parts if len(p)]
+        size = sum(len(v) for v in views)
+        free = pool.take(size)
+        if free is None:
             flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
             fd = os.open(path / name, flags, 0o600)
             try:
@@ -106,10 +153,10 @@ class RequestSegment:
                 os.close(fd)
         else:
             try:
-                file.write(views)
-                os.link(path / file.name, path / name)
+                free.write(views)
+                os.link(path / free.name, path / name)
             finally:
-                pool.give(file)
+                pool.give(free)
         self.answer = f"{name} {size}"
         return self.answer
 
@@ -118,6 +165,9 @@ class RequestSegment:
         the directory's `bodies`), and remove the request's names when their client no
         longer holds its lock (it is gone)."""
         self.body = b""
+        if self._reserved is not None:  # (arrays reserved for an answer never written)
+            self.directory.answers.give(self._reserved[0])
+            self._reserved = None
         if self._fd < 0:
             return
         os.close(self._fd)
@@ -126,6 +176,21 @@ class RequestSegment:
         # as the kept mapping's duplicate of it.
         if not held(self.directory.path / self.name):
             self.directory.remove(self.name)  # (a client still there removes them itself)
+
+
+def _in_place(parts: Sequence[bytes | memoryview], arrays: list[np.ndarray]) -> bytes | None:
+    """The first `HEADER_ROOM` bytes of an answer whose `parts` (a safetensors header, then
+    each array's bytes) are `arrays` whole and in order: the header, its JSON padded with
+    spaces; None when they are not, or the header does not fit."""
+    head, *data = parts
+    if len(data) != len(arrays) or len(head) > HEADER_ROOM:
+        return None
+    for part, array in zip(data, arrays, strict=True):
+        view = np.frombuffer(part, np.uint8)
+        if view.size != array.nbytes or view.ctypes.data != array.ctypes.data:
+            return None
+    text = bytes(head[8:]).rstrip(b" ")
+    return struct.pack("<Q", HEADER_ROOM - 8) + text + b" " * (HEADER_ROOM - 8 - len(text))
 
 
 def write_all(fd: int, views: Sequence[memoryview], offset: int = 0) -> None:

@@ -26,6 +26,7 @@ from service.api.encoding.shared_bodies import (
 from service.api.problems.handlers import handler_for
 from service.api.progress import ProgressAnswer, wants_progress
 from service.api.routes.dynamics import ENDPOINTS, PREFIX, warning_headers
+from service.dynamics import answer_arrays
 from service.errors import InvalidInput
 from service.segments import RequestSegment
 
@@ -89,10 +90,11 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
                 return
             if segment is None:
                 content, media_type = await endpoint.handle(Request(scope, receive), body)
-            else:
-                content, media_type = await endpoint.handle(
-                    Request(scope, receive), body, encode_binary=answer_writer(segment)
-                )
+            else:  # (a batch computed straight into the answer file: no copy into it)
+                with answer_arrays.provided_by(segment.answer_arrays):
+                    content, media_type = await endpoint.handle(
+                        Request(scope, receive), body, encode_binary=answer_writer(segment)
+                    )
         except Exception as exc:
             await _problem(scope, receive, send, exc)
             return

@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from service.dynamics import parallel, run
+from service.dynamics import answer_arrays, parallel, run
 from service.errors import ComputationStopped
 from service.states import States
 from tests.helpers import random_state
@@ -113,3 +113,24 @@ def test_a_parallel_batch_stops_between_its_calls(talos, batch):
 
 def _forward(s: States) -> States:
     return States({"q": s["q"], "v": s["v"], "tau": s["a"]}, True)
+
+
+def test_a_batch_is_computed_into_the_arrays_its_request_provides(talos, batch):
+    """Under `answer_arrays.provided_by`, the answer is computed into the provided array (a
+    co-located client's answer file), Pinocchio's state by state; without a provider, or
+    when it has none to give, into new memory."""
+    provided: list[np.ndarray] = []
+
+    def provide(shapes):
+        arrays = {name: np.full(shape, np.nan) for name, shape in shapes.items()}
+        provided.extend(arrays.values())
+        return arrays
+
+    with answer_arrays.provided_by(provide):
+        tau = run(talos, _spec("inverse-dynamics"), batch, {}, Asking(True))["tau"]
+    assert len(provided) == 1 and tau is provided[0]
+    np.testing.assert_array_equal(tau, _rnea_state_by_state(talos, batch))
+    with answer_arrays.provided_by(lambda shapes: None):
+        again = run(talos, _spec("inverse-dynamics"), batch, {}, Asking(True))["tau"]
+    assert again is not tau
+    np.testing.assert_array_equal(again, tau)

@@ -19,7 +19,7 @@ from service.api.encoding import binary
 from service.segments import RequestSegment, SegmentDirectory, SegmentError
 from service.segments.body_mappings import MAX_KEPT
 from service.segments.directory import TEMPORARY_GRACE_S, SegmentDirectoryError
-from service.segments.segment import SegmentTooLarge
+from service.segments.segment import HEADER_ROOM, SegmentTooLarge
 
 ROOT = Path(__file__).resolve().parents[3]
 HOLDER = """
@@ -147,6 +147,45 @@ def test_the_service_keeps_body_files_mapped_while_their_clients_keep_them(
     assert len(directory.bodies) == MAX_KEPT
     for each in clients:
         each.close()
+
+
+def test_an_answer_computed_in_its_answer_file_is_written_with_its_header_only(
+    directory: SegmentDirectory,
+):
+    """`answer_arrays` gives arrays in an answer file; an answer made of them is not copied
+    (its header goes before them, padded to HEADER_ROOM) and reads as sent; other arrays, or
+    none written, give the file back for the next request."""
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    q = np.random.default_rng(3).normal(size=(500, 7))
+    for round_ in range(3):
+        segment = client.segment(binary.encode_parts({"q": q}))
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        arrays = served.answer_arrays({"tau": (500, 7), "norm": (500,)})
+        assert served.answer_arrays({"tau": (1,)}) is None  # (once per request)
+        if round_ == 2:  # an answer never written: the file goes back at the end
+            served.end()
+            segment.release()
+            break
+        arrays["tau"][:] = q * 2
+        arrays["norm"][:] = np.linalg.norm(q, axis=1)
+        answer = dict(arrays) if round_ == 0 else {"tau": q * 2, "norm": arrays["norm"].copy()}
+        parts = binary.encode_parts(answer)
+        header = served.write_answer(parts)
+        if round_ == 0:  # in place: the header padded, the arrays are the file's bytes
+            size = HEADER_ROOM + q.nbytes + 500 * 8
+            assert header.endswith(f" {size}")
+            arrays["tau"][0, 0] = 123.0  # (written after: seen in the file, no copy made)
+        served.end()
+        content = binary.decode(segment.answer(header, 200))[1]
+        expected_tau = q * 2
+        if round_ == 0:
+            expected_tau[0, 0] = 123.0
+        assert np.array_equal(content["tau"], expected_tau)
+        assert np.array_equal(content["norm"], np.linalg.norm(q, axis=1))
+        segment.release()
+    files = [n for n in os.listdir(directory.path) if n.startswith("s-")]
+    assert len(files) == 1  # one answer file served every round, given back each time
+    client.close()
 
 
 def test_a_full_file_system_sends_the_body_through_the_socket(

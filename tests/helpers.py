@@ -101,9 +101,9 @@ def record_off_loop(monkeypatch, module) -> list[str]:
     calls: list[str] = []
     original = module.off_loop
 
-    async def recording(connection, fn, *args):
+    async def recording(connection, fn, *args, **options):
         calls.append(getattr(fn, "__name__", str(fn)))
-        return await original(connection, fn, *args)
+        return await original(connection, fn, *args, **options)
 
     monkeypatch.setattr(module, "off_loop", recording)
     return calls

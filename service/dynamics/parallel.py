@@ -20,6 +20,7 @@ finite by `service.dynamics.quantity.run`, as the serial ones by their functions
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -40,7 +41,11 @@ CHUNK_WORK = 10_000  # states × nv per GIL-holding native call: about 1 ms (Tal
 # Every OpenMP batch of the process runs in this one thread: where teams are bound
 # (OMP_PROC_BIND, set by `python -m service`), libgomp binds a team's master to the first core,
 # and that must be neither the event loop's thread nor a pool thread that serves other work.
-_MASTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="openmp-master")
+_MASTER_NAME = "openmp-master"
+OPENMP_MASTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix=_MASTER_NAME)
+"""The process's OpenMP master thread. A caller may run a whole parallel batch in it (its
+validation too: one thread hop fewer each way, 0.2–0.4 ms of a co-located request); the
+batch is then computed there directly."""
 
 
 def _in_chunks(
@@ -55,7 +60,9 @@ def _in_chunks(
     the process's OpenMP master thread, asking `should_stop` before each chunk; the answer
     (N, nv) is made here, in the request's context (`answer_arrays`)."""
     out = answer_arrays.empty({"out": (q.shape[0], robot.nv)})["out"]
-    return _MASTER.submit(_run_chunks, robot, algorithm, q, x, y, out, should_stop).result()
+    if threading.current_thread().name.startswith(_MASTER_NAME):
+        return _run_chunks(robot, algorithm, q, x, y, out, should_stop)
+    return OPENMP_MASTER.submit(_run_chunks, robot, algorithm, q, x, y, out, should_stop).result()
 
 
 def _run_chunks(

@@ -4,13 +4,12 @@ array, small (the dot-with-zeros form) and large, huge finite values included (n
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from service.errors import InvalidInput
-from service.state_numbers import TWO_THREADS_FROM, all_finite
+from service.state_numbers import all_finite
 from service.states import as_array
 
 ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True, width=64)
@@ -58,16 +57,3 @@ def test_a_non_finite_input_is_named_with_its_state_and_entry() -> None:
         assert "entry 1 is nan" in str(exc) and "state" not in str(exc)
     else:
         raise AssertionError("a state with NaN was accepted")
-
-
-@pytest.mark.parametrize("size", [TWO_THREADS_FROM, 3 * TWO_THREADS_FROM + 1])
-@pytest.mark.parametrize("where", [0, 0.5, 1])
-@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
-def test_large_arrays_read_on_two_threads_find_a_bad_entry_in_either_half(size, where, bad):
-    values = np.full(size, np.finfo(float).max)
-    assert all_finite(values)
-    index = min(size - 1, int(where * size))  # the first entry, the second half's, the last
-    values[index] = bad
-    assert not all_finite(values)
-    assert not all_finite(values.reshape(-1, 1))  # (another shape of the same numbers)
-    assert all_finite(values[index + 1 :])  # the rest, without it

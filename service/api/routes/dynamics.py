@@ -9,8 +9,12 @@ routes with the very same models (`openapi_routes`), and failures are the same p
 """
 
 # No `from __future__ import annotations`: FastAPI must see the closures' request models.
+import asyncio
+import contextvars
+import functools
 import time
 from collections.abc import Callable
+from concurrent.futures import Executor
 from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
@@ -36,6 +40,7 @@ from service.api.problems.validation_errors import json_prefix, prefix_errors, p
 from service.api.progress import Produce, ProgressAnswer, wants_progress
 from service.api.quantities import SPECS, Spec
 from service.api.schemas.common import Problem, StrictRequest, many_unknown_members
+from service.dynamics.parallel import OPENMP_MASTER
 from service.errors import InvalidInput, Overloaded, UnsupportedMediaType
 
 T = TypeVar("T")
@@ -63,11 +68,14 @@ _PROBLEMS: dict[int | str, dict[str, Any]] = {
 }
 
 
-async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) -> T:
-    """Run `fn(*args)` (a large batch's work) in a worker thread, at most as many at once as
-    the process has CPUs (the others wait their turn on the event loop: Python code and
-    Pinocchio hold the GIL, so more threads would only take turns with the event loop's);
-    shed load (503 overloaded) past `max_pending_batches` computed or waiting."""
+async def off_loop(
+    request: HTTPConnection, fn: Callable[..., T], *args: Any, executor: Executor | None = None
+) -> T:
+    """Run `fn(*args)` (a large batch's work) in a worker thread (or in `executor`, in a copy
+    of the request's context), at most as many at once as the process has CPUs (the others
+    wait their turn on the event loop: Python code and Pinocchio hold the GIL, so more
+    threads would only take turns with the event loop's); shed load (503 overloaded) past
+    `max_pending_batches` computed or waiting."""
     state = request.app.state
     if state.batches_in_flight >= state.settings.max_pending_batches:
         raise Overloaded(
@@ -76,7 +84,10 @@ async def off_loop(request: HTTPConnection, fn: Callable[..., T], *args: Any) ->
     state.batches_in_flight += 1  # only touched on the event loop: no lock needed
     try:
         async with state.off_loop_slots:  # a few at once: the loop keeps its share of the GIL
-            return await run_in_threadpool(fn, *args)
+            if executor is None:
+                return await run_in_threadpool(fn, *args)
+            run = functools.partial(contextvars.copy_context().run, fn, *args)
+            return await asyncio.get_running_loop().run_in_executor(executor, run)
     finally:
         state.batches_in_flight -= 1
 
@@ -271,6 +282,9 @@ class Endpoint:
         # there anyway; with fewer, the estimate decides once the states are validated.
         large = _rows(arrays) * robot.nv > INLINE_WORK
         if large:
+            # A batch with a parallel form (no options) is validated and computed in the OpenMP
+            # master thread, where it is computed anyway: one thread hop fewer each way.
+            in_master = self.quantity.parallel is not None and not options
             async with cancellable(request, self.quantity.name) as stop:
                 states, result = await off_loop(
                     request,
@@ -283,6 +297,7 @@ class Endpoint:
                     fill,
                     stop,
                     _batch_split(request),
+                    executor=OPENMP_MASTER if in_master else None,
                 )
         else:
             states = inputs.prepare_states(robot, arrays, settings.max_batch, fill)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -70,6 +72,35 @@ def test_large_batch_runs_off_the_event_loop_and_matches(api, catalog_registry):
     data = model.createData()
     expected = np.stack([pin.rnea(model, data, *s) for s in states])
     np.testing.assert_array_equal(tau, expected)
+
+
+def test_a_parallel_batch_is_checked_and_computed_in_the_openmp_master_thread(
+    api, catalog_registry, monkeypatch
+):
+    """A large batch with a parallel form is validated in the thread that computes it (the
+    OpenMP master: no hop between the two); a batch without one (mass matrices) in a worker
+    thread of the pool."""
+    from service.api import inputs
+
+    threads: list[str] = []
+    original = inputs.prepare_states
+
+    def recording(*args, **kwargs):
+        threads.append(threading.current_thread().name)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(inputs, "prepare_states", recording)
+    model = catalog_registry.catalog["talos"].model
+    rng = np.random.default_rng(4)
+    states = [random_state(model, rng) for _ in range(200)]
+    qs, vs, as_ = (np.stack(x).tolist() for x in zip(*states, strict=True))
+    tau = api.post("/v1/robots/talos/inverse-dynamics", json={"q": qs, "v": vs, "a": as_})
+    M = api.post("/v1/robots/talos/mass-matrix", json={"q": qs})
+    assert tau.status_code == M.status_code == 200
+    assert threads[0].startswith("openmp-master") and not threads[1].startswith("openmp")
+    data = model.createData()
+    expected = np.stack([pin.rnea(model, data, *s) for s in states])
+    np.testing.assert_array_equal(np.asarray(tau.json()["tau"]), expected)
 
 
 def test_large_json_batches_are_read_computed_and_encoded_off_the_event_loop(api, monkeypatch):

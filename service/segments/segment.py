@@ -122,22 +122,31 @@ class RequestSegment:
         `<name>.answer`; the value of the answer's `Robodyn-Shared-Answer`: that name and the
         answer's length in bytes. Arrays already in the file (`answer_arrays`), in order and
         whole, are not copied: the header is written before them, padded to `HEADER_ROOM`."""
+        reserved, self._reserved = self._reserved, None
+        try:
+            if reserved is not None:
+                head = _in_place(parts, reserved[1])
+                if head is not None:
+                    return self._link_in_place(reserved, head)
+            # (a reserved file stays taken while the parts, which may view it, are copied)
+            return self._copy_answer(parts)
+        finally:
+            if reserved is not None:
+                self.directory.answers.give(reserved[0])
+
+    def _link_in_place(self, reserved: tuple[AnswerFile, list[np.ndarray]], head: bytes) -> str:
+        file, arrays = reserved
+        name = self.name + ANSWER_SUFFIX
+        assert file.mapping is not None  # (reserved: mapped)
+        file.mapping[:HEADER_ROOM] = head
+        os.link(self.directory.path / file.name, self.directory.path / name)
+        self.answer = f"{name} {HEADER_ROOM + sum(a.nbytes for a in arrays)}"
+        return self.answer
+
+    def _copy_answer(self, parts: Sequence[bytes | memoryview]) -> str:
         name = self.name + ANSWER_SUFFIX
         path = self.directory.path
         pool = self.directory.answers
-        if self._reserved is not None:
-            file, arrays = self._reserved
-            self._reserved = None
-            try:
-                head = _in_place(parts, arrays)
-                if head is not None:
-                    assert file.mapping is not None  # (reserved: mapped)
-                    file.mapping[:HEADER_ROOM] = head
-                    os.link(path / file.name, path / name)
-                    self.answer = f"{name} {HEADER_ROOM + sum(a.nbytes for a in arrays)}"
-                    return self.answer
-            finally:
-                pool.give(file)
         views = [memoryview(p).cast("B") for p in parts if len(p)]
         size = sum(len(v) for v in views)
         free = pool.take(size)

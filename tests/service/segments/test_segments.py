@@ -184,7 +184,36 @@ def test_an_answer_computed_in_its_answer_file_is_written_with_its_header_only(
         assert np.array_equal(content["norm"], np.linalg.norm(q, axis=1))
         segment.release()
     files = [n for n in os.listdir(directory.path) if n.startswith("s-")]
-    assert len(files) == 1  # one answer file served every round, given back each time
+    # the reserved file, given back each time, and the one the answer not in place was copied
+    # into (the reserved one stays taken while it is copied from)
+    assert len(files) == 2
+    client.close()
+
+
+@pytest.mark.parametrize("case", ["one array elsewhere", "header too long", "order"])
+def test_an_answer_partly_in_its_answer_file_is_copied_whole(directory: SegmentDirectory, case):
+    """An answer whose parts view the reserved arrays but cannot be written in place (another
+    array beside them, a header over HEADER_ROOM, another order) is copied into another
+    file, never over the arrays it is copied from."""
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    q = np.random.default_rng(4).normal(size=(400, 7))
+    segment = client.segment(binary.encode_parts({"q": q}))
+    served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+    arrays = served.answer_arrays({"tau": (400, 7), "norm": (400,)})
+    arrays["tau"][:] = q * 3
+    arrays["norm"][:] = np.arange(400.0)
+    answer = {
+        "one array elsewhere": {"tau": arrays["tau"], "norm": np.arange(400.0)},
+        "header too long": {"note": "x" * (2 * HEADER_ROOM), **arrays},
+        "order": {"norm": arrays["norm"], "tau": arrays["tau"]},
+    }[case]
+    header = served.write_answer(binary.encode_parts(answer))
+    served.end()
+    fields, content = binary.decode(segment.answer(header, 200))
+    assert np.array_equal(content["tau"], q * 3)
+    assert np.array_equal(content["norm"], np.arange(400.0))
+    assert fields == ({"note": "x" * (2 * HEADER_ROOM)} if case == "header too long" else {})
+    segment.release()
     client.close()
 
 

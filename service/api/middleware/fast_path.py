@@ -104,6 +104,11 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
             else []
         )
         await _send_content(scope, send, content, media_type, shared)
+        if segment is not None:
+            # The server sends what a step of the event loop wrote at the end of that step
+            # (service/server/protocol.py): ended here, the step lets the answer go before
+            # the segment's clean-up and the middleware's bookkeeping (0.1–0.3 ms sooner).
+            await asyncio.sleep(0)
     finally:
         if segment is not None:
             segment.end()

@@ -77,6 +77,20 @@ def test_a_large_batch_is_checked_finite_when_sent_and_nothing_is_sent() -> None
         assert mock.requests == []
 
 
+def test_a_batch_sent_in_chunks_is_checked_whole_before_any_chunk() -> None:
+    """With progress, a large batch goes in chunks of states; a non-finite number in a later
+    chunk is named by its state in the whole batch, and no chunk is sent."""
+    q = np.zeros((3 * robodyn.progress.CHUNK_STATES, 6))
+    q[5000, 1] = np.nan
+    mock = Recorder()
+    with (
+        mock.client(progress=lambda done, total: None) as client,
+        pytest.raises(robodyn.InputError, match=r"q\[5000, 1\] is nan"),
+    ):
+        client.gravity("ur5", q)
+    assert mock.requests == []
+
+
 def test_inputs_must_be_equally_batched() -> None:
     mock = Recorder()
     with mock.client() as client:

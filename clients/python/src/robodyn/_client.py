@@ -69,9 +69,11 @@ class BaseClient:
 
     def _chunks(self, call: Call[T], report: _progress.Progress) -> _progress.Chunks[T] | None:
         """The chunks to send `call` in: only when progress is asked for and there is more
-        than one chunk."""
+        than one chunk; then the whole batch is checked finite first (`Call.check_finite`), so
+        that an error names the state in the batch and comes before any chunk is sent."""
         if report is None or call.chunks is None or not call.chunks.worth_it:
             return None
+        call.check_finite()
         return call.chunks
 
     def _answer(self, result: T) -> T:

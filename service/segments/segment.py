@@ -105,6 +105,9 @@ class RequestSegment:
             return None
         try:
             mapping = file.reserve(HEADER_ROOM + sum(sizes))
+        except OSError:  # (no room: the answer is made in new memory, and copied as it can be)
+            self.directory.answers.give(file)
+            return None
         except BaseException:
             self.directory.answers.give(file)
             raise

@@ -217,6 +217,31 @@ def test_an_answer_partly_in_its_answer_file_is_copied_whole(directory: SegmentD
     client.close()
 
 
+def test_no_room_for_the_answer_arrays_leaves_them_to_new_memory(
+    directory: SegmentDirectory, monkeypatch
+):
+    """When the answer file cannot grow (ENOSPC), `answer_arrays` gives none (the answer is
+    made in new memory) and the file is free for the next request."""
+    from service.segments import answer_pool
+
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    segment = client.segment(binary.encode_parts({"q": np.zeros((300, 7))}))
+    served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+    real = answer_pool.os.posix_fallocate
+
+    def full(fd: int, offset: int, length: int) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(answer_pool.os, "posix_fallocate", full)
+    assert served.answer_arrays({"tau": (300, 7)}) is None
+    monkeypatch.setattr(answer_pool.os, "posix_fallocate", real)
+    assert served.answer_arrays({"tau": (300, 7)}) is not None
+    assert len([n for n in os.listdir(directory.path) if n.startswith("s-")]) == 1  # (given back)
+    served.end()
+    segment.release()
+    client.close()
+
+
 def test_a_full_file_system_sends_the_body_through_the_socket(
     directory: SegmentDirectory, monkeypatch
 ):

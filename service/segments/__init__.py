@@ -5,7 +5,9 @@ directory beside the socket (`<socket>.segments`, mode 0700, files 0600: readabl
 service's user): the client writes the safetensors body into `r-<32 hex>` and names it in the
 request; the service maps it, computes, and writes a binary answer into `r-<32 hex>.answer`,
 named in its answer. `directory.py` is the directory (its checks and the sweeper),
-`segment.py` one request's segments and who removes them when. No HTTP in here.
+`segment.py` one request's segments and who removes them when, `answer_pool.py` the answer
+files a process reuses, `body_mappings.py` the clients' body files it keeps mapped. No HTTP
+in here.
 """
 
 from service.segments.directory import SegmentDirectory, segment_directory_of

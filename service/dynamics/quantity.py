@@ -170,6 +170,13 @@ def finite(quantity: str, **results: np.ndarray) -> Results:
     return results
 
 
+def has_parallel_form(quantity: Quantity, options: dict[str, Any]) -> bool:
+    """Whether a batch of `quantity` with `options` (of `parallel_from` states or more) is
+    computed by its parallel algorithm (`service.dynamics.parallel`) in the OpenMP master
+    thread."""
+    return quantity.parallel is not None and not options
+
+
 def run(
     robot: Robot,
     quantity: Quantity,
@@ -197,9 +204,8 @@ def run(
     by_state = quantity.state_by_state
     split_batch = split is not None and by_state is not None and not options
     parallel_batch = (
-        quantity.parallel is not None
+        has_parallel_form(quantity, options)
         and s.count >= quantity.parallel_from
-        and not options
         and not split_batch
     )
     if should_stop is not None:

@@ -284,7 +284,7 @@ class Endpoint:
         if large:
             # A batch with a parallel form (no options) is validated and computed in the OpenMP
             # master thread, where it is computed anyway: one thread hop fewer each way.
-            in_master = self.quantity.parallel is not None and not options
+            in_master = dynamics.has_parallel_form(self.quantity, options)
             async with cancellable(request, self.quantity.name) as stop:
                 states, result = await off_loop(
                     request,

@@ -179,6 +179,7 @@ class Robot:
         # name: the body frame of that name is meant, else the first frame of that name in
         # model order (the order of `frames` in `info()`).
         self.frame_ids: dict[str, int] = {}
+        self.frame_names: tuple[str, ...] = tuple(frame.name for frame in self.model.frames)
         body = pin.FrameType.BODY
         for fid, frame in enumerate(self.model.frames):
             known = self.frame_ids.get(frame.name)

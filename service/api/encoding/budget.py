@@ -118,7 +118,7 @@ def joint_layout_bytes(robot: Any) -> int:
 def frame_names_bytes(robot: Any) -> int:
     """An upper bound of the bytes of the robot's frame names in an answer (quoted, with a
     comma, escaped once more in the binary form's metadata)."""
-    return sum(2 * len(frame.name.encode()) + 6 for frame in robot.model.frames)
+    return sum(2 * len(name.encode()) + 6 for name in robot.frame_names)
 
 
 def _megabytes(size: int) -> str:

@@ -19,7 +19,7 @@ from service.api.encoding.binary import BINARY_MEDIA_TYPE
 from service.api.encoding.in_flight import release_answer_bytes
 from service.api.encoding.shared_bodies import (
     ANSWER_HEADER,
-    answer_writer,
+    AnswerWriter,
     open_shared_body,
     shared_body_header,
 )
@@ -93,7 +93,7 @@ async def _answer(endpoint: Any, scope: Scope, receive: Receive, send: Send) -> 
             else:  # (a batch computed straight into the answer file: no copy into it)
                 with answer_arrays.provided_by(segment.answer_arrays):
                     content, media_type = await endpoint.handle(
-                        Request(scope, receive), body, encode_binary=answer_writer(segment)
+                        Request(scope, receive), body, encode_binary=AnswerWriter(segment)
                     )
         except Exception as exc:
             await _problem(scope, receive, send, exc)

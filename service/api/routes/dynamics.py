@@ -34,7 +34,7 @@ from service.api.encoding.accept import prefers
 from service.api.encoding.answers import JSONAnswer, json_bytes, json_pieces
 from service.api.encoding.budget import check_answer_size
 from service.api.encoding.in_flight import ANSWER_BYTES, release_answer_bytes
-from service.api.encoding.shared_bodies import over_unix_socket
+from service.api.encoding.shared_bodies import AnswerWriter, over_unix_socket
 from service.api.json_bodies import ISOLATED_JSON_BYTES, compact, parse_isolated
 from service.api.problems.validation_errors import json_prefix, prefix_errors, pydantic_errors
 from service.api.progress import Produce, ProgressAnswer, wants_progress
@@ -405,7 +405,12 @@ class Endpoint:
         as_binary = not json_only and prefers(accept, binary.BINARY_MEDIA_TYPE)
         result = await self.compute(request, robot, arrays, options, as_binary)
         media_type = binary.BINARY_MEDIA_TYPE if as_binary else JSONAnswer.media_type
-        if request.scope["robodyn"]["large"]:
+        header_only = (
+            as_binary
+            and isinstance(encode_binary, AnswerWriter)
+            and encode_binary.header_only(result)
+        )
+        if request.scope["robodyn"]["large"] and not header_only:
             # In a worker thread (~0.1 s for 10k mass matrices); JSON in pieces, each encoded
             # in one short call, so the event loop gets the GIL in between and the pieces are
             # written as the client reads them.

@@ -16,6 +16,7 @@ import pytest
 from robodyn import shared_memory
 
 from service.api.encoding import binary
+from service.api.encoding.shared_bodies import AnswerWriter
 from service.segments import RequestSegment, SegmentDirectory, SegmentError
 from service.segments.body_mappings import MAX_KEPT
 from service.segments.directory import TEMPORARY_GRACE_S, SegmentDirectoryError
@@ -169,6 +170,8 @@ def test_an_answer_computed_in_its_answer_file_is_written_with_its_header_only(
         arrays["tau"][:] = q * 2
         arrays["norm"][:] = np.linalg.norm(q, axis=1)
         answer = dict(arrays) if round_ == 0 else {"tau": q * 2, "norm": arrays["norm"].copy()}
+        # written as its header only (on the event loop) exactly when computed in place
+        assert AnswerWriter(served).header_only(answer) == (round_ == 0)
         parts = binary.encode_parts(answer)
         header = served.write_answer(parts)
         if round_ == 0:  # in place: the header padded, the arrays are the file's bytes
@@ -207,6 +210,7 @@ def test_an_answer_partly_in_its_answer_file_is_copied_whole(directory: SegmentD
         "header too long": {"note": "x" * (2 * HEADER_ROOM), **arrays},
         "order": {"norm": arrays["norm"], "tau": arrays["tau"]},
     }[case]
+    assert not AnswerWriter(served).header_only(answer)
     header = served.write_answer(binary.encode_parts(answer))
     served.end()
     fields, content = binary.decode(segment.answer(header, 200))

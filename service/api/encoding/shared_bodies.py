@@ -103,7 +103,7 @@ class AnswerWriter:
         (`RequestSegment.answer_arrays`), so that writing it is writing its header: quick
         enough for the event loop, where a thread hop there and back costs more (0.2–0.3 ms
         on a 2-core machine)."""
-        arrays = [v for v in values.values() if isinstance(v, np.ndarray | np.generic)]
+        arrays = [v for v in values.values() if isinstance(v, np.ndarray)]
         return len(arrays) == len(values) and self.segment.holds_answer(arrays)
 
 

@@ -89,6 +89,16 @@ class AnswerPool:
             self._files.append(file)
             return file
 
+    def owns(self, info: os.stat_result) -> bool:
+        """Whether the file described by `info` is one of this pool's."""
+        with self._lock:
+            files = list(self._files)
+        for file in files:
+            own = os.fstat(file.fd)
+            if (own.st_dev, own.st_ino) == (info.st_dev, info.st_ino):
+                return True
+        return False
+
     def give(self, file: AnswerFile) -> None:
         with self._lock:
             file.busy = False

@@ -2,11 +2,12 @@
 
 Names (nothing else in the directory is touched):
 
-    c-<32 hex>          a client's body file, reused from request to request, locked (flock,
-                        shared) by the client for as long as it keeps it
+    c-<32 hex>          a client's body file or answer room, reused from request to request,
+                        locked (flock, shared) by the client for as long as it keeps it
     r-<32 hex>          one request's body: a link to a client's body file, named in the request
-    r-<32 hex>.answer   the answer to it: a link to an answer file of the service (or a file of
-                        its own), named in the answer
+    r-<32 hex>.answer   the answer to it: a link to the client's answer room (linked by the
+                        client before the request, which names it), or to an answer file of the
+                        service (or a file of its own), named in the answer
     s-<32 hex>          an answer file a server process reuses, locked by that process
                         (`service.segments.answer_pool`)
     .<name>.tmp         a c- or s- file being made, renamed once locked
@@ -33,7 +34,7 @@ import time
 from pathlib import Path
 
 from service.segments.answer_pool import AnswerPool
-from service.segments.body_mappings import BodyMappings
+from service.segments.client_mappings import ClientMappings
 
 log = logging.getLogger("robodyn")
 
@@ -100,7 +101,8 @@ class SegmentDirectory:
         self.link = Path(link)
         self.path = self.link
         self.answers = AnswerPool(self.path)
-        self.bodies = BodyMappings()  # the clients' body files, mapped (body_mappings.py)
+        self.bodies = ClientMappings()  # the clients' body files, mapped (client_mappings.py)
+        self.rooms = ClientMappings(writable=True)  # their answer rooms, mapped to write
 
     def create(self) -> None:
         """Make the directory (mode 0700), or take over an existing one of this user (left by
@@ -173,6 +175,7 @@ class SegmentDirectory:
             except OSError:  # (a directory or a file of another user under a segment's name:
                 continue  # not removable, not the service's; the others are swept)
         self.bodies.sweep()
+        self.rooms.sweep()
         return removed
 
     def _sweep_one(self, name: str, everything: bool) -> int:
@@ -201,6 +204,7 @@ class SegmentDirectory:
         """Remove every segment and the directory itself (the server is shutting down)."""
         self.answers.close()
         self.bodies.close()
+        self.rooms.close()
         self.sweep(everything=True)
         with contextlib.suppress(OSError):  # (files of other names: not the service's)
             os.rmdir(self.path)

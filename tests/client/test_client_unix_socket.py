@@ -8,6 +8,7 @@ directory; no segment is left after errors, nor after a client killed mid-reques
 from __future__ import annotations
 
 import asyncio
+import gc
 import os
 import signal
 import stat
@@ -122,11 +123,15 @@ def test_batches_through_shared_memory_equal_in_process_pinocchio_and_tcp(
         # the same answers, bit for bit, as a TCP client's (which sends the body itself)
         assert np.array_equal(M, remote.mass_matrix("talos", q))
         assert np.array_equal(tau, remote.inverse_dynamics("talos", q, v, a))
-        M[0, 0, 0] = 1.0  # the arrays are the caller's: writable, and nothing shared changes
+        M[0, 0, 0] = 1.0  # the arrays are the caller's: writable
         # single states and small batches go through the socket itself, as JSON
         one = local.gravity("ur5", np.zeros(6))
         np.testing.assert_allclose(one, reference.gravity("ur5", np.zeros((1, 6)))[0], atol=1e-10)
     assert len(shared_answers) == 3
+    # each answer is in an answer room of the client's (no copy), kept while it is alive
+    assert [n[:2] for n in leftovers(sock)] == ["c-"] * 3
+    del M, tau, C, Cv
+    gc.collect()
     assert leftovers(sock) == []
 
 
@@ -200,6 +205,9 @@ def test_async_client_and_stream_over_the_socket(sockets, reference: Reference, 
     with Client(f"unix://{sock}", api_key=KEY) as client, client.stream("ur5") as stream:
         g = stream.gravity(np.zeros(6))
     np.testing.assert_allclose(g, reference.gravity("ur5", zeros)[0], atol=1e-10)
+    assert [n[:2] for n in leftovers(sock)] == ["c-"]  # the room of `a`, while `a` lives
+    del a
+    gc.collect()
     assert leftovers(sock) == []
 
 

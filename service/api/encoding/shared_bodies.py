@@ -4,7 +4,8 @@
 A dynamics request over the Unix socket may say `Robodyn-Shared-Body: r-<32 hex> <length>` and
 carry no body: its body in the binary form (the same safetensors file it would send) is the
 first `length` bytes of that segment of the server's segment directory. Its binary answer is
-then written to `r-<32 hex>.answer`, and the answer says `Robodyn-Shared-Answer: r-<32
+then written to `r-<32 hex>.answer` (into the client's own file there when the request says
+`Robodyn-Shared-Room: r-<32 hex>.answer`), and the answer says `Robodyn-Shared-Answer: r-<32
 hex>.answer <length>` with an empty body; errors are problem+json through the socket as
 always. API keys and every limit apply as to any request: the body limit
 (ROBODYN_MAX_BODY_BYTES) to the length of the body in shared memory.
@@ -29,6 +30,7 @@ from service.segments.segment import SegmentTooLarge
 log = logging.getLogger("robodyn")
 
 BODY_HEADER = b"robodyn-shared-body"
+ROOM_HEADER = b"robodyn-shared-room"
 ANSWER_HEADER = b"robodyn-shared-answer"
 
 
@@ -57,12 +59,14 @@ def open_shared_body(scope: Scope, named: str) -> RequestSegment:
             "Robodyn-Shared-Body names a shared-memory segment: accepted only over the "
             "server's Unix socket (ROBODYN_UNIX_SOCKET); send the body itself"
         )
-    content_type, length = "", "0"
+    content_type, length, room = "", "0", None
     for header, value in scope["headers"]:
         if header == b"content-type":
             content_type = value.decode("latin-1").lower()
         elif header == b"content-length":
             length = value.decode("latin-1")
+        elif header == ROOM_HEADER:
+            room = value.decode("latin-1").strip()
     if not content_type.startswith(binary.BINARY_MEDIA_TYPE):
         raise UnsupportedMediaType(
             "a body in shared memory is in the binary form "
@@ -78,7 +82,7 @@ def open_shared_body(scope: Scope, named: str) -> RequestSegment:
         )
     limit = state.settings.max_body_bytes
     try:
-        return RequestSegment(directory, name, int(length), limit)
+        return RequestSegment(directory, name, int(length), limit, room)
     except SegmentTooLarge:
         raise PayloadTooLarge(
             f"the request body is larger than the limit of {limit} bytes (ROBODYN_MAX_BODY_BYTES)"

@@ -3,6 +3,7 @@ side of the protocol (robodyn/shared_memory.py), without a server: who removes w
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import stat
@@ -13,19 +14,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from robodyn import shared_memory
+from robodyn import answer_rooms, shared_memory
 
 from service.api.encoding import binary
 from service.api.encoding.shared_bodies import AnswerWriter
 from service.segments import RequestSegment, SegmentDirectory, SegmentError
-from service.segments.body_mappings import MAX_KEPT
+from service.segments.client_mappings import MAX_KEPT
 from service.segments.directory import TEMPORARY_GRACE_S, SegmentDirectoryError
 from service.segments.segment import HEADER_ROOM, SegmentTooLarge
 
 ROOT = Path(__file__).resolve().parents[3]
 HOLDER = """
 import sys, time
-from robodyn import shared_memory
+from robodyn import answer_rooms, shared_memory
 segment = shared_memory.SharedMemory(sys.argv[1]).segment([b"x" * 1000])
 print(segment.name, flush=True)
 time.sleep(600)
@@ -61,39 +62,138 @@ def test_a_path_taken_by_something_else_is_refused(tmp_path: Path):
         SegmentDirectory(tmp_path / "x.segments").create()
 
 
+@pytest.fixture
+def no_rooms(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Clients that offer no answer room: answers go into the service's answer files."""
+    monkeypatch.setattr(answer_rooms, "MAX_ROOMS", 0)
+
+
 def _socket_of(directory: SegmentDirectory) -> str:
     return str(directory.link)[: -len(".segments")]
 
 
 def test_a_body_round_trip_and_who_removes_it(directory: SegmentDirectory):
+    """Each answer goes into an answer room of the client's and is lent to the caller (no
+    copy: the caller's array is the room's memory); a room serves no other request while the
+    answer is alive, and is reused once it is gone. The client removes every name it made."""
     q = np.random.default_rng(0).normal(size=(300, 7))
     client = shared_memory.SharedMemory(_socket_of(directory))
     parts = binary.encode_parts({"q": q})
     answers = []
-    for round_ in range(3):  # the body file and the answer file are reused
+    for round_ in range(3):  # the body file is reused; each kept answer holds its own room
         segment = client.segment(parts)
         assert segment is not None and segment.length == sum(len(p) for p in parts)
-        served = RequestSegment(directory, segment.name, segment.length, 1 << 20)
+        assert segment.room == segment.name + ".answer"
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 20, segment.room)
         fields, arrays = binary.decode(served.body)
         assert fields == {} and np.array_equal(arrays["q"], q)
         del arrays
         header = served.write_answer(binary.encode_parts({"tau": q * round_}))
         served.end()  # the client holds its lock: the names stay for it
         names = sorted(os.listdir(directory.path))
-        assert [n[:2] for n in names] == ["c-", "r-", "r-", "s-"]
+        # the body file, the rooms of the answers kept so far and this request's, the
+        # request's names; no file of the service's
+        assert [n[:2] for n in names] == ["c-"] * (round_ + 2) + ["r-", "r-"]
+        segment.settled = True  # (the server's answer read whole)
         answers.append(segment.answer(header, 200))
         segment.release()
-        assert [n[:2] for n in sorted(os.listdir(directory.path))] == ["c-", "s-"]
-    for round_, content in enumerate(answers):  # each answer the caller's own copy
-        assert np.array_equal(binary.decode(content)[1]["tau"], q * round_)
+        assert [n[:2] for n in sorted(os.listdir(directory.path))] == ["c-"] * (round_ + 2)
+    rooms = sorted(n for n in os.listdir(directory.path) if n.startswith("c-"))
+    for round_, content in enumerate(answers):  # each answer the caller's own
+        tau = binary.decode(content)[1]["tau"]
+        assert np.array_equal(tau, q * round_)
+        tau[0, 0] = 1234.5  # the room's memory itself: seen in its file
+        assert any(
+            np.array_equal(
+                np.frombuffer((directory.path / room).read_bytes()[: len(content)], np.uint8),
+                np.frombuffer(content, np.uint8),
+            )
+            for room in rooms
+        )
+    del answers, content, tau
+    gc.collect()  # the answers are gone: their rooms are free, and reused
+    segment = client.segment(parts)
+    assert segment is not None and segment.room is not None
+    segment.settled = True
+    segment.release()
+    assert sorted(n for n in os.listdir(directory.path) if n.startswith("c-")) == rooms
     client.close()
-    assert [n[:2] for n in os.listdir(directory.path)] == ["s-"]  # the service's, kept
+    assert os.listdir(directory.path) == []
+
+
+def test_answers_are_copied_while_every_room_is_lent(directory: SegmentDirectory):
+    """With the answers of `MAX_ROOMS` rooms alive, a request offers none: its answer is in
+    a file of the service's and copied out; once one answer is gone, its room serves again."""
+    q = np.random.default_rng(6).normal(size=(200, 7))
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    kept = []
+    for round_ in range(answer_rooms.MAX_ROOMS + 1):
+        segment = client.segment(binary.encode_parts({"q": q}))
+        assert segment is not None
+        assert (segment.room is None) == (round_ == answer_rooms.MAX_ROOMS)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 20, segment.room)
+        header = served.write_answer(binary.encode_parts({"tau": q + round_}))
+        served.end()
+        segment.settled = True
+        kept.append(binary.decode(segment.answer(header, 200))[1]["tau"])
+        segment.release()
+    assert len([n for n in os.listdir(directory.path) if n.startswith("s-")]) == 1
+    for round_, tau in enumerate(kept):
+        assert np.array_equal(tau, q + round_)
+    del kept[0], tau
+    gc.collect()
+    segment = client.segment(binary.encode_parts({"q": q}))
+    assert segment is not None and segment.room is not None
+    segment.release()
+    client.close()
+
+
+def test_a_room_whose_request_did_not_end_is_not_reused(directory: SegmentDirectory):
+    """A request that ended without the server's answer read whole (a timeout, a dropped
+    connection: the server may still write into the room) closes its room for good."""
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    segment = client.segment([b"x" * 100])
+    assert segment is not None and segment.room is not None
+    files = {n for n in os.listdir(directory.path) if n.startswith("c-")}
+    segment.release()  # (not settled)
+    left = {n for n in os.listdir(directory.path) if n.startswith("c-")}
+    assert len(files) == 2 and len(left) == 1  # the body file kept, the room gone
+    client.close()
+
+
+def test_a_room_is_a_file_its_client_holds(directory: SegmentDirectory):
+    """The service writes only into a room that is a private regular file locked by a
+    client: not a file nobody holds, nor an answer file of its own, nor a link elsewhere."""
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    segment = client.segment([b"x" * 100])
+    assert segment is not None and segment.room is not None
+    room = directory.path / segment.room
+    os.unlink(room)
+    room.write_bytes(b"y" * 100)  # nobody holds it
+    with pytest.raises(SegmentError, match="locked by its client"):
+        RequestSegment(directory, segment.name, 100, 1 << 20, segment.room)
+    os.unlink(room)
+    own = directory.answers.take(64)
+    assert own is not None
+    os.link(directory.path / own.name, room)  # an answer file of the service's
+    with pytest.raises(SegmentError, match="locked by its client"):
+        RequestSegment(directory, segment.name, 100, 1 << 20, segment.room)
+    directory.answers.give(own)
+    os.unlink(room)
+    os.symlink(directory.path / segment.name, room)
+    with pytest.raises(SegmentError, match="cannot be opened"):
+        RequestSegment(directory, segment.name, 100, 1 << 20, segment.room)
+    with pytest.raises(SegmentError, match="answer room of segment"):
+        RequestSegment(directory, segment.name, 100, 1 << 20, "r-" + "0" * 32 + ".answer")
+    os.unlink(room)
+    segment.release()
+    client.close()
 
 
 def test_bodies_of_every_size_in_one_reused_file(directory: SegmentDirectory):
     """The body file keeps its mapping from request to request, growing for a larger body: a
     smaller body after a larger one, and a larger after a smaller, arrive as sent (answers
-    alike, in the service's reused answer file)."""
+    alike, in the client's reused answer room)."""
     client = shared_memory.SharedMemory(_socket_of(directory))
     rng = np.random.default_rng(1)
     for rows in (10, 2000, 3, 5000, 1):
@@ -101,13 +201,14 @@ def test_bodies_of_every_size_in_one_reused_file(directory: SegmentDirectory):
         parts = binary.encode_parts({"q": q})
         segment = client.segment(parts)
         assert segment is not None and segment.length == sum(len(p) for p in parts)
-        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
         assert np.array_equal(binary.decode(served.body)[1]["q"], q)
         header = served.write_answer(binary.encode_parts({"tau": -q}))
         served.end()
+        segment.settled = True
         assert np.array_equal(binary.decode(segment.answer(header, 200))[1]["tau"], -q)
         segment.release()
-    assert len([n for n in os.listdir(directory.path) if n.startswith("c-")]) == 1
+    assert len([n for n in os.listdir(directory.path) if n.startswith("c-")]) == 2  # + room
     client.close()
 
 
@@ -124,7 +225,7 @@ def test_the_service_keeps_body_files_mapped_while_their_clients_keep_them(
     for _ in range(3):
         segment = client.segment(parts)
         assert segment is not None
-        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
         assert isinstance(served.body, memoryview) and len(served.body) == segment.length
         mappings.add(id(served.body.obj))
         kept = binary.decode(served.body)[1]["q"]  # (a request's arrays, read later)
@@ -141,7 +242,7 @@ def test_the_service_keeps_body_files_mapped_while_their_clients_keep_them(
     for each in clients:
         segment = each.segment(parts)
         assert segment is not None
-        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
         assert np.array_equal(binary.decode(served.body)[1]["q"], q)
         served.end()
         segment.release()
@@ -151,7 +252,7 @@ def test_the_service_keeps_body_files_mapped_while_their_clients_keep_them(
 
 
 def test_an_answer_computed_in_its_answer_file_is_written_with_its_header_only(
-    directory: SegmentDirectory,
+    directory: SegmentDirectory, no_rooms: None
 ):
     """`answer_arrays` gives arrays in an answer file; an answer made of them is not copied
     (its header goes before them, padded to HEADER_ROOM) and reads as sent; other arrays, or
@@ -160,7 +261,7 @@ def test_an_answer_computed_in_its_answer_file_is_written_with_its_header_only(
     q = np.random.default_rng(3).normal(size=(500, 7))
     for round_ in range(3):
         segment = client.segment(binary.encode_parts({"q": q}))
-        served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+        served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
         arrays = served.answer_arrays({"tau": (500, 7), "norm": (500,)})
         assert served.answer_arrays({"tau": (1,)}) is None  # (once per request)
         if round_ == 2:  # an answer never written: the file goes back at the end
@@ -201,7 +302,7 @@ def test_an_answer_partly_in_its_answer_file_is_copied_whole(directory: SegmentD
     client = shared_memory.SharedMemory(_socket_of(directory))
     q = np.random.default_rng(4).normal(size=(400, 7))
     segment = client.segment(binary.encode_parts({"q": q}))
-    served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+    served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
     arrays = served.answer_arrays({"tau": (400, 7), "norm": (400,)})
     arrays["tau"][:] = q * 3
     arrays["norm"][:] = np.arange(400.0)
@@ -222,7 +323,7 @@ def test_an_answer_partly_in_its_answer_file_is_copied_whole(directory: SegmentD
 
 
 def test_no_room_for_the_answer_arrays_leaves_them_to_new_memory(
-    directory: SegmentDirectory, monkeypatch
+    directory: SegmentDirectory, monkeypatch, no_rooms: None
 ):
     """When the answer file cannot grow (ENOSPC), `answer_arrays` gives none (the answer is
     made in new memory) and the file is free for the next request."""
@@ -230,7 +331,7 @@ def test_no_room_for_the_answer_arrays_leaves_them_to_new_memory(
 
     client = shared_memory.SharedMemory(_socket_of(directory))
     segment = client.segment(binary.encode_parts({"q": np.zeros((300, 7))}))
-    served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+    served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
     real = answer_pool.os.posix_fallocate
 
     def full(fd: int, offset: int, length: int) -> None:
@@ -262,7 +363,9 @@ def test_a_full_file_system_sends_the_body_through_the_socket(
     client.close()
 
 
-def test_the_service_removes_the_names_of_a_client_gone(directory: SegmentDirectory):
+def test_the_service_removes_the_names_of_a_client_gone(
+    directory: SegmentDirectory, no_rooms: None
+):
     client = shared_memory.SharedMemory(_socket_of(directory))
     segment = client.segment([b"x" * 100])
     assert segment is not None
@@ -301,7 +404,8 @@ def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: Segment
     try:
         assert holder.stdout is not None
         name = holder.stdout.readline().strip()
-        body_file = next(n for n in os.listdir(directory.path) if n.startswith("c-"))
+        files = [n for n in os.listdir(directory.path) if n.startswith("c-")]  # body, room
+        assert len(files) == 2
         orphan = directory.path / ("r-" + "a" * 32 + ".answer")  # its request is gone
         orphan.write_bytes(b"z")
         stale = directory.path / (".c-" + "b" * 32 + ".tmp")  # a creator died long ago
@@ -315,12 +419,11 @@ def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: Segment
         other = directory.path / "not-ours"
         other.write_bytes(b"z")
         assert directory.sweep() == 3
-        kept = [name, body_file, fresh.name, other.name]
+        kept = [name, name + ".answer", *files, fresh.name, other.name]  # (+ its room)
         assert sorted(os.listdir(directory.path)) == sorted(kept)
         holder.send_signal(signal.SIGKILL)
         holder.wait(10)
-        (directory.path / (name + ".answer")).write_bytes(b"z")
-        assert directory.sweep() == 3  # the dead client's request, answer and body file
+        assert directory.sweep() == 4  # the dead client's request, answer, body file, room
         assert sorted(os.listdir(directory.path)) == sorted([fresh.name, other.name])
     finally:
         if holder.poll() is None:

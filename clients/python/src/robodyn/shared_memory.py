@@ -8,17 +8,19 @@ A request in the binary form of `SHARED_FROM` bytes or more is written, instead 
 a body file of the client (`c-<32 hex>`, mode 0600, locked with flock for as long as the client
 keeps it, and reused from request to request: its pages are already there), linked under a
 name of its own for this request (`r-<32 hex>`) and named, with its length, in the request's
-`Robodyn-Shared-Body`. The server maps it, computes, and writes a binary answer into
-`r-<32 hex>.answer`, named with its length in the answer's `Robodyn-Shared-Answer`. The client
-copies the answer out (the file is the server's, reused for later answers; the arrays are the
-caller's) and removes both names. The lock tells the server that the client is still there: a
-client killed mid-request leaves files nobody holds, which the server removes.
+`Robodyn-Shared-Body`. With it the client links an answer room of its own (another locked
+`c-<32 hex>` file) as `r-<32 hex>.answer` and names it in `Robodyn-Shared-Room`. The server
+maps it, computes, and writes a binary answer into `r-<32 hex>.answer`, named with its length
+in the answer's `Robodyn-Shared-Answer`. An answer in the room is lent to the caller without
+a copy (`robodyn.answer_rooms`); an answer in a file of the server's (reused for its later
+answers, when the client had no free room) is copied out. The client then removes the
+request's names. The lock tells the server that the client is still
+there: a client killed mid-request leaves files nobody holds, which the server removes.
 """
 
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import mmap
 import os
 import secrets
@@ -29,9 +31,12 @@ from collections.abc import Sequence
 import numpy as np
 
 from robodyn.answer_memory import AnswerMemory
+from robodyn.answer_rooms import AnswerRooms
+from robodyn.client_files import ClientFile, close_quietly
 from robodyn.errors import ResponseFormatError
 
 BODY_HEADER = "Robodyn-Shared-Body"
+ROOM_HEADER = "Robodyn-Shared-Room"
 ANSWER_HEADER = "robodyn-shared-answer"
 ANSWER_SUFFIX = ".answer"
 SHARED_FROM = 64 * 1024
@@ -47,101 +52,35 @@ def directory_of(socket_path: str) -> str:
     return socket_path + ".segments"
 
 
-def _private_directory(path: str) -> int | None:
-    """A descriptor of the directory `path` (or of the directory it links to) when it is
-    this user's and private (mode 0700 or less), else None."""
-    flags = os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW | os.O_CLOEXEC
-    try:
-        fd = os.open(os.path.realpath(path), flags)
-    except OSError:
-        return None
-    info = os.fstat(fd)
-    if info.st_uid != os.geteuid() or stat.S_IMODE(info.st_mode) & 0o077:
-        os.close(fd)
-        return None
-    return fd
-
-
-class BodyFile:
-    """A client's body file (`c-<32 hex>`), locked while it exists; `create` makes one. Its
-    pages stay mapped from body to body (`write`)."""
-
-    def __init__(self, directory: int, fd: int, name: str) -> None:
-        self.directory, self.fd, self.name = directory, fd, name
-        self.size = 0  # bytes allocated and mapped
-        self.mapping: mmap.mmap | None = None
-
-    def write(self, parts: Sequence[bytes | memoryview]) -> int:
-        """Copy `parts` one after the other into the file from its start; the number of
-        bytes. The file grows as needed, its memory allocated first (`posix_fallocate`: a
-        full file system is an OSError here, never a SIGBUS on writing to the mapping), and
-        stays mapped: copying 9.2 MB into mapped pages takes about 0.4 ms, writing them with
-        `pwritev` 1.7 ms."""
-        views = [memoryview(p).cast("B") for p in parts if len(p)]
-        needed = sum(len(v) for v in views)
-        if needed > self.size:
-            if self.mapping is not None:
-                _close_quietly(self.mapping)
-                self.mapping, self.size = None, 0
-            os.posix_fallocate(self.fd, 0, needed)
-            self.mapping = mmap.mmap(self.fd, needed, flags=mmap.MAP_SHARED | _POPULATE)
-            self.size = needed
-        mapping, offset = self.mapping, 0
-        for view in views:
-            mapping[offset : offset + len(view)] = view  # type: ignore[index]
-            offset += len(view)
-        return needed
-
-    @classmethod
-    def create(cls, directory: str) -> BodyFile | None:
-        """A new locked body file in the private directory `directory`; None when there is
-        no such directory, or no room."""
-        dir_fd = _private_directory(directory)
-        if dir_fd is None:
-            return None
-        name = "c-" + secrets.token_hex(16)
-        temporary = f".{name}.tmp"
-        flags = os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
-        try:
-            fd = os.open(temporary, flags, 0o600, dir_fd=dir_fd)
-        except OSError:
-            os.close(dir_fd)
-            return None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_SH)  # held until `close`, or the process ends
-            os.rename(temporary, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd)
-        except OSError:
-            with contextlib.suppress(OSError):
-                os.unlink(temporary, dir_fd=dir_fd)
-            os.close(fd)
-            os.close(dir_fd)
-            return None
-        return cls(dir_fd, fd, name)
-
-    def close(self) -> None:
-        if self.mapping is not None:
-            _close_quietly(self.mapping)
-            self.mapping = None
-        with contextlib.suppress(OSError):
-            os.unlink(self.name, dir_fd=self.directory)
-        os.close(self.fd)
-        os.close(self.directory)
-
-
 class Segment:
-    """One request's body in shared memory: `name` and `length` go in its header; `answer`
-    reads the answer; `release` always."""
+    """One request's body in shared memory: `name` and `length` go in its header, `room` (the
+    name of its answer room, or None) in `ROOM_HEADER`; `answer` reads the answer; `release`
+    always."""
 
-    def __init__(self, pool: SharedMemory, file: BodyFile, name: str, length: int) -> None:
+    def __init__(
+        self,
+        pool: SharedMemory,
+        file: ClientFile,
+        name: str,
+        length: int,
+        room: ClientFile | None = None,
+    ) -> None:
         self._pool, self._file, self.name, self.length = pool, file, name, length
+        self._room = room
+        self.settled = False  # set once the server's answer has been read whole
 
     @property
     def header(self) -> str:
         return f"{self.name} {self.length}"
 
+    @property
+    def room(self) -> str | None:
+        return None if self._room is None else self.name + ANSWER_SUFFIX
+
     def answer(self, value: str, status: int) -> memoryview:
-        """The answer named by `Robodyn-Shared-Answer: <name> <length>`, copied out into
-        memory of the caller's (writable); its name is removed."""
+        """The answer named by `Robodyn-Shared-Answer: <name> <length>`: in the answer room,
+        the room's own memory, lent to the caller (writable, no copy); in a file of the
+        server's, copied out into memory of the caller's (writable). Its name is removed."""
         name, _, length = value.partition(" ")
         if name != self.name + ANSWER_SUFFIX or not length.isdigit():
             raise ResponseFormatError(
@@ -169,8 +108,16 @@ class Segment:
                     "the answer",
                     status=status,
                 )
+            room, self._room = self._room, None
+            if room is not None and room.identity == (info.st_dev, info.st_ino):
+                os.close(fd)
+                fd = -1
+                return self._pool.rooms.lend(room, size, status)
+            if room is not None:
+                self._pool.rooms.give(room)  # (the server wrote the answer elsewhere)
         except BaseException:
-            os.close(fd)
+            if fd >= 0:
+                os.close(fd)
             raise
         finally:
             with contextlib.suppress(OSError):
@@ -179,11 +126,19 @@ class Segment:
 
     def release(self) -> None:
         """Remove this request's names (body and answer); the body file is kept for the
-        client's next request."""
+        client's next request, and so is the answer room unless its answer was lent, or the
+        request did not end with an answer read whole (the server may then still write
+        into it: it is closed)."""
         for each in (self.name + ANSWER_SUFFIX, self.name):
             with contextlib.suppress(OSError):
                 os.unlink(each, dir_fd=self._file.directory)
         self._pool.give(self._file)
+        room, self._room = self._room, None
+        if room is not None:
+            if self.settled:
+                self._pool.rooms.give(room)
+            else:
+                self._pool.rooms.discard(room)
 
 
 class SharedMemory:
@@ -193,9 +148,10 @@ class SharedMemory:
     def __init__(self, socket_path: str, memory: AnswerMemory | None = None) -> None:
         self.directory = directory_of(socket_path)
         self._memory = AnswerMemory() if memory is None else memory
-        self._idle: list[BodyFile] = []
+        self._idle: list[ClientFile] = []
         self._answers: dict[tuple[int, int], tuple[int, mmap.mmap]] = {}  # oldest first
         self._lock = threading.Lock()
+        self.rooms = AnswerRooms(self.directory)
 
     def segment(self, parts: Sequence[bytes | memoryview]) -> Segment | None:
         """The body `parts` written into a body file, linked under a new request name; None
@@ -203,7 +159,7 @@ class SharedMemory:
         with self._lock:
             file = self._idle.pop() if self._idle else None
         if file is None:
-            file = BodyFile.create(self.directory)
+            file = ClientFile.create(self.directory)
             if file is None:
                 return None
         name = "r-" + secrets.token_hex(16)
@@ -213,7 +169,7 @@ class SharedMemory:
         except OSError:
             file.close()  # (gone from under us, or no room: not kept)
             return None
-        return Segment(self, file, name, length)
+        return Segment(self, file, name, length, self.rooms.take(name + ANSWER_SUFFIX))
 
     def copy_out(self, fd: int, info: os.stat_result, size: int) -> memoryview:
         """The first `size` bytes of the answer file open as `fd` (described by `info`),
@@ -246,7 +202,7 @@ class SharedMemory:
             )
         return content
 
-    def give(self, file: BodyFile) -> None:
+    def give(self, file: ClientFile) -> None:
         with self._lock:
             if len(self._idle) < KEPT_FILES:
                 self._idle.append(file)
@@ -254,6 +210,8 @@ class SharedMemory:
         file.close()
 
     def close(self) -> None:
+        """Remove the client's files: idle body files and free rooms now, rooms lent to
+        answers once those are collected (their memory stays valid until then)."""
         with self._lock:
             idle, self._idle = self._idle, []
             answers, self._answers = self._answers, {}
@@ -261,14 +219,9 @@ class SharedMemory:
             file.close()
         for cached in answers.values():
             _close_mapping(*cached)
+        self.rooms.close()
 
 
 def _close_mapping(fd: int, mapping: mmap.mmap) -> None:
-    _close_quietly(mapping)
+    close_quietly(mapping)
     os.close(fd)
-
-
-def _close_quietly(mapping: mmap.mmap) -> None:
-    """Unmap, unless arrays still view the mapping (it is unmapped once they are collected)."""
-    with contextlib.suppress(BufferError):
-        mapping.close()

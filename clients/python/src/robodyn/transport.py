@@ -219,6 +219,8 @@ def shared_body(
         return None, body
     headers["Content-Length"] = "0"
     headers[shared_memory.BODY_HEADER] = segment.header
+    if segment.room is not None:
+        headers[shared_memory.ROOM_HEADER] = segment.room
     return segment, b""
 
 
@@ -234,9 +236,13 @@ def refused_shared_body(
 def shared_answer(
     segment: shared_memory.Segment | None, response: httpx.Response
 ) -> memoryview | None:
-    """The answer the server wrote into shared memory (named in its headers), copied out;
-    None when it sent its answer through the socket."""
-    if segment is None or not 200 <= response.status_code <= 299:
+    """The answer the server wrote into shared memory (named in its headers): lent from the
+    client's answer room or copied out; None when it sent its answer through the socket.
+    Called once the response is read whole (the server is done with the request)."""
+    if segment is None:
+        return None
+    segment.settled = True
+    if not 200 <= response.status_code <= 299:
         return None
     value = response.headers.get(shared_memory.ANSWER_HEADER)
     return None if value is None else segment.answer(value, response.status_code)

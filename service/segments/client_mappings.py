@@ -1,4 +1,5 @@
-"""Mappings of the clients' body files, kept by a server process from request to request.
+"""Mappings of the clients' files, kept by a server process from request to request: their
+body files (read-only) and their answer rooms (read and write: the answers are written there).
 
 A client reuses its body file (`c-<32 hex>`) for its next requests, each time linked under a
 new request name. Mapping its 9.2 MB anew for each request (10,000 Talos states) costs about
@@ -7,12 +8,13 @@ kept, a request whose file is already mapped pays neither. A mapping is found by
 identity (device and inode): the kept mapping holds the file open, so its inode number is not
 given to another file while it is kept.
 
-The mappings are read-only (`PROT_READ`) and hold the file's memory while the client's names
-are gone: at most `MAX_KEPT` are kept and `MAX_BYTES` bytes mapped, and one whose file has no
-name left (the client closed it, or the sweeper removed it) is let go at the next lookup or
-sweep. A request still reading a mapping that is let go keeps it until its arrays are
-collected (mmap's `close` refuses while buffers are exported; the mapping then ends with its
-last reference).
+An answer room (`c-<32 hex>` too) is reused alike, and its answers would be written into new
+pages each time (a page fault per 4 kB page) without a kept mapping. The mappings hold the
+file's memory while the client's names are gone: at most `MAX_KEPT` are kept and `MAX_BYTES`
+bytes mapped, and one whose file has no name left (the client closed it, or the sweeper removed
+it) is let go at the next lookup or sweep. A request still reading a mapping that is let go
+keeps it until its arrays are collected (mmap's `close` refuses while buffers are exported; the
+mapping then ends with its last reference).
 """
 
 from __future__ import annotations
@@ -28,16 +30,19 @@ MAX_BYTES = 1 << 30
 _POPULATE = getattr(mmap, "MAP_POPULATE", 0)  # pages mapped at once, not one fault each
 
 
-class BodyMappings:
-    """Read-only mappings of body files by (device, inode), most recently used last."""
+class ClientMappings:
+    """Mappings of clients' files by (device, inode), most recently used last: read-only, or
+    `writable`."""
 
-    def __init__(self) -> None:
+    def __init__(self, writable: bool = False) -> None:
+        self._prot = mmap.PROT_READ | (mmap.PROT_WRITE if writable else 0)
         self._kept: OrderedDict[tuple[int, int], tuple[int, mmap.mmap]] = OrderedDict()
         self._lock = threading.Lock()
 
     def map(self, fd: int, info: os.stat_result, length: int) -> mmap.mmap:
-        """A read-only mapping of at least the first `length` bytes (> 0) of the file open as
-        `fd` (described by `info`, checked by the caller to hold them): a kept one, or a new
+        """A mapping of at least the first `length` bytes (> 0) of the file open as `fd`
+        (described by `info`, checked by the caller to hold them; open for writing when the
+        mappings are `writable`): a kept one, or a new
         one that is then kept. The caller keeps `fd` and closes it itself."""
         key = (info.st_dev, info.st_ino)
         with self._lock:
@@ -49,7 +54,7 @@ class BodyMappings:
                 _let_go(*kept)
         own = os.dup(fd)
         try:
-            mapping = mmap.mmap(own, length, flags=mmap.MAP_SHARED | _POPULATE, prot=mmap.PROT_READ)
+            mapping = mmap.mmap(own, length, flags=mmap.MAP_SHARED | _POPULATE, prot=self._prot)
         except BaseException:
             os.close(own)
             raise

@@ -11,6 +11,10 @@ import secrets
 import stat
 from collections.abc import Sequence
 
+import numpy as np
+
+from robodyn.parallel_copy import copy_into
+
 _POPULATE = getattr(mmap, "MAP_POPULATE", 0)  # pages mapped at once, not one fault each
 
 
@@ -60,8 +64,8 @@ class ClientFile:
         """Copy `parts` one after the other into the file from its start; the number of
         bytes. The file grows as needed, its memory allocated first (`posix_fallocate`: a
         full file system is an OSError here, never a SIGBUS on writing to the mapping), and
-        stays mapped: copying 9.2 MB into mapped pages takes about 0.4 ms, writing them with
-        `pwritev` 1.7 ms."""
+        stays mapped: copying 9.2 MB into mapped pages takes about 0.4 ms (caches warm; on two
+        threads, `parallel_copy`), writing them with `pwritev` 1.7 ms."""
         views = [memoryview(p).cast("B") for p in parts if len(p)]
         needed = sum(len(v) for v in views)
         if needed > self.size:
@@ -71,10 +75,8 @@ class ClientFile:
             os.posix_fallocate(self.fd, 0, needed)
             self.mapping = mmap.mmap(self.fd, needed, flags=mmap.MAP_SHARED | _POPULATE)
             self.size = needed
-        mapping, offset = self.mapping, 0
-        for view in views:
-            mapping[offset : offset + len(view)] = view  # type: ignore[index]
-            offset += len(view)
+        assert self.mapping is not None  # (mapped above)
+        copy_into(np.frombuffer(self.mapping, dtype=np.uint8, count=needed), views)
         return needed
 
     @classmethod

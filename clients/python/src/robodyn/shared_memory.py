@@ -34,6 +34,7 @@ from robodyn.answer_memory import AnswerMemory
 from robodyn.answer_rooms import AnswerRooms
 from robodyn.client_files import ClientFile, close_quietly
 from robodyn.errors import ResponseFormatError
+from robodyn.parallel_copy import copy_into
 
 BODY_HEADER = "Robodyn-Shared-Body"
 ROOM_HEADER = "Robodyn-Shared-Room"
@@ -197,9 +198,7 @@ class SharedMemory:
             while len(self._answers) > KEPT_ANSWER_FILES:
                 _close_mapping(*self._answers.pop(next(iter(self._answers))))
             content = self._memory.take(size)
-            np.frombuffer(content, dtype=np.uint8)[:] = np.frombuffer(
-                mapping, dtype=np.uint8, count=size
-            )
+            copy_into(np.frombuffer(content, dtype=np.uint8), [memoryview(mapping)[:size]])
         return content
 
     def give(self, file: ClientFile) -> None:

@@ -95,12 +95,17 @@ class BatchNumbers:
 
 
 def batch_numbers(
-    inputs: Mapping[str, object], nq: int, unit_entries: list[tuple[int, int]]
+    inputs: Mapping[str, object],
+    nq: int,
+    unit_entries: list[tuple[int, int]],
+    finite_later: frozenset[str] = frozenset(),
 ) -> BatchNumbers | None:
     """`BatchNumbers` of a large batch of float64 (N, n) arrays, on this thread and a second
     one; None for anything else (single states, lists, other dtypes, fewer than
     `TWO_THREADS_FROM` numbers), which the callers check one input after the other.
-    q's finiteness is read from its columns' extremes (NaN or ±inf where it holds one)."""
+    q's finiteness is read from its columns' extremes (NaN or ±inf where it holds one); the
+    inputs named in `finite_later` (not q) are not read for it (flagged finite: the caller
+    checks them later)."""
     arrays: dict[str, np.ndarray] = {}
     for name, value in inputs.items():
         if not (isinstance(value, np.ndarray) and value.dtype == np.float64 and value.ndim == 2):
@@ -112,7 +117,7 @@ def batch_numbers(
     others = [name for name in arrays if name != "q"]
 
     def second_thread() -> tuple[dict[str, bool], dict[int, np.ndarray]]:
-        flags = {name: not all_finite(arrays[name]) for name in others}
+        flags = {name: name not in finite_later and not all_finite(arrays[name]) for name in others}
         norms = {}
         if q is not None and q.shape[1] == nq:
             norms = {start: unit_norms(q, start, end) for start, end in unit_entries}

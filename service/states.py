@@ -85,12 +85,19 @@ def _non_finite(name: str, arr: np.ndarray) -> InvalidInput:
     )
 
 
-def prepare(robot: Robot, inputs: Mapping[str, Any], max_batch: int) -> States:
+def prepare(
+    robot: Robot,
+    inputs: Mapping[str, Any],
+    max_batch: int,
+    finite_later: frozenset[str] = frozenset(),
+) -> States:
     """Check and convert the joint-space inputs named in `inputs` (keys of SPACES). A large
     batch's numbers are read on two threads at once (`state_numbers.batch_numbers`); the
-    errors are the same, in the same order."""
+    errors are the same, in the same order. `finite_later`: inputs (not q) whose finiteness a
+    large batch leaves to the caller, who knows a non-finite one from its answer and then
+    calls `prepare` again without it (see `service.dynamics.finite_from_answer`)."""
     unit_entries = [(start, end) for _, start, end in robot.unit_joints]
-    numbers = batch_numbers(inputs, robot.nq, unit_entries)
+    numbers = batch_numbers(inputs, robot.nq, unit_entries, finite_later)
     if numbers is None:
         arrays = {name: as_array(name, value) for name, value in inputs.items()}
     else:

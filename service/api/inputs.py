@@ -279,15 +279,20 @@ def _keyed(values: np.ndarray, parts: list[tuple[str, int, int]]) -> Any:
 
 
 def prepare_states(
-    robot: Robot, arrays: dict[str, Any], max_batch: int, fill: str | None = None
+    robot: Robot,
+    arrays: dict[str, Any],
+    max_batch: int,
+    fill: str | None = None,
+    finite_later: frozenset[str] = frozenset(),
 ) -> States:
     """The validated `States` of a request's joint-space inputs; name-keyed ones become arrays
-    first (missing joints filled from the configuration named `fill`, if given)."""
+    first (missing joints filled from the configuration named `fill`, if given).
+    `finite_later`: see `service.states.prepare`."""
     if any_named(arrays):  # a type check: plain arrays pay nothing measurable
         arrays = arrays_from_names(robot, arrays, fill)
     elif fill is not None:
         fill_values(robot, fill, "nq")  # an unknown name is an error all the same
-    return prepare(robot, arrays, max_batch)
+    return prepare(robot, arrays, max_batch, finite_later)
 
 
 def options_from_names(robot: Robot, quantity: Quantity, options: dict[str, Any]) -> dict[str, Any]:

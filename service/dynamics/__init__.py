@@ -14,7 +14,14 @@ from service.dynamics.lagrangian import LAGRANGIAN
 from service.dynamics.operational_space import OPERATIONAL_SPACE
 from service.dynamics.payload_capacity import PAYLOAD_CAPACITY
 from service.dynamics.placements import PLACEMENTS
-from service.dynamics.quantity import Quantity, Results, finite, has_parallel_form, run
+from service.dynamics.quantity import (
+    Quantity,
+    Results,
+    finite,
+    finite_from_answer,
+    has_parallel_form,
+    run,
+)
 from service.dynamics.simulation import SIMULATION
 from service.dynamics.trajectories.quantities import TRAJECTORIES
 
@@ -36,4 +43,12 @@ QUANTITIES: dict[str, Quantity] = {
     )
 }
 
-__all__ = ["QUANTITIES", "Quantity", "Results", "finite", "has_parallel_form", "run"]
+__all__ = [
+    "QUANTITIES",
+    "Quantity",
+    "Results",
+    "finite",
+    "finite_from_answer",
+    "has_parallel_form",
+    "run",
+]

@@ -125,6 +125,12 @@ class Quantity:
     state_by_state: StateByState | None = None
     """Given when `compute` (without options) is `state_by_state.compute`: a batch that `run`
     may split between processes (its `split`)."""
+    finite_in_answer: tuple[str, ...] = ()
+    """Inputs (never q) of which a NaN or ±inf always makes the answer of `parallel` non-finite:
+    RNEA reads v and a only in sums and products (no division, comparison or function of
+    them), where NaN stays NaN and ±inf gives ±inf, or NaN once multiplied by 0 (tested for
+    each velocity coordinate of every catalog robot). A large batch leaves their finiteness
+    to the answer's check (`finite_from_answer`)."""
 
     @functools.cached_property
     def stoppable(self) -> bool:
@@ -175,6 +181,18 @@ def has_parallel_form(quantity: Quantity, options: dict[str, Any]) -> bool:
     computed by its parallel algorithm (`service.dynamics.parallel`) in the OpenMP master
     thread."""
     return quantity.parallel is not None and not options
+
+
+def finite_from_answer(quantity: Quantity, options: dict[str, Any]) -> frozenset[str]:
+    """The inputs whose finiteness a batch of `quantity` with `options` may leave to its
+    answer's check (`Quantity.finite_in_answer`, for its parallel form): when the answer is
+    not finite, the caller checks the inputs as usual, so the error is the one the inputs
+    give (saves reading them once, 0.3–0.5 ms for 10,000 Talos states)."""
+    return (
+        frozenset(quantity.finite_in_answer)
+        if has_parallel_form(quantity, options)
+        else frozenset()
+    )
 
 
 def run(

@@ -345,9 +345,15 @@ class Endpoint:
         should_stop: Any = None,
         split: Any = None,
     ) -> tuple[Any, dict[str, Any]]:
-        states = inputs.prepare_states(robot, arrays, max_batch, fill)
-        self._check_size(robot, states, options, sizing)
-        return states, dynamics.run(robot, self.quantity, states, options, should_stop, split)
+        later = dynamics.finite_from_answer(self.quantity, options)
+        try:
+            states = inputs.prepare_states(robot, arrays, max_batch, fill, later)
+            self._check_size(robot, states, options, sizing)
+            return states, dynamics.run(robot, self.quantity, states, options, should_stop, split)
+        except Exception:
+            if later:  # whatever failed: the inputs' own error first, as without `later`
+                inputs.prepare_states(robot, arrays, max_batch, fill)
+            raise
 
     def _check_size(
         self, robot: Any, states: Any, options: dict[str, Any], sizing: "_Sizing"

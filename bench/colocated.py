@@ -6,7 +6,8 @@ in-process baseline one after the other (so the machine's load falls on all thre
 the rows are medians over the rounds:
 
 - 10,000 Talos inverse-dynamics states against `pin.rneaInParallel` on 2 threads (a
-  `ModelPool`, the inputs already column-major as it takes them);
+  `ModelPool`, the inputs already column-major as it takes them), as called plainly (the
+  answer a new array) and, as information, writing into an array allocated beforehand;
 - 2,000 Talos mass matrices and 2,000 Coriolis matrices against a Python loop over `pin.crba` /
   `pin.computeCoriolisMatrix` with one Data, each answer copied out and stacked (the service's
   answer is one array too). `WARM_S` seconds of such batches come first: the first of them
@@ -40,6 +41,11 @@ def colocated(
 
     def rnea_in_parallel() -> None:
         pin.rneaInParallel(2, pool, qT, vT, aT)
+
+    tau_out = np.empty((model.nv, 10_000), order="F")  # type: ignore[attr-defined]
+
+    def rnea_into_preallocated() -> None:
+        pin.rneaInParallel(2, pool, qT, vT, aT, tau_out)
 
     data = model.createData()  # type: ignore[attr-defined]
     n = 2000
@@ -101,11 +107,13 @@ def colocated(
             ),
         ]
         for what, count, call, baseline, against, target in cases:
-            socket_s, tcp_s, base_s = [], [], []
+            socket_s, tcp_s, base_s, into_s = [], [], [], []
             for _ in range(rounds):
                 socket_s.append(_seconds(lambda call=call: call(local)))
                 tcp_s.append(_seconds(lambda call=call: call(remote)))
                 base_s.append(_seconds(baseline))
+                if baseline is rnea_in_parallel:
+                    into_s.append(_seconds(rnea_into_preallocated))
             base = count / statistics.median(base_s)
             row(
                 f"{what} via Unix socket + shared memory vs {against}",
@@ -121,6 +129,15 @@ def colocated(
                 "states/s",
                 "info",
             )
+            if into_s:  # the in-process call at its fastest: no answer array allocated
+                row(
+                    f"{what} via Unix socket + shared memory vs in-process rneaInParallel "
+                    "into a preallocated array",
+                    count / statistics.median(socket_s),
+                    count / statistics.median(into_s),
+                    "states/s",
+                    "info",
+                )
 
 
 def _seconds(fn: Callable[[], object]) -> float:

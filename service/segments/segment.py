@@ -86,7 +86,10 @@ class RequestSegment:
         if length > max_bytes:
             raise SegmentTooLarge(length, max_bytes)
         if room is not None and room != name + ANSWER_SUFFIX:
-            raise SegmentError(f"the answer room of segment {name} is {name + ANSWER_SUFFIX}")
+            raise SegmentError(
+                f"Robodyn-Shared-Room must name {name + ANSWER_SUFFIX}, the answer of the "
+                "request's segment"
+            )
         self.directory, self.name, self.length = directory, name, length
         self.answer: str | None = None  # the value of Robodyn-Shared-Answer, once written
         self._reserved: _Reserved | None = None  # answer_arrays

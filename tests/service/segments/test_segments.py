@@ -183,7 +183,7 @@ def test_a_room_is_a_file_its_client_holds(directory: SegmentDirectory):
     os.symlink(directory.path / segment.name, room)
     with pytest.raises(SegmentError, match="cannot be opened"):
         RequestSegment(directory, segment.name, 100, 1 << 20, segment.room)
-    with pytest.raises(SegmentError, match="answer room of segment"):
+    with pytest.raises(SegmentError, match="must name r-"):
         RequestSegment(directory, segment.name, 100, 1 << 20, "r-" + "0" * 32 + ".answer")
     os.unlink(room)
     segment.release()

@@ -467,3 +467,63 @@ def test_a_client_uses_no_directory_that_is_not_its_own_and_private(tmp_path: Pa
     assert shared_memory.SharedMemory(str(tmp_path / "public")).segment([b"x"]) is None
     assert shared_memory.SharedMemory(str(tmp_path / "missing")).segment([b"x"]) is None
     assert os.listdir(public) == []
+
+
+def test_a_room_that_cannot_grow_leaves_the_answer_to_a_file_of_the_service(
+    directory: SegmentDirectory, monkeypatch
+):
+    """When the client's room cannot grow (ENOSPC), the answer goes into an answer file of
+    the service, linked in the room's place; the client copies it out and keeps its room."""
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    q = np.random.default_rng(8).normal(size=(300, 7))
+    segment = client.segment(binary.encode_parts({"q": q}))
+    assert segment is not None and segment.room is not None
+    served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
+    real = os.posix_fallocate
+
+    def room_full(fd: int, offset: int, length: int) -> None:
+        if fd == served._room_fd:
+            raise OSError(28, "No space left on device")
+        real(fd, offset, length)
+
+    monkeypatch.setattr(os, "posix_fallocate", room_full)
+    assert served.answer_arrays({"tau": (300, 7)}) is None  # (computed in new memory)
+    header = served.write_answer(binary.encode_parts({"tau": q * 5}))
+    monkeypatch.setattr(os, "posix_fallocate", real)
+    served.end()
+    segment.settled = True
+    content = segment.answer(header, 200)
+    assert np.array_equal(binary.decode(content)[1]["tau"], q * 5)
+    assert len([n for n in os.listdir(directory.path) if n.startswith("s-")]) == 1
+    segment.release()
+    rooms = [n for n in os.listdir(directory.path) if n.startswith("c-")]
+    assert len(rooms) == 2  # the body file and the room, kept for the next request
+    client.close()
+
+
+def test_an_answer_computed_in_the_room_is_written_with_its_header_only(
+    directory: SegmentDirectory,
+):
+    """`answer_arrays` gives arrays in the client's room: the answer computed into them is
+    its header alone, no file of the service's is used, and the client's arrays are the
+    room's memory (what the service wrote after the header, the client sees)."""
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    q = np.random.default_rng(9).normal(size=(400, 7))
+    segment = client.segment(binary.encode_parts({"q": q}))
+    assert segment is not None and segment.room is not None
+    served = RequestSegment(directory, segment.name, segment.length, 1 << 24, segment.room)
+    arrays = served.answer_arrays({"tau": (400, 7)})
+    assert arrays is not None
+    arrays["tau"][:] = q * 7
+    assert AnswerWriter(served).header_only(arrays)
+    header = served.write_answer(binary.encode_parts(arrays))
+    assert header.endswith(f" {HEADER_ROOM + q.nbytes}")
+    served.end()
+    segment.settled = True
+    tau = binary.decode(segment.answer(header, 200))[1]["tau"]
+    assert np.array_equal(tau, q * 7)
+    arrays["tau"][0, 0] = -1.0  # (the service's mapping of the room: the same memory)
+    assert tau[0, 0] == -1.0
+    assert not [n for n in os.listdir(directory.path) if n.startswith("s-")]
+    segment.release()
+    client.close()

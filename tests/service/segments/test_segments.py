@@ -391,6 +391,7 @@ def test_an_entry_the_sweeper_cannot_remove_leaves_it_sweeping_the_others(
     dead.write_bytes(b"z")
     assert directory.sweep() == 1
     assert os.listdir(directory.path) == [blocker.name]
+    blocker.rmdir()  # (else the directory, in /dev/shm, outlives the test)
 
 
 def test_the_sweeper_keeps_live_clients_and_removes_dead_ones(directory: SegmentDirectory):

@@ -14,6 +14,7 @@ always. API keys and every limit apply as to any request: the body limit
 from __future__ import annotations
 
 import asyncio
+import errno
 import logging
 from collections.abc import Mapping
 from typing import Any
@@ -22,7 +23,7 @@ import numpy as np
 from starlette.types import Scope
 
 from service.api.encoding import binary
-from service.errors import InvalidInput, PayloadTooLarge, UnsupportedMediaType
+from service.errors import InvalidInput, Overloaded, PayloadTooLarge, UnsupportedMediaType
 from service.segments import RequestSegment, SegmentDirectory, SegmentError
 from service.segments.directory import SWEEP_INTERVAL_S
 from service.segments.segment import SegmentTooLarge
@@ -32,6 +33,7 @@ log = logging.getLogger("robodyn")
 BODY_HEADER = b"robodyn-shared-body"
 ROOM_HEADER = b"robodyn-shared-room"
 ANSWER_HEADER = b"robodyn-shared-answer"
+_NO_ROOM = frozenset((errno.ENOSPC, errno.ENOMEM, errno.EDQUOT))
 
 
 def shared_body_header(scope: Scope) -> str | None:
@@ -99,7 +101,17 @@ class AnswerWriter:
         self.segment = segment
 
     def __call__(self, values: Mapping[str, Any]) -> bytes:
-        self.segment.write_answer(binary.encode_parts(values))
+        """Write the answer `values`; `Overloaded` (503, retried by clients) when the memory
+        file system of the segment directory has no room for it."""
+        try:
+            self.segment.write_answer(binary.encode_parts(values))
+        except OSError as exc:
+            if exc.errno not in _NO_ROOM:
+                raise
+            raise Overloaded(
+                "the shared-memory directory has no room for the answer now (its memory file "
+                "system is full); retry shortly, or send smaller batches"
+            ) from None
         return b""
 
     def header_only(self, values: Mapping[str, Any]) -> bool:

@@ -528,3 +528,28 @@ def test_an_answer_computed_in_the_room_is_written_with_its_header_only(
     assert not [n for n in os.listdir(directory.path) if n.startswith("s-")]
     segment.release()
     client.close()
+
+
+def test_no_room_anywhere_for_an_answer_is_overloaded(
+    directory: SegmentDirectory, monkeypatch, no_rooms: None
+):
+    """When the memory file system is full (no file can grow), writing the answer is a 503
+    `Overloaded` (clients retry it), not a server error; nothing is left linked."""
+    from service.errors import Overloaded
+
+    client = shared_memory.SharedMemory(_socket_of(directory))
+    segment = client.segment(binary.encode_parts({"q": np.zeros((300, 7))}))
+    assert segment is not None
+    served = RequestSegment(directory, segment.name, segment.length, 1 << 24)
+
+    def full(*args: object) -> int:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "posix_fallocate", full)
+    monkeypatch.setattr(os, "pwritev", full)
+    with pytest.raises(Overloaded, match="no room for the answer"):
+        AnswerWriter(served)({"tau": np.ones((300, 7))})
+    assert not os.path.lexists(directory.path / (segment.name + ".answer"))
+    served.end()
+    segment.release()
+    client.close()

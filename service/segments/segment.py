@@ -93,23 +93,20 @@ class RequestSegment:
         self.directory, self.name, self.length = directory, name, length
         self.answer: str | None = None  # the value of Robodyn-Shared-Answer, once written
         self._reserved: _Reserved | None = None  # answer_arrays
-        self._room_fd = -1 if room is None else _open_room(directory, room)
+        self._room_fd = -1
         self.body: memoryview | bytes = b""
         flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK
         try:
             self._fd = os.open(directory.path / name, flags)
-        except BaseException as exc:
-            self._close_room()
-            if isinstance(exc, FileNotFoundError):
-                raise SegmentError(
-                    "the shared-memory segment named by the request does not exist (a client "
-                    "on this host writes it into the segment directory beside the socket)"
-                ) from None
-            if isinstance(exc, OSError):
-                raise SegmentError(
-                    f"the shared-memory segment cannot be opened ({exc.strerror})"
-                ) from None
-            raise
+        except FileNotFoundError:
+            raise SegmentError(
+                "the shared-memory segment named by the request does not exist (a client "
+                "on this host writes it into the segment directory beside the socket)"
+            ) from None
+        except OSError as exc:
+            raise SegmentError(
+                f"the shared-memory segment cannot be opened ({exc.strerror})"
+            ) from None
         try:
             info = os.fstat(self._fd)
             if (
@@ -128,9 +125,10 @@ class RequestSegment:
                 )
             if length:  # (kept mapped for the client's next request: client_mappings.py)
                 self.body = memoryview(directory.bodies.map(self._fd, info, length))[:length]
+            if room is not None:
+                self._room_fd = _open_room(directory, room)
         except BaseException:
             os.close(self._fd)
-            self._close_room()
             raise
 
     def answer_arrays(self, shapes: Mapping[str, tuple[int, ...]]) -> dict[str, np.ndarray] | None:

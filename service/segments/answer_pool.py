@@ -43,11 +43,7 @@ class AnswerFile:
         """Write `views` one after the other from the file's start (grown as needed, its
         memory allocated first: a full file system is an OSError here, never a SIGBUS on
         writing to the mapping)."""
-        mapping = self.reserve(sum(len(v) for v in views))
-        offset = 0
-        for view in views:
-            mapping[offset : offset + len(view)] = view
-            offset += len(view)
+        write_views(self.reserve(sum(len(v) for v in views)), views)
 
     def reserve(self, needed: int) -> mmap.mmap:
         """The file's mapping, grown to at least `needed` bytes (see `write`). A mapping
@@ -61,6 +57,14 @@ class AnswerFile:
             self.mapping = mmap.mmap(self.fd, max(needed, 1), flags=mmap.MAP_SHARED | _POPULATE)
             self.size = max(needed, 1)
         return self.mapping
+
+
+def write_views(mapping: mmap.mmap, views: Sequence[memoryview]) -> None:
+    """Copy `views` one after the other into `mapping` from its start (which holds them)."""
+    offset = 0
+    for view in views:
+        mapping[offset : offset + len(view)] = view
+        offset += len(view)
 
 
 class AnswerPool:

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from service.segments.answer_pool import AnswerFile
+from service.segments.answer_pool import AnswerFile, write_views
 from service.segments.directory import ANSWER_SUFFIX, NAME, SegmentDirectory, held
 
 IOV_MAX = 512  # buffers per writev call (Linux allows 1024)
@@ -195,14 +195,14 @@ class RequestSegment:
         them, padded to `HEADER_ROOM`); any other answer is copied into the client's room, or
         (without one, when it cannot grow, or when the parts view arrays reserved in it) into
         a free answer file of this process (or a new file of its own), linked in the room's
-        place. The value of
-        the answer's `Robodyn-Shared-Answer`: that name and the answer's length in bytes."""
+        place. The value of the answer's `Robodyn-Shared-Answer`: that name and the answer's
+        length in bytes."""
         reserved, self._reserved = self._reserved, None
         try:
             if reserved is not None:
-                head = _in_place(parts, reserved.arrays)
+                head = _header_in_place(parts, reserved.arrays)
                 if head is not None:
-                    return self._in_place(reserved, head)
+                    return self._write_header(reserved, head)
             # (never copied over the reserved arrays the parts may view: those in the room
             # go into a file of this process, and a reserved file stays taken meanwhile)
             if self._room_fd >= 0 and (reserved is None or reserved.file is not None):
@@ -215,7 +215,7 @@ class RequestSegment:
             if reserved is not None and reserved.file is not None:
                 self.directory.answers.give(reserved.file)
 
-    def _in_place(self, reserved: _Reserved, head: bytes) -> str:
+    def _write_header(self, reserved: _Reserved, head: bytes) -> str:
         name = self.name + ANSWER_SUFFIX
         reserved.mapping[:HEADER_ROOM] = head
         if reserved.file is not None:  # (a room is linked there by its client already)
@@ -230,10 +230,7 @@ class RequestSegment:
         mapping = self._room_mapping(size)
         if mapping is None:
             return None
-        offset = 0
-        for view in views:
-            mapping[offset : offset + len(view)] = view
-            offset += len(view)
+        write_views(mapping, views)
         self.answer = f"{self.name + ANSWER_SUFFIX} {size}"
         return self.answer
 
@@ -320,7 +317,7 @@ def _open_room(directory: SegmentDirectory, room: str) -> int:
     return fd
 
 
-def _in_place(parts: Sequence[bytes | memoryview], arrays: list[np.ndarray]) -> bytes | None:
+def _header_in_place(parts: Sequence[bytes | memoryview], arrays: list[np.ndarray]) -> bytes | None:
     """The first `HEADER_ROOM` bytes of an answer whose `parts` (a safetensors header, then
     each array's bytes) are `arrays` whole and in order: the header, its JSON padded with
     spaces; None when they are not, or the header does not fit."""
